@@ -1,0 +1,1 @@
+"""Sub-commands of the ``tyrebayes`` CLI, one module each (see ``tyrebayes.cli``)."""

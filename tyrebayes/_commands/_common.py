@@ -1,0 +1,72 @@
+"""Helpers shared by the CLI sub-commands: JSON output, atomic writes, input checks."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._errors import BadInputError
+
+
+def _to_jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _to_jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_to_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray) or hasattr(value, "__array__"):
+        arr = np.asarray(value)
+        return _to_jsonable(arr.item() if arr.ndim == 0 else arr.tolist())
+    if isinstance(value, np.bool_ | bool):
+        return bool(value)
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, float | np.floating):
+        value = float(value)
+        return value if math.isfinite(value) else None
+    return value
+
+
+def print_json(payload: dict) -> None:
+    """Print a JSON object on stdout (NaN/inf become null, arrays become lists)."""
+    json.dump(_to_jsonable(payload), sys.stdout, indent=2)
+    sys.stdout.write("\n")
+
+
+def existing_file(path: str) -> Path:
+    """Return ``path`` as a Path, or raise BadInputError if it is not a readable file."""
+    p = Path(path)
+    if not p.is_file():
+        raise BadInputError(f"file not found: expected a readable file, got '{path}'")
+    return p
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
+    """Write ``data`` to a temporary file beside ``path`` and rename it into place."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def atomic_path(path: str | os.PathLike) -> tuple[Path, Path]:
+    """Return (temporary path, final path) for writers that need a file name (netCDF, PNG).
+
+    Write to the temporary path, then call ``os.replace(tmp, final)``.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
+    return tmp, path

@@ -1,0 +1,322 @@
+"""Synthetic fleet tables with known truth and switchable hidden effects.
+
+A fleet table (DESIGN.md contract) has one row per tyre set and surface: ``tyre_id``, ``tyre_type``
+(``winter``, ``all_season``, ``summer``), the observed compensated stiffness ``c_xr`` with its
+standard error ``c_xr_sd``, the outcome ``mu`` (friction potential, thesis eq. 3.3), ``surface``,
+and numeric candidate covariates (``age_years``, ``tread_depth_mm``, ``pressure_bar``,
+``load_index``, ``decoy_1`` ...).
+
+Generative model (per tyre set *i* of type *t*, surface *s*)::
+
+    C_true_i  ~ LogNormal(type median, type log-sd)          (winter ~30, all-season ~40, summer ~55)
+    C_true_i *= 1 + stiffening(hidden effects)               (aged / loaded rubber is stiffer)
+    z_i       = 100 / C_true_i - 100 / C_med[t]              (inverse stiffness, thesis Fig 6.1,
+                                                              centred at the type's median)
+    mu_is     = a[t,s] + b[t,s] * z_i + hidden(covariates) + sigma[t,s] * eps
+    c_xr_i    = C_true_i + c_xr_sd_i * eta                   (stiffness estimate with its error)
+
+The type-level numbers are chosen to agree with the measured braking data
+(``tyrebayes/data/braking_by_tyre_type.csv``; mean deceleration v^2 / (2 g d) is a lower bound on
+mu_max): on snow winter tyres decelerate at 0.34-0.45 g, summer tyres at < 0.18 g; on ice
+0.12-0.15 g (winter) vs 0.08 g (summer); wet 0.71-0.85 g; dry 0.90 g (winter) - 1.11 g (summer).
+Peak friction is set ~5-10 % above these means (ABS braking runs around, not at, the peak).
+Within a type softer tyres grip better on snow and ice (thesis Fig 6.1: mu rises with 1/C_xr).
+
+Hidden effects (``effects=``) and the meaning of ``effect_size`` (natural units):
+
+``"age"``
+    Aged rubber hardens: mu on snow and ice drops by ``effect_size`` per year of ``age_years``
+    above :data:`AGE_REF_YEARS` (beyond what the stiffness explains) and the true stiffness rises
+    by ``AGE_STIFFENING_PER_YEAR * effect_size / THESIS_AGED_TYRE_EFFECT`` per year (relative).
+    Ages are 0.5 + Gamma(2, 1.4) years (mean ~3.3, a tail past the 5-year lifetime).
+    :data:`THESIS_AGED_TYRE_EFFECT` (0.04 per year) reproduces the thesis' two over-aged winter
+    tyres (Sec. 6.1): at 7 years a typical winter set (C_xr 30, mu 0.45) is ~24 % stiffer
+    (C_xr ~37) and loses 0.16 + 0.06 (via stiffness) of snow mu, ending at ~0.23, i.e. "as bad
+    as the summer tyres" (~0.18).
+``"load"``
+    Mu drops by ``effect_size`` per 10 load-index points above :data:`LOAD_INDEX_REF` (load
+    sensitivity of rubber friction) and stiffness rises 2 % per 10 points. Default
+    :data:`DEFAULT_EFFECT_SIZES` ``["load"] = 0.04``.
+``"pressure"``
+    Mu drops by ``effect_size`` per bar above :data:`PRESSURE_REF_BAR` (smaller contact patch);
+    stiffness unchanged. Default 0.08 per bar.
+
+On dry and wet roads the hidden effects act at a quarter of their size (the thesis' effect is a
+winter phenomenon); they never act on the covariates' distribution, only on mu and stiffness.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import jax
+import numpy as np
+import pandas as pd
+
+TYRE_TYPES: tuple[str, ...] = ("winter", "all_season", "summer")
+SURFACES: tuple[str, ...] = ("snow", "ice", "wet", "dry")
+
+#: Reference stiffness for centring: z = 100 / C_xr - 100 / C_XR_REF (z = 0 at C_xr = 40).
+C_XR_REF: float = 40.0
+#: Scale of the inverse stiffness: z is in units of 100 / C_xr.
+X_SCALE: float = 100.0
+
+#: mu drop on snow per year of tyre age that reproduces the thesis' over-aged winter tyres.
+THESIS_AGED_TYRE_EFFECT: float = 0.04
+#: Relative stiffening per year of age at the thesis effect size (7 vs 3 years -> +24 %).
+AGE_STIFFENING_PER_YEAR: float = 0.06
+#: Typical tyre age at which the age effect is zero (type-level numbers describe such a tyre).
+AGE_REF_YEARS: float = 3.0
+LOAD_INDEX_REF: float = 91.0
+PRESSURE_REF_BAR: float = 2.4
+#: Default effect sizes (natural units, see module docstring).
+DEFAULT_EFFECT_SIZES: Mapping[str, float] = {
+    "age": THESIS_AGED_TYRE_EFFECT,
+    "load": 0.04,
+    "pressure": 0.08,
+}
+HIDDEN_EFFECTS: tuple[str, ...] = tuple(DEFAULT_EFFECT_SIZES)
+# Relative strength of the hidden effects on high-friction surfaces.
+_HIGH_FRICTION_EFFECT_SHARE = 0.25
+
+#: Type-level stiffness distribution: (median C_xr, log-sd). Thesis Fig 6.1 / chapter 3:
+#: winter sets soft (~25-35), summer stiff (~45-65), all-season between.
+TYPE_STIFFNESS: Mapping[str, tuple[float, float]] = {
+    "winter": (30.0, 0.10),
+    "all_season": (40.0, 0.10),
+    "summer": (55.0, 0.10),
+}
+
+#: Type-level friction model per surface: (a, b, sigma). ``a`` is mu of a set of the type at its
+#: median stiffness (``TYPE_STIFFNESS``), ``b`` = d mu / d z (z in units of 100 / C_xr), ``sigma``
+#: the residual sd. Values follow the braking data (module docstring); slopes follow thesis Fig 6.1
+#: on snow (softer grips better), are smaller on ice and about flat on wet/dry.
+TYPE_FRICTION: Mapping[str, Mapping[str, tuple[float, float, float]]] = {
+    "snow": {
+        "winter": (0.45, 0.10, 0.030),
+        "all_season": (0.42, 0.08, 0.030),
+        "summer": (0.18, 0.05, 0.025),
+    },
+    "ice": {
+        "winter": (0.15, 0.04, 0.015),
+        "all_season": (0.13, 0.03, 0.015),
+        "summer": (0.09, 0.02, 0.012),
+    },
+    "wet": {
+        "winter": (0.78, 0.02, 0.040),
+        "all_season": (0.80, 0.02, 0.040),
+        "summer": (0.85, 0.02, 0.040),
+    },
+    "dry": {
+        "winter": (0.95, -0.05, 0.050),
+        "all_season": (1.05, -0.05, 0.050),
+        "summer": (1.15, -0.05, 0.050),
+    },
+}
+
+#: Default share of tyre types in a fleet (the thesis' winter tests: mostly winter sets).
+DEFAULT_TYPE_SHARES: Mapping[str, float] = {"winter": 0.6, "all_season": 0.15, "summer": 0.25}
+
+
+def inverse_stiffness(c_xr):
+    """Centred inverse stiffness z = 100 / C_xr - 100 / C_XR_REF (thesis Fig 6.1 abscissa).
+
+    Parameters
+    ----------
+    c_xr : array_like
+        Compensated longitudinal stiffness C_xr (dimensionless, > 0).
+
+    Returns
+    -------
+    array_like
+        z, zero at C_xr = 40, positive for softer tyres.
+
+    Examples
+    --------
+    >>> round(float(inverse_stiffness(40.0)), 6)
+    0.0
+    """
+    return X_SCALE / c_xr - X_SCALE / C_XR_REF
+
+
+def _rng(key_or_seed) -> np.random.Generator:
+    if isinstance(key_or_seed, int | np.integer):
+        return np.random.default_rng(int(key_or_seed))
+    key = jax.numpy.asarray(key_or_seed)
+    if jax.dtypes.issubdtype(key.dtype, jax.dtypes.prng_key):
+        key = jax.random.key_data(key)
+    return np.random.default_rng(np.asarray(key, dtype=np.uint32).ravel().tolist())
+
+
+def _type_counts(n_sets: int, shares: Mapping[str, float]) -> dict[str, int]:
+    """Deterministic counts per type, at least 2 per type with a positive share when n_sets >= 6."""
+    types = [t for t in TYRE_TYPES if shares.get(t, 0.0) > 0]
+    total = sum(shares[t] for t in types)
+    counts = {t: int(np.floor(n_sets * shares[t] / total)) for t in types}
+    if n_sets >= 2 * len(types):
+        for t in types:
+            counts[t] = max(counts[t], 2)
+    # Hand out (or take back) the remainder, largest share first.
+    order = sorted(types, key=lambda t: -shares[t])
+    i = 0
+    while sum(counts.values()) < n_sets:
+        counts[order[i % len(order)]] += 1
+        i += 1
+    while sum(counts.values()) > n_sets:
+        t = order[i % len(order)]
+        if counts[t] > 2:
+            counts[t] -= 1
+        i += 1
+    return counts
+
+
+def _effect_sizes(effects: Sequence[str], effect_size) -> dict[str, float]:
+    unknown = [e for e in effects if e not in HIDDEN_EFFECTS]
+    if unknown:
+        raise ValueError(f"effects: expected names from {HIDDEN_EFFECTS}, got {unknown}")
+    if effect_size is None:
+        return {e: float(DEFAULT_EFFECT_SIZES[e]) for e in effects}
+    if isinstance(effect_size, Mapping):
+        return {e: float(effect_size.get(e, DEFAULT_EFFECT_SIZES[e])) for e in effects}
+    return {e: float(effect_size) for e in effects}
+
+
+def simulate_fleet(
+    key_or_seed,
+    n_sets: int,
+    *,
+    surface: str | Sequence[str] = "snow",
+    effects: Sequence[str] = (),
+    effect_size: float | Mapping[str, float] | None = None,
+    n_decoys: int = 2,
+    c_xr_sd: float = 1.5,
+    type_shares: Mapping[str, float] | None = None,
+) -> tuple[pd.DataFrame, dict]:
+    """Simulate a fleet table with known type-level truth.
+
+    Parameters
+    ----------
+    key_or_seed : int or jax PRNG key
+        Seed of the simulation (a JAX key is turned into a NumPy seed).
+    n_sets : int
+        Number of tyre sets (>= 1).
+    surface : str or sequence of str
+        ``"snow"``, ``"ice"``, ``"wet"``, ``"dry"`` or several (one row per set and surface).
+    effects : sequence of str
+        Hidden effects to switch on: ``"age"``, ``"load"``, ``"pressure"`` (module docstring).
+    effect_size : float, mapping or None
+        Size of each hidden effect in its natural unit (mu per year / per 10 load-index points /
+        per bar). ``None`` uses :data:`DEFAULT_EFFECT_SIZES` (age: :data:`THESIS_AGED_TYRE_EFFECT`).
+    n_decoys : int
+        Number of pure-noise numeric columns ``decoy_1`` ... (no effect on anything).
+    c_xr_sd : float
+        Typical standard error of the stiffness estimate (per-row values vary by +-30 %).
+    type_shares : mapping or None
+        Share of each tyre type; default :data:`DEFAULT_TYPE_SHARES`.
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        Fleet table in the DESIGN.md contract.
+    truth : dict
+        ``type_params`` {surface: {type: {"a", "b", "sigma"}}}, ``c_xr_true`` (per set),
+        ``effects`` {name: size}, ``effect_columns`` {name: column}, ``decoys``, ``c_xr_ref``,
+        ``x_scale``, ``stiffness`` {type: (median, log_sd)}.
+
+    Examples
+    --------
+    >>> table, truth = simulate_fleet(0, 26)
+    >>> sorted(table["tyre_type"].unique())
+    ['all_season', 'summer', 'winter']
+    """
+    if n_sets < 1:
+        raise ValueError(f"n_sets: expected >= 1, got {n_sets}")
+    if c_xr_sd < 0:
+        raise ValueError(f"c_xr_sd: expected >= 0, got {c_xr_sd}")
+    surfaces = (surface,) if isinstance(surface, str) else tuple(surface)
+    bad = [s for s in surfaces if s not in SURFACES]
+    if bad or not surfaces:
+        raise ValueError(f"surface: expected names from {SURFACES}, got {list(surfaces)}")
+    sizes = _effect_sizes(tuple(effects), effect_size)
+    shares = dict(DEFAULT_TYPE_SHARES if type_shares is None else type_shares)
+    rng = _rng(key_or_seed)
+    # Decoys get their own stream so adding decoys leaves every other column unchanged.
+    decoy_rng = np.random.default_rng(rng.integers(2**62))
+
+    counts = _type_counts(n_sets, shares)
+    types = np.array([t for t in TYRE_TYPES for _ in range(counts.get(t, 0))])
+    rng.shuffle(types)
+    n = len(types)
+
+    # Candidate covariates: always present, effective only when switched on.
+    age = np.minimum(0.5 + rng.gamma(2.0, 1.4, n), 15.0)
+    tread = rng.uniform(3.0, 9.0, n)
+    pressure = rng.uniform(1.9, 3.0, n)
+    load_index = rng.integers(82, 101, n).astype(float)
+    decoys = decoy_rng.normal(0.0, 1.0, (n, n_decoys))
+
+    median = np.array([TYPE_STIFFNESS[t][0] for t in types])
+    log_sd = np.array([TYPE_STIFFNESS[t][1] for t in types])
+    c_true = median * np.exp(log_sd * rng.normal(size=n))
+    stiffening = np.zeros(n)
+    mu_shift = np.zeros(n)  # snow/ice size; scaled on dry/wet
+    if "age" in sizes:
+        years = age - AGE_REF_YEARS
+        stiffening += AGE_STIFFENING_PER_YEAR * sizes["age"] / THESIS_AGED_TYRE_EFFECT * years
+        mu_shift -= sizes["age"] * years
+    if "load" in sizes:
+        stiffening += 0.02 * (load_index - LOAD_INDEX_REF) / 10.0
+        mu_shift -= sizes["load"] * (load_index - LOAD_INDEX_REF) / 10.0
+    if "pressure" in sizes:
+        mu_shift -= sizes["pressure"] * (pressure - PRESSURE_REF_BAR)
+    c_true = c_true * np.maximum(1.0 + stiffening, 0.5)
+    z_true = inverse_stiffness(c_true) - inverse_stiffness(median)
+
+    sd_row = c_xr_sd * rng.uniform(0.7, 1.3, n)
+    c_obs = np.maximum(c_true + sd_row * rng.normal(size=n), 1.0)
+
+    frames = []
+    for s in surfaces:
+        a = np.array([TYPE_FRICTION[s][t][0] for t in types])
+        b = np.array([TYPE_FRICTION[s][t][1] for t in types])
+        sig = np.array([TYPE_FRICTION[s][t][2] for t in types])
+        share = 1.0 if s in ("snow", "ice") else _HIGH_FRICTION_EFFECT_SHARE
+        mu = a + b * z_true + share * mu_shift + sig * rng.normal(size=n)
+        frame = pd.DataFrame(
+            {
+                "tyre_id": [f"T{i:05d}" for i in range(n)],
+                "tyre_type": types,
+                "surface": s,
+                "c_xr": c_obs,
+                "c_xr_sd": sd_row,
+                "mu": np.clip(mu, 0.02, None),
+                "age_years": np.round(age, 2),
+                "tread_depth_mm": np.round(tread, 2),
+                "pressure_bar": np.round(pressure, 3),
+                "load_index": load_index,
+            }
+        )
+        for j in range(n_decoys):
+            frame[f"decoy_{j + 1}"] = decoys[:, j]
+        frames.append(frame)
+    table = pd.concat(frames, ignore_index=True)
+
+    truth = {
+        "type_params": {
+            s: {
+                t: dict(zip(("a", "b", "sigma"), TYPE_FRICTION[s][t], strict=True))
+                for t in TYRE_TYPES
+            }
+            for s in surfaces
+        },
+        "c_xr_true": c_true,
+        "effects": sizes,
+        "effect_columns": {"age": "age_years", "load": "load_index", "pressure": "pressure_bar"},
+        "decoys": [f"decoy_{j + 1}" for j in range(n_decoys)],
+        "c_xr_ref": C_XR_REF,
+        "x_scale": X_SCALE,
+        "stiffness": dict(TYPE_STIFFNESS),
+        "type_counts": counts,
+        "age_ref_years": AGE_REF_YEARS,
+    }
+    return table, truth

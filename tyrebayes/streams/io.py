@@ -1,0 +1,202 @@
+"""Read and write stream files: CSV, Parquet and MDF4 (ASAM MDF, via asammdf).
+
+CSV and Parquet hold one row per sample in the contract of :mod:`tyrebayes.streams.schema`. MDF4
+files from automotive loggers keep every channel on its own time base and under the logger's
+channel names; :func:`read_stream` maps the names (``channel_map``) and merges the time bases into
+one table (NaN where a channel has no sample), which :func:`tyrebayes.streams.validate_stream` then
+resamples onto one time base.
+
+Examples
+--------
+>>> import pandas as pd, tempfile, pathlib
+>>> df = pd.DataFrame({"time": [0.0, 0.01], "ax": [0.1, 0.2]})
+>>> path = pathlib.Path(tempfile.mkdtemp()) / "s.parquet"
+>>> write_stream(df, path)
+>>> read_stream(path)["ax"].tolist()
+[0.1, 0.2]
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .._errors import BadInputError
+from .schema import CHANNELS, OPTIONAL_COLUMNS, REQUIRED_COLUMNS
+
+_CSV = (".csv",)
+_PARQUET = (".parquet", ".pq")
+_MDF = (".mf4", ".mdf")
+SUPPORTED_SUFFIXES: tuple[str, ...] = _CSV + _PARQUET + _MDF
+
+
+def _suffix(path: Path) -> str:
+    suffix = path.suffix.lower()
+    if suffix not in SUPPORTED_SUFFIXES:
+        raise BadInputError(
+            f"stream file {path.name}: expected a suffix in {list(SUPPORTED_SUFFIXES)}, "
+            f"got '{path.suffix}'"
+        )
+    return suffix
+
+
+def _read_table(path: Path, suffix: str) -> pd.DataFrame:
+    try:
+        if suffix in _CSV:
+            # The pyarrow engine parses in parallel and is ~5x faster than the C engine.
+            return pd.read_csv(path, engine="pyarrow")
+        return pd.read_parquet(path)
+    except (ValueError, OSError, pd.errors.ParserError) as err:
+        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise BadInputError(f"stream file {path.name}: cannot parse ({first})") from None
+    except Exception as err:  # pyarrow raises its own ArrowInvalid etc.
+        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise BadInputError(f"stream file {path.name}: cannot parse ({first})") from None
+
+
+def _merge_time_bases(columns: dict[str, tuple[np.ndarray, np.ndarray]]) -> pd.DataFrame:
+    """Put channels sampled at their own instants into one table on the union of the instants."""
+    union = np.unique(np.concatenate([t for t, _ in columns.values()]))
+    data = {"time": union}
+    for name, (t, x) in columns.items():
+        col = np.full(union.shape, np.nan)
+        # asammdf timestamps are sorted per channel; duplicates within a channel keep the last.
+        col[np.searchsorted(union, t)] = x
+        data[name] = col
+    return pd.DataFrame(data)
+
+
+def _read_mdf(path: Path, channel_map: Mapping[str, str] | None) -> pd.DataFrame:
+    from asammdf import MDF  # slow import, only when an MDF file is read
+
+    try:
+        mdf = MDF(path)
+    except Exception as err:
+        raise BadInputError(f"stream file {path.name}: not a readable MDF file ({err})") from None
+    try:
+        masters = {
+            group.channels[group.channel_group.master_index].name
+            for group in mdf.groups
+            if getattr(group.channel_group, "master_index", None) is not None
+        }
+    except Exception:
+        masters = set()
+    masters.add("time")
+    wanted = set(REQUIRED_COLUMNS + OPTIONAL_COLUMNS)
+    columns: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    try:
+        for source in mdf.channels_db:
+            target = channel_map.get(source, source) if channel_map else source
+            if source in masters and target == source:
+                continue
+            if target not in wanted or target == "time":
+                continue
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                signal = mdf.get(source, raw=False)
+            samples = np.asarray(signal.samples, dtype=float)
+            columns[target] = (np.asarray(signal.timestamps, dtype=float), samples)
+    finally:
+        mdf.close()
+    if not columns:
+        raise BadInputError(
+            f"stream file {path.name}: expected MDF channels named like {list(REQUIRED_COLUMNS[1:])} "
+            "(or a channel_map to them), got none"
+        )
+    return _merge_time_bases(columns)
+
+
+def read_stream(path: str | os.PathLike, channel_map: Mapping[str, str] | None = None) -> pd.DataFrame:
+    """Read a stream file into a DataFrame with contract column names (not yet validated).
+
+    Parameters
+    ----------
+    path : path-like
+        ``.csv``, ``.parquet``/``.pq`` or ``.mf4``/``.mdf``.
+    channel_map : mapping, optional
+        Source channel/column name -> contract name, e.g. ``{"WhlSpd_FL": "wheel_speed_fl"}``.
+        Names not in the map are used as they are.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per time instant; for MDF the union of all channels' instants, with NaN where a
+        channel was not sampled. Pass it to :func:`tyrebayes.streams.validate_stream`.
+
+    Raises
+    ------
+    BadInputError
+        Missing file, unknown suffix, or a file that cannot be parsed.
+    """
+    path = Path(path)
+    suffix = _suffix(path)
+    if not path.is_file():
+        raise BadInputError(f"stream file: expected a readable file, got '{path}'")
+    if suffix in _MDF:
+        return _read_mdf(path, channel_map)
+    df = _read_table(path, suffix)
+    if channel_map:
+        df = df.rename(columns=dict(channel_map))
+    return df
+
+
+def _write_mdf(df: pd.DataFrame, path: Path) -> None:
+    from asammdf import MDF, Signal
+
+    if "time" not in df.columns:
+        raise BadInputError("write_stream: expected a 'time' column for MDF4, got none")
+    time = df["time"].to_numpy(dtype=float)
+    mdf = MDF(version="4.10")
+    for name in df.columns:
+        if name == "time":
+            continue
+        values = df[name].to_numpy()
+        if not np.issubdtype(values.dtype, np.number):
+            continue  # MDF holds numeric channels only; text columns are dropped
+        values = values.astype(float)
+        keep = np.isfinite(values)  # a dropped sample is simply absent from an MDF channel
+        unit = CHANNELS[name].unit if name in CHANNELS else ""
+        signal = Signal(values[keep], timestamps=time[keep], name=name, unit=unit)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            mdf.append([signal], comment=name)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        mdf.save(path, overwrite=True)
+    mdf.close()
+
+
+def write_stream(df: pd.DataFrame, path: str | os.PathLike) -> None:
+    """Write a stream atomically; the format follows the suffix (CSV, Parquet or MDF4).
+
+    The file appears complete or not at all: it is written under a temporary name beside ``path``
+    and renamed into place. In MDF4 each channel is one group with its own time base and NaN
+    (dropped) samples are left out.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Columns in the stream contract (``time`` first by convention); extra columns are written too.
+    path : path-like
+        Target file; its suffix selects the format.
+    """
+    path = Path(path)
+    suffix = _suffix(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{suffix}")
+    try:
+        if suffix in _CSV:
+            df.to_csv(tmp, index=False, float_format="%.12g")
+        elif suffix in _PARQUET:
+            df.to_parquet(tmp, index=False)
+        else:
+            _write_mdf(df, tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
