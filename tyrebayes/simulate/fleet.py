@@ -8,7 +8,7 @@ and numeric candidate covariates (``age_years``, ``tread_depth_mm``, ``pressure_
 
 Generative model (per tyre set *i* of type *t*, surface *s*)::
 
-    C_true_i  ~ LogNormal(type median, type log-sd)          (winter ~30, all-season ~40, summer ~55)
+    C_true_i  ~ LogNormal(type median, type log-sd)     (winter ~30, all-season ~40, summer ~55)
     C_true_i *= 1 + stiffening(hidden effects)               (aged / loaded rubber is stiffer)
     z_i       = 100 / C_true_i - 100 / C_med[t]              (inverse stiffness, thesis Fig 6.1,
                                                               centred at the type's median)

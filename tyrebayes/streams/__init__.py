@@ -1,1 +1,14 @@
-"""tyrebayes.streams."""
+"""Sensor streams: file formats, validation, and the signal pipeline to tyre features."""
+
+from .features import StreamFeatures as StreamFeatures
+from .features import compute_features as compute_features
+from .features import speed_error as speed_error
+from .io import read_stream as read_stream
+from .io import write_stream as write_stream
+from .nuisances import StreamNuisances as StreamNuisances
+from .schema import OPTIONAL_COLUMNS as OPTIONAL_COLUMNS
+from .schema import REQUIRED_COLUMNS as REQUIRED_COLUMNS
+from .segments import SEGMENT_KINDS as SEGMENT_KINDS
+from .segments import SegmentThresholds as SegmentThresholds
+from .validate import ValidatedStream as ValidatedStream
+from .validate import validate_stream as validate_stream

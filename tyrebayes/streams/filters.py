@@ -17,19 +17,19 @@ import numpy as np
 from jaxtyping import Float
 
 
-def nan_moving_average(x: Float[np.ndarray, "n"], window: int) -> Float[np.ndarray, "n"]:
+def nan_moving_average(x: Float[np.ndarray, "n *k"], window: int) -> Float[np.ndarray, "n *k"]:
     """Centred moving average over ``window`` samples (odd; even is rounded up), ignoring NaN.
 
     Parameters
     ----------
-    x : ndarray, shape (n,)
-        Signal on a uniform time base; NaN marks a missing sample.
+    x : ndarray, shape (n,) or (n, k)
+        Signal(s) on a uniform time base along axis 0; NaN marks a missing sample.
     window : int
         Window length in samples (>= 1).
 
     Returns
     -------
-    ndarray, shape (n,)
+    ndarray, same shape as ``x``
         Mean of the valid samples within ±window//2 of each sample; NaN where there are none.
         Windows are truncated at the ends.
     """
@@ -38,17 +38,22 @@ def nan_moving_average(x: Float[np.ndarray, "n"], window: int) -> Float[np.ndarr
     half = window // 2
     n = x.shape[0]
     valid = np.isfinite(x)
-    # Cumulative sums of values and counts: O(n) for any window. The values are physical signals
-    # (|x| < 1e3) so the float64 cumulative sum of 1e7 samples keeps ~1e-6 absolute precision.
-    csum = np.concatenate(([0.0], np.cumsum(np.where(valid, x, 0.0))))
-    ccount = np.concatenate(([0], np.cumsum(valid)))
-    idx = np.arange(n)
-    hi = np.minimum(idx + half + 1, n)
-    lo = np.maximum(idx - half, 0)
-    count = ccount[hi] - ccount[lo]
-    total = csum[hi] - csum[lo]
+    pad = [(half + 1, half)] + [(0, 0)] * (x.ndim - 1)
+    # Cumulative sums of values and counts, zero-padded so every window is one slice difference:
+    # O(n) for any window. Physical signals (|x| < 1e3) keep ~1e-6 absolute precision over 1e7
+    # samples in float64.
+    all_valid = bool(valid.all())
+    csum = np.cumsum(np.pad(x if all_valid else np.where(valid, x, 0.0), pad), axis=0)
+    total = csum[2 * half + 1 :] - csum[:n]
+    if all_valid:  # the count is the window clipped at the ends: no second cumulative sum
+        idx = np.arange(n)
+        count = (np.minimum(idx + half, n - 1) - np.maximum(idx - half, 0) + 1).astype(float)
+        count = count.reshape((n,) + (1,) * (x.ndim - 1))
+    else:
+        ccount = np.cumsum(np.pad(valid.astype(float), pad), axis=0)
+        count = ccount[2 * half + 1 :] - ccount[:n]
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+        return np.where(count > 0.5, total / np.maximum(count, 1.0), np.nan)
 
 
 def smoothed_derivative(

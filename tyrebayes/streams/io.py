@@ -105,13 +105,16 @@ def _read_mdf(path: Path, channel_map: Mapping[str, str] | None) -> pd.DataFrame
         mdf.close()
     if not columns:
         raise BadInputError(
-            f"stream file {path.name}: expected MDF channels named like {list(REQUIRED_COLUMNS[1:])} "
+            f"stream file {path.name}: expected MDF channels named like "
+            f"{list(REQUIRED_COLUMNS[1:])} "
             "(or a channel_map to them), got none"
         )
     return _merge_time_bases(columns)
 
 
-def read_stream(path: str | os.PathLike, channel_map: Mapping[str, str] | None = None) -> pd.DataFrame:
+def read_stream(
+    path: str | os.PathLike, channel_map: Mapping[str, str] | None = None
+) -> pd.DataFrame:
     """Read a stream file into a DataFrame with contract column names (not yet validated).
 
     Parameters
@@ -181,7 +184,8 @@ def write_stream(df: pd.DataFrame, path: str | os.PathLike) -> None:
     Parameters
     ----------
     df : pandas.DataFrame
-        Columns in the stream contract (``time`` first by convention); extra columns are written too.
+        Columns in the stream contract (``time`` first by convention); extra columns are
+        written too.
     path : path-like
         Target file; its suffix selects the format.
     """

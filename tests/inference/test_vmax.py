@@ -1,0 +1,60 @@
+"""Tests for the censored V_max models and the power analysis."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from tyrebayes.inference.vmax import (
+    censored_loglik,
+    fit_extended,
+    lateral_draws,
+    load_table_6_2,
+    power_table,
+    psis_loo,
+)
+
+
+def test_table_6_2_loaded() -> None:
+    df = load_table_6_2()
+    assert len(df) == 6
+    assert sorted(df["c_xr"].tolist()) == [29, 32, 36, 43, 50, 60]
+
+
+def test_censored_loglik_sanity() -> None:
+    lo = jnp.array([70.0, 70.0, 70.0])
+    mean = jnp.array([75.0, 60.0, 75.0])
+    sd = jnp.array([1.0, 1.0, 1e-3])
+    ll = censored_loglik(lo, 10.0, mean, sd)
+    # centred in the interval with small sd: probability ~1; far below: tiny
+    assert float(ll[0]) == pytest.approx(np.log(0.9999994267), abs=1e-6)
+    assert float(ll[1]) < -40.0
+    assert float(ll[2]) == pytest.approx(0.0, abs=1e-12)
+    # probabilities over adjacent intervals sum to one
+    grid = jnp.arange(0.0, 200.0, 10.0)
+    p = jnp.exp(censored_loglik(grid, 10.0, jnp.full(grid.shape, 73.0), jnp.full(grid.shape, 6.0)))
+    assert float(jnp.sum(p)) == pytest.approx(1.0, abs=1e-9)
+
+
+def test_lateral_draws_follow_relations() -> None:
+    cy, mu = lateral_draws(jax.random.PRNGKey(0), 40.0, "summer", 4000)
+    # median of k is 0.35 -> C_y median 14; mean mu_y 0.95*1.05 (MC error ~0.001)
+    assert float(jnp.median(cy)) == pytest.approx(14.0, rel=0.02)
+    assert float(jnp.mean(mu)) == pytest.approx(0.9975, abs=0.005)
+
+
+def test_extended_fit_recovers_offset_and_loo() -> None:
+    # synthetic: sim says 55 for all, truth is 75 -> offset ~ +20 within the 10 km/h interval
+    lo = np.full(6, 70.0)
+    m, s = np.full(6, 55.0), np.full(6, 2.0)
+    post = fit_extended(lo, m, s, seed=1, num_samples=400)
+    assert 13.0 < float(np.mean(post["delta_kmh"])) < 22.0
+    loo = psis_loo(post["log_lik"])
+    assert np.isfinite(loo["elpd_loo"]) and loo["se"] >= 0.0
+
+
+def test_power_monotone_in_step() -> None:
+    rows = power_table(5.0, 5.0, steps_kmh=(10.0, 1.0), sessions=(1, 10), n_mc=4000)
+    p = {(r["step_kmh"], r["sessions"]): r["p_resolve"] for r in rows}
+    assert p[(1.0, 10)] > p[(10.0, 1)] + 0.1
+    assert p[(1.0, 10)] > 0.9

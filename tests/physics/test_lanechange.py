@@ -1,0 +1,56 @@
+"""Tests for the ISO 3888-2 lane-change simulation and critical speed."""
+
+import jax
+import jax.numpy as jnp
+import pytest
+
+from tyrebayes.physics.lanechange import (
+    Tyres,
+    critical_speed,
+    critical_speed_sensitivity,
+    iso3888_2_course,
+    run_margin,
+)
+from tyrebayes.physics.vehicle import load_vehicle
+
+VEH = load_vehicle("compact_fwd")
+COURSE = iso3888_2_course(VEH.width_m)
+
+
+def test_course_geometry_matches_iso_3888_2() -> None:
+    w = 1.8
+    std = iso3888_2_course(w, exit_lane="standard")
+    assert std.x_edges_m == pytest.approx((0.0, 12.0, 25.5, 36.5, 49.0, 61.0))
+    assert std.lane1_width_m == pytest.approx(1.1 * w + 0.25)
+    assert std.lane3_width_m == pytest.approx(w + 1.0)
+    assert std.lane5_width_m == pytest.approx(1.3 * w + 0.25)
+    assert iso3888_2_course(w).lane5_width_m == pytest.approx(3.0)  # thesis exit lane
+    (_, _, _, l1), (_, _, r3, _), _ = std.lane_bounds
+    assert r3 - l1 == pytest.approx(1.0)  # lateral offset between lanes 1 and 3
+    with pytest.raises(ValueError, match="exit_lane"):
+        iso3888_2_course(w, exit_lane="x")
+
+
+def test_low_speed_passes_absurd_speed_fails() -> None:
+    f = jax.jit(lambda v: run_margin(VEH, Tyres(18.0, 1.0), v, COURSE))
+    assert float(f(8.0)) > 0.0
+    assert float(f(45.0)) < 0.0  # 162 km/h
+
+
+def test_vmax_rises_with_mu_and_tolerance_honoured() -> None:
+    tol = 0.1
+    cs = jax.jit(jax.vmap(lambda mu: critical_speed(VEH, Tyres(18.0, mu), COURSE, tol_mps=tol)))(
+        jnp.array([0.6, 1.0])
+    )
+    assert bool(jnp.all(cs.bracketed))
+    assert bool(jnp.all(cs.v_fail_mps - cs.v_max_mps <= tol + 1e-12))
+    assert float(cs.v_max_mps[1]) > float(cs.v_max_mps[0]) + 1.0  # > 3.6 km/h more with 0.4 more mu
+    # the bracket is genuine: lower end passes, upper end fails
+    assert float(run_margin(VEH, Tyres(18.0, 1.0), cs.v_max_mps[1], COURSE)) > 0.0
+    assert float(run_margin(VEH, Tyres(18.0, 1.0), cs.v_fail_mps[1], COURSE)) <= 0.0
+
+
+def test_sensitivity_sign() -> None:
+    s = critical_speed_sensitivity(VEH, Tyres(18.0, 0.8), COURSE, tol_mps=0.05)
+    assert bool(jnp.isfinite(s["dv_dmu_y"]))
+    assert float(s["dv_dmu_y"]) > 0.0

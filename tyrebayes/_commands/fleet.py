@@ -1,0 +1,256 @@
+"""Fleet commands: ``fit-fleet``, ``predict`` and ``warn``.
+
+``tyrebayes fit-fleet TABLE --outcome mu [--out FLEET.nc] [--json]`` fits the hierarchical fleet
+model; ``tyrebayes predict FLEET.nc --c-xr V [--c-xr-sd SD] --type T [--json]`` gives the predictive
+friction of a new set; ``tyrebayes warn FLEET.nc --c-xr V [--c-xr-sd SD] --type T [--json]`` the
+winter-suitability verdict.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .._errors import BadInputError
+from ._common import atomic_path, existing_file, print_json
+
+_TYPES = ("winter", "all_season", "summer", "unknown")
+_SURFACES = ("snow", "ice", "wet", "dry")
+#: Friction levels of the ``p_below`` output: 0.3 (deep snow/ice), 0.45 (the thesis' low-friction
+#: region edge), 0.6 (wet asphalt).
+P_BELOW_LEVELS = (0.3, 0.45, 0.6)
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    fit = subparsers.add_parser(
+        "fit-fleet",
+        help="fit the hierarchical fleet model to a fleet table",
+        description="Fit friction vs inverse stiffness, pooled by tyre type, to a fleet table "
+        "(CSV or Parquet: tyre_id, tyre_type, c_xr, [c_xr_sd], outcome, [surface]).",
+    )
+    fit.add_argument("table", help="fleet table (.csv or .parquet)")
+    fit.add_argument("--outcome", default="mu", help="outcome column (default mu)")
+    fit.add_argument("--out", help="output netCDF (default TABLE stem + .fleet.nc)")
+    fit.add_argument(
+        "--method",
+        choices=("nuts", "svi"),
+        default=None,
+        help="default: nuts up to 2,000 rows, svi above",
+    )
+    fit.add_argument("--seed", type=int, default=0)
+    fit.add_argument("--samples", type=int, default=500, help="NUTS draws per chain")
+    fit.add_argument("--warmup", type=int, default=500, help="NUTS warm-up steps per chain")
+    fit.add_argument("--chains", type=int, default=2)
+    fit.add_argument("--json", action="store_true", help="machine-readable output")
+    fit.set_defaults(func=run_fit)
+
+    for name, helptext, func in (
+        ("predict", "predictive friction of a new tyre set", run_predict),
+        ("warn", "winter-suitability warning for a tyre set", run_warn),
+    ):
+        p = subparsers.add_parser(name, help=helptext, description=helptext)
+        p.add_argument("fit", help="fleet fit (.nc from fit-fleet)")
+        p.add_argument("--c-xr", type=float, required=True, help="stiffness C_xr of the set")
+        p.add_argument("--c-xr-sd", type=float, default=0.0, help="its standard error")
+        p.add_argument("--type", choices=_TYPES, required=True, dest="tyre_type")
+        p.add_argument("--surface", choices=_SURFACES, default="snow")
+        p.add_argument("--seed", type=int, default=0)
+        p.add_argument("--json", action="store_true", help="machine-readable output")
+        if name == "warn":
+            p.add_argument(
+                "--mu-min",
+                type=float,
+                default=None,
+                help="minimum acceptable mu (default derived from braking data, snow)",
+            )
+            p.add_argument("--cost-false-alarm", type=float, default=None)
+            p.add_argument("--cost-miss", type=float, default=None)
+        p.set_defaults(func=func)
+
+
+def _read_table(path: str):
+    import pandas as pd
+
+    p = existing_file(path)
+    try:
+        if p.suffix.lower() in (".parquet", ".pq"):
+            return pd.read_parquet(p)
+        return pd.read_csv(p)
+    except (ValueError, OSError) as err:
+        raise BadInputError(f"fleet table {path}: expected CSV or Parquet, got {err}") from None
+
+
+def _load_fit(path: str):
+    import arviz as az
+
+    p = existing_file(path)
+    try:
+        idata = az.from_netcdf(p)
+    except (OSError, ValueError, KeyError) as err:
+        raise BadInputError(
+            f"fleet fit {path}: expected a netCDF from fit-fleet, got {err}"
+        ) from None
+    if "posterior" not in idata.groups() or "c_xr_ref" not in idata.attrs:
+        raise BadInputError(f"fleet fit {path}: expected a netCDF from fit-fleet, got another file")
+    return idata
+
+
+def fit_summary(idata) -> dict:
+    """JSON-ready summary of a fleet fit: diagnostics and a, b, sigma per fitted surface/type."""
+    from ..inference.fleet import fleet_diagnostics
+    from ..inference.summary import summarize
+
+    post = idata.posterior
+    fitted = json.loads(idata.attrs["fitted_surfaces"])
+    present = sorted(set(np.asarray(idata.constant_data["row_type"]).tolist()))
+    types = [str(post.tyre_type.values[i]) for i in present]
+    params = {
+        s: {
+            t: {
+                v: summarize(post[v].sel(surface=s, tyre_type=t).values)
+                for v in ("a", "b", "sigma")
+            }
+            for t in types
+        }
+        for s in fitted
+    }
+    return {
+        "converged": bool(idata.attrs["converged"]),
+        "diagnostics": fleet_diagnostics(idata),
+        "outcome": idata.attrs["outcome"],
+        "n_sets": int(post.sizes["tyre"]),
+        "n_rows": int(idata.observed_data.sizes["row"]),
+        "fitted_surfaces": fitted,
+        "parameters": params,
+    }
+
+
+def run_fit(args: argparse.Namespace) -> int:
+    from ..inference.fleet import fit_fleet
+
+    table = _read_table(args.table)
+    if args.outcome not in table.columns:
+        raise BadInputError(
+            f"--outcome: expected a column of the table, got {args.outcome!r} "
+            f"(columns {list(table.columns)})"
+        )
+    method = args.method or ("nuts" if len(table) <= 2000 else "svi")
+    for name in ("samples", "warmup", "chains"):
+        if getattr(args, name) < 1:
+            raise BadInputError(f"--{name}: expected >= 1, got {getattr(args, name)}")
+    idata = fit_fleet(
+        table,
+        outcome=args.outcome,
+        method=method,
+        key=args.seed,
+        num_warmup=args.warmup,
+        num_samples=args.samples,
+        num_chains=args.chains,
+    )
+    out = Path(args.out) if args.out else Path(args.table).with_suffix(".fleet.nc")
+    tmp, final = atomic_path(out)
+    try:
+        idata.to_netcdf(str(tmp))
+        os.replace(tmp, final)
+    finally:
+        tmp.unlink(missing_ok=True)
+    summary = {"out": str(final), **fit_summary(idata)}
+    if args.json:
+        print_json(summary)
+    else:
+        diag = summary["diagnostics"]
+        print(f"fleet fit ({method}) of {summary['n_sets']} sets -> {final}")
+        print(f"converged: {summary['converged']}  {json.dumps(diag)}")
+        for s, per_type in summary["parameters"].items():
+            for t, p in per_type.items():
+                a, b, sig = p["a"], p["b"], p["sigma"]
+                print(
+                    f"  {s:5s} {t:10s} mu@ref {a['mean']:.3f} [{a['hdi_90'][0]:.3f}, "
+                    f"{a['hdi_90'][1]:.3f}]  slope {b['mean']:+.3f}  sigma {sig['mean']:.3f}"
+                )
+    return 0
+
+
+def _check_c_xr(args) -> str | None:
+    if not (math.isfinite(args.c_xr) and args.c_xr > 0):
+        raise BadInputError(f"--c-xr: expected a positive stiffness, got {args.c_xr}")
+    if not (math.isfinite(args.c_xr_sd) and args.c_xr_sd >= 0):
+        raise BadInputError(f"--c-xr-sd: expected >= 0, got {args.c_xr_sd}")
+    return None if args.tyre_type == "unknown" else args.tyre_type
+
+
+def prediction(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
+    """Predictive draws and the JSON of ``predict`` for parsed arguments."""
+    from ..inference.fleet import predict_friction
+    from ..inference.summary import summarize
+
+    tyre_type = _check_c_xr(args)
+    idata = _load_fit(args.fit)
+    draws = predict_friction(
+        idata, args.c_xr, args.c_xr_sd, tyre_type, args.surface, seed=args.seed
+    )
+    fitted = json.loads(idata.attrs["fitted_surfaces"])
+    payload = {
+        "mu": summarize(draws),
+        "p_below": {f"{lvl:g}": float(np.mean(draws < lvl)) for lvl in P_BELOW_LEVELS},
+        "surface": args.surface,
+        "tyre_type": args.tyre_type,
+        "c_xr": args.c_xr,
+        "c_xr_sd": args.c_xr_sd,
+        "prior_only": args.surface not in fitted,
+        "fit_converged": bool(idata.attrs["converged"]),
+    }
+    return draws, payload
+
+
+def run_predict(args: argparse.Namespace) -> int:
+    _, payload = prediction(args)
+    if args.json:
+        print_json(payload)
+    else:
+        mu = payload["mu"]
+        note = " (prior only: no data on this surface)" if payload["prior_only"] else ""
+        print(
+            f"mu on {args.surface}: {mu['mean']:.3f} +- {mu['sd']:.3f}, 90% HDI "
+            f"[{mu['hdi_90'][0]:.3f}, {mu['hdi_90'][1]:.3f}]{note}"
+        )
+        for lvl, p in payload["p_below"].items():
+            print(f"  P(mu < {lvl}) = {p:.3f}")
+    return 0
+
+
+def run_warn(args: argparse.Namespace) -> int:
+    from .. import decisions
+
+    if args.mu_min is None and args.surface != "snow":
+        raise BadInputError(
+            f"--mu-min: expected a value for surface {args.surface!r} (a default exists only for "
+            "snow), got none"
+        )
+    mu_min = decisions.DEFAULT_MU_MIN_SNOW if args.mu_min is None else args.mu_min
+    c_fa = (
+        decisions.DEFAULT_COST_FALSE_ALARM
+        if args.cost_false_alarm is None
+        else args.cost_false_alarm
+    )
+    c_miss = decisions.DEFAULT_COST_MISS if args.cost_miss is None else args.cost_miss
+    draws, pred = prediction(args)
+    verdict = decisions.winter_verdict(
+        draws, mu_min=mu_min, cost_false_alarm=c_fa, cost_miss=c_miss
+    )
+    verdict.update(
+        {
+            k: pred[k]
+            for k in ("surface", "tyre_type", "c_xr", "c_xr_sd", "prior_only", "fit_converged")
+        }
+    )
+    if args.json:
+        print_json(verdict)
+    else:
+        print(f"{verdict['verdict']}: {verdict['reason']}")
+    return 0

@@ -1,0 +1,349 @@
+"""Fitting the per-tyre model: full NUTS or a fast MAP + Laplace path, one result type.
+
+Both return a :class:`TyreFit` whose ``idata`` is an ArviZ ``InferenceData`` with posterior,
+observed data, log-likelihood and posterior predictive groups, and whose ``diagnostics`` say
+whether the fit can be trusted. A fit that did not converge says so (``converged=False``); it is
+returned as data, never raised and never hidden.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from functools import partial
+
+import arviz as az
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jax.flatten_util import ravel_pytree
+from numpyro.infer import MCMC, NUTS, Predictive, init_to_median, log_likelihood
+from numpyro.infer.util import constrain_fn, initialize_model, potential_energy
+
+from .summary import summarize
+from .tyre_data import TyreObservations
+from .tyre_model import TyrePriors, tyre_model
+
+# Posterior contraction of log μ_max needed before μ_max counts as observed: the posterior sd
+# must be below half the prior sd. Below that the data did not reach the nonlinear region.
+MU_OBSERVED_CONTRACTION = 0.5
+# Posterior predictive draws kept (memory: draws × windows per observed site).
+MAX_PREDICTIVE_DRAWS = 400
+
+
+@dataclasses.dataclass(frozen=True)
+class FitDiagnostics:
+    """Convergence evidence of a fit.
+
+    Attributes
+    ----------
+    method : str
+        ``"nuts"`` or ``"fast"``.
+    r_hat_max : float
+        Largest split R-hat over scalar parameters (NaN for the fast path).
+    ess_min : float
+        Smallest bulk effective sample size (the number of draws for the fast path).
+    divergences : int
+        Divergent NUTS transitions (0 for the fast path).
+    optimiser_result : str
+        Optimistix result of the MAP search (``"successful"`` or its failure); "n/a" for NUTS.
+    converged : bool
+        The fit can be trusted: NUTS with R-hat ≤ 1.01, ESS ≥ 100 per chain and no divergences;
+        fast path with a successful optimiser and a positive-definite Hessian at the mode.
+    reason : str
+        Why ``converged`` is False ("" otherwise).
+    """
+
+    method: str
+    r_hat_max: float
+    ess_min: float
+    divergences: int
+    optimiser_result: str
+    converged: bool
+    reason: str = ""
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+@dataclasses.dataclass(frozen=True)
+class TyreFit:
+    """Result of :func:`fit_tyre`.
+
+    Attributes
+    ----------
+    idata : arviz.InferenceData
+        Posterior (``c_xr``, ``c_x``, ``mu_max``, ``slip_offset``, ...), observed data,
+        log-likelihood and posterior predictive.
+    diagnostics : FitDiagnostics
+    mu_observed : dict[str, bool]
+        Per surface: did the data reach the nonlinear region (posterior contraction of μ_max)?
+    surfaces : tuple of str
+    n_samples_used : int
+        Number of windows that entered the likelihood.
+    kind : str
+        ``"brush"`` or ``"linear"``.
+    """
+
+    idata: az.InferenceData
+    diagnostics: FitDiagnostics
+    mu_observed: dict
+    surfaces: tuple
+    n_samples_used: int
+    kind: str
+
+    def draws(self, name: str) -> np.ndarray:
+        """Posterior draws of a variable, chains and draws flattened on the first axis."""
+        values = np.asarray(self.idata.posterior[name])
+        return values.reshape((-1,) + values.shape[2:])
+
+    def summary(self) -> dict:
+        """The ``fit-tyre --json`` object: c_x, c_xr, mu_max, slip_offset summaries and flags.
+
+        ``mu_max`` and ``slip_offset`` describe the first surface and drive; ``mu_max_by_surface``
+        lists every surface.
+        """
+        mu = self.draws("mu_max")
+        return {
+            "c_x": summarize(self.draws("c_x")),
+            "c_xr": summarize(self.draws("c_xr")),
+            "mu_max": summarize(mu[:, 0]),
+            "slip_offset": summarize(self.draws("slip_offset")[:, 0]),
+            "mu_max_observed": bool(self.mu_observed[self.surfaces[0]]),
+            "mu_max_by_surface": {
+                s: {**summarize(mu[:, i]), "observed": bool(self.mu_observed[s])}
+                for i, s in enumerate(self.surfaces)
+            },
+            "diagnostics": {
+                k: v
+                for k, v in self.diagnostics.as_dict().items()
+                if k in ("r_hat_max", "ess_min", "divergences", "converged", "reason")
+            },
+            "method": self.diagnostics.method,
+            "model": self.kind,
+            "n_samples_used": self.n_samples_used,
+        }
+
+
+def _mu_observed(fit_draws: np.ndarray, priors: TyrePriors, surfaces) -> dict:
+    log_sd = np.std(np.log(fit_draws), axis=0)
+    contraction = 1.0 - log_sd / priors.mu_log_sd
+    return {s: bool(contraction[i] >= MU_OBSERVED_CONTRACTION) for i, s in enumerate(surfaces)}
+
+
+def _thin(samples: dict, n: int) -> dict:
+    total = next(iter(samples.values())).shape[0]
+    idx = np.linspace(0, total - 1, min(n, total)).astype(int)
+    return {k: v[idx] for k, v in samples.items()}
+
+
+def _observed(obs: TyreObservations) -> dict:
+    mask = np.asarray(obs.mask)
+    return {"slip_obs": np.asarray(obs.slip)[mask], "rho_obs": np.asarray(obs.rho)[mask]}
+
+
+def _to_inference_data(
+    samples: dict, n_chains: int, obs: TyreObservations, priors, kind, key, sample_stats=None
+) -> az.InferenceData:
+    """Build InferenceData with posterior, log-likelihood, posterior predictive, observed data."""
+    mask = np.asarray(obs.mask)
+    model = partial(tyre_model, priors=priors, kind=kind)
+
+    def by_chain(x):
+        x = np.asarray(x)
+        return x.reshape((n_chains, -1) + x.shape[1:])
+
+    posterior = {k: by_chain(v) for k, v in samples.items()}
+    loglik = log_likelihood(model, samples, obs)
+    loglik = {k: by_chain(np.asarray(loglik[k])[:, mask]) for k in ("slip_obs", "rho_obs")}
+    thinned = _thin(samples, MAX_PREDICTIVE_DRAWS)
+    predictive = Predictive(model, posterior_samples=thinned, return_sites=["slip_obs", "rho_obs"])
+    ppc = {k: np.asarray(v)[None, :, mask] for k, v in predictive(key, obs).items()}
+    dims = {"slip_obs": ["window"], "rho_obs": ["window"], "mu_max": ["surface"]}
+    coords = {"surface": list(obs.surfaces), "window": np.arange(int(mask.sum()))}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        idata = az.from_dict(
+            posterior=posterior,
+            log_likelihood=loglik,
+            observed_data=_observed(obs),
+            sample_stats=sample_stats,
+            dims=dims,
+            coords=coords,
+        )
+        idata.add_groups(posterior_predictive=az.from_dict(posterior_predictive=ppc, dims=dims,
+                                                          coords=coords).posterior_predictive)
+    return idata
+
+
+def _scalar_diagnostics(idata: az.InferenceData) -> tuple[float, float]:
+    names = [v for v in idata.posterior.data_vars if v not in ("c_x",)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rhat = az.rhat(idata, var_names=names)
+        ess = az.ess(idata, var_names=names, method="bulk")
+    r_hat_max = float(max(np.nanmax(np.asarray(rhat[v])) for v in rhat.data_vars))
+    ess_min = float(min(np.nanmin(np.asarray(ess[v])) for v in ess.data_vars))
+    return r_hat_max, ess_min
+
+
+def fit_tyre_nuts(
+    obs: TyreObservations,
+    *,
+    priors: TyrePriors = TyrePriors(),
+    kind: str = "brush",
+    num_chains: int = 4,
+    num_warmup: int = 500,
+    num_samples: int = 1000,
+    seed: int = 0,
+    progress_bar: bool = False,
+) -> TyreFit:
+    """Full NUTS fit (``num_chains`` vectorised chains).
+
+    Convergence: R-hat ≤ 1.01, bulk ESS ≥ 100 per chain, no divergent transitions.
+    """
+    kernel = NUTS(
+        partial(tyre_model, priors=priors, kind=kind),
+        target_accept_prob=0.9,
+        init_strategy=init_to_median(num_samples=15),
+    )
+    mcmc = MCMC(
+        kernel,
+        num_warmup=num_warmup,
+        num_samples=num_samples,
+        num_chains=num_chains,
+        chain_method="vectorized",
+        progress_bar=progress_bar,
+        jit_model_args=True,
+    )
+    key_run, key_ppc = jax.random.split(jax.random.PRNGKey(seed))
+    mcmc.run(key_run, obs, extra_fields=("diverging",))
+    samples = {k: np.asarray(v) for k, v in mcmc.get_samples().items()}
+    diverging = np.asarray(mcmc.get_extra_fields()["diverging"]).reshape(num_chains, -1)
+    idata = _to_inference_data(
+        samples, num_chains, obs, priors, kind, key_ppc, sample_stats={"diverging": diverging}
+    )
+    r_hat_max, ess_min = _scalar_diagnostics(idata)
+    divergences = int(diverging.sum())
+    problems = []
+    if not r_hat_max <= 1.01:
+        problems.append(f"R-hat {r_hat_max:.3f} > 1.01")
+    if not ess_min >= 100 * num_chains:
+        problems.append(f"ESS {ess_min:.0f} < {100 * num_chains}")
+    if divergences:
+        problems.append(f"{divergences} divergent transitions")
+    diagnostics = FitDiagnostics(
+        method="nuts",
+        r_hat_max=r_hat_max,
+        ess_min=ess_min,
+        divergences=divergences,
+        optimiser_result="n/a",
+        converged=not problems,
+        reason="; ".join(problems),
+    )
+    return TyreFit(
+        idata=idata,
+        diagnostics=diagnostics,
+        mu_observed=_mu_observed(samples["mu_max"], priors, obs.surfaces),
+        surfaces=obs.surfaces,
+        n_samples_used=obs.n_used,
+        kind=kind,
+    )
+
+
+class _LaplaceProblem(eqx.Module):
+    """Negative log posterior on the unconstrained space, data as an argument (no recompiles)."""
+
+    priors: TyrePriors
+    kind: str = eqx.field(static=True)
+    unravel: object = eqx.field(static=True)
+
+    def __call__(self, flat, obs):
+        params = self.unravel(flat)
+        model = partial(tyre_model, priors=self.priors, kind=self.kind)
+        return potential_energy(model, (obs,), {}, params)
+
+
+@eqx.filter_jit
+def _map_and_hessian(problem: _LaplaceProblem, flat0, obs, max_steps: int):
+    solver = optx.BFGS(rtol=1e-8, atol=1e-8)
+    sol = optx.minimise(problem, solver, flat0, args=obs, max_steps=max_steps, throw=False)
+    hessian = jax.hessian(problem)(sol.value, obs)
+    return sol.value, sol.result, hessian
+
+
+def fit_tyre_fast(
+    obs: TyreObservations,
+    *,
+    priors: TyrePriors = TyrePriors(),
+    kind: str = "brush",
+    num_draws: int = 4000,
+    seed: int = 0,
+    max_steps: int = 2000,
+) -> TyreFit:
+    """Fast path: MAP with optimistix BFGS on the unconstrained space plus a Laplace approximation.
+
+    Draws come from the Gaussian N(mode, H⁻¹) on the unconstrained space, mapped through the
+    model's constraints. Convergence: the optimiser reports success and H is positive definite.
+    """
+    model = partial(tyre_model, priors=priors, kind=kind)
+    key_init, key_draw, key_ppc = jax.random.split(jax.random.PRNGKey(seed), 3)
+    init = initialize_model(key_init, model, model_args=(obs,), init_strategy=init_to_median)
+    flat0, unravel = ravel_pytree(init.param_info.z)
+    problem = _LaplaceProblem(priors=priors, kind=kind, unravel=unravel)
+    mode, result, hessian = _map_and_hessian(problem, flat0, obs, max_steps)
+    hessian = np.asarray(0.5 * (hessian + hessian.T))
+    eigenvalues = np.linalg.eigvalsh(hessian) if np.all(np.isfinite(hessian)) else np.array([-1.0])
+    positive_definite = bool(eigenvalues.min() > 0)
+    optimiser_ok = result == optx.RESULTS.successful
+    problems = []
+    if not optimiser_ok:
+        problems.append(f"optimiser: {optx.RESULTS[result]}")
+    if not positive_definite:
+        problems.append("Hessian at the mode is not positive definite")
+    # A non-PD Hessian still gives draws (regularised) so the result can be inspected, but it is
+    # flagged as not converged.
+    regularised = hessian + np.eye(len(hessian)) * max(0.0, 1e-6 - eigenvalues.min())
+    cov = np.linalg.inv(regularised)
+    cov = 0.5 * (cov + cov.T)
+    z = jax.random.multivariate_normal(key_draw, mode, jnp.asarray(cov), (num_draws,))
+    constrained = jax.vmap(lambda flat: constrain_fn(model, (obs,), {}, unravel(flat)))(z)
+    deterministic = Predictive(
+        model, posterior_samples=constrained, return_sites=["c_x", "rho_offset"]
+    )(key_ppc, obs)
+    samples = {k: np.asarray(v) for k, v in {**constrained, **deterministic}.items()}
+    idata = _to_inference_data(samples, 1, obs, priors, kind, key_ppc)
+    diagnostics = FitDiagnostics(
+        method="fast",
+        r_hat_max=float("nan"),
+        ess_min=float(num_draws),
+        divergences=0,
+        optimiser_result=str(optx.RESULTS[result]) if not optimiser_ok else "successful",
+        converged=not problems,
+        reason="; ".join(problems),
+    )
+    return TyreFit(
+        idata=idata,
+        diagnostics=diagnostics,
+        mu_observed=_mu_observed(samples["mu_max"], priors, obs.surfaces),
+        surfaces=obs.surfaces,
+        n_samples_used=obs.n_used,
+        kind=kind,
+    )
+
+
+def fit_tyre(obs: TyreObservations, method: str = "nuts", **kwargs) -> TyreFit:
+    """Fit the per-tyre model with ``method="nuts"`` or ``"fast"`` (MAP + Laplace).
+
+    Examples
+    --------
+    >>> fit = fit_tyre(obs, method="fast")  # doctest: +SKIP
+    >>> fit.summary()["c_xr"]["mean"]  # doctest: +SKIP
+    """
+    if method == "nuts":
+        return fit_tyre_nuts(obs, **kwargs)
+    if method == "fast":
+        return fit_tyre_fast(obs, **kwargs)
+    raise ValueError(f"fit method: expected 'nuts' or 'fast', got {method!r}")

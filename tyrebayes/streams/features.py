@@ -1,0 +1,520 @@
+"""The signal pipeline: a validated stream to per-sample tyre features with noise levels.
+
+Steps (thesis chapter 4.3):
+
+1. Smooth the channels with a short NaN-aware moving average (``smoothing_s``).
+2. Translate each wheel's speed R·Ω to the vehicle's longitudinal speed (curve compensation with
+   yaw rate and road-wheel angle, β = 0 as in eq. 4.23).
+3. V_x from the non-driven wheels, with the spin check of chapter 4.3.2 (driven vs non-driven
+   wheel on the same side) and a lock check between the two non-driven wheels.
+4. Slip σ_x = (R·Ω − V)/V per wheel and per axle (eq. 2.1), with nominal radii: per-wheel radius
+   offsets are estimated separately (:class:`StreamNuisances`), never silently applied. Wheel
+   speeds only show slip *relative to the wheels that give V_x*: under braking the non-driven
+   wheels brake and slip too, so the driven axle's measured slip is about σ_driven − σ_free
+   (for AWD, relative to the median wheel, biased towards zero). Traction samples are clean.
+5. IMU offset from ax − dV_x/dt; the offset-corrected ax keeps the road grade, which is exactly
+   what the force balance needs.
+6. Axle forces from :func:`tyrebayes.physics.vehicle.single_track_inverse` (eq. 4.23) with drag
+   and rolling resistance; axle loads with longitudinal load transfer; ρ_x = F_x / F_z.
+7. Friction power w_x = |F_x V_x σ_x| (eq. 4.19a) and regime labels.
+
+Examples
+--------
+>>> from tyrebayes._resources import data_dir
+>>> from tyrebayes.physics.vehicle import load_vehicle
+>>> from tyrebayes.streams import read_stream, validate_stream
+>>> vehicle = load_vehicle("suv_rav4")
+>>> stream = validate_stream(read_stream(data_dir() / "comma2k19_rav4_segment.csv"), vehicle)
+>>> feats = compute_features(stream, vehicle)
+>>> 15 < float(feats.vx_mps[feats.valid].mean()) < 20
+True
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Bool, Float, Int
+
+from ..physics.vehicle import (
+    GRAVITY_MPS2,
+    Vehicle,
+    aero_drag,
+    axle_loads,
+    rolling_resistance_force,
+    single_track_inverse,
+)
+from .filters import nan_moving_average, smoothed_derivative, window_samples
+from .noise import local_noise_sd
+from .nuisances import (
+    StreamNuisances,
+    estimate_ax_offset,
+    estimate_radius_ratios,
+    estimate_speed_scale,
+    mean_grade_sd,
+)
+from .schema import WHEEL_COLUMNS
+from .segments import (
+    DEFAULT_THRESHOLDS,
+    FREE_ROLLING,
+    SEGMENT_KINDS,
+    SegmentThresholds,
+    label_samples,
+    summarize_segments,
+)
+from .validate import ValidatedStream, median_of_four
+
+_NON_DRIVEN = {"fwd": (2, 3), "rwd": (0, 1), "awd": (0, 1, 2, 3)}
+
+
+class StreamFeatures(eqx.Module):
+    """Per-sample features of one stream (NumPy arrays on a uniform time base) and metadata.
+
+    Wheel order is (fl, fr, rl, rr); axle order (front, rear). Slip and force are NaN where
+    ``valid`` is False. The ``*_sd`` arrays are 1-sigma measurement noise of the smoothed features;
+    neighbouring samples are correlated over ``smoothing_s``.
+
+    Attributes
+    ----------
+    time_s : time base [s]
+    vx_mps, vx_sd_mps : vehicle longitudinal speed V_x and its noise [m/s]
+    wheel_vx_mps : (n, 4) each wheel's R·Ω translated to V_x (nominal radius) [m/s]
+    slip, slip_sd : (n, 4) per-wheel σ_x and its noise [-]
+    slip_axle : (n, 2) per-axle mean σ_x [-]
+    slip_driven, slip_driven_sd : σ_x of the driven axle (all four wheels for AWD) [-]
+    fx_axle_n, fz_axle_n : (n, 2) longitudinal force and load per axle [N]
+    rho_axle : (n, 2) ρ_x = F_x / F_z per axle [-]
+    rho_driven, rho_driven_sd : ρ_x of the driven axle (total for AWD) and its noise [-]
+    friction_power_w : |F_x V_x σ_x| of the driven axle, eq. 4.19a [W]
+    ax_mps2 : IMU ax minus the estimated offset (includes road grade) [m/s²]
+    ay_mps2 : IMU ay minus its offset [m/s²]
+    dvx_dt_mps2 : dV_x/dt from the wheels [m/s²]
+    grade_rad : road grade estimate asin((ax − dV_x/dt)/g), uphill positive [rad]
+    yaw_rate_radps, yaw_acc_radps2 : yaw rate and its derivative
+    steer_rad : front road-wheel angle δ [rad]
+    resistance_n : drag + rolling resistance [N]
+    label : index into :data:`SEGMENT_KINDS`
+    valid : V_x usable (moving, no gap)
+    spin : spin/lock check fired (chapter 4.3.2)
+    filled : sample bridged over a dropped sample
+    nuisances : :class:`StreamNuisances`
+    noise : per raw channel, white-noise sd [channel unit]
+    sample_rate_hz, smoothing_s, driven_axle, vx_source, brake_front_share : metadata
+    """
+
+    time_s: Float[np.ndarray, "n"]
+    vx_mps: Float[np.ndarray, "n"]
+    vx_sd_mps: Float[np.ndarray, "n"]
+    wheel_vx_mps: Float[np.ndarray, "n 4"]
+    slip: Float[np.ndarray, "n 4"]
+    slip_sd: Float[np.ndarray, "n 4"]
+    slip_axle: Float[np.ndarray, "n 2"]
+    slip_driven: Float[np.ndarray, "n"]
+    slip_driven_sd: Float[np.ndarray, "n"]
+    fx_axle_n: Float[np.ndarray, "n 2"]
+    fz_axle_n: Float[np.ndarray, "n 2"]
+    rho_axle: Float[np.ndarray, "n 2"]
+    rho_driven: Float[np.ndarray, "n"]
+    rho_driven_sd: Float[np.ndarray, "n"]
+    friction_power_w: Float[np.ndarray, "n"]
+    ax_mps2: Float[np.ndarray, "n"]
+    ay_mps2: Float[np.ndarray, "n"]
+    dvx_dt_mps2: Float[np.ndarray, "n"]
+    grade_rad: Float[np.ndarray, "n"]
+    yaw_rate_radps: Float[np.ndarray, "n"]
+    yaw_acc_radps2: Float[np.ndarray, "n"]
+    steer_rad: Float[np.ndarray, "n"]
+    resistance_n: Float[np.ndarray, "n"]
+    label: Int[np.ndarray, "n"]
+    valid: Bool[np.ndarray, "n"]
+    spin: Bool[np.ndarray, "n"]
+    filled: Bool[np.ndarray, "n"]
+    nuisances: StreamNuisances
+    noise: dict[str, float] = eqx.field(static=True)
+    sample_rate_hz: float = eqx.field(static=True)
+    smoothing_s: float = eqx.field(static=True)
+    driven_axle: str = eqx.field(static=True)
+    vx_source: str = eqx.field(static=True)
+    brake_front_share: float = eqx.field(static=True)
+
+    def segments(self, min_segment_s: float = 0.5) -> dict[str, dict[str, float | int]]:
+        """Count and seconds per regime (see :func:`summarize_segments`)."""
+        return summarize_segments(self.time_s, self.label, min_segment_s)
+
+    def mask(self, kind: str) -> Bool[np.ndarray, "n"]:
+        """Samples labelled ``kind`` (one of :data:`SEGMENT_KINDS`)."""
+        if kind not in SEGMENT_KINDS:
+            raise ValueError(f"mask: expected one of {SEGMENT_KINDS}, got {kind!r}")
+        return self.label == SEGMENT_KINDS.index(kind)
+
+
+def _wheel_to_vx(
+    wheel_mps: np.ndarray, yaw: np.ndarray, steer: np.ndarray, vehicle: Vehicle
+) -> np.ndarray:
+    """Each wheel's longitudinal speed translated to the CoG V_x (β = 0, small V_y).
+
+    A wheel at (x_i, y_i) moves with (V_x − ψ̇ y_i, V_y + ψ̇ x_i); the front wheels point along δ.
+    Solving its wheel-frame speed u_i for V_x gives V_x = (u_i − ψ̇ x_i sin δ)/cos δ + ψ̇ y_i.
+    """
+    half = 0.5 * vehicle.track_width_m
+    lf = vehicle.cog_to_front_axle_m
+    cos, sin = np.cos(steer), np.sin(steer)
+    front = (wheel_mps[:, :2] - (yaw * lf * sin)[:, None]) / cos[:, None]
+    out = np.concatenate([front, wheel_mps[:, 2:]], axis=1)
+    return out + (yaw * half)[:, None] * np.array([1.0, -1.0, 1.0, -1.0])
+
+
+def _vehicle_speed(
+    wheel_vx: np.ndarray, drive: str, spin_threshold: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """V_x from the non-driven wheels and the spin/lock flag (thesis 4.3.2)."""
+    if drive == "awd":
+        # No free wheel: the median of four is robust to one spinning or locking wheel; slip is
+        # then measured relative to the other driven wheels (biased towards zero).
+        median = median_of_four(wheel_vx)
+        return median, np.zeros(wheel_vx.shape[0], dtype=bool)
+    a, b = _NON_DRIVEN[drive]
+    va, vb = wheel_vx[:, a], wheel_vx[:, b]
+    mean = 0.5 * (va + vb)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        disagree = np.abs(va - vb) > spin_threshold * np.abs(mean)
+    # A non-driven wheel cannot spin up, only lock under braking: the faster one is closer to V.
+    return np.where(disagree, np.maximum(va, vb), mean), disagree
+
+
+def _vx_noise_probe(wheel_vx: np.ndarray, drive: str) -> np.ndarray:
+    """A zero-mean combination of the V_x wheels with the noise of their mean (motion cancels)."""
+    if drive == "awd":
+        return 0.25 * (wheel_vx[:, 0] - wheel_vx[:, 1] + wheel_vx[:, 2] - wheel_vx[:, 3])
+    a, b = _NON_DRIVEN[drive]
+    return 0.5 * (wheel_vx[:, a] - wheel_vx[:, b])
+
+
+def _spin_check(wheel_vx: np.ndarray, vx: np.ndarray, drive: str, threshold: float) -> np.ndarray:
+    """Driven vs non-driven wheel on the same side differing by more than ``threshold``."""
+    if drive == "awd":
+        left = np.abs(wheel_vx[:, 0] - wheel_vx[:, 2])
+        right = np.abs(wheel_vx[:, 1] - wheel_vx[:, 3])
+    else:
+        d = (0, 1) if drive == "fwd" else (2, 3)
+        nd = _NON_DRIVEN[drive]
+        left = np.abs(wheel_vx[:, d[0]] - wheel_vx[:, nd[0]])
+        right = np.abs(wheel_vx[:, d[1]] - wheel_vx[:, nd[1]])
+    with np.errstate(invalid="ignore"):
+        return (np.maximum(left, right) > threshold * np.abs(vx)) & np.isfinite(vx)
+
+
+# Fixed chunk length for the JAX force balance: one compilation per process serves logs of any
+# length (a new shape would recompile), and the cost stays linear in duration.
+_CHUNK = 65536
+
+
+@eqx.filter_jit
+def _force_balance_chunk(
+    vehicle: Vehicle,
+    braking_vehicle: Vehicle,
+    ax: Float[Array, " c"],
+    ay: Float[Array, " c"],
+    yaw_acc: Float[Array, " c"],
+    steer: Float[Array, " c"],
+    speed: Float[Array, " c"],
+) -> tuple[Float[Array, " c"], ...]:
+    resistance = aero_drag(vehicle, speed) + rolling_resistance_force(vehicle)
+    fxf_t, _, fxr_t, _ = single_track_inverse(vehicle, ax, ay, yaw_acc, steer, resistance)
+    fxf_b, _, fxr_b, _ = single_track_inverse(braking_vehicle, ax, ay, yaw_acc, steer, resistance)
+    braking = vehicle.mass_kg * ax + resistance < 0.0
+    fz_front, fz_rear = axle_loads(vehicle, ax)
+    return (
+        resistance,
+        jnp.where(braking, fxf_b, fxf_t),
+        jnp.where(braking, fxr_b, fxr_t),
+        fz_front,
+        fz_rear,
+    )
+
+
+def _force_balance(
+    vehicle: Vehicle,
+    ax: np.ndarray,
+    ay: np.ndarray,
+    yaw_acc: np.ndarray,
+    steer: np.ndarray,
+    speed: np.ndarray,
+    brake_front_share: float,
+) -> tuple[np.ndarray, ...]:
+    """Resistance, longitudinal axle forces (front, rear) and axle loads (front, rear) [N].
+
+    Eq. 4.23 inverted by :func:`single_track_inverse`: traction follows the drive's split,
+    braking the brake balance (front share), a property of the brake system, not of the drive.
+    """
+    braking_vehicle = dataclasses.replace(
+        vehicle, drive="awd", front_drive_fraction=float(brake_front_share)
+    )
+    n = ax.shape[0]
+    padded = -(-n // _CHUNK) * _CHUNK
+    inputs = [np.pad(a, (0, padded - n)) for a in (ax, ay, yaw_acc, steer, speed)]
+    parts = [
+        _force_balance_chunk(
+            vehicle, braking_vehicle, *(jnp.asarray(a[i : i + _CHUNK]) for a in inputs)
+        )
+        for i in range(0, padded, _CHUNK)
+    ]
+    return tuple(
+        np.concatenate([np.asarray(p[k]) for p in parts])[:n].astype(float) for k in range(5)
+    )
+
+
+def compute_features(
+    stream: ValidatedStream,
+    vehicle: Vehicle,
+    *,
+    smoothing_s: float = 0.2,
+    spin_threshold: float = 0.1,
+    brake_front_share: float = 0.7,
+    ax_offset_mps2: float | None = None,
+    thresholds: SegmentThresholds = DEFAULT_THRESHOLDS,
+) -> StreamFeatures:
+    """Per-sample features of a validated stream.
+
+    Parameters
+    ----------
+    stream : ValidatedStream
+        From :func:`tyrebayes.streams.validate_stream`.
+    vehicle : Vehicle
+        Vehicle parameters (nominal wheel radius, geometry, drive, drag, rolling resistance).
+    smoothing_s : float
+        Moving-average window applied to every channel [s]. 0.2 s removes most IMU vibration
+        and wheel-speed quantisation while keeping the 1-2 Hz content of braking and traction.
+    spin_threshold : float
+        Relative speed difference that the spin check (chapter 4.3.2) calls spin or lock [-].
+    brake_front_share : float
+        Share of the braking force on the front axle (brake balance) [-]; about 0.7 for cars.
+    ax_offset_mps2 : float, optional
+        Known IMU longitudinal offset; by default estimated from ax − dV_x/dt.
+    thresholds : SegmentThresholds
+        Regime thresholds for the labels.
+
+    Returns
+    -------
+    StreamFeatures
+    """
+    if not 0.0 <= brake_front_share <= 1.0:
+        raise ValueError(f"brake_front_share: expected a value in [0, 1], got {brake_front_share}")
+    if not spin_threshold > 0:
+        raise ValueError(f"spin_threshold: expected a value > 0, got {spin_threshold}")
+    data = stream.data
+    rate = stream.sample_rate_hz
+    dt = 1.0 / rate
+    t = data["time"].to_numpy(dtype=float)
+    window = window_samples(smoothing_s, rate)
+    deriv_window = window_samples(max(smoothing_s, 0.5), rate)
+
+    def smooth(name: str) -> np.ndarray:
+        return nan_moving_average(data[name].to_numpy(dtype=float), window)
+
+    omega_raw = np.column_stack([data[c].to_numpy(dtype=float) for c in WHEEL_COLUMNS])
+    gap = ~np.all(np.isfinite(omega_raw), axis=1)
+    omega = nan_moving_average(omega_raw, window)
+    yaw = smooth("yaw_rate")
+    if "wheel_angle_front" in data:
+        steer = smooth("wheel_angle_front")
+    else:
+        steer = smooth("steering_wheel_angle") / vehicle.steering_ratio
+    ax_raw, ay_raw = smooth("ax"), smooth("ay")
+
+    wheel_vx = _wheel_to_vx(vehicle.wheel_radius_m * omega, yaw, steer, vehicle)
+    vx, lock = _vehicle_speed(wheel_vx, vehicle.drive, spin_threshold)
+    spin = _spin_check(wheel_vx, vx, vehicle.drive, spin_threshold) | lock
+    valid = ~gap & np.isfinite(vx) & (vx > thresholds.min_speed_mps)
+    vx_safe = np.where(valid, vx, np.nan)
+
+    slip = (wheel_vx - vx_safe[:, None]) / vx_safe[:, None]
+    slip_axle = np.column_stack([slip[:, :2].mean(axis=1), slip[:, 2:].mean(axis=1)])
+    driven_idx = {"front": [0, 1], "rear": [2, 3], "both": [0, 1, 2, 3]}[vehicle.driven_axle]
+    slip_driven = slip[:, driven_idx].mean(axis=1)
+
+    # Noise at the smoothing scale, measured on signals with the vehicle motion removed (slip
+    # velocities R·Ω − V_x, differences of the V_x wheels), per sample over ~10 s: coloured noise,
+    # quantisation and changing road roughness included, unlike a white-noise / √window rule.
+    # The probes use the unsmoothed wheel speeds: local_noise_sd applies the smoothing itself.
+    span = window_samples(10.0, rate)
+    wheel_vx_raw = _wheel_to_vx(vehicle.wheel_radius_m * omega_raw, yaw, steer, vehicle)
+    vx_raw = np.where(valid, _vehicle_speed(wheel_vx_raw, vehicle.drive, spin_threshold)[0], np.nan)
+    slip_velocity = wheel_vx_raw - vx_raw[:, None]
+    probes = np.column_stack(
+        [
+            slip_velocity,
+            slip_velocity[:, driven_idx].mean(axis=1),
+            _vx_noise_probe(wheel_vx_raw, vehicle.drive),
+        ]
+    )
+    probe_sd = local_noise_sd(probes, window, span)  # one pass over all six probes
+    local_wheel = probe_sd[:, :4]
+    slip_sd = local_wheel / vx_safe[:, None]
+    slip_driven_noise = probe_sd[:, 4]
+    slip_driven_sd = slip_driven_noise / vx_safe
+    vx_sd = probe_sd[:, 5]
+
+    # IMU offset against the wheel-speed derivative; the corrected ax keeps the road grade.
+    dvx_dt = smoothed_derivative(vx_safe, dt, deriv_window)
+    ax_smooth_d = nan_moving_average(data["ax"].to_numpy(dtype=float), deriv_window)
+    steady = valid & ~spin & (np.abs(dvx_dt) < 4.0)
+    if ax_offset_mps2 is None:
+        ax_offset, ax_offset_sd = estimate_ax_offset(ax_smooth_d, dvx_dt, steady, rate)
+        if not np.isfinite(ax_offset):
+            ax_offset, ax_offset_sd = 0.0, float("nan")
+    else:
+        ax_offset, ax_offset_sd = float(ax_offset_mps2), 0.0
+    ax = ax_raw - ax_offset
+    grade = np.arcsin(np.clip((ax_smooth_d - ax_offset - dvx_dt) / GRAVITY_MPS2, -1.0, 1.0))
+    if ax_offset_mps2 is None:
+        # The offset also holds g·sin(mean grade of this log), which nothing in one log can
+        # separate from the mounting pitch: widen its error by the mean grade's uncertainty.
+        grade_mean_sd = mean_grade_sd(grade[steady], rate)
+        ax_offset_sd = float(np.hypot(ax_offset_sd, GRAVITY_MPS2 * grade_mean_sd))
+    lateral_kin = vx_safe * yaw
+    ay_resid = (ay_raw - lateral_kin)[valid & np.isfinite(ay_raw)]
+    ay_offset = float(np.median(ay_resid)) if ay_resid.size else 0.0
+    ay = ay_raw - ay_offset
+    yaw_acc = smoothed_derivative(yaw, dt, deriv_window)
+
+    speed_for_drag = np.where(np.isfinite(vx), np.maximum(vx, 0.0), 0.0)
+    ax_f = np.nan_to_num(ax)
+    resistance, fx_front, fx_rear, fz_front, fz_rear = _force_balance(
+        vehicle,
+        ax_f,
+        np.nan_to_num(ay),
+        np.nan_to_num(yaw_acc),
+        np.nan_to_num(steer),
+        speed_for_drag,
+        brake_front_share,
+    )
+    fx_axle = np.column_stack([fx_front, fx_rear])
+    fz_axle = np.column_stack([fz_front, fz_rear])
+    fx_axle = np.where(valid[:, None] & np.isfinite(ax)[:, None], fx_axle, np.nan)
+    rho_axle = fx_axle / fz_axle
+    if vehicle.driven_axle == "both":
+        fx_driven = fx_axle.sum(axis=1)
+        fz_driven = fz_axle.sum(axis=1)
+    else:
+        k = 0 if vehicle.driven_axle == "front" else 1
+        fx_driven, fz_driven = fx_axle[:, k], fz_axle[:, k]
+    rho_driven = fx_driven / fz_driven
+    # Per-sample noise of the smoothed ax, scaled by the axle's share of m·ax. The offset's
+    # uncertainty is common to the whole log and reported apart (nuisances.rho_offset_sd).
+    ax_sd_local = local_noise_sd(data["ax"].to_numpy(dtype=float), window, span)
+    share = np.where(
+        np.abs(fx_axle.sum(axis=1)) > 0, np.abs(fx_driven) / np.abs(fx_axle.sum(axis=1)), 1.0
+    )
+    share = np.clip(np.nan_to_num(share, nan=1.0), 0.0, 1.0)
+    rho_driven_sd = vehicle.mass_kg * ax_sd_local * np.maximum(share, 0.5) / fz_driven
+    friction_power = np.abs(fx_driven * vx_safe * slip_driven)
+
+    label = label_samples(
+        valid,
+        rho_driven,
+        np.max(np.abs(np.nan_to_num(slip, nan=0.0)), axis=1),
+        spin,
+        lateral_kin,
+        thresholds,
+    )
+    free_straight = (label == FREE_ROLLING) & (np.abs(steer) < 0.02)
+    radius_ratio, radius_sd, radius_seconds = estimate_radius_ratios(wheel_vx, free_straight, rate)
+    if "speed_reference" in data:
+        ref = nan_moving_average(data["speed_reference"].to_numpy(dtype=float), window)
+        speed_scale, speed_scale_sd = estimate_speed_scale(vx_safe, ref, valid, rate)
+    else:
+        speed_scale, speed_scale_sd = float("nan"), float("nan")
+    quant = np.array([stream.quantisation.get(c, 0.0) for c in WHEEL_COLUMNS], dtype=float)
+    nuisances = StreamNuisances(
+        radius_ratio=radius_ratio,
+        radius_ratio_sd=radius_sd,
+        radius_ratio_seconds=radius_seconds,
+        ax_offset_mps2=float(ax_offset),
+        ax_offset_sd_mps2=float(ax_offset_sd),
+        pitch_offset_rad=float(np.arcsin(np.clip(ax_offset / GRAVITY_MPS2, -1, 1))),
+        ay_offset_mps2=ay_offset,
+        quantisation_radps=quant,
+        speed_scale=float(speed_scale),
+        speed_scale_sd=float(speed_scale_sd),
+        rho_offset_sd=float(vehicle.mass_kg * ax_offset_sd / np.nanmedian(fz_driven)),
+        smoothed_noise={
+            "vx_mps": float(np.nanmedian(vx_sd)),
+            "slip_velocity_mps": [float(v) for v in np.nanmedian(local_wheel, axis=0)],
+            "slip_velocity_driven_mps": float(np.nanmedian(slip_driven_noise)),
+            "ax_mps2": float(np.nanmedian(ax_sd_local)),
+        },
+    )
+    return StreamFeatures(
+        time_s=t,
+        vx_mps=vx_safe,
+        vx_sd_mps=vx_sd,
+        wheel_vx_mps=wheel_vx,
+        slip=slip,
+        slip_sd=slip_sd,
+        slip_axle=slip_axle,
+        slip_driven=slip_driven,
+        slip_driven_sd=slip_driven_sd,
+        fx_axle_n=fx_axle,
+        fz_axle_n=fz_axle,
+        rho_axle=rho_axle,
+        rho_driven=rho_driven,
+        rho_driven_sd=rho_driven_sd,
+        friction_power_w=friction_power,
+        ax_mps2=ax,
+        ay_mps2=ay,
+        dvx_dt_mps2=dvx_dt,
+        grade_rad=grade,
+        yaw_rate_radps=yaw,
+        yaw_acc_radps2=yaw_acc,
+        steer_rad=steer,
+        resistance_n=resistance,
+        label=label,
+        valid=valid,
+        spin=spin,
+        filled=stream.filled,
+        nuisances=nuisances,
+        noise=dict(stream.noise),
+        sample_rate_hz=float(rate),
+        smoothing_s=float(smoothing_s),
+        driven_axle=vehicle.driven_axle,
+        vx_source={"fwd": "rear wheels", "rwd": "front wheels", "awd": "median of four wheels"}[
+            vehicle.drive
+        ],
+        brake_front_share=float(brake_front_share),
+    )
+
+
+def speed_error(
+    features: StreamFeatures, reference_mps: Float[np.ndarray, "n"]
+) -> dict[str, float]:
+    """V_x against a reference speed (GNSS) over valid moving samples.
+
+    Returns
+    -------
+    dict
+        ``mean_mps`` (V_x − ref), ``rms_mps``, ``p95_abs_mps``, ``relative_mean`` (mean of
+        V_x/ref − 1, the wheel-radius scale error), ``rms_after_scale_mps`` (after removing that
+        scale) and ``samples``.
+    """
+    ok = features.valid & np.isfinite(reference_mps) & (reference_mps > 3.0)
+    ok &= np.isfinite(features.vx_mps)
+    if ok.sum() == 0:
+        nan = float("nan")
+        return dict.fromkeys(
+            ("mean_mps", "rms_mps", "p95_abs_mps", "relative_mean", "rms_after_scale_mps"), nan
+        ) | {"samples": 0}
+    vx, ref = features.vx_mps[ok], reference_mps[ok]
+    err = vx - ref
+    scale = float(np.mean(vx / ref))
+    return {
+        "mean_mps": float(err.mean()),
+        "rms_mps": float(np.sqrt(np.mean(err**2))),
+        "p95_abs_mps": float(np.quantile(np.abs(err), 0.95)),
+        "relative_mean": scale - 1.0,
+        "rms_after_scale_mps": float(np.sqrt(np.mean((vx / scale - ref) ** 2))),
+        "samples": int(ok.sum()),
+    }

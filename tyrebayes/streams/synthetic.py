@@ -1,0 +1,181 @@
+"""A small kinematic test-signal generator for the stream pipeline (tests and benchmarks).
+
+Not the vehicle simulator (that is :mod:`tyrebayes.simulate`): here the motion is prescribed
+(smooth speed and steering profiles), the tyre is linear (σ = ρ / C_x) and the sensors are
+ideal-plus-nuisances, so every feature has a closed-form truth. It exercises exactly what the
+pipeline must undo: per-wheel radius errors, wheel-speed quantisation and noise, IMU offset and
+noise, road grade, dropped samples (negate ay, yaw_rate and az for a z-down IMU).
+
+Examples
+--------
+>>> from tyrebayes.physics.vehicle import load_vehicle
+>>> df, truth = synthetic_stream(load_vehicle("compact_fwd"), duration_s=10.0, seed=0)
+>>> df.shape[0], round(float(truth["vx_mps"].mean()))
+(1000, 15)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..physics.vehicle import GRAVITY_MPS2, Vehicle
+
+_KMH_STEP = 0.01 / 3.6  # CAN wheel-speed resolution of 0.01 km/h, in m/s
+
+
+def _relative_slip(slip: np.ndarray, drive: str) -> np.ndarray:
+    if drive == "awd":
+        return np.zeros(slip.shape[0])
+    driven, free = ((0, 1), (2, 3)) if drive == "fwd" else ((2, 3), (0, 1))
+    return (1.0 + slip[:, driven].mean(axis=1)) / (1.0 + slip[:, free].mean(axis=1)) - 1.0
+
+
+def synthetic_stream(
+    vehicle: Vehicle,
+    *,
+    duration_s: float = 60.0,
+    rate_hz: float = 100.0,
+    seed: int = 0,
+    c_x: float = 40.0,
+    radius_error_sd: float = 0.002,
+    wheel_noise_radps: float = 0.02,
+    quantise: bool = True,
+    ax_offset_mps2: float = -0.3,
+    imu_noise_mps2: float = 0.2,
+    grade_amplitude_rad: float = 0.01,
+    drop_fraction: float = 0.0,
+    brake_front_share: float = 0.7,
+    speed_reference: bool = True,
+) -> tuple[pd.DataFrame, dict[str, np.ndarray | float]]:
+    """A stream file's table and its truth.
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        Geometry, mass, drive and radius of the car.
+    duration_s, rate_hz : float
+        Length [s] and sample rate [Hz].
+    seed : int
+        Seed of the NumPy generator (profiles' phases and all noise).
+    c_x : float
+        Linear slip stiffness of the tyres: σ = ρ_x / C_x.
+    radius_error_sd : float
+        Relative sd of the per-wheel rolling radius errors.
+    wheel_noise_radps : float
+        White noise of the wheel speeds before quantisation [rad/s].
+    quantise : bool
+        Round wheel speeds to 0.01 km/h steps (as CAN does).
+    ax_offset_mps2 : float
+        IMU longitudinal offset (bias + mounting pitch) [m/s²].
+    imu_noise_mps2 : float
+        White noise of ax and ay [m/s²].
+    grade_amplitude_rad : float
+        Amplitude of a slow sinusoidal road grade [rad].
+    drop_fraction : float
+        Fraction of rows where one random channel is NaN (a dropped sample).
+    brake_front_share : float
+        Front share of the braking force.
+    speed_reference : bool
+        Add a GNSS-like ``speed_reference`` column (0.05 m/s noise).
+
+    Returns
+    -------
+    (DataFrame, dict)
+        The stream table in the contract, and the truth: ``time``, ``vx_mps``, ``ax_mps2``
+        (dV/dt), ``grade_rad``, ``slip_driven`` (mean over the driven wheels),
+        ``slip_driven_relative`` (relative to the V_x wheels, what wheel speeds show),
+        ``rho_driven``,
+        ``radius_error`` (4,), ``ax_offset_mps2``.
+    """
+    rng = np.random.default_rng(seed)
+    n = int(round(duration_s * rate_hz))
+    t = np.arange(n) / rate_hz
+    ph = rng.uniform(0, 2 * np.pi, 6)
+    w = 2 * np.pi * np.array([0.01, 0.05, 0.13])
+    amp = np.array([6.0, 3.0, 1.0])
+    vx = 20.0 + sum(amp[k] * np.sin(w[k] * t + ph[k]) for k in range(3))
+    ax_true = sum(amp[k] * w[k] * np.cos(w[k] * t + ph[k]) for k in range(3))
+    steer = 0.012 * np.sin(2 * np.pi * 0.07 * t + ph[3]) + 0.006 * np.sin(
+        2 * np.pi * 0.17 * t + ph[4]
+    )
+    understeer = 0.002  # s²/m², a mildly understeering car
+    yaw = vx * steer / (vehicle.wheelbase_m * (1.0 + understeer * vx**2))
+    yaw_acc = np.gradient(yaw, t)
+    ay_true = vx * yaw
+    grade = grade_amplitude_rad * np.sin(2 * np.pi * t / 120.0 + ph[5])
+
+    m, g = vehicle.mass_kg, GRAVITY_MPS2
+    resistance = 0.6 * vehicle.drag_area_m2 * vx**2 + vehicle.rolling_resistance * m * g
+    f_total = m * ax_true + m * g * np.sin(grade) + resistance
+    share = np.where(f_total >= 0, vehicle.traction_front_share, brake_front_share)
+    # Lateral force needs part of the front-wheel steer angle; at these small δ its longitudinal
+    # projection is below 1 % and the truth keeps eq. 4.23's simplest form.
+    fx_front, fx_rear = share * f_total, (1.0 - share) * f_total
+    h_over_l = vehicle.cog_height_m / vehicle.wheelbase_m
+    fz_front = (
+        m * g * vehicle.cog_to_rear_axle_m / vehicle.wheelbase_m
+        - m * (ax_true + g * np.sin(grade)) * h_over_l
+    )
+    fz_rear = m * g - fz_front
+    rho_front, rho_rear = fx_front / fz_front, fx_rear / fz_rear
+    slip = np.column_stack([rho_front, rho_front, rho_rear, rho_rear]) / c_x
+
+    half, lf = 0.5 * vehicle.track_width_m, vehicle.cog_to_front_axle_m
+    u = np.column_stack(
+        [
+            (vx - yaw * half) * np.cos(steer) + yaw * lf * np.sin(steer),
+            (vx + yaw * half) * np.cos(steer) + yaw * lf * np.sin(steer),
+            vx - yaw * half,
+            vx + yaw * half,
+        ]
+    )
+    radius_error = rng.normal(0.0, radius_error_sd, 4)
+    radius = vehicle.wheel_radius_m * (1.0 + radius_error)
+    omega = u * (1.0 + slip) / radius[None, :]
+    omega = omega + rng.normal(0.0, wheel_noise_radps, omega.shape)
+    if quantise:
+        step = _KMH_STEP / vehicle.wheel_radius_m
+        omega = np.round(omega / step) * step
+
+    table = {
+        "time": t,
+        "wheel_speed_fl": omega[:, 0],
+        "wheel_speed_fr": omega[:, 1],
+        "wheel_speed_rl": omega[:, 2],
+        "wheel_speed_rr": omega[:, 3],
+        "ax": ax_true + g * np.sin(grade) + ax_offset_mps2 + rng.normal(0, imu_noise_mps2, n),
+        "ay": ay_true + rng.normal(0, imu_noise_mps2, n),
+        "yaw_rate": yaw + rng.normal(0, 0.002, n),
+        "steering_wheel_angle": steer * vehicle.steering_ratio + rng.normal(0, 0.002, n),
+        "az": g + rng.normal(0, imu_noise_mps2, n),
+    }
+    if speed_reference:
+        table["speed_reference"] = vx + rng.normal(0, 0.05, n)
+    df = pd.DataFrame(table)
+    if drop_fraction > 0:
+        cols = [c for c in df.columns if c != "time"]
+        rows = np.flatnonzero(rng.random(n) < drop_fraction)
+        which = rng.integers(0, len(cols), rows.size)
+        for j, col in enumerate(cols):
+            df.loc[rows[which == j], col] = np.nan
+    driven = {"front": [0, 1], "rear": [2, 3], "both": [0, 1, 2, 3]}[vehicle.driven_axle]
+    if vehicle.driven_axle == "both":
+        rho_driven = f_total / (fz_front + fz_rear)
+    else:
+        rho_driven = rho_front if vehicle.driven_axle == "front" else rho_rear
+    truth: dict[str, np.ndarray | float] = {
+        "time": t,
+        "vx_mps": vx,
+        "ax_mps2": ax_true,
+        "grade_rad": grade,
+        "yaw_acc_radps2": yaw_acc,
+        "slip_driven": slip[:, driven].mean(axis=1),
+        # What wheel speeds can show: the driven wheels' slip relative to the wheels that give
+        # V_x (non-driven wheels slip too when they brake).
+        "slip_driven_relative": _relative_slip(slip, vehicle.drive),
+        "rho_driven": rho_driven,
+        "radius_error": radius_error,
+        "ax_offset_mps2": float(ax_offset_mps2),
+    }
+    return df, truth
