@@ -37,6 +37,9 @@ class TyreObservations(eqx.Module):
         Standard deviation of the measurement noise of each window mean [-].
     temperature_c : Float[Array, "n"]
         Tyre temperature estimate for the window [°C].
+    at_limit : Bool[Array, "n"]
+        The window is an ABS (force-at-the-limit) window: its slip is not measurable (all four
+        wheels cycle) and its force observes μ_max directly.
     neighbour_slip : Float[Array, "n"]
         Mean measured slip of the adjacent windows [-]. Its noise is independent of this window's,
         while the true slip, which follows the pedals, is close to it: an instrument that locates
@@ -59,6 +62,7 @@ class TyreObservations(eqx.Module):
     rho_sd: Float[Array, "n"]
     temperature_c: Float[Array, "n"]
     neighbour_slip: Float[Array, "n"]
+    at_limit: Bool[Array, "n"]
     drive_index: Int[Array, "n"]
     surface_index: Int[Array, "n"]
     mask: Bool[Array, "n"]
@@ -69,6 +73,11 @@ class TyreObservations(eqx.Module):
     def n_used(self) -> int:
         """Number of real (unpadded) windows."""
         return int(np.asarray(self.mask).sum())
+
+    @property
+    def n_limit(self) -> int:
+        """Number of real ABS (at-the-limit) windows."""
+        return int(np.asarray(self.mask & self.at_limit).sum())
 
     @property
     def n_surfaces(self) -> int:
@@ -114,6 +123,7 @@ def windowed_observations(
     usable: np.ndarray | None = None,
     window_s: float = 0.25,
     min_fraction_valid: float = 0.8,
+    correlation_samples: float = 1.0,
 ) -> dict[str, np.ndarray]:
     """Average per-sample slip and force over short windows (one drive).
 
@@ -133,6 +143,9 @@ def windowed_observations(
         Window length [s].
     min_fraction_valid : float
         Windows with fewer valid samples than this fraction are dropped.
+    correlation_samples : float
+        Number of consecutive samples over which the noise is correlated (the smoothing window of
+        the features); a mean of k samples then has noise sd·√(c/k) rather than sd/√k.
 
     Returns
     -------
@@ -167,12 +180,113 @@ def windowed_observations(
     keep = counts >= max(1, int(np.ceil(min_fraction_valid * window)))
     out["neighbour_slip"] = _neighbour_mean(np.where(keep, out["slip"], np.nan))
     keep &= np.isfinite(out["neighbour_slip"])
-    safe_counts = np.maximum(counts, 1)
+    # Noise of a mean of k samples correlated over c samples: sd·√(c/k), at most sd.
+    factor = np.sqrt(np.minimum(1.0, max(correlation_samples, 1.0) / np.maximum(counts, 1)))
     out = {k: v[keep] for k, v in out.items()}
-    # Noise of a mean of k independent samples: sd/√k (the sd arrays were averaged above).
-    out["slip_sd"] = out["slip_sd"] / np.sqrt(safe_counts[keep])
-    out["rho_sd"] = out["rho_sd"] / np.sqrt(safe_counts[keep])
+    out["slip_sd"] = out["slip_sd"] * factor[keep]
+    out["rho_sd"] = out["rho_sd"] * factor[keep]
     return out
+
+
+def _window_sd(values: np.ndarray, valid: np.ndarray, window: int) -> np.ndarray:
+    """Standard deviation within consecutive blocks of ``window`` samples (valid samples only)."""
+    mean, counts = window_means(values, valid, window)
+    n_blocks = len(mean)
+    v = np.where(valid, values, 0.0)[: n_blocks * window].reshape(n_blocks, window)
+    ok = valid[: n_blocks * window].reshape(n_blocks, window)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        var = np.where(ok, (v - mean[:, None]) ** 2, 0.0).sum(axis=1) / counts
+    return np.sqrt(var)
+
+
+def observations_from_features(
+    features,
+    *,
+    temperature_c: float = 20.0,
+    window_s: float = 0.25,
+    abs_oscillation_factor: float = 5.0,
+    abs_min_decel: float = 0.05,
+) -> dict[str, np.ndarray]:
+    """Windowed observations of one drive from :class:`tyrebayes.streams.StreamFeatures`.
+
+    Two kinds of window enter the fit:
+
+    * **slip windows**: free rolling and traction, straight or gently curving, no spin. Braking
+      windows are left out: the non-driven wheels that give V_x brake too, so the driven axle's
+      measured slip there is σ_driven − σ_free, not σ_driven (:mod:`tyrebayes.streams.features`).
+    * **ABS windows** (``at_limit``): braking windows whose wheel speeds oscillate the way ABS
+      pressure modulation makes them (per-wheel slip relative to the four-wheel mean with a
+      within-window sd above ``abs_oscillation_factor`` times the drive's median). All four
+      wheels are then near their peak, so the *total* normalised force ΣF_x/ΣF_z (independent of
+      the assumed brake balance) observes μ_max; their slip is not used.
+
+    Parameters
+    ----------
+    features : StreamFeatures
+        From :func:`tyrebayes.streams.compute_features`.
+    temperature_c : float
+        Tyre temperature estimate for the drive [°C] (e.g. the ambient temperature column).
+    window_s : float
+        Window length [s].
+    abs_oscillation_factor : float
+        ABS detection threshold relative to the drive's median wheel-slip oscillation [-].
+    abs_min_decel : float
+        A window counts as braking if its total ρ_x is below −this [-].
+
+    Returns
+    -------
+    dict
+        As :func:`windowed_observations`, plus ``at_limit`` (bool per window).
+    """
+    from ..streams.segments import FREE_ROLLING, TRACTION
+
+    usable = features.valid & ~features.spin & np.isin(features.label, (FREE_ROLLING, TRACTION))
+    correlation = max(1.0, features.smoothing_s * features.sample_rate_hz)
+    slip_windows = windowed_observations(
+        features.time_s,
+        features.slip_driven,
+        features.rho_driven,
+        features.slip_driven_sd,
+        features.rho_driven_sd,
+        temperature_c=temperature_c,
+        usable=usable,
+        window_s=window_s,
+        correlation_samples=correlation,
+    )
+    slip_windows["at_limit"] = np.zeros(len(slip_windows["slip"]), dtype=bool)
+
+    dt = 1.0 / features.sample_rate_hz
+    window = max(1, int(round(window_s / dt)))
+    fx, fz = features.fx_axle_n, features.fz_axle_n
+    rho_total = np.sum(fx, axis=1) / np.sum(fz, axis=1)
+    relative = features.slip - np.mean(features.slip, axis=1, keepdims=True)
+    valid = features.valid & np.isfinite(rho_total) & np.all(np.isfinite(relative), axis=1)
+    oscillation = np.max(
+        np.column_stack([_window_sd(relative[:, i], valid, window) for i in range(4)]), axis=1
+    )
+    rho_mean, counts = window_means(rho_total, valid, window)
+    sd_ok = valid & np.isfinite(features.rho_driven_sd)
+    rho_sd, _ = window_means(features.rho_driven_sd, sd_ok, window)
+    enough = counts >= 0.8 * window
+    baseline = np.nanmedian(np.where(enough, oscillation, np.nan)) if enough.any() else np.nan
+    at_limit = (
+        enough
+        & np.isfinite(oscillation)
+        & (oscillation > abs_oscillation_factor * baseline)
+        & (rho_mean < -abs_min_decel)
+    )
+    m = int(at_limit.sum())
+    factor = np.sqrt(min(1.0, correlation / window))
+    limit_windows = {
+        "slip": np.zeros(m),
+        "rho": rho_mean[at_limit],
+        "slip_sd": np.ones(m),
+        "rho_sd": np.nan_to_num(rho_sd[at_limit], nan=0.01) * factor,
+        "temperature_c": np.full(m, float(temperature_c)),
+        "neighbour_slip": np.zeros(m),
+        "at_limit": np.ones(m, dtype=bool),
+    }
+    return {k: np.concatenate([slip_windows[k], limit_windows[k]]) for k in limit_windows}
 
 
 def stack_drives(
@@ -203,14 +317,14 @@ def stack_drives(
     if unknown:
         raise BadInputError(f"surface: expected one of {SURFACES}, got {unknown[0]!r}")
     used_surfaces = tuple(s for s in SURFACES if s in surfaces)
-    parts = {
-        k: [] for k in ("slip", "rho", "slip_sd", "rho_sd", "temperature_c", "neighbour_slip")
-    }
+    keys = ("slip", "rho", "slip_sd", "rho_sd", "temperature_c", "neighbour_slip", "at_limit")
+    parts = {k: [] for k in keys}
     drive_idx, surface_idx = [], []
     for d, (drive, surface) in enumerate(zip(drives, surfaces, strict=True)):
         m = len(drive["slip"])
+        drive = {"at_limit": np.zeros(m, dtype=bool), **drive}
         for k in parts:
-            parts[k].append(np.asarray(drive[k], dtype=float))
+            parts[k].append(np.asarray(drive[k], dtype=bool if k == "at_limit" else float))
         drive_idx.append(np.full(m, d))
         surface_idx.append(np.full(m, used_surfaces.index(surface)))
     n = sum(len(p) for p in parts["slip"])
@@ -231,6 +345,7 @@ def stack_drives(
         rho_sd=jnp.asarray(pad(cat["rho_sd"], 1.0)),
         temperature_c=jnp.asarray(pad(cat["temperature_c"], 20.0)),
         neighbour_slip=jnp.asarray(pad(cat["neighbour_slip"], 0.0)),
+        at_limit=jnp.asarray(pad(cat["at_limit"], False)),
         drive_index=jnp.asarray(pad(np.concatenate(drive_idx), 0)),
         surface_index=jnp.asarray(pad(np.concatenate(surface_idx), 0)),
         mask=jnp.asarray(np.arange(size) < n),

@@ -9,11 +9,11 @@ returned as data, never raised and never hidden.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import warnings
 from functools import partial
 
 import arviz as az
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -133,10 +133,8 @@ def _mu_observed(fit_draws: np.ndarray, priors: TyrePriors, surfaces) -> dict:
     return {s: bool(contraction[i] >= MU_OBSERVED_CONTRACTION) for i, s in enumerate(surfaces)}
 
 
-def _thin(samples: dict, n: int) -> dict:
-    total = next(iter(samples.values())).shape[0]
-    idx = np.linspace(0, total - 1, min(n, total)).astype(int)
-    return {k: v[idx] for k, v in samples.items()}
+def _thin_index(total: int, n: int) -> np.ndarray:
+    return np.linspace(0, total - 1, min(n, total)).astype(int)
 
 
 def _observed(obs: TyreObservations) -> dict:
@@ -144,37 +142,85 @@ def _observed(obs: TyreObservations) -> dict:
     return {"slip_obs": np.asarray(obs.slip)[mask], "rho_obs": np.asarray(obs.rho)[mask]}
 
 
+def _priors_key(priors: TyrePriors) -> tuple:
+    return tuple(float(x) for x in jax.tree_util.tree_leaves(priors))
+
+
+def _obs_key(obs: TyreObservations) -> tuple:
+    return (obs.slip.shape[0], obs.n_drives, obs.surfaces)
+
+
+@functools.lru_cache(maxsize=16)
+def _predictive_core(priors_key: tuple, kind: str, obs_key: tuple, n_draws: int):
+    """Jitted log-likelihood and posterior predictive for ``n_draws`` draws (compiled once)."""
+    del obs_key, n_draws  # part of the cache key: one compilation per shape
+    priors = TyrePriors(*priors_key)
+    model = partial(tyre_model, priors=priors, kind=kind)
+
+    @jax.jit
+    def core(samples, obs, key):
+        loglik = log_likelihood(model, samples, obs)
+        ppc = Predictive(model, posterior_samples=samples, return_sites=["slip_obs", "rho_obs"])(
+            key, obs
+        )
+        names = ("slip_obs", "rho_obs")
+        return {k: loglik[k] for k in names}, {k: ppc[k] for k in names}
+
+    return core
+
+
 def _to_inference_data(
     samples: dict, n_chains: int, obs: TyreObservations, priors, kind, key, sample_stats=None
 ) -> az.InferenceData:
-    """Build InferenceData with posterior, log-likelihood, posterior predictive, observed data."""
+    """Build InferenceData with posterior, log-likelihood, posterior predictive, observed data.
+
+    Log-likelihood and posterior predictive use at most :data:`MAX_PREDICTIVE_DRAWS` draws per
+    fit (evenly thinned within each chain), stored as float32: per-window arrays of a long drive
+    would otherwise dominate memory.
+    """
     mask = np.asarray(obs.mask)
-    model = partial(tyre_model, priors=priors, kind=kind)
 
     def by_chain(x):
         x = np.asarray(x)
         return x.reshape((n_chains, -1) + x.shape[1:])
 
     posterior = {k: by_chain(v) for k, v in samples.items()}
-    loglik = log_likelihood(model, samples, obs)
-    loglik = {k: by_chain(np.asarray(loglik[k])[:, mask]) for k in ("slip_obs", "rho_obs")}
-    thinned = _thin(samples, MAX_PREDICTIVE_DRAWS)
-    predictive = Predictive(model, posterior_samples=thinned, return_sites=["slip_obs", "rho_obs"])
-    ppc = {k: np.asarray(v)[None, :, mask] for k, v in predictive(key, obs).items()}
+    per_chain = next(iter(posterior.values())).shape[1]
+    keep = _thin_index(per_chain, max(1, MAX_PREDICTIVE_DRAWS // n_chains))
+    thinned = {
+        k: jnp.asarray(v[:, keep].reshape((-1,) + v.shape[2:])) for k, v in posterior.items()
+    }
+    core = _predictive_core(_priors_key(priors), kind, _obs_key(obs), len(keep) * n_chains)
+    loglik, ppc = core(thinned, obs, key)
+
+    def per_window(x):
+        x = np.asarray(x, dtype=np.float32)[:, mask]
+        return x.reshape((n_chains, len(keep)) + x.shape[1:])
+
+    loglik = {k: per_window(v) for k, v in loglik.items()}
+    ppc = {k: per_window(v) for k, v in ppc.items()}
     dims = {"slip_obs": ["window"], "rho_obs": ["window"], "mu_max": ["surface"]}
     coords = {"surface": list(obs.surfaces), "window": np.arange(int(mask.sum()))}
+    thin_coords = {**coords, "draw": keep}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         idata = az.from_dict(
             posterior=posterior,
-            log_likelihood=loglik,
             observed_data=_observed(obs),
             sample_stats=sample_stats,
             dims=dims,
             coords=coords,
         )
-        idata.add_groups(posterior_predictive=az.from_dict(posterior_predictive=ppc, dims=dims,
-                                                          coords=coords).posterior_predictive)
+        extra = az.from_dict(
+            log_likelihood=loglik, posterior_predictive=ppc, dims=dims, coords=thin_coords
+        )
+        idata.add_groups(
+            log_likelihood=extra.log_likelihood, posterior_predictive=extra.posterior_predictive
+        )
+        at_limit = np.asarray(obs.at_limit)[mask]
+        idata.constant_data = az.from_dict(
+            constant_data={"at_limit": at_limit}, dims={"at_limit": ["window"]}, coords=coords
+        ).constant_data
     return idata
 
 
@@ -192,7 +238,7 @@ def _scalar_diagnostics(idata: az.InferenceData) -> tuple[float, float]:
 def fit_tyre_nuts(
     obs: TyreObservations,
     *,
-    priors: TyrePriors = TyrePriors(),
+    priors: TyrePriors | None = None,
     kind: str = "brush",
     num_chains: int = 4,
     num_warmup: int = 500,
@@ -204,6 +250,9 @@ def fit_tyre_nuts(
 
     Convergence: R-hat ≤ 1.01, bulk ESS ≥ 100 per chain, no divergent transitions.
     """
+    priors = TyrePriors() if priors is None else priors
+    if kind not in ("brush", "linear"):
+        raise ValueError(f"tyre model kind: expected 'brush' or 'linear', got {kind!r}")
     kernel = NUTS(
         partial(tyre_model, priors=priors, kind=kind),
         target_accept_prob=0.9,
@@ -253,74 +302,109 @@ def fit_tyre_nuts(
     )
 
 
-class _LaplaceProblem(eqx.Module):
-    """Negative log posterior on the unconstrained space, data as an argument (no recompiles)."""
+@functools.lru_cache(maxsize=16)
+def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, max_steps: int):
+    """Jitted MAP + Hessian + Laplace draws for one data shape (compiled once per shape).
 
-    priors: TyrePriors
-    kind: str = eqx.field(static=True)
-    unravel: object = eqx.field(static=True)
+    Returns ``(core, flat0)``: ``core(flat0, obs, key)`` gives the mode, the optimiser result,
+    the smallest Hessian eigenvalue and the constrained draws (with deterministic sites).
+    """
+    priors = TyrePriors(*priors_key)
+    model = partial(tyre_model, priors=priors, kind=kind)
+    size, n_drives, surfaces = obs_key
+    template = _template_observations(size, n_drives, surfaces)
+    init = initialize_model(
+        jax.random.PRNGKey(0), model, model_args=(template,), init_strategy=init_to_median
+    )
+    flat0, unravel = ravel_pytree(init.param_info.z)
 
-    def __call__(self, flat, obs):
-        params = self.unravel(flat)
-        model = partial(tyre_model, priors=self.priors, kind=self.kind)
-        return potential_energy(model, (obs,), {}, params)
+    def negative_log_posterior(flat, obs):
+        return potential_energy(model, (obs,), {}, unravel(flat))
+
+    @jax.jit
+    def core(flat_init, obs, key):
+        solver = optx.BFGS(rtol=1e-8, atol=1e-8)
+        sol = optx.minimise(
+            negative_log_posterior, solver, flat_init, args=obs, max_steps=max_steps, throw=False
+        )
+        mode = sol.value
+        hessian = jax.hessian(negative_log_posterior)(mode, obs)
+        hessian = 0.5 * (hessian + hessian.T)
+        eigenvalues, vectors = jnp.linalg.eigh(hessian)
+        finite = jnp.all(jnp.isfinite(hessian))
+        # A non-positive-definite Hessian still gives draws (eigenvalues floored) so that the
+        # result can be inspected; it is flagged as not converged.
+        floored = jnp.where(finite, jnp.maximum(eigenvalues, 1e-6), 1.0)
+        vectors = jnp.where(finite, vectors, jnp.eye(len(flat_init)))
+        eps = jax.random.normal(key, (num_draws, len(flat_init)))
+        z = mode + (eps / jnp.sqrt(floored)) @ vectors.T
+        draws = jax.vmap(
+            lambda f: constrain_fn(model, (obs,), {}, unravel(f), return_deterministic=True)
+        )(z)
+        min_eig = jnp.where(finite, eigenvalues.min(), -jnp.inf)
+        return mode, sol.result, min_eig, draws
+
+    return core, flat0
 
 
-@eqx.filter_jit
-def _map_and_hessian(problem: _LaplaceProblem, flat0, obs, max_steps: int):
-    solver = optx.BFGS(rtol=1e-8, atol=1e-8)
-    sol = optx.minimise(problem, solver, flat0, args=obs, max_steps=max_steps, throw=False)
-    hessian = jax.hessian(problem)(sol.value, obs)
-    return sol.value, sol.result, hessian
+def _template_observations(size: int, n_drives: int, surfaces: tuple) -> TyreObservations:
+    """Observations of the given shape with harmless values (for tracing only)."""
+    zeros = jnp.zeros(size)
+    return TyreObservations(
+        slip=zeros,
+        rho=zeros,
+        slip_sd=jnp.ones(size),
+        rho_sd=jnp.ones(size),
+        temperature_c=jnp.full(size, 20.0),
+        neighbour_slip=zeros,
+        at_limit=jnp.zeros(size, dtype=bool),
+        drive_index=jnp.zeros(size, dtype=int),
+        surface_index=jnp.zeros(size, dtype=int),
+        mask=jnp.ones(size, dtype=bool),
+        n_drives=n_drives,
+        surfaces=surfaces,
+    )
 
 
 def fit_tyre_fast(
     obs: TyreObservations,
     *,
-    priors: TyrePriors = TyrePriors(),
+    priors: TyrePriors | None = None,
     kind: str = "brush",
-    num_draws: int = 4000,
+    num_draws: int = 2000,
     seed: int = 0,
     max_steps: int = 2000,
 ) -> TyreFit:
     """Fast path: MAP with optimistix BFGS on the unconstrained space plus a Laplace approximation.
 
     Draws come from the Gaussian N(mode, H⁻¹) on the unconstrained space, mapped through the
-    model's constraints. Convergence: the optimiser reports success and H is positive definite.
+    model's constraints. Convergence: the optimiser reports success within ``max_steps`` and H
+    is positive definite. The solver, Hessian and draws are compiled once per data shape
+    (padded bucket, number of drives, surfaces): new data of the same shape reuse them.
     """
-    model = partial(tyre_model, priors=priors, kind=kind)
-    key_init, key_draw, key_ppc = jax.random.split(jax.random.PRNGKey(seed), 3)
-    init = initialize_model(key_init, model, model_args=(obs,), init_strategy=init_to_median)
-    flat0, unravel = ravel_pytree(init.param_info.z)
-    problem = _LaplaceProblem(priors=priors, kind=kind, unravel=unravel)
-    mode, result, hessian = _map_and_hessian(problem, flat0, obs, max_steps)
-    hessian = np.asarray(0.5 * (hessian + hessian.T))
-    eigenvalues = np.linalg.eigvalsh(hessian) if np.all(np.isfinite(hessian)) else np.array([-1.0])
-    positive_definite = bool(eigenvalues.min() > 0)
-    optimiser_ok = result == optx.RESULTS.successful
+    priors = TyrePriors() if priors is None else priors
+    if kind not in ("brush", "linear"):
+        raise ValueError(f"tyre model kind: expected 'brush' or 'linear', got {kind!r}")
+    key_draw, key_ppc = jax.random.split(jax.random.PRNGKey(seed))
+    core, flat0 = _laplace_core(_priors_key(priors), kind, _obs_key(obs), num_draws, max_steps)
+    mode, result, min_eig, draws = core(flat0, obs, key_draw)
+    optimiser_ok = bool(result == optx.RESULTS.successful)
+    positive_definite = bool(float(min_eig) > 0)
     problems = []
     if not optimiser_ok:
         problems.append(f"optimiser: {optx.RESULTS[result]}")
     if not positive_definite:
         problems.append("Hessian at the mode is not positive definite")
-    # A non-PD Hessian still gives draws (regularised) so the result can be inspected, but it is
-    # flagged as not converged.
-    regularised = hessian + np.eye(len(hessian)) * max(0.0, 1e-6 - eigenvalues.min())
-    cov = np.linalg.inv(regularised)
-    cov = 0.5 * (cov + cov.T)
-    z = jax.random.multivariate_normal(key_draw, mode, jnp.asarray(cov), (num_draws,))
-    constrained = jax.vmap(lambda flat: constrain_fn(model, (obs,), {}, unravel(flat)))(z)
-    deterministic = Predictive(
-        model, posterior_samples=constrained, return_sites=["c_x", "rho_offset"]
-    )(key_ppc, obs)
-    samples = {k: np.asarray(v) for k, v in {**constrained, **deterministic}.items()}
+    samples = {k: np.asarray(v) for k, v in draws.items()}
+    if not all(np.all(np.isfinite(v)) for v in samples.values()):
+        problems.append("non-finite draws")
     idata = _to_inference_data(samples, 1, obs, priors, kind, key_ppc)
     diagnostics = FitDiagnostics(
         method="fast",
         r_hat_max=float("nan"),
         ess_min=float(num_draws),
         divergences=0,
-        optimiser_result=str(optx.RESULTS[result]) if not optimiser_ok else "successful",
+        optimiser_result="successful" if optimiser_ok else str(optx.RESULTS[result]),
         converged=not problems,
         reason="; ".join(problems),
     )

@@ -8,7 +8,8 @@ Measurement model for window i of drive d on surface s (all quantities normalise
     C_x(T)    = C_xr exp(−κ (T − 20 °C))               (stiffness temperature compensation)
 
 with ν_i the measured slip of the neighbouring windows (an instrument: its noise is independent
-of window i's, the true slip changes slowly), τ_i² = τ0_d² + (τ1_d ν_i)², f the brush model (thesis ch. 3; slope C_x, peak μ, eq. 3.3–3.4) or the linear model, s0_d the
+of window i's, the true slip changes slowly), τ_i² = τ0_d² + (τ1_d ν_i)², f the brush model
+(thesis ch. 3; slope C_x, peak μ, eq. 3.3–3.4) or the linear model, s0_d the
 per-drive slip offset (rolling-radius mismatch), b_d the per-drive force offset (IMU bias /
 mounting pitch) and λ a force-noise scale.
 
@@ -63,6 +64,10 @@ class TyrePriors(eqx.Module):
         Per-drive force offset sd [-]: IMU bias ~0.1–0.3 m/s² over g·(axle load share) → 0.03.
     true_slip_scale : float
         Half-normal scale of the spread τ_d of true slip within a drive [-].
+    abs_force_ratio, abs_force_ratio_sd : float
+        Window-mean |ρ_x| of an ABS window as a fraction of μ_max, and its spread: ABS cycles
+        the slip around the peak (about 0.5–1.5 peak slip), where the brush curve delivers
+        0.9–1.0 μ and measured Magic Formula curves 0.9–1.0 μ (they fall slowly after the peak).
     """
 
     c_xr_median: float = 35.0
@@ -73,6 +78,8 @@ class TyrePriors(eqx.Module):
     slip_offset_sd: float = 0.01
     rho_offset_sd: float = 0.03
     true_slip_scale: float = 0.05
+    abs_force_ratio: float = 0.96
+    abs_force_ratio_sd: float = 0.04
 
     def mu_median(self, surfaces: tuple[str, ...]) -> jax.Array:
         return jnp.array([_MU_MEDIAN[s] for s in surfaces])
@@ -92,19 +99,20 @@ def _force_and_slope(kind: str, slip, c_x, mu, slide_ratio):
     )
 
 
-def tyre_model(obs: TyreObservations, priors: TyrePriors = TyrePriors(), kind: str = "brush"):
+def tyre_model(obs: TyreObservations, priors: TyrePriors | None = None, kind: str = "brush"):
     """NumPyro model of one tyre set's windows (see the module docstring).
 
     Parameters
     ----------
     obs : TyreObservations
         Window-averaged observations (possibly several drives and surfaces).
-    priors : TyrePriors
-        Prior scales.
+    priors : TyrePriors, optional
+        Prior scales (default :class:`TyrePriors`).
     kind : {"brush", "linear"}
         Mean model: the brush model identifies μ_max where the data reach the nonlinear region;
         the linear model is for drives that never leave the linear region.
     """
+    priors = TyrePriors() if priors is None else priors
     if kind not in ("brush", "linear"):
         raise ValueError(f"tyre model kind: expected 'brush' or 'linear', got {kind!r}")
     n_drives, n_surfaces = obs.n_drives, obs.n_surfaces
@@ -119,6 +127,8 @@ def tyre_model(obs: TyreObservations, priors: TyrePriors = TyrePriors(), kind: s
         )
     slide_ratio = numpyro.sample("mu_slide_ratio", dist.Uniform(0.5, 1.0))
     rho_noise_scale = numpyro.sample("rho_noise_scale", dist.LogNormal(0.0, 0.5))
+    # The stated slip noise is a local estimate of coloured noise; its scale is inferred.
+    slip_noise_scale = numpyro.sample("slip_noise_scale", dist.LogNormal(0.0, 0.3))
     with numpyro.plate("drive", n_drives):
         slip_offset = numpyro.sample("slip_offset", dist.Normal(0.0, priors.slip_offset_sd))
         intercept = numpyro.sample("rho_intercept", dist.Normal(0.0, 0.3))
@@ -143,7 +153,7 @@ def tyre_model(obs: TyreObservations, priors: TyrePriors = TyrePriors(), kind: s
 
     m = slip_level[d] + slip_gain[d] * obs.neighbour_slip
     tau2 = spread_base[d] ** 2 + (spread_gain[d] * obs.neighbour_slip) ** 2
-    noise2 = obs.slip_sd**2
+    noise2 = (slip_noise_scale * obs.slip_sd) ** 2
     shrink = tau2 / (tau2 + noise2)
     slip_hat = m + shrink * (obs.slip - m)
     slip_var = shrink * noise2
@@ -153,9 +163,19 @@ def tyre_model(obs: TyreObservations, priors: TyrePriors = TyrePriors(), kind: s
     )
     rho_scale = jnp.sqrt((rho_noise_scale * obs.rho_sd) ** 2 + slope**2 * slip_var)
 
-    with numpyro.plate("window", obs.slip.shape[0]), numpyro.handlers.mask(mask=obs.mask):
-        numpyro.sample("slip_obs", dist.Normal(m, jnp.sqrt(tau2 + noise2)), obs=obs.slip)
-        numpyro.sample("rho_obs", dist.Normal(force + rho_offset[d], rho_scale), obs=obs.rho)
+    # ABS windows: the total force sits near the peak, the slip is not measurable.
+    mu_window = mu[obs.surface_index]
+    limit_scale = jnp.sqrt(
+        (rho_noise_scale * obs.rho_sd) ** 2 + (priors.abs_force_ratio_sd * mu_window) ** 2
+    )
+    rho_mean = jnp.where(obs.at_limit, -priors.abs_force_ratio * mu_window, force + rho_offset[d])
+    rho_scale = jnp.where(obs.at_limit, limit_scale, rho_scale)
+
+    with numpyro.plate("window", obs.slip.shape[0]):
+        with numpyro.handlers.mask(mask=obs.mask & ~obs.at_limit):
+            numpyro.sample("slip_obs", dist.Normal(m, jnp.sqrt(tau2 + noise2)), obs=obs.slip)
+        with numpyro.handlers.mask(mask=obs.mask):
+            numpyro.sample("rho_obs", dist.Normal(rho_mean, rho_scale), obs=obs.rho)
 
 
 __all__ = ["SURFACES", "TyrePriors", "stiffness_at_temperature", "tyre_model"]
