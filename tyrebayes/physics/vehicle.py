@@ -326,16 +326,15 @@ def single_track_inverse(
         wheelbase
     )
     fy_rear = m * jnp.asarray(ay) - front_lateral
-    share = vehicle.traction_front_share
-    if share > 0.0:  # static: the drive is a Python string, not an array value
-        # F_x2 = k F_x1 with k = (1 − share)/share, then a 2×2 solve for (F_x1, F_y1).
-        k = (1.0 - share) / share
-        det = 1.0 + k * c
-        fx_front = (longitudinal * c + s * front_lateral) / det
-        fy_front = ((c + k) * front_lateral - s * longitudinal) / det
-        fx_rear = k * fx_front
-    else:
-        fx_front = jnp.zeros_like(longitudinal * c)
-        fy_front = front_lateral / c
-        fx_rear = longitudinal + fy_front * s
+    # Traction T split F_x1 = φ T, F_x2 = (1 − φ) T with φ the front share; then (4.23a) and the
+    # front lateral balance are a 2×2 system in (T, F_y1):
+    #   ((1 − φ) + φ c) T − s F_y1 = X,   φ s T + c F_y1 = G,   det = (1 − φ) c + φ > 0.
+    # One formula for every drive, so φ may be a traced array (no Python branch on its value).
+    share = jnp.asarray(vehicle.traction_front_share)
+    a = (1.0 - share) + share * c
+    det = (1.0 - share) * c + share
+    traction = (longitudinal * c + s * front_lateral) / det
+    fy_front = (a * front_lateral - share * s * longitudinal) / det
+    fx_front = share * traction
+    fx_rear = (1.0 - share) * traction
     return fx_front, fy_front, fx_rear, fy_rear
