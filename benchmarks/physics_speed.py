@@ -98,18 +98,17 @@ def main(argv: list[str] | None = None) -> int:
         r["elements_per_s_median"] = args.n / r["median_s"]
         results[name] = r
     floor = results["copy"]["elements_per_s"]
-    for name, r in results.items():
+    for r in results.values():
         r["ratio_to_copy"] = r["elements_per_s"] / floor
-        r["ratio_to_copy_median"] = r["elements_per_s_median"] / results["copy"][
-            "elements_per_s_median"
-        ]
+        r["ratio_to_copy_median"] = (
+            r["elements_per_s_median"] / results["copy"]["elements_per_s_median"]
+        )
     summary = {
         "n_slips": args.n,
         "dtype": str(jnp.dtype(dtype)),
         "repeats": args.repeats,
         "target_ratio": TARGET_RATIO,
-        "meets_target_force_and_slope": results["force_and_slope"]["ratio_to_copy"]
-        >= TARGET_RATIO,
+        "meets_target_force_and_slope": results["force_and_slope"]["ratio_to_copy"] >= TARGET_RATIO,
         "meets_target_force_and_param_grad": results["force_and_param_grad"]["ratio_to_copy"]
         >= TARGET_RATIO,
         "backend": jax.default_backend(),
