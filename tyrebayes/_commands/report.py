@@ -1,0 +1,135 @@
+"""``tyrebayes report FIT... --out DIR [--json]``: the demo's report for the user's own fits.
+
+Each FIT is a netCDF written by ``tyrebayes fit-tyre --out`` (a per-tyre posterior) or
+``tyrebayes fit-fleet --out`` (a fleet fit). The report shows every section the fits allow:
+force–slip curves and diagnostics for tyre fits; friction against 1/C_xr with the OLS line for a
+fleet fit; with both, the winter-suitability warnings of the tyre sets (``--type`` gives their
+tyre type) and their predictive V_max.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from .._errors import BadInputError
+from ._common import existing_file, print_json
+
+_TYPES = ("winter", "all_season", "summer")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "report",
+        help="HTML + Markdown report of fits written by fit-tyre/fit-fleet",
+        description="Render the tyrebayes report (figures, tables, diagnostics) for one or more "
+        "netCDF fits from 'fit-tyre --out' and/or 'fit-fleet --out'.",
+    )
+    p.add_argument("fits", nargs="+", metavar="FIT", help="netCDF fit files (.nc)")
+    p.add_argument("--out", default="report_out", help="output folder (default ./report_out)")
+    p.add_argument(
+        "--type",
+        choices=_TYPES,
+        default=None,
+        dest="tyre_type",
+        help="tyre type of the per-tyre fits (enables warnings and V_max)",
+    )
+    p.add_argument("--vehicle", default="compact_fwd", help="vehicle of the V_max simulation")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--json", action="store_true", help="machine-readable summary on stdout")
+    p.set_defaults(func=run)
+
+
+def _load(path: str):
+    import arviz as az
+
+    from ..report.sections import is_fleet_fit, is_tyre_fit
+
+    p = existing_file(path)
+    try:
+        idata = az.from_netcdf(p)
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise BadInputError(
+            f"fit {path}: expected a netCDF from fit-tyre or fit-fleet, got {type(err).__name__}"
+        ) from None
+    if is_fleet_fit(idata):
+        return "fleet", idata
+    if is_tyre_fit(idata):
+        return "tyre", idata
+    raise BadInputError(
+        f"fit {path}: expected a netCDF from fit-tyre or fit-fleet, got groups {idata.groups()}"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise BadInputError(f"--out: expected a folder, got the file '{out}'")
+    loaded = [(path, *_load(path)) for path in args.fits]
+    fleets = [(p, i) for p, kind, i in loaded if kind == "fleet"]
+    tyres = [(p, i) for p, kind, i in loaded if kind == "tyre"]
+    if len(fleets) > 1:
+        raise BadInputError(f"fits: expected at most one fleet fit, got {len(fleets)}")
+
+    import numpy as np
+
+    from ..report import Report, write_report
+    from ..report.sections import (
+        fleet_diagnostics_row,
+        fleet_section,
+        tyre_section,
+        vmax_section,
+        warning_rows,
+    )
+
+    t0 = time.perf_counter()
+    report = Report(
+        title="tyrebayes report",
+        subtitle=f"{len(tyres)} tyre fit(s), {len(fleets)} fleet fit(s): "
+        + ", ".join(Path(p).name for p, _, _ in loaded),
+    )
+    for p, idata in tyres:
+        name = Path(p).stem
+        report.tyres.append(tyre_section(idata, name, tyre_type=args.tyre_type, source=str(p)))
+        report.diagnostics.append({"fit": f"tyre: {name}", **report.tyres[-1].diagnostics})
+        d = report.diagnostics[-1]
+        if "converged" not in d:
+            ok = (d["chains"] == 1 or d["r_hat_max"] <= 1.01) and d["divergences"] == 0
+            d["converged"] = bool(ok)
+            report.tyres[-1].diagnostics["converged"] = bool(ok)
+    if fleets:
+        p, fleet = fleets[0]
+        report.fleet = fleet_section(fleet, seed=args.seed, source=str(p))
+        report.diagnostics.append(fleet_diagnostics_row(fleet, f"fleet: {Path(p).stem}"))
+        if tyres and args.tyre_type:
+            report.warnings = warning_rows(fleet, report.tyres, seed=args.seed)
+    if tyres and args.tyre_type:
+        sets = [
+            {
+                "tyre": t.name,
+                "tyre_type": args.tyre_type,
+                "c_xr": np.asarray(idata.posterior["c_xr"]).ravel(),
+            }
+            for t, (_, idata) in zip(report.tyres, tyres, strict=True)
+        ]
+        report.vmax = vmax_section(args.vehicle, sets, seed=args.seed, extended=False)
+    report.timings["build"] = time.perf_counter() - t0
+    paths = write_report(report, out)
+    summary = {
+        "out": str(out),
+        "report_html": str(paths["report.html"]),
+        "report_md": str(paths["report.md"]),
+        "figures": [str(v) for k, v in paths.items() if k.startswith("figure:")],
+        "tyre_fits": len(tyres),
+        "fleet_fits": len(fleets),
+        "warnings": [
+            {"subject": w["subject"], "verdict": w["verdict"], "probability": w["probability"]}
+            for w in report.warnings
+        ],
+    }
+    if args.json:
+        print_json(summary)
+    else:
+        print(f"report: {paths['report.html']} ({len(summary['figures'])} figures)")
+    return 0

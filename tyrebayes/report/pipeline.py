@@ -1,0 +1,276 @@
+"""The demo's pipeline: simulate, run the streams, fit, predict, warn, criticise → :class:`Report`.
+
+Sizes (``quick`` / default) are set in :data:`SIZES`; every number the report states is computed
+here or in the builders it calls.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from .content import Report
+from .sections import (
+    criticism_entry,
+    fleet_diagnostics_row,
+    fleet_section,
+    tyre_section,
+    vmax_section,
+    warning_rows,
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class DemoSizes:
+    """How much the demo simulates and samples."""
+
+    sets_per_type: int
+    drive_surfaces: tuple[str, ...]
+    drive_seconds: float
+    sample_rate_hz: float
+    fleet_sets: int
+    fleet_draws: int
+    vmax_draws: int
+    vmax_extended: bool
+    real_method: str
+
+
+SIZES = {
+    True: DemoSizes(1, ("dry", "snow"), 60.0, 50.0, 26, 300, 48, False, "fast"),
+    False: DemoSizes(2, ("dry", "wet", "snow"), 120.0, 50.0, 60, 500, 200, True, "nuts"),
+}
+#: The over-aged winter set: years of age (the thesis' two over-aged sets were ~7 years old).
+AGED_YEARS = 7.0
+REAL_SEGMENT = "comma2k19_rav4_segment.csv"
+REAL_VEHICLE = "suv_rav4"
+SIM_VEHICLE = "compact_fwd"
+
+
+def _demo_tyres(sizes: DemoSizes) -> list[tuple[str, str, object]]:
+    """(name, type, TyreSpec) of the demo's sets, including the over-aged winter set."""
+    from ..simulate.fleet import AGE_REF_YEARS, AGE_STIFFENING_PER_YEAR, THESIS_AGED_TYRE_EFFECT
+    from ..simulate.tyre_spec import TyreSpec
+
+    out = []
+    for t in ("winter", "all_season", "summer"):
+        base = TyreSpec.from_type(t)
+        for j in range(sizes.sets_per_type):
+            spec = TyreSpec.from_type(t, c_xr=base.c_xr * (1.0 + 0.08 * j))
+            out.append((f"{t} {j + 1}", t, spec))
+    years = AGED_YEARS - AGE_REF_YEARS
+    base = TyreSpec.from_type("winter")
+    aged = TyreSpec.from_type(
+        "winter",
+        c_xr=base.c_xr * (1.0 + AGE_STIFFENING_PER_YEAR * years),
+        mu_snow=base.mu_snow - THESIS_AGED_TYRE_EFFECT * years,
+        mu_ice=max(base.mu_ice - THESIS_AGED_TYRE_EFFECT * years / 4, 0.05),
+    )
+    out.append((f"winter aged {AGED_YEARS:g} y", "winter", aged))
+    return out
+
+
+def _with_indices(idata, obs):
+    """Add per-window drive and surface indices to a tyre fit (for ``tyrebayes report``)."""
+    import arviz as az
+
+    mask = np.asarray(obs.mask)
+    extra = az.from_dict(
+        constant_data={
+            "drive_index": np.asarray(obs.drive_index)[mask],
+            "surface_index": np.asarray(obs.surface_index)[mask],
+        },
+        dims={"drive_index": ["window"], "surface_index": ["window"]},
+        coords={"window": np.arange(int(mask.sum()))},
+    ).constant_data
+    if "constant_data" in idata.groups():
+        idata.constant_data = idata.constant_data.assign(extra)
+    else:
+        idata.add_groups(constant_data=extra)
+    return idata
+
+
+def _fit_diag(fit) -> dict:
+    d = fit.diagnostics.as_dict()
+    return {
+        k: d[k] for k in ("method", "r_hat_max", "ess_min", "divergences", "converged", "reason")
+    }
+
+
+def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
+    """Run the demo; returns (Report, {name: InferenceData to save})."""
+    from .._resources import data_dir
+    from ..criticism import criticize_stream, criticize_table
+    from ..inference.fleet import fit_fleet
+    from ..inference.tyre_data import observations_from_features, stack_drives
+    from ..inference.tyre_fit import fit_tyre
+    from ..inference.vmax import load_table_6_2
+    from ..physics.vehicle import load_vehicle
+    from ..simulate.drive_io import write_drive
+    from ..simulate.fleet import simulate_fleet
+    from ..simulate.tyre_set import simulate_tyre_set_drives
+    from ..streams import compute_features, read_stream, validate_stream
+    from .wear_study import wear_study
+
+    sizes = SIZES[bool(quick)]
+    tyres = _demo_tyres(sizes)
+    names = [f"simulate + fit {n}" for n, _, _ in tyres] + [
+        "real RAV4 segment",
+        "fleet model",
+        "warnings",
+        "V_max",
+        "wear",
+        "criticism",
+    ]
+    steps = step_factory(names)
+    report = Report(
+        title="tyrebayes demo report" + (" (quick)" if quick else ""),
+        subtitle=(
+            f"{len(tyres)} simulated tyre sets ({SIM_VEHICLE}, {len(sizes.drive_surfaces)} drives "
+            f"of {sizes.drive_seconds:g} s each on {', '.join(sizes.drive_surfaces)}), the real "
+            f"comma2k19 RAV4 segment, a {sizes.fleet_sets}-set simulated winter test fleet; "
+            f"seed {seed}."
+        ),
+    )
+    fits = {}
+    vehicle = load_vehicle(SIM_VEHICLE)
+    method = "fast"
+    for i, (name, tyre_type, spec) in enumerate(tyres):
+        steps.start(f"simulate + fit {name}")
+        drives = simulate_tyre_set_drives(
+            seed * 1000 + i,
+            vehicle,
+            spec,
+            n_drives=len(sizes.drive_surfaces),
+            duration_s=sizes.drive_seconds,
+            surfaces=sizes.drive_surfaces,
+            sample_rate_hz=sizes.sample_rate_hz,
+        )
+        windows, surfaces = [], []
+        for j, (df, truth) in enumerate(drives):
+            path = out_dir / "logs" / f"{name.replace(' ', '_')}_{j + 1}_{truth.surface}.parquet"
+            write_drive(df, truth, path)
+            stream = validate_stream(read_stream(path), vehicle)
+            feats = compute_features(stream, vehicle)
+            windows.append(observations_from_features(feats, temperature_c=truth.ambient_c))
+            surfaces.append(truth.surface)
+        obs = stack_drives(windows, surfaces)
+        fit = fit_tyre(obs, method=method, seed=seed + i)
+        key = f"tyre_{name.replace(' ', '_')}"
+        fits[key] = _with_indices(fit.idata, obs)
+        truth = {"c_xr": spec.c_xr, **{f"mu_{s}": spec.mu_on(s) for s in sorted(set(surfaces))}}
+        report.tyres.append(
+            tyre_section(
+                fits[key],
+                name,
+                tyre_type=tyre_type,
+                diagnostics=_fit_diag(fit),
+                truth=truth,
+                source=f"simulated, {len(drives)} drives",
+            )
+        )
+        steps.done()
+
+    steps.start("real RAV4 segment")
+    rav4 = load_vehicle(REAL_VEHICLE)
+    stream = validate_stream(read_stream(data_dir() / REAL_SEGMENT), rav4)
+    feats = compute_features(stream, rav4)
+    obs = stack_drives([observations_from_features(feats)], ["dry"])
+    kw = (
+        {"num_chains": 2, "num_warmup": 300, "num_samples": 300}
+        if sizes.real_method == "nuts"
+        else {}
+    )
+    fit = fit_tyre(obs, method=sizes.real_method, seed=seed, **kw)
+    fits["tyre_rav4_real"] = _with_indices(fit.idata, obs)
+    report.tyres.append(
+        tyre_section(
+            fits["tyre_rav4_real"],
+            "RAV4 real segment",
+            tyre_type=None,
+            diagnostics=_fit_diag(fit),
+            source=f"shipped {REAL_SEGMENT}",
+        )
+    )
+    steps.done()
+
+    steps.start("fleet model")
+    table, _truth = simulate_fleet(seed + 7, sizes.fleet_sets, surface="snow", effects=("age",))
+    fleet_idata = fit_fleet(
+        table, key=seed, num_warmup=sizes.fleet_draws, num_samples=sizes.fleet_draws, num_chains=2
+    )
+    fits["fleet"] = fleet_idata
+    report.fleet = fleet_section(
+        fleet_idata,
+        surface="snow",
+        seed=seed,
+        source=f"simulated winter test fleet, {sizes.fleet_sets} sets",
+    )
+    steps.done()
+
+    steps.start("warnings")
+    report.warnings = warning_rows(fleet_idata, [t for t in report.tyres if t.tyre_type], seed=seed)
+    steps.done()
+
+    steps.start("V_max")
+    table62 = load_table_6_2()
+    vsets = [
+        {
+            "tyre": r.tyre,
+            "tyre_type": r.tyre_type,
+            "c_xr": float(r.c_xr),
+            "measured_lo": float(r.v_max_kmh),
+        }
+        for r in table62.itertuples()
+    ]
+    for t in report.tyres:
+        if t.tyre_type:
+            c = np.asarray(fits[f"tyre_{t.name.replace(' ', '_')}"].posterior["c_xr"]).ravel()
+            vsets.append({"tyre": f"demo: {t.name}", "tyre_type": t.tyre_type, "c_xr": c})
+    report.vmax = vmax_section(
+        "compact_fwd", vsets, n_draws=sizes.vmax_draws, seed=seed, extended=sizes.vmax_extended
+    )
+    steps.done()
+
+    steps.start("wear")
+    report.wear = wear_study(seed, quick=quick)
+    steps.done()
+
+    steps.start("criticism")
+    report.criticism.append(
+        criticism_entry(
+            "the winter test fleet (mu on snow vs 1/C_xr)", criticize_table(table, "mu", seed=seed)
+        )
+    )
+    report.criticism.append(
+        criticism_entry(
+            "the real RAV4 segment (rho_x = C_x (sigma_x - s0))",
+            criticize_stream(data_dir() / REAL_SEGMENT, REAL_VEHICLE, seed=seed),
+        )
+    )
+    steps.done()
+    steps.close()
+
+    report.diagnostics = [{"fit": f"tyre: {t.name}", **t.diagnostics} for t in report.tyres]
+    report.diagnostics.append(fleet_diagnostics_row(fleet_idata, "fleet model"))
+    for m, d in report.wear.diagnostics.items():
+        report.diagnostics.append({"fit": f"wear {m}", "method": "nuts", "chains": 2, **d})
+    ext = report.vmax.comparison.get("extended")
+    if ext:
+        report.diagnostics.append(
+            {
+                "fit": "V_max extended",
+                "method": "nuts",
+                "chains": 1,
+                "divergences": ext["divergences"],
+                "converged": ext["divergences"] == 0,
+                "reason": "single chain: no R-hat",
+            }
+        )
+    report.timings = dict(steps.timings)
+    report.notes.append(
+        "Reproduce: tyrebayes demo" + (" --quick" if quick else "") + f" --seed {seed}; "
+        "re-render from the saved fits: tyrebayes report fits/*.nc --out DIR."
+    )
+    return report, fits

@@ -1,0 +1,396 @@
+"""Builders: fits in, report sections (numbers and arrays) out.
+
+Each builder computes what its section states — posterior bands, OLS line and R², predictive
+V_max, verdicts — from ArviZ ``InferenceData`` (as written by ``fit-tyre --out`` and
+``fit-fleet --out``) or from the fit objects of the demo.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from ..inference.summary import summarize
+from .content import FleetSection, TyreSection, VmaxSection
+
+#: Posterior draws used for the drawn curves and bands (a band needs a few hundred, not 4000).
+CURVE_DRAWS = 400
+#: Points on the slip / stiffness grids of the curves.
+GRID_POINTS = 60
+#: Central interval of the drawn bands.
+BAND = (0.05, 0.5, 0.95)
+
+
+def _flat(idata, name: str) -> np.ndarray:
+    v = np.asarray(idata.posterior[name])
+    return v.reshape((-1,) + v.shape[2:])
+
+
+def _thin(n: int, k: int = CURVE_DRAWS) -> np.ndarray:
+    return np.linspace(0, n - 1, min(n, k)).astype(int)
+
+
+def is_tyre_fit(idata) -> bool:
+    """A per-tyre fit (``fit-tyre --out``): posterior c_xr and mu_max, observed slip and force."""
+    groups = idata.groups()
+    return (
+        "posterior" in groups
+        and "observed_data" in groups
+        and all(v in idata.posterior for v in ("c_xr", "c_x", "mu_max"))
+        and all(v in idata.observed_data for v in ("slip_obs", "rho_obs"))
+    )
+
+
+def is_fleet_fit(idata) -> bool:
+    """A fleet fit (``fit-fleet --out``): posterior a, b, sigma and the c_xr_ref attribute."""
+    return (
+        "posterior" in idata.groups()
+        and "c_xr_ref" in idata.attrs
+        and all(v in idata.posterior for v in ("a", "b", "sigma"))
+    )
+
+
+def tyre_diagnostics(idata) -> dict:
+    """R-hat, ESS and divergences of a per-tyre fit, computed from its draws."""
+    import warnings
+
+    import arviz as az
+
+    names = [
+        v for v in ("c_xr", "mu_max", "temp_sensitivity", "slip_offset") if v in idata.posterior
+    ]
+    n_chains = int(idata.posterior.sizes["chain"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ess = az.ess(idata, var_names=names, method="bulk")
+        rhat = az.rhat(idata, var_names=names) if n_chains > 1 else None
+    ess_min = float(min(np.nanmin(np.asarray(ess[v])) for v in names))
+    r_hat = (
+        float(max(np.nanmax(np.asarray(rhat[v])) for v in names))
+        if rhat is not None
+        else float("nan")
+    )
+    div = 0
+    if "sample_stats" in idata.groups() and "diverging" in idata.sample_stats:
+        div = int(np.asarray(idata.sample_stats["diverging"]).sum())
+    return {"chains": n_chains, "r_hat_max": r_hat, "ess_min": ess_min, "divergences": div}
+
+
+def tyre_section(
+    idata,
+    name: str,
+    *,
+    tyre_type: str | None = None,
+    diagnostics: dict | None = None,
+    truth: dict | None = None,
+    source: str = "",
+) -> TyreSection:
+    """Force–slip data and posterior curve bands of one per-tyre fit.
+
+    ``constant_data`` may hold ``drive_index``/``surface_index`` per window (the demo writes
+    them); without them the data are corrected by the mean offset over drives and assigned to
+    the first surface.
+    """
+    from ..physics.tyre import brush_longitudinal
+
+    post = idata.posterior
+    surfaces = tuple(str(s) for s in np.atleast_1d(post["mu_max"].coords["surface"].values))
+    slip = np.asarray(idata.observed_data["slip_obs"], float)
+    rho = np.asarray(idata.observed_data["rho_obs"], float)
+    n_win = slip.size
+    const = idata.constant_data if "constant_data" in idata.groups() else {}
+    at_limit = np.asarray(const["at_limit"], bool) if "at_limit" in const else np.zeros(n_win, bool)
+    drive = np.asarray(const["drive_index"], int) if "drive_index" in const else None
+    surf_idx = (
+        np.asarray(const["surface_index"], int)
+        if "surface_index" in const
+        else np.zeros(n_win, int)
+    )
+    s0 = _flat(idata, "slip_offset").mean(axis=0) if "slip_offset" in post else np.zeros(1)
+    b0 = _flat(idata, "rho_offset").mean(axis=0) if "rho_offset" in post else np.zeros(1)
+    if drive is None:
+        slip_c, rho_c = slip - s0.mean(), rho - b0.mean()
+    else:
+        slip_c, rho_c = slip - s0[drive], rho - b0[drive]
+
+    c_x = _flat(idata, "c_x")
+    mu = _flat(idata, "mu_max").reshape(c_x.shape[0], -1)
+    slide = _flat(idata, "mu_slide_ratio") if "mu_slide_ratio" in post else np.ones_like(c_x)
+    idx = _thin(c_x.shape[0])
+    use = ~at_limit
+    curve = {}
+    for i, s in enumerate(surfaces):
+        sel = use & (surf_idx == i)
+        pts = slip_c[sel] if sel.any() else slip_c[use]
+        lo = min(float(np.quantile(pts, 0.005)), -0.002) if pts.size else -0.01
+        hi = max(float(np.quantile(pts, 0.995)), 0.004) if pts.size else 0.02
+        grid = np.linspace(lo * 1.15, hi * 1.15, GRID_POINTS)
+        f = np.asarray(
+            brush_longitudinal(grid[None, :], c_x[idx, None], mu[idx, i, None], slide[idx, None])
+        )
+        q = np.quantile(f, BAND, axis=0)
+        curve[s] = (grid, q[0], q[1], q[2])
+
+    summary = {
+        "c_x": summarize(c_x),
+        "c_xr": summarize(_flat(idata, "c_xr")),
+        "mu_max": {s: summarize(mu[:, i]) for i, s in enumerate(surfaces)},
+        "slip_offset": summarize(s0) if s0.size > 1 else summarize(_flat(idata, "slip_offset")),
+        "n_windows": int(n_win),
+        "n_abs_windows": int(at_limit.sum()),
+    }
+    if "temp_sensitivity" in post:
+        summary["temp_sensitivity"] = summarize(_flat(idata, "temp_sensitivity"))
+    diag = dict(tyre_diagnostics(idata))
+    if diagnostics:
+        diag.update(diagnostics)
+    diag.setdefault("method", str(idata.attrs.get("method", "unknown")))
+    return TyreSection(
+        name=name,
+        tyre_type=tyre_type,
+        surfaces=surfaces,
+        slip=slip_c,
+        rho=rho_c,
+        window_surface=surf_idx,
+        at_limit=at_limit,
+        curve=curve,
+        summary=summary,
+        diagnostics=diag,
+        truth=truth,
+        source=source,
+    )
+
+
+def fleet_section(
+    idata, *, surface: str | None = None, seed: int = 0, source: str = ""
+) -> FleetSection:
+    """Friction vs 1/C_xr (thesis Fig. 6.2): data, hierarchical predictive bands, OLS line, R².
+
+    Bands: :func:`tyrebayes.inference.fleet.predict_friction` of a new set of each type at exact
+    stiffness over the type's observed range; OLS: the thesis' line fitted to all sets of the
+    surface with its 90 % prediction interval.
+    """
+    from .._commands.fleet import fit_summary
+    from ..inference.fleet import SURFACES, TYRE_TYPES, fleet_diagnostics, predict_friction
+    from ..inference.ols import fit_ols, ols_interval
+
+    fitted = json.loads(idata.attrs["fitted_surfaces"])
+    surface = surface or ("snow" if "snow" in fitted else fitted[0])
+    outcome = str(idata.attrs.get("outcome", "mu"))
+    const = idata.constant_data
+    rows = np.asarray(const["row_surface"]) == SURFACES.index(surface)
+    tyre = np.asarray(const["row_tyre"])[rows]
+    c_xr = np.asarray(const["c_xr_obs"], float)[tyre]
+    c_sd = np.asarray(const["c_xr_sd"], float)[tyre]
+    mu = np.asarray(idata.observed_data[outcome], float)[rows]
+    types = np.array([TYRE_TYPES[i] for i in np.asarray(const["row_type"])[rows]])
+    bands = {}
+    for t in TYRE_TYPES:
+        sel = types == t
+        if not sel.any():
+            continue
+        lo, hi = float(c_xr[sel].min()), float(c_xr[sel].max())
+        grid = np.linspace(lo * 0.92, hi * 1.08, 30)
+        draws = np.stack(
+            [
+                predict_friction(idata, float(c), 0.0, t, surface, seed=seed + k)
+                for k, c in enumerate(grid)
+            ]
+        )
+        q = np.quantile(draws, BAND, axis=1)
+        bands[t] = (grid, q[0], q[1], q[2])
+    ols = fit_ols(c_xr, mu)
+    grid = np.linspace(float(c_xr.min()) * 0.92, float(c_xr.max()) * 1.08, GRID_POINTS)
+    mid, lo, hi = ols_interval(ols, grid, 0.9)
+    summary = fit_summary(idata)
+    return FleetSection(
+        surface=surface,
+        outcome=outcome,
+        c_xr=c_xr,
+        c_xr_sd=c_sd,
+        mu=mu,
+        tyre_type=types,
+        bands=bands,
+        ols={
+            "intercept": ols.intercept,
+            "slope": ols.slope,
+            "r2": ols.r2,
+            "resid_sd": ols.resid_sd,
+            "n": ols.n_obs,
+            "band": (grid, np.asarray(lo), np.asarray(mid), np.asarray(hi)),
+        },
+        parameters=summary["parameters"].get(surface, {}),
+        diagnostics=fleet_diagnostics(idata),
+        n_sets=int(rows.sum()),
+        source=source,
+    )
+
+
+def fleet_diagnostics_row(idata, name: str) -> dict:
+    """A fleet fit's diagnostics in the report's row form."""
+    from ..inference.fleet import fleet_diagnostics
+
+    d = fleet_diagnostics(idata)
+    return {
+        "fit": name,
+        "method": d.get("method", str(idata.attrs.get("method", ""))),
+        "chains": int(idata.posterior.sizes["chain"]),
+        "r_hat_max": d.get("max_rhat", float("nan")),
+        "ess_min": d.get("min_ess_bulk", float("nan")),
+        "divergences": d.get("divergences", 0),
+        "converged": bool(d.get("converged", False)),
+        "reason": "",
+    }
+
+
+def vmax_section(
+    vehicle_name: str,
+    sets: list[dict],
+    *,
+    n_draws: int = 200,
+    seed: int = 0,
+    extended: bool = True,
+) -> VmaxSection:
+    """Predictive V_max per set; measured sets (``measured_lo`` given) also test the models.
+
+    ``sets``: ``{"tyre", "tyre_type", "c_xr" (value or posterior draws), ["measured_lo"]}``.
+    Driver-free model: censored log predictive density of the measured intervals
+    (:func:`tyrebayes.inference.vmax.censored_loglik`); extended (driver offset, adaptation,
+    noise): PSIS-LOO of :func:`~tyrebayes.inference.vmax.fit_extended`.
+    """
+    import jax
+    import jax.numpy as jnp
+
+    from ..inference import vmax as vm
+    from ..physics.vehicle import load_vehicle
+
+    vehicle = load_vehicle(vehicle_name)
+    key = jax.random.PRNGKey(seed)
+    rows = []
+    cy_all, mu_all = [], []
+    for i, s in enumerate(sets):
+        k = jax.random.fold_in(key, i)
+        c = np.atleast_1d(np.asarray(s["c_xr"], float))
+        k_ratio, mu_y = vm.lateral_draws(k, 1.0, s["tyre_type"], n_draws)
+        c_draws = c[np.asarray(jax.random.randint(jax.random.fold_in(k, 7), (n_draws,), 0, c.size))]
+        cy_all.append(np.asarray(k_ratio) * c_draws)
+        mu_all.append(np.asarray(mu_y))
+    # one vmapped batch: a single compilation for every set
+    v = np.asarray(
+        vm.vmax_draws(
+            vehicle, jnp.asarray(np.concatenate(cy_all)), jnp.asarray(np.concatenate(mu_all))
+        )
+    )
+    v = v.reshape(len(sets), n_draws)
+    for s, draws in zip(sets, v, strict=True):
+        lo = float(s.get("measured_lo", np.nan))
+        c = np.atleast_1d(np.asarray(s["c_xr"], float))
+        rows.append(
+            {
+                "tyre": s["tyre"],
+                "tyre_type": s["tyre_type"],
+                "c_xr": float(c.mean()),
+                "draws": draws,
+                "summary": summarize(draws[np.isfinite(draws)]),
+                "not_bracketed": int(np.sum(~np.isfinite(draws))),
+                "measured_lo": lo,
+                "measured_hi": lo + vm.SPEED_STEP_KMH if np.isfinite(lo) else float("nan"),
+            }
+        )
+    measured = [r for r in rows if np.isfinite(r["measured_lo"])]
+    comparison = {}
+    if len(measured) >= 3:
+        lo = np.array([r["measured_lo"] for r in measured])
+        m = np.array([r["summary"]["mean"] for r in measured])
+        sd = np.array([r["summary"]["sd"] for r in measured])
+        ll0 = np.asarray(
+            vm.censored_loglik(
+                jnp.asarray(lo),
+                vm.SPEED_STEP_KMH,
+                jnp.asarray(m),
+                jnp.sqrt(jnp.asarray(sd) ** 2 + vm.REPEATABILITY_KMH**2),
+            )
+        )
+        comparison["driver_free"] = {
+            "elpd": float(ll0.sum()),
+            "se": float(np.sqrt(ll0.size * ll0.var())),
+        }
+        comparison["measured_slope_kmh_per_cxr"] = float(
+            np.polyfit([r["c_xr"] for r in measured], lo, 1)[0]
+        )
+        comparison["predicted_slope_kmh_per_cxr"] = float(
+            np.polyfit([r["c_xr"] for r in measured], m, 1)[0]
+        )
+        if extended:
+            post = vm.fit_extended(lo, m, sd, seed=seed, num_samples=1000)
+            loo = vm.psis_loo(post["log_lik"])
+            diff = np.asarray(loo["pointwise"]) - ll0
+            comparison["extended"] = {
+                "elpd_loo": float(loo["elpd_loo"]),
+                "se": float(loo["se"]),
+                "pareto_k_max": float(loo["pareto_k_max"]),
+                "delta_kmh": summarize(post["delta_kmh"]),
+                "adaptation": summarize(post["adaptation"]),
+                "sigma_driver_kmh": summarize(post["sigma_driver_kmh"]),
+                "divergences": int(np.asarray(post.get("diverging", 0)).sum()),
+            }
+            comparison["elpd_gain"] = {
+                "diff": float(diff.sum()),
+                "se": float(np.sqrt(diff.size * diff.var())),
+            }
+    return VmaxSection(vehicle=vehicle_name, rows=rows, comparison=comparison)
+
+
+def warning_rows(fleet_idata, tyres: list[TyreSection], *, seed: int = 0) -> list[dict]:
+    """Winter-suitability verdict per tyre set of known type (snow, default μ_min and costs)."""
+    from .. import decisions
+    from ..inference.fleet import predict_friction
+
+    out = []
+    for k, t in enumerate(tyres):
+        c = t.summary["c_xr"]
+        draws = predict_friction(
+            fleet_idata, float(c["mean"]), float(c["sd"]), t.tyre_type, "snow", seed=seed + k
+        )
+        v = decisions.winter_verdict(draws)
+        out.append(
+            {
+                "kind": "winter suitability",
+                "subject": t.name,
+                "tyre_type": t.tyre_type or "unknown",
+                "c_xr": c,
+                "quantity": "mu on snow",
+                "predicted": v["mu"],
+                "interval_90": v["interval_90"],
+                "event": f"mu < {v['mu_min']:.2f}",
+                "probability": v["probability"],
+                "threshold": v["threshold"],
+                "verdict": v["verdict"],
+                "reason": v["reason"],
+            }
+        )
+    return out
+
+
+def criticism_entry(title: str, result) -> dict:
+    """A criticism result as the report lists it: baseline, top candidates, findings, notes."""
+    cands = [
+        {
+            "covariate": c.covariate + (f" ({c.level})" if c.level else ""),
+            "p_holm": float(c.p_holm),
+            "elpd_gain": float(c.elpd_gain),
+            "se": float(c.se),
+            "effect": c.effect,
+            "found": bool(c.found),
+        }
+        for c in result.candidates
+    ]
+    return {
+        "title": title,
+        "baseline": {"elpd": float(result.baseline.elpd), "se": float(result.baseline.se)},
+        "candidates": cands,
+        "found": list(result.found),
+        "ppc": dict(result.ppc),
+        "notes": list(result.notes),
+    }

@@ -1,0 +1,162 @@
+"""The demo's wear study: a soft and a stiff tyre driven through a year, baseline vs extended.
+
+A small version of ``benchmarks/wear_thesis.py``: winter (soft) and summer (stiff) sets are driven
+through a year of seasonal weather by :func:`tyrebayes.simulate.wear.simulate_drives` with a
+temperature-dependent abrasability (the simulated world has the effect the thesis' model lacks:
+soft compounds wear faster in heat); tread-depth readings and radius drift are observed; the
+baseline (κ = 0, the thesis' model) and the extended model (κ per type) are fitted with NUTS
+(:func:`tyrebayes.inference.wear.fit_wear`) and compared by PSIS-LOO. The section shows each
+model's predicted wear rate at an ambient temperature relative to the same tyre at
+``REFERENCE_C`` (thesis Sec. 6.2 compares 7 and 40 °C), per posterior draw.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from .content import WearSection
+
+#: True temperature sensitivities of abrasability in the simulated world [1/K] (assumption:
+#: soft winter compounds lose wear resistance in heat faster, as in benchmarks/wear_thesis.py).
+KAPPA_TRUE = {"winter": 0.03, "summer": 0.008}
+#: Soft and stiff tyre of the thesis' Table 6.1 study (C_xr 29 and 60).
+TYRES = {"soft": ("winter", 29.0), "stiff": ("summer", 60.0)}
+#: True abrasability at 20 °C [mm³/J], a mid-range Schallamach value (see inference.wear priors).
+GAMMA_TRUE = 0.04
+REFERENCE_C = 7.0
+AMBIENTS_C = (-5.0, 7.0, 15.0, 25.0, 32.0, 40.0)
+
+
+def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSection:
+    """Simulate, fit baseline and extended wear models, and build the wear section.
+
+    ``quick`` uses 2 sets, 60 drives each and 150 + 150 NUTS draws (2 chains); otherwise 4 sets,
+    150 drives and 300 + 300. ``progress`` is a callable ``progress(step_name)`` or None.
+    """
+    import arviz as az
+    import jax
+    import jax.numpy as jnp
+
+    from .._commands.wear import thesis_reproduction
+    from ..inference.summary import summarize
+    from ..inference.wear import build_wear_data, fit_wear, predict_wear_volume
+    from ..physics.wear import Abrasability
+    from ..simulate.wear import (
+        DutyProfile,
+        observe_wear,
+        profile_kernel,
+        seasonal_ambient,
+        simulate_drives,
+    )
+
+    tick = progress or (lambda _name: None)
+    key = jax.random.PRNGKey(seed)
+    n_drives = 60 if quick else 150
+    per_type = 1 if quick else 2
+    profile = DutyProfile(drive_duration_s=1800.0, dt_s=6.0 if quick else 4.0)
+    sets, truth_sets = [], []
+    for ti, (name, (tyre_type, c_xr)) in enumerate(TYRES.items()):
+        for j in range(per_type):
+            k = jax.random.fold_in(key, 10 * ti + j)
+            k1, k2, k3, k4 = jax.random.split(k, 4)
+            day = jnp.linspace(0.0, 365.0, n_drives)
+            amb = seasonal_ambient(k1, day)
+            speed = jax.random.uniform(k2, (n_drives,), minval=30 / 3.6, maxval=110 / 3.6)
+            gamma = GAMMA_TRUE * float(jnp.exp(0.1 * jax.random.normal(k3)))
+            c_set = c_xr * (1.0 + 0.03 * j)
+            work = simulate_drives(
+                k4,
+                n_drives,
+                amb,
+                c_set,
+                Abrasability(gamma, KAPPA_TRUE[tyre_type]),
+                profile,
+                mean_speed_mps=speed,
+            )
+            km = float(np.sum(np.asarray(work.distance_km)))
+            readings = np.linspace(0.0, km, 6 if quick else 8)
+            obs = observe_wear(jax.random.fold_in(k, 99), work, readings, 0.1, 3e-4)
+            sets.append((work, obs, tyre_type, (c_set, 0.05 * c_set)))
+            truth_sets.append((name, tyre_type, c_set, gamma))
+        tick(f"simulated {name} sets")
+    data = build_wear_data(sets, type_names=("winter", "summer"))
+    warm = 150 if quick else 300
+    fits = {}
+    for model, ext in (("baseline", False), ("extended", True)):
+        fits[model] = fit_wear(
+            data, extended=ext, num_warmup=warm, num_samples=warm, num_chains=2, seed=seed + 3
+        )
+        tick(f"fitted {model} wear model")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loo = {m: az.loo(f.idata, var_name="depth", pointwise=True) for m, f in fits.items()}
+    diff = np.asarray(loo["extended"].loo_i) - np.asarray(loo["baseline"].loo_i)
+    comparison = {
+        m: {
+            "elpd_loo": float(v.elpd_loo),
+            "se": float(v.se),
+            "pareto_k_max": float(np.max(v.pareto_k)),
+        }
+        for m, v in loo.items()
+    }
+    comparison["elpd_gain_extended"] = {
+        "diff": float(diff.sum()),
+        "se": float(np.sqrt(diff.size) * diff.std(ddof=1)),
+    }
+
+    curves = {m: {} for m in fits}
+    kern_key = jax.random.PRNGKey(seed + 8)
+    n_kernel_drives = 6 if quick else 12
+    for name, (tyre_type, c_xr) in TYRES.items():
+        set_index = next(i for i, s in enumerate(truth_sets) if s[0] == name)
+        gamma_true = truth_sets[set_index][3]
+        kernels = {
+            amb: profile_kernel(kern_key, amb, 1000.0, profile, c_xr, n_drives=n_kernel_drives)
+            for amb in sorted(set(AMBIENTS_C) | {REFERENCE_C})
+        }
+        from ..physics.thermal import stiffness_at_temperature
+
+        def true_volume(amb, _t=tyre_type, _c=c_xr, _g=gamma_true, kernels=kernels):
+            k, grid = kernels[amb]
+            c_x = np.asarray(stiffness_at_temperature(_c, jnp.asarray(grid), fits["baseline"].comp))
+            return float((_g * k @ (np.exp(KAPPA_TRUE[_t] * (grid - 20.0)) / c_x)).sum())
+
+        for m, f in fits.items():
+            k_ref, grid = kernels[REFERENCE_C]
+            ref = predict_wear_volume(f, k_ref, grid, set_index=set_index).sum(axis=1)
+            q = []
+            for amb in AMBIENTS_C:
+                k, grid = kernels[amb]
+                vol = predict_wear_volume(f, k, grid, set_index=set_index).sum(axis=1)
+                q.append(np.quantile(vol / ref, (0.05, 0.5, 0.95)))
+            q = np.array(q)
+            curves[m][name] = {
+                "ambient_c": np.array(AMBIENTS_C),
+                "q05": q[:, 0],
+                "q50": q[:, 1],
+                "q95": q[:, 2],
+                "c_xr": c_xr,
+                "tyre_type": tyre_type,
+                "truth": np.array([true_volume(a) for a in AMBIENTS_C]) / true_volume(REFERENCE_C),
+            }
+        tick(f"predicted {name} wear curves")
+    ext = fits["extended"]
+    kappa = {
+        t: {**summarize(ext.samples["kappa"][:, i]), "true": KAPPA_TRUE[t]}
+        for i, t in enumerate(data.type_names)
+    }
+    thesis = thesis_reproduction(TYRES["soft"][1], TYRES["stiff"][1])
+    return WearSection(
+        reference_c=REFERENCE_C,
+        curves=curves,
+        kappa=kappa,
+        comparison=comparison,
+        diagnostics={m: f.diagnostics for m, f in fits.items()},
+        thesis={
+            "relative_wear_difference": thesis["relative_wear_difference"],
+            "soft_wears_relatively_more_in_heat": thesis["soft_wears_relatively_more_in_heat"],
+            "rolling_loss_w": thesis["rolling_loss_w"],
+        },
+    )

@@ -1,0 +1,113 @@
+"""Write a report into a folder: ``report.html``, ``report.md``, ``report.json``, ``figures/*.png``.
+
+Every file is written atomically (temporary name, then rename), figures first, so a reader never
+sees a page whose figures are missing.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from .._commands._common import _to_jsonable, atomic_write_bytes
+from . import figures as F
+from .content import Report
+from .html import render_html
+from .markdown import render_markdown
+
+
+def render_figures(report: Report) -> dict:
+    """name -> (PNG bytes, caption) for every section the report has."""
+    out = {}
+    if report.tyres:
+        out["tyre_curves"] = (
+            F.tyre_curves(report.tyres),
+            "Force–slip windows and posterior brush curve (median, 90 % band) per tyre set",
+        )
+    if report.fleet is not None:
+        out["friction_vs_inverse_stiffness"] = (
+            F.friction_vs_inverse_stiffness(report.fleet),
+            "Friction potential against 100/C_xr: hierarchical predictive bands by type and the "
+            "thesis' OLS line",
+        )
+    if report.vmax is not None:
+        out["vmax"] = (
+            F.vmax_distributions(report.vmax),
+            "Predictive V_max per tyre set beside the measured Table 6.2 intervals",
+        )
+    if report.wear is not None:
+        out["wear_vs_temperature"] = (
+            F.wear_vs_temperature(report.wear),
+            "Wear rate relative to the reference temperature: baseline vs extended model",
+        )
+    if report.warnings:
+        out["warnings"] = (
+            F.warning_probabilities(report.warnings),
+            "Probability of each warning's event against its decision threshold",
+        )
+    return out
+
+
+def summary_json(report: Report) -> dict:
+    """The machine-readable summary (also ``report.json``): every number the report states."""
+    out: dict = {"title": report.title, "subtitle": report.subtitle}
+    out["tyres"] = [
+        {
+            "name": t.name,
+            "tyre_type": t.tyre_type,
+            "summary": t.summary,
+            "diagnostics": t.diagnostics,
+            "truth": t.truth,
+            "source": t.source,
+        }
+        for t in report.tyres
+    ]
+    if report.fleet is not None:
+        f = report.fleet
+        out["fleet"] = {
+            "surface": f.surface,
+            "n_sets": f.n_sets,
+            "parameters": f.parameters,
+            "diagnostics": f.diagnostics,
+            "ols": {k: v for k, v in f.ols.items() if k != "band"},
+        }
+    if report.vmax is not None:
+        out["vmax"] = {
+            "vehicle": report.vmax.vehicle,
+            "sets": [{k: v for k, v in r.items() if k != "draws"} for r in report.vmax.rows],
+            "comparison": report.vmax.comparison,
+        }
+    if report.wear is not None:
+        w = report.wear
+        out["wear"] = {
+            "reference_c": w.reference_c,
+            "kappa": w.kappa,
+            "comparison": w.comparison,
+            "diagnostics": w.diagnostics,
+            "thesis": w.thesis,
+            "curves": w.curves,
+        }
+    out["warnings"] = report.warnings
+    out["diagnostics"] = report.diagnostics
+    out["criticism"] = [{k: v for k, v in c.items() if k != "ppc"} for c in report.criticism]
+    out["timings_s"] = report.timings
+    return _to_jsonable(out)
+
+
+def write_report(report: Report, out_dir: str | Path) -> dict[str, Path]:
+    """Render and write the report; returns the written paths by name."""
+    out_dir = Path(out_dir)
+    figs = render_figures(report)
+    paths: dict[str, Path] = {}
+    for name, (png, _caption) in figs.items():
+        p = out_dir / "figures" / f"{name}.png"
+        atomic_write_bytes(p, png)
+        paths[f"figure:{name}"] = p
+    for name, text in (
+        ("report.html", render_html(report, figs)),
+        ("report.md", render_markdown(report, figs)),
+        ("report.json", json.dumps(summary_json(report), indent=2) + "\n"),
+    ):
+        atomic_write_bytes(out_dir / name, text.encode("utf-8"))
+        paths[name] = out_dir / name
+    return paths
