@@ -78,6 +78,26 @@ def _save_idata(idata, path: Path) -> None:
         tmp.unlink(missing_ok=True)
 
 
+def _compilation_cache() -> None:
+    """Keep compiled models between runs (the demo is compile-bound on a small machine).
+
+    ``$TYREBAYES_JAX_CACHE`` (default ``$XDG_CACHE_HOME/tyrebayes/jax`` or
+    ``~/.cache/tyrebayes/jax``); set it to an empty string to switch the cache off.
+    """
+    import jax
+
+    default = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "tyrebayes" / "jax"
+    path = os.environ.get("TYREBAYES_JAX_CACHE", str(default))
+    if not path:
+        return
+    try:
+        Path(path).mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return  # a read-only home: run without the cache
+    jax.config.update("jax_compilation_cache_dir", path)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
+
+
 def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
@@ -88,6 +108,7 @@ def run(args: argparse.Namespace) -> int:
     import jax
 
     jax.config.update("jax_enable_x64", True)
+    _compilation_cache()
     from ..report import write_report
     from ..report.pipeline import run_demo
 
