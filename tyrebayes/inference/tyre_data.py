@@ -199,6 +199,17 @@ def _window_sd(values: np.ndarray, valid: np.ndarray, window: int) -> np.ndarray
     return np.sqrt(var)
 
 
+def _inner_runs(flags: np.ndarray, min_run: int) -> np.ndarray:
+    """Flags of runs of at least ``min_run`` consecutive True values, without each run's ends."""
+    out = np.zeros_like(flags)
+    padded = np.concatenate([[False], flags, [False]])
+    change = np.flatnonzero(np.diff(padded.astype(int)))
+    for start, stop in zip(change[::2], change[1::2], strict=True):
+        if stop - start >= min_run:
+            out[start + 1 : stop - 1] = True
+    return out
+
+
 def observations_from_features(
     features,
     *,
@@ -206,6 +217,7 @@ def observations_from_features(
     window_s: float = 0.25,
     abs_oscillation_factor: float = 5.0,
     abs_min_decel: float = 0.05,
+    abs_min_windows: int = 4,
 ) -> dict[str, np.ndarray]:
     """Windowed observations of one drive from :class:`tyrebayes.streams.StreamFeatures`.
 
@@ -215,7 +227,7 @@ def observations_from_features(
       windows are left out: the non-driven wheels that give V_x brake too, so the driven axle's
       measured slip there is σ_driven − σ_free, not σ_driven (:mod:`tyrebayes.streams.features`).
     * **ABS windows** (``at_limit``): braking windows whose wheel speeds oscillate the way ABS
-      pressure modulation makes them (per-wheel slip relative to the four-wheel mean with a
+      pressure modulation makes them (per-wheel speed relative to the four-wheel mean with a
       within-window sd above ``abs_oscillation_factor`` times the drive's median). All four
       wheels are then near their peak, so the *total* normalised force ΣF_x/ΣF_z (independent of
       the assumed brake balance) observes μ_max; their slip is not used.
@@ -232,6 +244,10 @@ def observations_from_features(
         ABS detection threshold relative to the drive's median wheel-slip oscillation [-].
     abs_min_decel : float
         A window counts as braking if its total ρ_x is below −this [-].
+    abs_min_windows : int
+        An ABS event must last this many consecutive windows (ABS stops last seconds; road bumps
+        shake the wheels for a fraction of one); its first and last window (partly outside the
+        event) are dropped.
 
     Returns
     -------
@@ -259,7 +275,9 @@ def observations_from_features(
     window = max(1, int(round(window_s / dt)))
     fx, fz = features.fx_axle_n, features.fz_axle_n
     rho_total = np.sum(fx, axis=1) / np.sum(fz, axis=1)
-    relative = features.slip - np.mean(features.slip, axis=1, keepdims=True)
+    # In m/s rather than slip: at low speed slip noise grows as 1/V and would look like ABS.
+    wheel = features.wheel_vx_mps
+    relative = wheel - np.mean(wheel, axis=1, keepdims=True)
     valid = features.valid & np.isfinite(rho_total) & np.all(np.isfinite(relative), axis=1)
     oscillation = np.max(
         np.column_stack([_window_sd(relative[:, i], valid, window) for i in range(4)]), axis=1
@@ -269,12 +287,13 @@ def observations_from_features(
     rho_sd, _ = window_means(features.rho_driven_sd, sd_ok, window)
     enough = counts >= 0.8 * window
     baseline = np.nanmedian(np.where(enough, oscillation, np.nan)) if enough.any() else np.nan
-    at_limit = (
+    candidate = (
         enough
         & np.isfinite(oscillation)
         & (oscillation > abs_oscillation_factor * baseline)
         & (rho_mean < -abs_min_decel)
     )
+    at_limit = _inner_runs(candidate, min_run=abs_min_windows)
     m = int(at_limit.sum())
     factor = np.sqrt(min(1.0, correlation / window))
     limit_windows = {
@@ -352,3 +371,54 @@ def stack_drives(
         n_drives=len(drives),
         surfaces=used_surfaces,
     )
+
+
+def observations_from_stream(
+    path,
+    vehicle,
+    *,
+    surface: str = "dry",
+    temperature_c: float | None = None,
+    window_s: float = 0.25,
+    channel_map: dict[str, str] | None = None,
+) -> TyreObservations:
+    """Read, validate and window one stream file for :func:`tyrebayes.inference.fit_tyre`.
+
+    Parameters
+    ----------
+    path : path-like
+        Stream file (CSV, Parquet or MDF4) in the DESIGN.md contract.
+    vehicle : Vehicle or str
+        Vehicle parameters, a preset name (``suv_rav4``) or a TOML path.
+    surface : str
+        Road surface of the drive, one of :data:`SURFACES` (sets the μ_max prior).
+    temperature_c : float, optional
+        Tyre temperature [°C]; default the mean ``ambient_temperature`` column, else 20 °C.
+    window_s : float
+        Window length [s].
+
+    Raises
+    ------
+    BadInputError
+        Missing file, missing columns, unknown vehicle or too few usable windows.
+    """
+    from ..physics.vehicle import Vehicle, load_vehicle
+    from ..streams import compute_features, read_stream, validate_stream
+
+    if not isinstance(vehicle, Vehicle):
+        try:
+            vehicle = load_vehicle(vehicle)
+        except ValueError as err:
+            raise BadInputError(str(err).splitlines()[0]) from None
+    if surface not in SURFACES:
+        raise BadInputError(f"surface: expected one of {SURFACES}, got {surface!r}")
+    stream = validate_stream(read_stream(path, channel_map), vehicle)
+    if temperature_c is None:
+        temperature_c = 20.0
+        if "ambient_temperature" in stream.data:
+            ambient = stream.data["ambient_temperature"].to_numpy(dtype=float)
+            if np.isfinite(ambient).any():
+                temperature_c = float(np.nanmean(ambient))
+    features = compute_features(stream, vehicle)
+    windows = observations_from_features(features, temperature_c=temperature_c, window_s=window_s)
+    return stack_drives([windows], [surface])

@@ -124,6 +124,7 @@ class TyreFit:
             "method": self.diagnostics.method,
             "model": self.kind,
             "n_samples_used": self.n_samples_used,
+            "n_abs_windows": int(np.asarray(self.idata.constant_data["at_limit"]).sum()),
         }
 
 

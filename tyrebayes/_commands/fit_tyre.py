@@ -1,0 +1,125 @@
+"""``tyrebayes fit-tyre STREAM --vehicle VEHICLE [--method nuts|fast] [--out FIT.nc] [--json]``.
+
+Fits the per-tyre model (:mod:`tyrebayes.inference.tyre_model`) to one stream and prints the
+posterior of C_x, C_xr, μ_max and the slip offset.
+
+Exit status: 0 on a converged fit; 2 on bad input (one line on stderr); 3 when the fit did not
+converge (R-hat, ESS, divergences, or the optimiser failed) — the summary is still printed and
+written, marked ``"converged": false``, so that it is never mistaken for a good one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from typing import Any
+
+from .._errors import BadInputError
+from ._common import atomic_path, existing_file, print_json
+
+#: Exit status of a fit that did not converge.
+EXIT_NOT_CONVERGED = 3
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "fit-tyre",
+        help="posterior of C_x, C_xr and mu_max of one tyre set from a stream",
+        description=(
+            "Fit the per-tyre errors-in-variables brush model to a stream file and print the "
+            "posterior of C_x, C_xr (20 °C), mu_max and the slip offset. Exit status 3 when the "
+            "fit did not converge."
+        ),
+    )
+    parser.add_argument("stream", help="stream file (.csv, .parquet, .mf4)")
+    parser.add_argument(
+        "--vehicle", required=True, help="vehicle preset name (e.g. suv_rav4) or TOML path"
+    )
+    parser.add_argument(
+        "--method",
+        choices=("nuts", "fast"),
+        default="nuts",
+        help="nuts: 4 chains x 1000 draws (default); fast: MAP + Laplace approximation",
+    )
+    parser.add_argument(
+        "--surface",
+        choices=("dry", "wet", "snow", "ice"),
+        default="dry",
+        help="road surface (sets the mu_max prior; default dry)",
+    )
+    parser.add_argument(
+        "--temperature",
+        type=float,
+        default=None,
+        help="tyre temperature [°C] (default: mean ambient_temperature column, else 20)",
+    )
+    parser.add_argument(
+        "--model", choices=("brush", "linear"), default="brush", help="mean model (default brush)"
+    )
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", help="write the fit as ArviZ InferenceData (netCDF)")
+    parser.add_argument("--json", action="store_true", help="machine-readable output")
+    parser.set_defaults(func=run)
+
+
+def _text(summary: dict[str, Any]) -> str:
+    def line(name: str, key: str) -> str:
+        s = summary[key]
+        lo, hi = s["hdi_90"]
+        return f"{name:12s} {s['mean']:.4g} ± {s['sd']:.2g}  (90% HDI {lo:.4g} … {hi:.4g})"
+
+    d = summary["diagnostics"]
+    lines = [
+        line("C_x", "c_x"),
+        line("C_xr (20°C)", "c_xr"),
+        line("mu_max", "mu_max")
+        + ("" if summary["mu_max_observed"] else "  [not observed: prior only]"),
+        line("slip offset", "slip_offset"),
+        f"method {summary['method']}, {summary['n_samples_used']} windows "
+        f"({summary['n_abs_windows']} ABS); R-hat max {d['r_hat_max']}, ESS min {d['ess_min']}, "
+        f"divergences {d['divergences']}",
+        "converged" if d["converged"] else f"NOT CONVERGED: {d['reason']}",
+    ]
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    import jax
+
+    # The slip signal is ~1e-3 and its noise ~1e-4: the MAP search and the Hessian need float64.
+    jax.config.update("jax_enable_x64", True)
+    from ..inference.tyre_data import observations_from_stream
+    from ..inference.tyre_fit import fit_tyre
+
+    if args.out is not None and not args.out.endswith((".nc", ".netcdf")):
+        raise BadInputError(f"--out: expected a .nc file name, got {args.out!r}")
+    obs = observations_from_stream(
+        existing_file(args.stream),
+        args.vehicle,
+        surface=args.surface,
+        temperature_c=args.temperature,
+    )
+    fit = fit_tyre(obs, method=args.method, kind=args.model, seed=args.seed)
+    summary = fit.summary()
+    summary["n_abs_windows"] = obs.n_limit
+    summary["vehicle"] = args.vehicle
+    summary["surface"] = args.surface
+    if args.out is not None:
+        tmp, final = atomic_path(args.out)
+        try:
+            fit.idata.to_netcdf(str(tmp))
+            os.replace(tmp, final)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
+        summary["out"] = str(final)
+    if args.json:
+        print_json(summary)
+    else:
+        print(_text(summary))
+    if not summary["diagnostics"]["converged"]:
+        reason = summary["diagnostics"]["reason"]
+        print(f"tyrebayes fit-tyre: fit did not converge: {reason}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    return 0
