@@ -155,3 +155,191 @@ def test_bad_parameters_name_the_field(kwargs, field):
 def test_unknown_magic_formula_set():
     with pytest.raises(ValueError, match="nope"):
         MagicFormulaLongitudinal.from_measured("nope")
+
+
+# --- audit of issue 2: lateral, combined, sliding extension, Magic Formula data and gradients ---
+
+
+def _fd_grad(f, x, h=1e-6):
+    steps = jnp.broadcast_to(jnp.asarray(h, dtype=float), x.shape)
+    return jnp.array(
+        [(f(x + hi * e) - f(x - hi * e)) / (2 * hi) for hi, e in zip(steps, jnp.eye(x.shape[0]))]
+    )
+
+
+def test_lateral_is_odd_c1_at_sliding_point_and_matches_fd():
+    c_y, mu = 18.0, 0.9
+    a = jnp.linspace(-0.4, 0.4, 81)
+    np.testing.assert_allclose(brush_lateral(-a, c_y, mu), -brush_lateral(a, c_y, mu), atol=1e-15)
+    a_peak = float(jnp.arctan(3 * mu / c_y))  # |θ tan α| = 1
+    f = lambda x: brush_lateral(x, c_y, mu, 0.8)
+    eps = 1e-7
+    assert float(f(a_peak - eps)) == pytest.approx(float(f(a_peak + eps)), abs=1e-9)
+    assert abs(float(jax.grad(f)(a_peak - eps)) - float(jax.grad(f)(a_peak + eps))) < 1e-5
+    g = lambda p: brush_lateral(p[0], p[1], p[2], 0.8)
+    for point in ([0.02, 18.0, 0.9], [-0.3, 25.0, 0.6], [0.0, 18.0, 0.9]):
+        x = jnp.array(point)
+        np.testing.assert_allclose(jax.grad(g)(x), _fd_grad(g, x), rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize(("c_x", "c_y"), [(30.0, 30.0), (30.0, 18.0)])
+def test_combined_slopes_at_zero_are_c_x_and_c_y(c_x, c_y):
+    jac = jax.jacfwd(lambda v: jnp.stack(brush_combined(v[0], v[1], c_x, c_y, 0.9)))(jnp.zeros(2))
+    np.testing.assert_allclose(jac, jnp.diag(jnp.array([c_x, c_y])), atol=1e-12)
+
+
+def test_combined_isotropic_resultant_depends_on_slip_magnitude_only():
+    c, mu = 30.0, 0.9
+    angles = jnp.linspace(0.0, 2 * jnp.pi, 13)
+    for magnitude in (0.01, 0.05, 0.2):
+        sx, ty = magnitude * jnp.cos(angles), magnitude * jnp.sin(angles)
+        rx, ry = brush_combined(sx, jnp.arctan(ty), c, c, mu)
+        np.testing.assert_allclose(
+            jnp.hypot(rx, ry), jnp.abs(brush_longitudinal(magnitude, c, mu)), rtol=1e-12
+        )
+        # The force points along the slip vector (isotropic: no stiffness weighting).
+        np.testing.assert_allclose(rx * ty - ry * sx, 0.0, atol=1e-12)
+
+
+def test_combined_peak_is_mu_continuous_at_sliding_and_matches_fd():
+    c_x, c_y, mu = 30.0, 18.0, 0.9
+    direction = jnp.array([0.6, 0.8])
+    # ψ = 1 where |(C_x σ, C_y tan α)| = 3μ along this direction.
+    r_peak = float(3 * mu / jnp.hypot(c_x * direction[0], c_y * direction[1]))
+
+    def resultant(r):
+        rx, ry = brush_combined(r * direction[0], jnp.arctan(r * direction[1]), c_x, c_y, mu)
+        return jnp.hypot(rx, ry)
+
+    eps = 1e-7
+    assert float(resultant(r_peak + eps)) == pytest.approx(mu, rel=1e-12)
+    assert float(resultant(r_peak - eps)) == pytest.approx(mu, abs=1e-9)
+    assert abs(float(jax.grad(resultant)(r_peak - eps))) < 1e-5
+    assert abs(float(jax.grad(resultant)(r_peak + eps))) < 1e-5
+    f = lambda p: sum(brush_combined(p[0], p[1], p[2], p[3], p[4]))
+    for point in ([0.02, 0.01, 30.0, 18.0, 0.9], [-0.05, 0.2, 25.0, 20.0, 0.7]):
+        x = jnp.array(point)
+        np.testing.assert_allclose(jax.grad(f)(x), _fd_grad(f, x), rtol=1e-5, atol=1e-6)
+    # Zero slip: finite gradient with respect to everything (the double-where).
+    assert bool(jnp.all(jnp.isfinite(jax.grad(f)(jnp.array([0.0, 0.0, 30.0, 18.0, 0.9])))))
+
+
+def test_sliding_extension_keeps_identities_and_falls_monotonically():
+    c_x, mu, ratio = 30.0, 0.9, 0.7
+    f = lambda s: brush_longitudinal(s, c_x, mu, ratio)
+    assert float(jax.grad(f)(0.0)) == pytest.approx(c_x, rel=1e-12)
+    s = jnp.linspace(0.0, 2.0, 20001)
+    rho = f(s)
+    assert float(rho.max()) == pytest.approx(mu, rel=1e-12)
+    beyond = s > float(brush_peak_slip(c_x, mu))
+    assert bool(jnp.all(jnp.diff(rho[beyond]) <= 1e-15))  # falls after the peak, never rises
+    assert float(rho[-1]) == pytest.approx(ratio * mu, rel=1e-3)  # towards μ_s = r μ
+    np.testing.assert_allclose(f(-s), -rho, atol=1e-15)  # still odd
+
+
+def test_no_nan_parameter_gradient_at_zero_slip_and_at_the_transition():
+    c_x, mu = 30.0, 0.9
+    s_peak = float(brush_peak_slip(c_x, mu))
+    f = lambda p, s: brush_longitudinal(s, p[0], p[1], p[2])
+    p = jnp.array([c_x, mu, 0.8])
+    for s in (0.0, s_peak, -s_peak, 1e-300):
+        grad = jax.grad(f)(p, s)
+        assert bool(jnp.all(jnp.isfinite(grad))), (s, grad)
+    inv = lambda p, r: brush_longitudinal_inverse(r, p[0], p[1])
+    for r in (0.0, mu, -mu, mu * (1 - 1e-13)):
+        assert bool(jnp.all(jnp.isfinite(jax.grad(inv)(p, r)))), r
+
+
+def test_brush_gradient_vmaps_over_parameter_batches():
+    tyres = BrushTyre(c_x=C_X, c_y=C_X * 0.7, mu=MU, mu_slide_ratio=jnp.array([1.0, 0.8, 0.6]))
+    slope = eqx.filter_vmap(lambda t: jax.grad(t.longitudinal)(0.0))(tyres)
+    np.testing.assert_allclose(slope, C_X, rtol=1e-12)
+    lat = eqx.filter_vmap(lambda t: jax.grad(t.lateral)(0.0))(tyres)
+    np.testing.assert_allclose(lat, C_X * 0.7, rtol=1e-12)
+    peaks = eqx.filter_vmap(lambda t: t.longitudinal(brush_peak_slip(t.c_x, t.mu)))(tyres)
+    np.testing.assert_allclose(peaks, MU, rtol=1e-12)
+
+
+def _measured_csv_rows():
+    import csv
+
+    from tyrebayes._resources import data_dir
+
+    with open(data_dir() / "magic_formula_measured_fits.csv", newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+_CSV_TO_SET = {
+    "205/60R15 91V": "pacejka_205_60R15",
+    ("Goodyear 335/65R22.5 G275MSA (truck)", "40 psi"): "goodyear_truck_40psi",
+    ("Goodyear 335/65R22.5 G275MSA (truck)", "95 psi"): "goodyear_truck_95psi",
+    "185/80R14": "mf_185_80R14",
+}
+
+
+def test_magic_formula_sets_are_the_shipped_measured_numbers():
+    """The coefficients in tyre.py equal tyrebayes/data/magic_formula_measured_fits.csv
+    (the copy of ../shared/data/measured with its sources), including the load terms in 'note'."""
+    rows = _measured_csv_rows()
+    assert len(rows) == 4
+    for row in rows:
+        name = _CSV_TO_SET.get(row["tyre"]) or _CSV_TO_SET[(row["tyre"], row["pressure"])]
+        mf = MagicFormulaLongitudinal.from_measured(name)
+        for column in ("fnomin_n", "pkx1", "pdx1", "pcx1", "pex1"):
+            assert getattr(mf, column) == pytest.approx(float(row[column]), rel=1e-12), column
+        for token in row["note"].split():
+            key, _, value = token.partition("=")
+            if key.lower() in MagicFormulaLongitudinal.__dataclass_fields__:
+                assert getattr(mf, key.lower()) == pytest.approx(float(value), rel=1e-12), key
+
+
+@pytest.mark.parametrize(
+    "name", ["pacejka_205_60R15", "goodyear_truck_40psi", "goodyear_truck_95psi", "mf_185_80R14"]
+)
+def test_magic_formula_gradients_match_fd_and_are_finite_at_zero(name):
+    mf = MagicFormulaLongitudinal.from_measured(name)
+    f = lambda x: magic_formula_longitudinal(x[0], x[1], mf)
+    for slip in (0.0, 0.03, -0.2):
+        x = jnp.array([slip, 1.2 * mf.fnomin_n])
+        analytic = jax.grad(f)(x)
+        assert bool(jnp.all(jnp.isfinite(analytic)))
+        np.testing.assert_allclose(
+            analytic, _fd_grad(f, x, h=jnp.array([1e-7, 1e-2])), rtol=1e-5, atol=1e-9
+        )
+    s = jnp.linspace(-0.5, 0.5, 101)
+    np.testing.assert_allclose(
+        magic_formula_longitudinal(-s, mf.fnomin_n, mf),
+        -magic_formula_longitudinal(s, mf.fnomin_n, mf),
+        atol=1e-14,
+    )
+
+
+def test_magic_formula_vmaps_over_measured_parameter_sets():
+    names = ["pacejka_205_60R15", "goodyear_truck_40psi", "goodyear_truck_95psi", "mf_185_80R14"]
+    sets = [MagicFormulaLongitudinal.from_measured(n) for n in names]
+    batch = jax.tree_util.tree_map(lambda *xs: jnp.array(xs), *sets)
+    fz = jnp.array([m.fnomin_n for m in sets])
+    slope = jax.vmap(lambda m, f: jax.grad(magic_formula_longitudinal)(0.0, f, m))(batch, fz)
+    np.testing.assert_allclose(slope, [m.pkx1 for m in sets], rtol=1e-10)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field", "value"),
+    [
+        (dict(c_x=-1.0, c_y=20.0, mu=1.0), "c_x", "-1.0"),
+        (dict(c_x=0.0, c_y=20.0, mu=1.0), "c_x", "0.0"),
+        (dict(c_x=30.0, c_y=-2.0, mu=1.0), "c_y", "-2.0"),
+        (dict(c_x=30.0, c_y=20.0, mu=-0.1), "mu", "-0.1"),
+        (dict(c_x=30.0, c_y=20.0, mu=float("nan")), "mu", "nan"),
+    ],
+)
+def test_bad_brush_parameters_name_field_and_value(kwargs, field, value):
+    with pytest.raises(ValueError, match=rf"\.{field}: .*got {value}"):
+        BrushTyre(**kwargs)
+
+
+@pytest.mark.parametrize(("field", "value"), [("pkx1", -3.0), ("pdx1", 0.0), ("fnomin_n", -1.0)])
+def test_bad_magic_formula_parameters_name_field_and_value(field, value):
+    fields = dict(fnomin_n=4000.0, pkx1=21.5, pdx1=1.2, pcx1=1.6, pex1=0.3) | {field: value}
+    with pytest.raises(ValueError, match=rf"{field}: .*got {value}"):
+        MagicFormulaLongitudinal(**fields)

@@ -118,3 +118,95 @@ def test_toml_bad_value_and_unknown_preset(tmp_path):
         load_vehicle(bad)
     with pytest.raises(ValueError, match="no_such_car"):
         load_vehicle("no_such_car")
+
+
+# --- audit of issue 2: parameter batches, traced drive share, messages name field and value ---
+
+
+def _fields(v: Vehicle) -> dict:
+    return {k: getattr(v, k) for k in Vehicle.__dataclass_fields__}
+
+
+def test_vmap_over_a_batch_of_vehicle_parameter_sets():
+    base = load_vehicle("compact_fwd")
+    masses = jnp.array([1200.0, 1600.0, 2100.0])
+    batch = Vehicle(
+        **(
+            _fields(base)
+            | dict(
+                mass_kg=masses,
+                cog_height_m=jnp.array([0.45, 0.55, 0.70]),
+                front_drive_fraction=jnp.array([0.3, 0.5, 0.9]),
+                drive="awd",
+            )
+        )
+    )
+    loads = eqx_filter_vmap(lambda v: wheel_loads(v, 2.0, -3.0))(batch)
+    np.testing.assert_allclose(loads.sum(-1), masses * GRAVITY_MPS2, rtol=1e-12)
+    steer, fy1, fy2, traction = 0.05, 1500.0, 1200.0, 2500.0
+
+    def round_trip(v):
+        share = v.traction_front_share
+        forces = (share * traction, fy1, (1 - share) * traction, fy2)
+        ax, ay, yaw_acc = single_track_accelerations(v, steer, *forces)
+        return jnp.stack(single_track_inverse(v, ax, ay, yaw_acc, steer)), jnp.stack(forces)
+
+    got, want = eqx_filter_vmap(round_trip)(batch)
+    np.testing.assert_allclose(got, want, atol=1e-8)
+
+
+def eqx_filter_vmap(fn):
+    import equinox as eqx
+
+    return eqx.filter_vmap(fn)
+
+
+def test_inverse_is_differentiable_in_the_drive_share_under_jit():
+    import equinox as eqx
+
+    base = load_vehicle("compact_fwd")
+
+    @eqx.filter_jit
+    def front_force(share):
+        v = Vehicle(**(_fields(base) | dict(drive="awd", front_drive_fraction=share)))
+        return single_track_inverse(v, 1.0, 2.0, 0.1, 0.05)[0]
+
+    h = 1e-6
+    numeric = (front_force(0.4 + h) - front_force(0.4 - h)) / (2 * h)
+    assert float(jax.grad(front_force)(jnp.asarray(0.4))) == pytest.approx(float(numeric), rel=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("mass_kg", 0.0),
+        ("mass_kg", -5.0),
+        ("wheelbase_m", -1.0),
+        ("yaw_inertia_kgm2", 0.0),
+        ("wheel_radius_m", -0.3),
+        ("steering_ratio", 0.0),
+        ("drive", "fourwheel"),
+    ],
+)
+def test_bad_vehicle_message_names_field_and_value(field, value):
+    fields = _fields(load_vehicle("compact_fwd")) | {field: value}
+    with pytest.raises(ValueError, match=rf"Vehicle\.{field}: .*got '?{value}'?"):
+        Vehicle(**fields)
+
+
+@pytest.mark.parametrize("key", ["mass_kg", "drive", "wheel_radius_m", "steering_ratio"])
+def test_toml_missing_each_required_key_is_named(tmp_path, key):
+    text = (models_dir() / "vehicles" / "suv_rav4.toml").read_text()
+    bad = tmp_path / "bad.toml"
+    bad.write_text("\n".join(ln for ln in text.splitlines() if not ln.startswith(f"{key} ")))
+    with pytest.raises(ValueError, match=f"missing key '{key}'"):
+        load_vehicle(bad)
+
+
+def test_toml_unknown_drive_names_field_and_value(tmp_path):
+    text = (models_dir() / "vehicles" / "compact_fwd.toml").read_text()
+    bad = tmp_path / "drive.toml"
+    bad.write_text(text.replace('drive = "fwd"', 'drive = "4wd"'))
+    assert bad.read_text() != text
+    with pytest.raises(ValueError, match="drive.*'4wd'"):
+        load_vehicle(bad)

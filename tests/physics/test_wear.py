@@ -124,3 +124,25 @@ def test_kernel_and_temperature_binning_reconstruct_work():
     np.testing.assert_allclose(binned @ grid, k @ temps, rtol=1e-12)
     f = lambda x: jnp.exp(0.04 * (x - 20.0))
     np.testing.assert_allclose(binned @ f(grid), k @ f(temps), rtol=2e-4)
+
+
+def test_wear_vmaps_over_a_batch_of_parameter_sets():
+    t = jnp.linspace(0.0, 60.0, 61)
+    power = 40.0 + 5.0 * jnp.sin(t / 10.0)
+    temp = 20.0 + 0.3 * t
+    batch = Abrasability(
+        gamma_ref_mm3_per_j=jnp.array([0.01, 0.02, 0.03]),
+        temperature_sensitivity_per_k=jnp.array([0.0, 0.02, -0.01]),
+    )
+    import equinox as eqx
+
+    wear = eqx.filter_vmap(
+        lambda a: wear_integral(t, power, abrasability_at_temperature(a, temp))
+    )(batch)
+    one = [
+        wear_integral(t, power, abrasability_at_temperature(Abrasability(g, k), temp))
+        for g, k in ((0.01, 0.0), (0.02, 0.02), (0.03, -0.01))
+    ]
+    np.testing.assert_allclose(wear, one, rtol=1e-12)
+    grad = jax.vmap(jax.grad(lambda g: wear_integral(t, power, g)))(batch.gamma_ref_mm3_per_j)
+    np.testing.assert_allclose(grad, wear_integral(t, power, 1.0), rtol=1e-12)

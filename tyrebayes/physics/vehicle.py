@@ -20,6 +20,8 @@ GRAVITY_MPS2 = 9.80665
 AIR_DENSITY_KGPM3 = 1.2  # at about 20 °C, sea level
 
 Batch = Float[ArrayLike, "..."]
+# A vehicle parameter: a number, or an array when a batch of vehicles is vmapped over.
+Param = Float[ArrayLike, "..."]
 
 _DRIVES = ("fwd", "rwd", "awd")
 _REQUIRED_KEYS = (
@@ -66,21 +68,24 @@ class Vehicle(eqx.Module):
         Body width [m] (ISO 3888-2 lane widths, cone strikes).
     front_drive_fraction : float
         Share of the traction force on the front axle for ``"awd"`` [-].
+
+    Numeric fields may be arrays of one shape: a batch of vehicles for ``eqx.filter_vmap``
+    (``drive`` is static and shared by the batch).
     """
 
-    mass_kg: float
-    wheelbase_m: float
-    cog_to_front_axle_m: float
-    cog_height_m: float
-    yaw_inertia_kgm2: float
-    track_width_m: float
-    wheel_radius_m: float
+    mass_kg: Param
+    wheelbase_m: Param
+    cog_to_front_axle_m: Param
+    cog_height_m: Param
+    yaw_inertia_kgm2: Param
+    track_width_m: Param
+    wheel_radius_m: Param
     drive: str = eqx.field(static=True)
-    steering_ratio: float
-    drag_area_m2: float = 0.7
-    rolling_resistance: float = 0.011
-    width_m: float = 1.80
-    front_drive_fraction: float = 0.5
+    steering_ratio: Param
+    drag_area_m2: Param = 0.7
+    rolling_resistance: Param = 0.011
+    width_m: Param = 1.80
+    front_drive_fraction: Param = 0.5
 
     def __check_init__(self):
         for name in (
@@ -105,7 +110,7 @@ class Vehicle(eqx.Module):
         )
 
     @property
-    def cog_to_rear_axle_m(self) -> float:
+    def cog_to_rear_axle_m(self) -> Param:
         """l_r = L − l_f [m]."""
         return self.wheelbase_m - self.cog_to_front_axle_m
 
@@ -115,7 +120,7 @@ class Vehicle(eqx.Module):
         return {"fwd": "front", "rwd": "rear", "awd": "both"}[self.drive]
 
     @property
-    def traction_front_share(self) -> float:
+    def traction_front_share(self) -> Param:
         """Share of the traction force carried by the front axle."""
         return {"fwd": 1.0, "rwd": 0.0, "awd": self.front_drive_fraction}[self.drive]
 
