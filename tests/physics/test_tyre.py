@@ -163,7 +163,10 @@ def test_unknown_magic_formula_set():
 def _fd_grad(f, x, h=1e-6):
     steps = jnp.broadcast_to(jnp.asarray(h, dtype=float), x.shape)
     return jnp.array(
-        [(f(x + hi * e) - f(x - hi * e)) / (2 * hi) for hi, e in zip(steps, jnp.eye(x.shape[0]))]
+        [
+            (f(x + hi * e) - f(x - hi * e)) / (2 * hi)
+            for hi, e in zip(steps, jnp.eye(x.shape[0]), strict=True)
+        ]
     )
 
 

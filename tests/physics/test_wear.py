@@ -136,9 +136,9 @@ def test_wear_vmaps_over_a_batch_of_parameter_sets():
     )
     import equinox as eqx
 
-    wear = eqx.filter_vmap(
-        lambda a: wear_integral(t, power, abrasability_at_temperature(a, temp))
-    )(batch)
+    wear = eqx.filter_vmap(lambda a: wear_integral(t, power, abrasability_at_temperature(a, temp)))(
+        batch
+    )
     one = [
         wear_integral(t, power, abrasability_at_temperature(Abrasability(g, k), temp))
         for g, k in ((0.01, 0.0), (0.02, 0.02), (0.03, -0.01))
