@@ -269,7 +269,8 @@ def fit_tyre_nuts(
         jit_model_args=True,
     )
     key_run, key_ppc = jax.random.split(jax.random.PRNGKey(seed))
-    mcmc.run(key_run, obs, extra_fields=("diverging",))
+    with jax.numpy_rank_promotion("allow"):  # init_to_median broadcasts a batch of draws
+        mcmc.run(key_run, obs, extra_fields=("diverging",))
     samples = {k: np.asarray(v) for k, v in mcmc.get_samples().items()}
     diverging = np.asarray(mcmc.get_extra_fields()["diverging"]).reshape(num_chains, -1)
     idata = _to_inference_data(
@@ -314,9 +315,11 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
     model = partial(tyre_model, priors=priors, kind=kind)
     size, n_drives, surfaces = obs_key
     template = _template_observations(size, n_drives, surfaces)
-    init = initialize_model(
-        jax.random.PRNGKey(0), model, model_args=(template,), init_strategy=init_to_median
-    )
+    # init_to_median draws a batch of prior samples; numpyro broadcasts it by rank promotion.
+    with jax.numpy_rank_promotion("allow"):
+        init = initialize_model(
+            jax.random.PRNGKey(0), model, model_args=(template,), init_strategy=init_to_median
+        )
     flat0, unravel = ravel_pytree(init.param_info.z)
 
     def negative_log_posterior(flat, obs):
@@ -338,7 +341,7 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
         floored = jnp.where(finite, jnp.maximum(eigenvalues, 1e-6), 1.0)
         vectors = jnp.where(finite, vectors, jnp.eye(len(flat_init)))
         eps = jax.random.normal(key, (num_draws, len(flat_init)))
-        z = mode + (eps / jnp.sqrt(floored)) @ vectors.T
+        z = mode[None, :] + (eps / jnp.sqrt(floored)[None, :]) @ vectors.T
         draws = jax.vmap(
             lambda f: constrain_fn(model, (obs,), {}, unravel(f), return_deterministic=True)
         )(z)

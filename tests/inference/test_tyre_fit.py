@@ -1,0 +1,72 @@
+"""Fitting the per-tyre model: convergence flags and recovery on simulated drives."""
+
+import numpy as np
+import pytest
+
+from tyrebayes.inference.tyre_data import observations_from_features, stack_drives
+from tyrebayes.inference.tyre_fit import fit_tyre
+
+from .test_tyre_model import PAD, linear_region_windows
+
+
+def test_non_finite_data_is_not_converged():
+    # Same shape as the shared fixture: no new compilation.
+    windows = linear_region_windows(3)
+    windows["rho"][:10] = np.inf
+    obs = stack_drives([windows], ["dry"], pad_to=PAD)
+    fit = fit_tyre(obs, method="fast", seed=1)
+    assert fit.diagnostics.converged is False
+    assert fit.diagnostics.reason
+    assert fit.summary()["diagnostics"]["converged"] is False
+
+
+def test_unknown_method():
+    obs = stack_drives([linear_region_windows(3, n=50)], ["dry"])
+    with pytest.raises(ValueError, match="expected 'nuts' or 'fast', got 'mcmc'"):
+        fit_tyre(obs, method="mcmc")
+
+
+@pytest.mark.slow
+def test_max_steps_one_is_not_converged():
+    obs = stack_drives([linear_region_windows(0)], ["dry"], pad_to=PAD)
+    fit = fit_tyre(obs, method="fast", max_steps=1)
+    assert fit.diagnostics.converged is False
+    assert "optimiser" in fit.diagnostics.reason
+
+
+@pytest.mark.slow
+def test_too_few_nuts_draws_is_not_converged():
+    obs = stack_drives([linear_region_windows(0, n=200)], ["dry"], pad_to=256)
+    fit = fit_tyre(obs, method="nuts", num_chains=2, num_warmup=20, num_samples=20, kind="linear")
+    assert fit.diagnostics.converged is False
+    assert "ESS" in fit.diagnostics.reason
+
+
+@pytest.fixture(scope="module")
+def simulated_drive():
+    from tyrebayes.physics.vehicle import load_vehicle
+    from tyrebayes.simulate.drive import simulate_drive
+    from tyrebayes.simulate.profiles import ProfileOptions
+    from tyrebayes.streams import compute_features, validate_stream
+
+    vehicle = load_vehicle("compact_fwd")
+    df, truth = simulate_drive(
+        3, vehicle, "summer", duration_s=300.0, profile=ProfileOptions(n_abs_events=1)
+    )
+    features = compute_features(validate_stream(df, vehicle), vehicle)
+    return features, truth
+
+
+@pytest.mark.slow
+def test_recovery_on_a_simulated_drive_with_abs(simulated_drive):
+    features, truth = simulated_drive
+    obs = stack_drives([observations_from_features(features)], ["dry"])
+    assert obs.n_limit >= 3
+    summary = fit_tyre(obs, method="fast").summary()
+    c_x_true = float(np.mean(truth.c_x))
+    # Tolerances: 6 % on C_x and 8 % on μ_max for one 5-minute drive (seeded); the feature
+    # pipeline's scale errors (reference-wheel radius, IMU) are part of the error budget.
+    assert abs(summary["c_x"]["mean"] / c_x_true - 1) < 0.06
+    assert abs(summary["mu_max"]["mean"] / truth.mu_max - 1) < 0.08
+    assert summary["mu_max_observed"] is True
+    assert summary["diagnostics"]["converged"] is True

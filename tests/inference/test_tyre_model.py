@@ -1,0 +1,100 @@
+"""The per-tyre model: errors in variables against OLS attenuation, μ_max not observed.
+
+Synthetic window observations (no simulator) keep these fast; one compiled fast-path shape
+(1024 windows, one dry drive) is shared with ``test_tyre_fit.py`` through the fit cache.
+"""
+
+import numpy as np
+import pytest
+
+from tyrebayes.inference.tyre_data import _inner_runs, stack_drives
+from tyrebayes.inference.tyre_fit import fit_tyre
+from tyrebayes.inference.tyre_model import TyrePriors, tyre_model
+from tyrebayes.physics.tyre import brush_longitudinal
+
+C_X_TRUE = 40.0
+SLIP_OFFSET_TRUE = 0.002
+PAD = 1024
+
+
+def linear_region_windows(seed: int, n: int = 900, slip_noise: float = 0.0012) -> dict:
+    """Slowly varying true slip (a driver's pedal), noisy slip and force, no ABS.
+
+    True slip spread 0.0015, slip noise 0.0012: the reliability ratio is 0.61, so OLS of force
+    on measured slip returns about 0.6 C_x.
+    """
+    rng = np.random.default_rng(seed)
+    true = np.convolve(rng.normal(0.0, 1.0, n + 20), np.ones(8) / np.sqrt(8), "same")[10:-10]
+    true = 0.0015 * true / true.std() + 0.002
+    rho = np.asarray(brush_longitudinal(true - SLIP_OFFSET_TRUE, C_X_TRUE, 1.0, 1.0))
+    slip = true + rng.normal(0.0, slip_noise, n)
+    rho_obs = rho + rng.normal(0.0, 0.004, n)
+    neighbour = np.full(n, np.nan)
+    neighbour[1:-1] = 0.5 * (slip[:-2] + slip[2:])
+    neighbour[0], neighbour[-1] = slip[1], slip[-2]
+    return {
+        "slip": slip,
+        "rho": rho_obs,
+        "slip_sd": np.full(n, slip_noise),
+        "rho_sd": np.full(n, 0.004),
+        "temperature_c": np.full(n, 20.0),
+        "neighbour_slip": neighbour,
+    }
+
+
+@pytest.fixture(scope="module")
+def linear_fit():
+    windows = linear_region_windows(0)
+    obs = stack_drives([windows], ["dry"], pad_to=PAD)
+    return windows, obs, fit_tyre(obs, method="fast", seed=1)
+
+
+def test_ols_is_attenuated_and_the_model_is_not(linear_fit):
+    windows, _, fit = linear_fit
+    ols_slope = np.polyfit(windows["slip"], windows["rho"], 1)[0]
+    # Reliability 0.0015² / (0.0015² + 0.0012²) = 0.61: OLS is visibly biased low.
+    assert ols_slope < 0.75 * C_X_TRUE
+    c_x = fit.summary()["c_x"]
+    # Tolerance: 8 % (posterior sd here is ~3 %; fixed seeds).
+    assert abs(c_x["mean"] - C_X_TRUE) / C_X_TRUE < 0.08
+    assert c_x["hdi_90"][0] < C_X_TRUE < c_x["hdi_90"][1]
+    assert fit.diagnostics.converged, fit.diagnostics.reason
+
+
+def test_mu_max_not_observed_without_hard_braking(linear_fit):
+    _, _, fit = linear_fit
+    summary = fit.summary()
+    assert summary["mu_max_observed"] is False
+    # The posterior of μ_max stays close to the prior (median 1.0 on dry, log-sd 0.35).
+    assert 0.6 < summary["mu_max"]["mean"] < 1.6
+
+
+def test_inference_data_groups(linear_fit):
+    _, obs, fit = linear_fit
+    groups = set(fit.idata.groups())
+    assert {"posterior", "observed_data", "log_likelihood", "posterior_predictive"} <= groups
+    assert fit.idata.observed_data["rho_obs"].shape == (obs.n_used,)
+    assert fit.n_samples_used == 900
+
+
+def test_bad_kind_is_a_value_error():
+    obs = stack_drives([linear_region_windows(1, n=50)], ["dry"])
+    with pytest.raises(ValueError, match="expected 'brush' or 'linear', got 'fiala'"):
+        tyre_model(obs, TyrePriors(), kind="fiala")
+
+
+def test_stack_drives_checks_surfaces_and_counts():
+    w = linear_region_windows(2, n=50)
+    with pytest.raises(ValueError, match="expected one of"):
+        stack_drives([w], ["gravel"])
+    with pytest.raises(ValueError, match="one surface per drive"):
+        stack_drives([w, w], ["dry"])
+    short = {k: v[:5] for k, v in w.items()}
+    with pytest.raises(ValueError, match="at least 10 usable windows"):
+        stack_drives([short], ["dry"])
+
+
+def test_abs_runs_drop_short_runs_and_ends():
+    flags = np.array([0, 1, 1, 0, 1, 1, 1, 1, 1, 0], dtype=bool)
+    expected = np.array([0, 0, 0, 0, 0, 1, 1, 1, 0, 0], dtype=bool)
+    np.testing.assert_array_equal(_inner_runs(flags, 4), expected)
