@@ -161,9 +161,14 @@ def _predictive_core(priors_key: tuple, kind: str, obs_key: tuple, n_draws: int)
     @jax.jit
     def core(samples, obs, key):
         loglik = log_likelihood(model, samples, obs)
-        ppc = Predictive(model, posterior_samples=samples, return_sites=["slip_obs", "rho_obs"])(
-            key, obs
-        )
+        # Unconditioned copy of the model: the observed sites are drawn, not copied from data.
+        # (The true slip is integrated out, so the predictive ρ_obs is conditional on the
+        # measured slip only through the shrinkage; slip_obs is drawn around m.)
+        ppc = Predictive(
+            partial(model, observed=False),
+            posterior_samples=samples,
+            return_sites=["slip_obs", "rho_obs"],
+        )(key, obs)
         names = ("slip_obs", "rho_obs")
         return {k: loglik[k] for k in names}, {k: ppc[k] for k in names}
 

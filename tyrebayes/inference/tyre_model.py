@@ -99,7 +99,12 @@ def _force_and_slope(kind: str, slip, c_x, mu, slide_ratio):
     )
 
 
-def tyre_model(obs: TyreObservations, priors: TyrePriors | None = None, kind: str = "brush"):
+def tyre_model(
+    obs: TyreObservations,
+    priors: TyrePriors | None = None,
+    kind: str = "brush",
+    observed: bool = True,
+):
     """NumPyro model of one tyre set's windows (see the module docstring).
 
     Parameters
@@ -111,6 +116,8 @@ def tyre_model(obs: TyreObservations, priors: TyrePriors | None = None, kind: st
     kind : {"brush", "linear"}
         Mean model: the brush model identifies μ_max where the data reach the nonlinear region;
         the linear model is for drives that never leave the linear region.
+    observed : bool
+        Condition on the measured slip and force (True) or sample them (posterior predictive).
     """
     priors = TyrePriors() if priors is None else priors
     if kind not in ("brush", "linear"):
@@ -173,9 +180,15 @@ def tyre_model(obs: TyreObservations, priors: TyrePriors | None = None, kind: st
 
     with numpyro.plate("window", obs.slip.shape[0]):
         with numpyro.handlers.mask(mask=obs.mask & ~obs.at_limit):
-            numpyro.sample("slip_obs", dist.Normal(m, jnp.sqrt(tau2 + noise2)), obs=obs.slip)
+            numpyro.sample(
+                "slip_obs",
+                dist.Normal(m, jnp.sqrt(tau2 + noise2)),
+                obs=obs.slip if observed else None,
+            )
         with numpyro.handlers.mask(mask=obs.mask):
-            numpyro.sample("rho_obs", dist.Normal(rho_mean, rho_scale), obs=obs.rho)
+            numpyro.sample(
+                "rho_obs", dist.Normal(rho_mean, rho_scale), obs=obs.rho if observed else None
+            )
 
 
 __all__ = ["SURFACES", "TyrePriors", "stiffness_at_temperature", "tyre_model"]
