@@ -103,5 +103,5 @@ class Report:
     warnings: list = dataclasses.field(default_factory=list)
     diagnostics: list = dataclasses.field(default_factory=list)
     criticism: list = dataclasses.field(default_factory=list)
-    timings: dict = dataclasses.field(default_factory=dict)
+    timings: dict = dataclasses.field(default_factory=dict)  # step -> {"wall_s", "cpu_s"}
     notes: list = dataclasses.field(default_factory=list)

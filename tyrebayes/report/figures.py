@@ -150,7 +150,7 @@ def vmax_distributions(vmax) -> bytes:
     ax.set_yticklabels([f"{r['tyre']} (C_xr {r['c_xr']:.0f})" for r in rows], fontsize=8)
     ax.set_xlabel("critical lane-change speed V_max [km/h]")
     ax.set_title(f"ISO 3888-2 V_max: predictive vs measured ({vmax.vehicle})")
-    ax.legend(fontsize=8, loc="lower right")
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
     ax.grid(axis="x", alpha=0.3)
     fig.tight_layout()
     return _png(fig)

@@ -280,7 +280,9 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
                 "reason": "single chain: no R-hat",
             }
         )
-    report.timings = dict(steps.timings)
+    report.timings = {
+        k: {"wall_s": v, "cpu_s": steps.cpu.get(k, float("nan"))} for k, v in steps.timings.items()
+    }
     report.notes.append(
         "Reproduce: tyrebayes demo" + (" --quick" if quick else "") + f" --seed {seed}; "
         "re-render from the saved fits: tyrebayes report fits/*.nc --out DIR."

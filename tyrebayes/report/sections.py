@@ -193,10 +193,7 @@ def fleet_section(
         lo, hi = float(c_xr[sel].min()), float(c_xr[sel].max())
         grid = np.linspace(lo * 0.92, hi * 1.08, 30)
         draws = np.stack(
-            [
-                predict_friction(idata, float(c), 0.0, t, surface, seed=seed + k)
-                for k, c in enumerate(grid)
-            ]
+            [predict_friction(idata, float(c), 0.0, t, surface, seed=seed) for c in grid]
         )
         q = np.quantile(draws, BAND, axis=1)
         bands[t] = (grid, q[0], q[1], q[2])

@@ -228,5 +228,7 @@ def criticism_table(entry: dict, top: int = 6) -> Table:
 
 
 def timing_table(report: Report) -> Table:
-    header = ["step", "seconds"]
-    return header, [[k, f"{v:.1f}"] for k, v in report.timings.items()]
+    header = ["step", "wall-clock [s]", "CPU [s]"]
+    return header, [
+        [k, f"{v['wall_s']:.1f}", f"{v['cpu_s']:.1f}"] for k, v in report.timings.items()
+    ]

@@ -94,6 +94,11 @@ def summary_json(report: Report) -> dict:
     return _to_jsonable(out)
 
 
+def _write(path: Path, data: bytes) -> None:
+    atomic_write_bytes(path, data)
+    path.chmod(0o644)  # a report is for sharing (the temporary file was private)
+
+
 def write_report(report: Report, out_dir: str | Path) -> dict[str, Path]:
     """Render and write the report; returns the written paths by name."""
     out_dir = Path(out_dir)
@@ -101,13 +106,13 @@ def write_report(report: Report, out_dir: str | Path) -> dict[str, Path]:
     paths: dict[str, Path] = {}
     for name, (png, _caption) in figs.items():
         p = out_dir / "figures" / f"{name}.png"
-        atomic_write_bytes(p, png)
+        _write(p, png)
         paths[f"figure:{name}"] = p
     for name, text in (
         ("report.html", render_html(report, figs)),
         ("report.md", render_markdown(report, figs)),
         ("report.json", json.dumps(summary_json(report), indent=2) + "\n"),
     ):
-        atomic_write_bytes(out_dir / name, text.encode("utf-8"))
+        _write(out_dir / name, text.encode("utf-8"))
         paths[name] = out_dir / name
     return paths
