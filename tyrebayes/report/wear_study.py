@@ -67,13 +67,20 @@ def fit_wear_svi(data, extended: bool, seed: int = 0):
     tenth = max(len(losses) // 10, 1)
     last, before = losses[-tenth:].mean(), losses[-2 * tenth : -tenth].mean()
     settled = bool(np.isfinite(last) and abs(last - before) <= 1e-4 * max(abs(last), 1.0))
-    latent = guide.sample_posterior(key_draw, result.params, sample_shape=(SVI_DRAWS,))
+
+    # Jitted as a whole: run eagerly, the Hessian and the vmapped log densities dispatch (and
+    # compile) hundreds of single operations.
+    @jax.jit
+    def draws_and_loglik(params, key_draw, key_det):
+        latent = guide.sample_posterior(key_draw, params, sample_shape=(SVI_DRAWS,))
+        det = Predictive(
+            wear_model, posterior_samples=latent, return_sites=["c_xr", "gamma", "tau"]
+        )(key_det, data, extended, priors, comp)
+        return latent, det, log_likelihood(wear_model, latent, data, extended, priors, comp)
+
+    latent, det, loglik = draws_and_loglik(result.params, key_draw, key_det)
     finite = all(bool(np.all(np.isfinite(np.asarray(v)))) for v in latent.values())
-    det = Predictive(wear_model, posterior_samples=latent, return_sites=["c_xr", "gamma", "tau"])(
-        key_det, data, extended, priors, comp
-    )
     samples = {k: np.asarray(v) for k, v in {**latent, **det}.items()}
-    loglik = log_likelihood(wear_model, latent, data, extended, priors, comp)
     observed = {"depth": data.depth_mm} if data.depth_mm.size else {}
     idata = az.from_dict(
         posterior={k: v[None] for k, v in samples.items()},
@@ -94,6 +101,32 @@ def fit_wear_svi(data, extended: bool, seed: int = 0):
     return WearFit(idata, samples, data, extended, comp, diagnostics)
 
 
+def _simulator(profile, n_drives: int):
+    """``simulate_drives`` compiled once for all stiffnesses, temperatures and abrasabilities.
+
+    Called directly, every call re-traces (the per-drive function closes over its arguments);
+    with the values as traced arguments one compilation serves the whole study.
+    """
+    import jax
+
+    from ..physics.wear import Abrasability
+    from ..simulate.wear import simulate_drives
+
+    @jax.jit
+    def sim(key, ambient_c, c_xr, gamma, kappa, speed_mps):
+        return simulate_drives(
+            key,
+            n_drives,
+            ambient_c,
+            c_xr,
+            Abrasability(gamma, kappa),
+            profile,
+            mean_speed_mps=speed_mps,
+        )
+
+    return sim
+
+
 def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSection:
     """Simulate, fit baseline and extended wear models, and build the wear section.
 
@@ -107,20 +140,14 @@ def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSect
     from .._commands.wear import thesis_reproduction
     from ..inference.summary import summarize
     from ..inference.wear import build_wear_data, predict_wear_volume
-    from ..physics.wear import Abrasability
-    from ..simulate.wear import (
-        DutyProfile,
-        observe_wear,
-        profile_kernel,
-        seasonal_ambient,
-        simulate_drives,
-    )
+    from ..simulate.wear import DutyProfile, observe_wear, seasonal_ambient
 
     tick = progress or (lambda _name: None)
     key = jax.random.PRNGKey(seed)
     n_drives = 60 if quick else 150
     per_type = 1 if quick else 2
     profile = DutyProfile(drive_duration_s=1800.0, dt_s=6.0 if quick else 4.0)
+    simulate = _simulator(profile, n_drives)
     sets, truth_sets = [], []
     for ti, (name, (tyre_type, c_xr)) in enumerate(TYRES.items()):
         for j in range(per_type):
@@ -131,15 +158,7 @@ def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSect
             speed = jax.random.uniform(k2, (n_drives,), minval=30 / 3.6, maxval=110 / 3.6)
             gamma = GAMMA_TRUE * float(jnp.exp(0.1 * jax.random.normal(k3)))
             c_set = c_xr * (1.0 + 0.03 * j)
-            work = simulate_drives(
-                k4,
-                n_drives,
-                amb,
-                c_set,
-                Abrasability(gamma, KAPPA_TRUE[tyre_type]),
-                profile,
-                mean_speed_mps=speed,
-            )
+            work = simulate(k4, amb, c_set, gamma, KAPPA_TRUE[tyre_type], speed)
             km = float(np.sum(np.asarray(work.distance_km)))
             readings = np.linspace(0.0, km, 6 if quick else 8)
             obs = observe_wear(jax.random.fold_in(k, 99), work, readings, 0.1, 3e-4)
@@ -171,12 +190,22 @@ def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSect
     curves = {m: {} for m in fits}
     kern_key = jax.random.PRNGKey(seed + 8)
     n_kernel_drives = 6 if quick else 12
+    simulate_kernel = _simulator(profile, n_kernel_drives)
+
+    def profile_kernel(amb: float, c_xr: float):
+        """Binned friction-work kernel of 1000 km at an ambient (simulate.wear.profile_kernel)."""
+        n = n_kernel_drives
+        work = simulate_kernel(
+            kern_key, jnp.full((n,), amb), c_xr, 1.0, 0.0, jnp.full((n,), profile.mean_speed_mps)
+        )
+        scale = 1000.0 / float(jnp.sum(work.distance_km))
+        return np.asarray(work.kernel_binned.sum(axis=0)) * scale, np.asarray(work.grid_c)
+
     for name, (tyre_type, c_xr) in TYRES.items():
         set_index = next(i for i, s in enumerate(truth_sets) if s[0] == name)
         gamma_true = truth_sets[set_index][3]
         kernels = {
-            amb: profile_kernel(kern_key, amb, 1000.0, profile, c_xr, n_drives=n_kernel_drives)
-            for amb in sorted(set(AMBIENTS_C) | {REFERENCE_C})
+            amb: profile_kernel(amb, c_xr) for amb in sorted(set(AMBIENTS_C) | {REFERENCE_C})
         }
         from ..physics.thermal import stiffness_at_temperature
 
