@@ -14,6 +14,7 @@ tyre at ``REFERENCE_C`` (thesis Sec. 6.2 compares 7 and 40 °C), per posterior d
 from __future__ import annotations
 
 import warnings
+from functools import partial
 
 import numpy as np
 
@@ -105,14 +106,16 @@ def _simulator(profile, n_drives: int):
     """``simulate_drives`` compiled once for all stiffnesses, temperatures and abrasabilities.
 
     Called directly, every call re-traces (the per-drive function closes over its arguments);
-    with the values as traced arguments one compilation serves the whole study.
+    with temperatures and abrasability as traced arguments one compilation per stiffness serves
+    the whole study.
     """
     import jax
 
     from ..physics.wear import Abrasability
     from ..simulate.wear import simulate_drives
 
-    @jax.jit
+    # c_xr is static: simulate_drives declares it a Python float (checked at test time).
+    @partial(jax.jit, static_argnames="c_xr")
     def sim(key, ambient_c, c_xr, gamma, kappa, speed_mps):
         return simulate_drives(
             key,
@@ -157,8 +160,10 @@ def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSect
             amb = seasonal_ambient(k1, day)
             speed = jax.random.uniform(k2, (n_drives,), minval=30 / 3.6, maxval=110 / 3.6)
             gamma = GAMMA_TRUE * float(jnp.exp(0.1 * jax.random.normal(k3)))
-            c_set = c_xr * (1.0 + 0.03 * j)
-            work = simulate(k4, amb, c_set, gamma, KAPPA_TRUE[tyre_type], speed)
+            c_set = float(c_xr * (1.0 + 0.03 * j))
+            work = simulate(
+                k4, amb, c_xr=c_set, gamma=gamma, kappa=KAPPA_TRUE[tyre_type], speed_mps=speed
+            )
             km = float(np.sum(np.asarray(work.distance_km)))
             readings = np.linspace(0.0, km, 6 if quick else 8)
             obs = observe_wear(jax.random.fold_in(k, 99), work, readings, 0.1, 3e-4)
@@ -196,7 +201,12 @@ def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSect
         """Binned friction-work kernel of 1000 km at an ambient (simulate.wear.profile_kernel)."""
         n = n_kernel_drives
         work = simulate_kernel(
-            kern_key, jnp.full((n,), amb), c_xr, 1.0, 0.0, jnp.full((n,), profile.mean_speed_mps)
+            kern_key,
+            jnp.full((n,), amb),
+            c_xr=float(c_xr),
+            gamma=1.0,
+            kappa=0.0,
+            speed_mps=jnp.full((n,), profile.mean_speed_mps),
         )
         scale = 1000.0 / float(jnp.sum(work.distance_km))
         return np.asarray(work.kernel_binned.sum(axis=0)) * scale, np.asarray(work.grid_c)
