@@ -79,7 +79,10 @@ def fit_wear_svi(data, extended: bool, seed: int = 0):
         )(key_det, data, extended, priors, comp)
         return latent, det, log_likelihood(wear_model, latent, data, extended, priors, comp)
 
-    latent, det, loglik = draws_and_loglik(result.params, key_draw, key_det)
+    # numpyro's MultivariateNormal.sample broadcasts loc (k,) against (draws, k): allowed here
+    # even where the package runs with strict rank promotion.
+    with jax.numpy_rank_promotion("allow"):
+        latent, det, loglik = draws_and_loglik(result.params, key_draw, key_det)
     finite = all(bool(np.all(np.isfinite(np.asarray(v)))) for v in latent.values())
     samples = {k: np.asarray(v) for k, v in {**latent, **det}.items()}
     observed = {"depth": data.depth_mm} if data.depth_mm.size else {}
