@@ -26,8 +26,10 @@ from .summary import summarize
 from .tyre_data import TyreObservations
 from .tyre_model import TyrePriors, tyre_model
 
-# Posterior contraction of log μ_max needed before μ_max counts as observed: the posterior sd
-# must be below half the prior sd. Below that the data did not reach the nonlinear region.
+# μ_max counts as observed on a surface only where the drive reached the limit (ABS windows) and
+# the posterior sd of log μ_max is below half the prior sd. Without ABS windows the curvature of
+# the linear region narrows μ_max only through the assumed brush shape, which real tyres do not
+# follow closely enough to call that an observation of the peak.
 MU_OBSERVED_CONTRACTION = 0.5
 # Posterior predictive draws kept (memory: draws × windows per observed site).
 MAX_PREDICTIVE_DRAWS = 400
@@ -128,10 +130,15 @@ class TyreFit:
         }
 
 
-def _mu_observed(fit_draws: np.ndarray, priors: TyrePriors, surfaces) -> dict:
+def _mu_observed(fit_draws: np.ndarray, priors: TyrePriors, obs: TyreObservations) -> dict:
     log_sd = np.std(np.log(fit_draws), axis=0)
     contraction = 1.0 - log_sd / priors.mu_log_sd
-    return {s: bool(contraction[i] >= MU_OBSERVED_CONTRACTION) for i, s in enumerate(surfaces)}
+    at_limit = np.asarray(obs.mask & obs.at_limit)
+    surface = np.asarray(obs.surface_index)
+    return {
+        s: bool(at_limit[surface == i].any() and contraction[i] >= MU_OBSERVED_CONTRACTION)
+        for i, s in enumerate(obs.surfaces)
+    }
 
 
 def _thin_index(total: int, n: int) -> np.ndarray:
@@ -302,7 +309,7 @@ def fit_tyre_nuts(
     return TyreFit(
         idata=idata,
         diagnostics=diagnostics,
-        mu_observed=_mu_observed(samples["mu_max"], priors, obs.surfaces),
+        mu_observed=_mu_observed(samples["mu_max"], priors, obs),
         surfaces=obs.surfaces,
         n_samples_used=obs.n_used,
         kind=kind,
@@ -420,7 +427,7 @@ def fit_tyre_fast(
     return TyreFit(
         idata=idata,
         diagnostics=diagnostics,
-        mu_observed=_mu_observed(samples["mu_max"], priors, obs.surfaces),
+        mu_observed=_mu_observed(samples["mu_max"], priors, obs),
         surfaces=obs.surfaces,
         n_samples_used=obs.n_used,
         kind=kind,

@@ -2,27 +2,31 @@
 
 Measurement model for window i of drive d on surface s (all quantities normalised, [-]):
 
-    σ_true,i  ~ Normal(m_i, τ_i),  m_i = a_d + β_d ν_i  (structural errors in variables)
-    σ_obs,i   = σ_true,i + ε_σ,   ε_σ ~ Normal(0, sσ_i)  (sσ known from the sensor noise)
-    ρ_obs,i   = f(σ_true,i − s0_d; C_x(T_i), μ_s) + b_d + ε_ρ,  ε_ρ ~ Normal(0, λ sρ_i)
-    C_x(T)    = C_xr exp(−κ (T − 20 °C))               (stiffness temperature compensation)
+    ρ_true,i  ~ Normal(m_d, τ_d)                          (population of forces in the drive)
+    ρ_obs,i   = g_d ρ_true,i + ε_ρ,    ε_ρ ~ Normal(0, λ_ρ sρ_i)
+    σ_obs,i   = f⁻¹(ρ_true,i; C_x(T_i), μ_s) + s0_d + ε_σ,   ε_σ ~ Normal(0, λ_σ sσ_i)
+    C_x(T)    = C_xr exp(−κ (T − 20 °C))                  (stiffness temperature compensation)
 
-with ν_i the measured slip of the neighbouring windows (an instrument: its noise is independent
-of window i's, the true slip changes slowly), τ_i² = τ0_d² + (τ1_d ν_i)², f the brush model
-(thesis ch. 3; slope C_x, peak μ, eq. 3.3–3.4) or the linear model, s0_d the
-per-drive slip offset (rolling-radius mismatch), b_d the per-drive force offset (IMU bias /
-mounting pitch) and λ a force-noise scale.
+with f⁻¹ the inverse of the brush model in adhesion (thesis ch. 3, eq. 3.3–3.4: slope C_x at zero,
+peak μ) or of the linear model, s0_d the per-drive slip at zero force (rolling-radius mismatch
+between the driven and the reference wheels, plus IMU bias over C_x: in the linear region the two
+cannot be told apart, so one offset carries both), g_d the per-drive force gain (vehicle mass,
+axle load and IMU gain are known to a few percent only: without it the posterior of C_x would be
+narrower than what ordinary sensors can tell) and λ_σ, λ_ρ noise scales on the stated sensor
+noise.
 
-The latent true slip is integrated out: σ_obs ~ Normal(m_i, √(τ_i² + sσ²)) and, given σ_obs, the
-true slip is Normal(σ̂, v) with σ̂ = m + w(σ_obs − m), w = τ²/(τ² + sσ²), v = w sσ². Linearising f
-around σ̂ gives ρ_obs | σ_obs ~ Normal(f(σ̂) + b, √(λ² sρ² + f′(σ̂)² v)). For the linear model this
-factorisation of the bivariate normal is exact, which is why the slope is not attenuated: the
-naive regression of ρ on σ_obs estimates w·C_x instead of C_x. In the nonlinear region the
-windows' slip noise is small (v ≪ peak slip²) and the linearisation error is negligible.
+Why slip on force and not force on slip: both are measured with noise (errors in variables). A
+regression of force on noisy slip attenuates the slope by var(σ_true)/var(σ_obs) — with wheel-speed
+noise of the size of the slip itself that is a 10–30 % underestimate of C_x. The force, from the
+IMU, has noise that is small against its range (a few percent of its variance) and independent
+of the wheel speeds, so the model regresses the slip on the force and removes the small rest
+exactly: ρ_true is integrated out to first order, ρ_obs ~ Normal(g m_d, √(g²τ_d² + λ_ρ²sρ²)) and,
+given ρ_obs, ρ_true ~ Normal(ρ̂, v) with ρ̂ = m + w(ρ_obs/g − m), w = τ²/(τ² + (λ_ρ sρ/g)²),
+v = w (λ_ρ sρ/g)²; σ_obs | ρ_obs ~ Normal(f⁻¹(ρ̂) + s0, √(λ_σ²sσ² + f⁻¹′(ρ̂)² v)).
 
-Geometry: in the linear region only the intercept a = b − C_x s0 is identified, so the model
-samples that intercept and puts the stated prior on b = a + C_x s0 as a factor (a shift, unit
-Jacobian): the same posterior without the b–s0 ridge that slows NUTS.
+ABS windows observe the total normalised force ρ_obs = −g_d r μ_s + ε with r the ratio of an ABS
+window's mean force to the peak, one parameter shared by all windows: it is a property of the
+ABS controller and of the curve's shape after the peak, so it does not average out over windows.
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ import jax.numpy as jnp
 import numpyro
 import numpyro.distributions as dist
 
-from ..physics.tyre import brush_longitudinal
+from ..physics.tyre import brush_longitudinal_inverse
 from .tyre_data import SURFACES, TyreObservations
 
 REFERENCE_TEMPERATURE_C = 20.0
@@ -59,11 +63,14 @@ class TyrePriors(eqx.Module):
     mu_log_sd : float
         Log-scale sd of μ_max around the surface medians (0.35: a factor 1.4 either way).
     slip_offset_sd : float
-        Per-drive slip offset sd [-]: rolling radii differ by fractions of a percent (0.01).
-    rho_offset_sd : float
-        Per-drive force offset sd [-]: IMU bias ~0.1–0.3 m/s² over g·(axle load share) → 0.03.
-    true_slip_scale : float
-        Half-normal scale of the spread τ_d of true slip within a drive [-].
+        Per-drive slip offset sd [-]: rolling radii differ by fractions of a percent
+        (DESIGN.md physics notes); the driven-minus-reference difference has sd ~0.004. A wider prior lets the offset wander to where the
+        brush curve's saturated branch mimics curvature (a spurious mode seen in simulation).
+    force_gain_log_sd : float
+        Log-scale sd of the per-drive force gain g_d: mass (passengers, fuel) ±3 %, IMU gain
+        ±1 %, static axle load share ±2 % → 0.04.
+    force_spread_scale : float
+        Half-normal scale of the spread τ_d of the true force within a drive [-].
     abs_force_ratio, abs_force_ratio_sd : float
         Window-mean |ρ_x| of an ABS window as a fraction of μ_max, and its spread: ABS cycles
         the slip around the peak (about 0.5–1.5 peak slip), where the brush curve delivers
@@ -75,9 +82,9 @@ class TyrePriors(eqx.Module):
     temp_sensitivity_mean: float = 0.008
     temp_sensitivity_sd: float = 0.006
     mu_log_sd: float = 0.35
-    slip_offset_sd: float = 0.01
-    rho_offset_sd: float = 0.03
-    true_slip_scale: float = 0.05
+    slip_offset_sd: float = 0.004
+    force_gain_log_sd: float = 0.04
+    force_spread_scale: float = 0.3
     abs_force_ratio: float = 0.96
     abs_force_ratio_sd: float = 0.04
 
@@ -90,12 +97,16 @@ def stiffness_at_temperature(c_xr, temp_sensitivity, temperature_c):
     return c_xr * jnp.exp(-temp_sensitivity * (temperature_c - REFERENCE_TEMPERATURE_C))
 
 
-def _force_and_slope(kind: str, slip, c_x, mu, slide_ratio):
-    """Model force f(σ) and its slope f′(σ), elementwise."""
+def _slip_and_slope(kind: str, rho, c_x, mu):
+    """Slip of a force in adhesion, f⁻¹(ρ), and its derivative dσ/dρ, elementwise.
+
+    Forces at or beyond the peak map to the peak slip (zero derivative): a μ below the measured
+    forces then cannot fit their slips, which is how the slip windows bound μ from below.
+    """
     if kind == "linear":
-        return c_x * slip, c_x
+        return rho / c_x, 1.0 / c_x
     return jax.jvp(
-        lambda s: brush_longitudinal(s, c_x, mu, slide_ratio), (slip,), (jnp.ones_like(slip),)
+        lambda r: brush_longitudinal_inverse(r, c_x, mu), (rho,), (jnp.ones_like(rho),)
     )
 
 
@@ -132,62 +143,55 @@ def tyre_model(
         mu = numpyro.sample(
             "mu_max", dist.LogNormal(jnp.log(priors.mu_median(obs.surfaces)), priors.mu_log_sd)
         )
-    slide_ratio = numpyro.sample("mu_slide_ratio", dist.Uniform(0.5, 1.0))
+    abs_ratio = numpyro.sample(
+        "abs_force_ratio",
+        dist.TruncatedNormal(priors.abs_force_ratio, priors.abs_force_ratio_sd, high=1.0),
+    )
     rho_noise_scale = numpyro.sample("rho_noise_scale", dist.LogNormal(0.0, 0.5))
     # The stated slip noise is a local estimate of coloured noise; its scale is inferred.
     slip_noise_scale = numpyro.sample("slip_noise_scale", dist.LogNormal(0.0, 0.3))
     with numpyro.plate("drive", n_drives):
         slip_offset = numpyro.sample("slip_offset", dist.Normal(0.0, priors.slip_offset_sd))
-        intercept = numpyro.sample("rho_intercept", dist.Normal(0.0, 0.3))
-        slip_level = numpyro.sample("true_slip_level", dist.Normal(0.0, 0.02))
-        slip_gain = numpyro.sample("true_slip_gain", dist.Normal(1.0, 0.5))
-        spread_base = numpyro.sample("true_slip_spread", dist.HalfNormal(priors.true_slip_scale))
-        spread_gain = numpyro.sample("true_slip_spread_gain", dist.HalfNormal(1.0))
+        force_gain = numpyro.sample("force_gain", dist.LogNormal(0.0, priors.force_gain_log_sd))
+        force_level = numpyro.sample("force_level", dist.Normal(0.0, 0.3))
+        force_spread = numpyro.sample("force_spread", dist.HalfNormal(priors.force_spread_scale))
 
     weights = obs.mask.astype(obs.temperature_c.dtype)
     d = obs.drive_index
-    drive_temperature = jax.ops.segment_sum(
-        weights * obs.temperature_c, d, num_segments=n_drives
-    ) / jnp.maximum(jax.ops.segment_sum(weights, d, num_segments=n_drives), 1.0)
-    c_x_drive = stiffness_at_temperature(c_xr, kappa, drive_temperature)
-    # The stated prior on the force offset b = a + C_x s0 (IMU bias), entered as a factor.
-    rho_offset = numpyro.deterministic("rho_offset", intercept + c_x_drive * slip_offset)
-    numpyro.factor(
-        "rho_offset_prior", dist.Normal(0.0, priors.rho_offset_sd).log_prob(rho_offset).sum()
-    )
     mean_temperature = jnp.sum(weights * obs.temperature_c) / jnp.maximum(jnp.sum(weights), 1.0)
     numpyro.deterministic("c_x", stiffness_at_temperature(c_xr, kappa, mean_temperature))
 
-    m = slip_level[d] + slip_gain[d] * obs.neighbour_slip
-    tau2 = spread_base[d] ** 2 + (spread_gain[d] * obs.neighbour_slip) ** 2
-    noise2 = (slip_noise_scale * obs.slip_sd) ** 2
-    shrink = tau2 / (tau2 + noise2)
-    slip_hat = m + shrink * (obs.slip - m)
-    slip_var = shrink * noise2
+    gain, level, spread = force_gain[d], force_level[d], force_spread[d]
+    rho_noise = rho_noise_scale * obs.rho_sd
+    # The true force given its measurement (normal-normal shrinkage towards the drive's level).
+    noise2 = (rho_noise / gain) ** 2
+    shrink = spread**2 / (spread**2 + noise2)
+    rho_hat = level + shrink * (obs.rho / gain - level)
+    rho_var = shrink * noise2
     c_x = stiffness_at_temperature(c_xr, kappa, obs.temperature_c)
-    force, slope = _force_and_slope(
-        kind, slip_hat - slip_offset[d], c_x, mu[obs.surface_index], slide_ratio
-    )
-    rho_scale = jnp.sqrt((rho_noise_scale * obs.rho_sd) ** 2 + slope**2 * slip_var)
+    mu_window = mu[obs.surface_index]
+    slip, slip_slope = _slip_and_slope(kind, rho_hat, c_x, mu_window)
+    slip_scale = jnp.sqrt((slip_noise_scale * obs.slip_sd) ** 2 + slip_slope**2 * rho_var)
 
     # ABS windows: the total force sits near the peak, the slip is not measurable.
-    mu_window = mu[obs.surface_index]
-    limit_scale = jnp.sqrt(
-        (rho_noise_scale * obs.rho_sd) ** 2 + (priors.abs_force_ratio_sd * mu_window) ** 2
+    limit_mean = -gain * abs_ratio * mu_window
+    # Window-to-window spread of ABS cycling around the shared ratio: ~2 % of μ.
+    limit_scale = jnp.sqrt(rho_noise**2 + (0.02 * mu_window) ** 2)
+    rho_mean = jnp.where(obs.at_limit, limit_mean, gain * level)
+    rho_scale = jnp.where(
+        obs.at_limit, limit_scale, jnp.sqrt((gain * spread) ** 2 + rho_noise**2)
     )
-    rho_mean = jnp.where(obs.at_limit, -priors.abs_force_ratio * mu_window, force + rho_offset[d])
-    rho_scale = jnp.where(obs.at_limit, limit_scale, rho_scale)
 
     with numpyro.plate("window", obs.slip.shape[0]):
-        with numpyro.handlers.mask(mask=obs.mask & ~obs.at_limit):
-            numpyro.sample(
-                "slip_obs",
-                dist.Normal(m, jnp.sqrt(tau2 + noise2)),
-                obs=obs.slip if observed else None,
-            )
         with numpyro.handlers.mask(mask=obs.mask):
             numpyro.sample(
                 "rho_obs", dist.Normal(rho_mean, rho_scale), obs=obs.rho if observed else None
+            )
+        with numpyro.handlers.mask(mask=obs.mask & ~obs.at_limit):
+            numpyro.sample(
+                "slip_obs",
+                dist.Normal(slip + slip_offset[d], slip_scale),
+                obs=obs.slip if observed else None,
             )
 
 
