@@ -63,9 +63,8 @@ class TyrePriors(eqx.Module):
     mu_log_sd : float
         Log-scale sd of μ_max around the surface medians (0.35: a factor 1.4 either way).
     slip_offset_sd : float
-        Per-drive slip offset sd [-]: rolling radii differ by fractions of a percent
-        (DESIGN.md physics notes); the driven-minus-reference difference has sd ~0.004. A wider prior lets the offset wander to where the
-        brush curve's saturated branch mimics curvature (a spurious mode seen in simulation).
+        Per-drive slip at zero force [-]: rolling radii differ by fractions of a percent
+        (DESIGN.md physics notes), the driven-minus-reference difference has sd ~0.004.
     force_gain_log_sd : float
         Log-scale sd of the per-drive force gain g_d: mass (passengers, fuel) ±3 %, IMU gain
         ±1 %, static axle load share ±2 % → 0.04.
@@ -105,9 +104,7 @@ def _slip_and_slope(kind: str, rho, c_x, mu):
     """
     if kind == "linear":
         return rho / c_x, 1.0 / c_x
-    return jax.jvp(
-        lambda r: brush_longitudinal_inverse(r, c_x, mu), (rho,), (jnp.ones_like(rho),)
-    )
+    return jax.jvp(lambda r: brush_longitudinal_inverse(r, c_x, mu), (rho,), (jnp.ones_like(rho),))
 
 
 def tyre_model(
@@ -178,9 +175,7 @@ def tyre_model(
     # Window-to-window spread of ABS cycling around the shared ratio: ~2 % of μ.
     limit_scale = jnp.sqrt(rho_noise**2 + (0.02 * mu_window) ** 2)
     rho_mean = jnp.where(obs.at_limit, limit_mean, gain * level)
-    rho_scale = jnp.where(
-        obs.at_limit, limit_scale, jnp.sqrt((gain * spread) ** 2 + rho_noise**2)
-    )
+    rho_scale = jnp.where(obs.at_limit, limit_scale, jnp.sqrt((gain * spread) ** 2 + rho_noise**2))
 
     with numpyro.plate("window", obs.slip.shape[0]):
         with numpyro.handlers.mask(mask=obs.mask):
