@@ -18,8 +18,11 @@ from .inference.fleet import predict_friction as predict_friction
 from .inference.ols import fit_ols as fit_ols
 from .inference.summary import summarize as summarize
 from .inference.tyre_data import TyreObservations as TyreObservations
+from .inference.tyre_data import observations_from_features as observations_from_features
+from .inference.tyre_data import observations_from_stream as observations_from_stream
 from .inference.tyre_data import stack_drives as stack_drives
 from .inference.tyre_data import windowed_observations as windowed_observations
+from .inference.tyre_fit import FitDiagnostics as FitDiagnostics
 from .inference.tyre_fit import TyreFit as TyreFit
 from .inference.tyre_fit import fit_tyre as fit_tyre
 from .inference.tyre_model import TyrePriors as TyrePriors

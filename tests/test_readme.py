@@ -1,0 +1,36 @@
+"""The README's Python quick start runs as written, on a simulated drive and fleet."""
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from tyrebayes.physics.vehicle import load_vehicle
+from tyrebayes.simulate.drive import simulate_drive
+from tyrebayes.simulate.fleet import simulate_fleet
+from tyrebayes.streams import write_stream
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def _quick_start() -> str:
+    blocks = re.findall(r"```python\n(.*?)```", README.read_text(encoding="utf-8"), re.S)
+    assert blocks, "README.md has no ```python block"
+    return blocks[0]
+
+
+def test_readme_quick_start_runs(tmp_path, monkeypatch, capsys):
+    vehicle = load_vehicle("suv_rav4")
+    drive, _ = simulate_drive(0, vehicle, "winter", duration_s=120.0)
+    write_stream(drive, tmp_path / "drive.parquet")
+    table, _ = simulate_fleet(0, 26)
+    table.to_csv(tmp_path / "fleet.csv", index=False)
+    monkeypatch.chdir(tmp_path)
+
+    exec(compile(_quick_start(), "README.md", "exec"), {})
+
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert len(lines) == 2
+    assert "'mean'" in lines[0] and lines[0].endswith(("True", "False"))
+    assert lines[1] in ("ok", "warn", "insufficient_evidence")
+    assert np.isfinite(float(re.search(r"'mean': ([0-9.e+-]+)", lines[0]).group(1)))
