@@ -99,7 +99,7 @@ def _compilation_cache() -> None:
     except OSError:
         return  # a read-only home: run without the cache
     jax.config.update("jax_compilation_cache_dir", path)
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 
 
 def run(args: argparse.Namespace) -> int:
