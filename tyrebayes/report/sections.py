@@ -107,12 +107,21 @@ def tyre_section(
         if "surface_index" in const
         else np.zeros(n_win, int)
     )
-    s0 = _flat(idata, "slip_offset").mean(axis=0) if "slip_offset" in post else np.zeros(1)
-    b0 = _flat(idata, "rho_offset").mean(axis=0) if "rho_offset" in post else np.zeros(1)
-    if drive is None:
-        slip_c, rho_c = slip - s0.mean(), rho - b0.mean()
-    else:
-        slip_c, rho_c = slip - s0[drive], rho - b0[drive]
+
+    def per_window(name: str, default: float) -> np.ndarray:
+        """Posterior mean of a per-drive nuisance at each window (the mean without indices)."""
+        if name not in post:
+            return np.full(n_win, default)
+        v = np.atleast_1d(_flat(idata, name).mean(axis=0))
+        if drive is None or v.size <= int(drive.max(initial=0)):
+            return np.full(n_win, float(v.mean()))
+        return v[drive]
+
+    # Offsets and gains of the per-tyre model versions: slip offset s0 (all), force gain g
+    # (slip-on-force model: rho_obs = g rho_true) or force offset b (force-on-slip model).
+    slip_c = slip - per_window("slip_offset", 0.0)
+    rho_c = rho / per_window("force_gain", 1.0) - per_window("rho_offset", 0.0)
+    s0 = np.atleast_1d(_flat(idata, "slip_offset").mean(axis=0)) if "slip_offset" in post else None
 
     c_x = _flat(idata, "c_x")
     mu = _flat(idata, "mu_max").reshape(c_x.shape[0], -1)
@@ -136,7 +145,11 @@ def tyre_section(
         "c_x": summarize(c_x),
         "c_xr": summarize(_flat(idata, "c_xr")),
         "mu_max": {s: summarize(mu[:, i]) for i, s in enumerate(surfaces)},
-        "slip_offset": summarize(s0) if s0.size > 1 else summarize(_flat(idata, "slip_offset")),
+        "slip_offset": (
+            summarize(_flat(idata, "slip_offset").reshape(c_x.shape[0], -1)[:, 0])
+            if s0 is not None
+            else None
+        ),
         "n_windows": int(n_win),
         "n_abs_windows": int(at_limit.sum()),
     }
