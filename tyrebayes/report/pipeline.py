@@ -77,7 +77,7 @@ def _bucket(n: int) -> int:
 
 
 def _with_indices(idata, obs):
-    """Add per-window drive and surface indices to a tyre fit (for ``tyrebayes report``)."""
+    """Add per-window drive, surface and temperature to a tyre fit (for ``tyrebayes report``)."""
     import arviz as az
 
     mask = np.asarray(obs.mask)
@@ -85,8 +85,9 @@ def _with_indices(idata, obs):
         constant_data={
             "drive_index": np.asarray(obs.drive_index)[mask],
             "surface_index": np.asarray(obs.surface_index)[mask],
+            "temperature_c": np.asarray(obs.temperature_c)[mask],
         },
-        dims={"drive_index": ["window"], "surface_index": ["window"]},
+        dims={"drive_index": ["window"], "surface_index": ["window"], "temperature_c": ["window"]},
         coords={"window": np.arange(int(mask.sum()))},
     ).constant_data
     if "constant_data" in idata.groups():

@@ -92,6 +92,7 @@ def tyre_section(
     them); without them the data are corrected by the mean offset over drives and assigned to
     the first surface.
     """
+    from ..inference.tyre_model import stiffness_at_temperature
     from ..physics.tyre import brush_longitudinal
 
     post = idata.posterior
@@ -129,21 +130,29 @@ def tyre_section(
     idx = _thin(c_x.shape[0])
     use = ~at_limit
     curve = {}
+    temps = np.asarray(const["temperature_c"], float) if "temperature_c" in const else None
+    c_xr = _flat(idata, "c_xr")
     for i, s in enumerate(surfaces):
         sel = use & (surf_idx == i)
+        # C_x at this surface's tyre temperature when the fit says what that was
+        c_s = c_x
+        if temps is not None and "temp_sensitivity" in post and (surf_idx == i).any():
+            t_s = float(temps[surf_idx == i].mean())
+            kappa = _flat(idata, "temp_sensitivity")
+            c_s = np.asarray(stiffness_at_temperature(c_xr, kappa, t_s))
         pts = slip_c[sel] if sel.any() else slip_c[use]
         lo = min(float(np.quantile(pts, 0.005)), -0.002) if pts.size else -0.01
         hi = max(float(np.quantile(pts, 0.995)), 0.004) if pts.size else 0.02
         grid = np.linspace(lo * 1.15, hi * 1.15, GRID_POINTS)
         f = np.asarray(
-            brush_longitudinal(grid[None, :], c_x[idx, None], mu[idx, i, None], slide[idx, None])
+            brush_longitudinal(grid[None, :], c_s[idx, None], mu[idx, i, None], slide[idx, None])
         )
         q = np.quantile(f, BAND, axis=0)
         curve[s] = (grid, q[0], q[1], q[2])
 
     summary = {
         "c_x": summarize(c_x),
-        "c_xr": summarize(_flat(idata, "c_xr")),
+        "c_xr": summarize(c_xr),
         "mu_max": {s: summarize(mu[:, i]) for i, s in enumerate(surfaces)},
         "slip_offset": (
             summarize(_flat(idata, "slip_offset").reshape(c_x.shape[0], -1)[:, 0])
