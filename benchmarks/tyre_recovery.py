@@ -14,6 +14,22 @@ Truth C_x is the driven wheels' mean C_x (at their simulated temperature) over t
 μ_max that of the surface. Reported per setting: bias and RMSE (relative) of C_x for all three
 and of μ_max for the posterior, and the coverage of its central 50 % and 90 % intervals.
 
+* Fits that did not converge (``diagnostics.converged`` False) are excluded from every bias,
+  RMSE and coverage number and counted separately (``n_not_converged``); OLS and TLS are
+  summarised over the same drives so the columns compare like with like.
+* μ_max bias/RMSE/coverage are computed only over converged drives with at least one detected
+  ABS window; without ABS the μ_max posterior is the prior by construction, so only the share of
+  drives flagged ``mu_observed`` is reported (it should be ~0).
+* Simulated streams that the stream validator rejects (with noise ×2 the accelerometer's
+  vibration noise can push ``az`` past its ±40 m/s² range) are not fits: they are listed in
+  ``rejected_streams`` and replaced by the next seed.
+* With Magic Formula truth the model's brush curve has the wrong shape after the peak: μ_max
+  coverage there tests the shared ABS force ratio's prior, not the brush model's calibration.
+
+The issue asks for one-hour drives; the default here is 10-minute drives (``--duration 600``)
+so that 4 settings × 50 drives fit in ~15 min on the shared 2-core machine. The JSON records the
+duration used (``drive_duration_s``, ``duration_note``).
+
 Usage: ``python benchmarks/tyre_recovery.py [--quick] [--reps N] [--duration S]``.
 """
 
@@ -31,6 +47,7 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
+from tyrebayes._errors import BadInputError  # noqa: E402
 from tyrebayes.inference.tyre_data import observations_from_features, stack_drives  # noqa: E402
 from tyrebayes.inference.tyre_fit import fit_tyre  # noqa: E402
 from tyrebayes.physics.vehicle import load_vehicle  # noqa: E402
@@ -98,38 +115,65 @@ def one_drive(seed: int, setting: dict, duration_s: float, vehicle, pad_to: int)
         "c_x_cover90": covers(c_x_draws, c_x_true, 0.9),
         "mu_cover50": covers(mu_draws, truth.mu_max, 0.5),
         "mu_cover90": covers(mu_draws, truth.mu_max, 0.9),
+        "c_x_sd": float(np.std(c_x_draws)),
+        "mu_sd": float(np.std(mu_draws)),
         "mu_observed": bool(fit.mu_observed["dry"]),
         "converged": bool(fit.diagnostics.converged),
+        "reason": fit.diagnostics.reason,
         "n_windows": obs.n_used,
         "n_abs_windows": obs.n_limit,
     }
 
 
-def summarise(rows: list[dict]) -> dict:
-    def rel(est, true):
-        e = np.array([r[est] for r in rows]) / np.array([r[true] for r in rows]) - 1.0
-        return {"bias": float(np.mean(e)), "rmse": float(np.sqrt(np.mean(e**2)))}
-
-    out = {
-        "n": len(rows),
-        "c_x_posterior": rel("c_x_post", "c_x_true"),
-        "c_x_ols": rel("c_x_ols", "c_x_true"),
-        "c_x_tls": rel("c_x_tls", "c_x_true"),
-        "mu_posterior": rel("mu_post", "mu_true"),
-        "c_x_coverage_50": float(np.mean([r["c_x_cover50"] for r in rows])),
-        "c_x_coverage_90": float(np.mean([r["c_x_cover90"] for r in rows])),
-        "mu_coverage_50": float(np.mean([r["mu_cover50"] for r in rows])),
-        "mu_coverage_90": float(np.mean([r["mu_cover90"] for r in rows])),
-        "mu_observed_share": float(np.mean([r["mu_observed"] for r in rows])),
-        "converged_share": float(np.mean([r["converged"] for r in rows])),
+def _rel(rows: list[dict], est: str, true: str) -> dict:
+    if not rows:
+        return {"bias": None, "rmse": None, "bias_se": None}
+    e = np.array([r[est] for r in rows]) / np.array([r[true] for r in rows]) - 1.0
+    return {
+        "bias": float(np.mean(e)),
+        "rmse": float(np.sqrt(np.mean(e**2))),
+        # Monte Carlo standard error of the bias (sd / sqrt(n)).
+        "bias_se": float(np.std(e, ddof=1) / np.sqrt(len(e))) if len(e) > 1 else None,
     }
-    return out
+
+
+def _share(rows: list[dict], key: str) -> float | None:
+    return float(np.mean([r[key] for r in rows])) if rows else None
+
+
+def summarise(rows: list[dict]) -> dict:
+    """Per-setting summary over converged fits only (not-converged fits are counted apart)."""
+    ok = [r for r in rows if r["converged"]]
+    with_abs = [r for r in ok if r["n_abs_windows"] > 0]
+    return {
+        "n": len(rows),
+        "n_converged": len(ok),
+        "n_not_converged": len(rows) - len(ok),
+        "converged_share": float(len(ok) / len(rows)) if rows else None,
+        "not_converged_reasons": sorted({r["reason"] for r in rows if not r["converged"]}),
+        "c_x_posterior": _rel(ok, "c_x_post", "c_x_true"),
+        "c_x_ols": _rel(ok, "c_x_ols", "c_x_true"),
+        "c_x_tls": _rel(ok, "c_x_tls", "c_x_true"),
+        "c_x_coverage_50": _share(ok, "c_x_cover50"),
+        "c_x_coverage_90": _share(ok, "c_x_cover90"),
+        "c_x_rel_sd_mean": (
+            float(np.mean([r["c_x_sd"] / r["c_x_post"] for r in ok])) if ok else None
+        ),
+        # μ_max only where the drive had detected ABS windows (else it is the prior).
+        "n_with_abs_windows": len(with_abs),
+        "mu_posterior": _rel(with_abs, "mu_post", "mu_true"),
+        "mu_coverage_50": _share(with_abs, "mu_cover50"),
+        "mu_coverage_90": _share(with_abs, "mu_cover90"),
+        "mu_observed_share_with_abs": _share(with_abs, "mu_observed"),
+        # Over all converged drives: for a no-ABS setting this should be ~0.
+        "mu_observed_share": _share(ok, "mu_observed"),
+    }
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="2 reps of 5-minute drives")
-    parser.add_argument("--reps", type=int, default=12, help="drives per setting")
+    parser.add_argument("--reps", type=int, default=50, help="drives per setting")
     parser.add_argument("--duration", type=float, default=600.0, help="drive length [s]")
     parser.add_argument("--out", default=str(RESULTS))
     args = parser.parse_args()
@@ -145,29 +189,82 @@ def main() -> None:
     vehicle = load_vehicle("compact_fwd")
     # One padded size for every drive: the fast path compiles once.
     pad_to = 1 << int(np.ceil(np.log2(duration * 4 + 64)))
+    duration_note = (
+        "one-hour drives as the issue asks"
+        if duration >= 3600
+        else f"{duration / 60:.0f}-minute drives instead of the issue's one-hour drives "
+        "(one-hour drives x 200 do not fit the benchmark's wall-time budget on 2 shared cores)"
+    )
+    print(f"{reps} drives per setting, {duration_note}", flush=True)
+    out = Path(args.out)
     t0 = time.perf_counter()
     results = {}
     for setting in settings:
-        rows = [one_drive(1000 + i, setting, duration, vehicle, pad_to) for i in range(reps)]
-        results[setting["name"]] = {"setting": setting, "summary": summarise(rows), "drives": rows}
-        s = results[setting["name"]]["summary"]
+        rows, rejected = [], []
+        seed = 1000
+        # A simulated stream the validator rejects (e.g. doubled vibration noise pushing az past
+        # its physical range) is not a fit failure: it is recorded and the next seed is drawn.
+        while len(rows) < reps and seed < 1000 + 2 * reps:
+            try:
+                rows.append(one_drive(seed, setting, duration, vehicle, pad_to))
+            except BadInputError as err:
+                rejected.append({"seed": seed, "reason": str(err).splitlines()[0]})
+            seed += 1
+            if len(rows) % 10 == 0 and rows and rows[-1]["seed"] == seed - 1:
+                print(f"  {setting['name']}: {len(rows)}/{reps}", flush=True)
         print(
-            f"{setting['name']:22s} n={s['n']:3d}  C_x bias post "
-            f"{100 * s['c_x_posterior']['bias']:+5.1f}% "
-            f"OLS {100 * s['c_x_ols']['bias']:+5.1f}% TLS {100 * s['c_x_tls']['bias']:+5.1f}%  "
-            f"RMSE post {100 * s['c_x_posterior']['rmse']:4.1f}%  cov50/90 "
-            f"{s['c_x_coverage_50']:.2f}/{s['c_x_coverage_90']:.2f}  mu bias "
-            f"{100 * s['mu_posterior']['bias']:+5.1f}% cov90 {s['mu_coverage_90']:.2f} "
-            f"observed {s['mu_observed_share']:.2f}",
+            f"  {setting['name']}: {len(rows)} drives, {len(rejected)} streams rejected by "
+            f"validation ({time.perf_counter() - t0:.0f} s)",
             flush=True,
         )
-    payload = {
+        summary = summarise(rows)
+        summary["n_streams_rejected_by_validation"] = len(rejected)
+        results[setting["name"]] = {
+            "setting": setting,
+            "summary": summary,
+            "rejected_streams": rejected,
+            "drives": rows,
+        }
+        print(format_summary(setting["name"], results[setting["name"]]["summary"]), flush=True)
+        write(out, payload(results, duration, duration_note, reps, time.perf_counter() - t0))
+    final = payload(results, duration, duration_note, reps, time.perf_counter() - t0)
+    write(out, final)
+    print(f"({duration_note}) wrote {out} in {final['wall_time_s']:.0f} s")
+
+
+def _pct(x: float | None, fmt: str = "+5.1f") -> str:
+    return "  n/a" if x is None else format(100 * x, fmt) + "%"
+
+
+def format_summary(name: str, s: dict) -> str:
+    line = (
+        f"{name:20s} conv {s['n_converged']}/{s['n']}"
+        f"  C_x bias post {_pct(s['c_x_posterior']['bias'])}"
+        f" OLS {_pct(s['c_x_ols']['bias'])} TLS {_pct(s['c_x_tls']['bias'])}"
+        f"  RMSE post {_pct(s['c_x_posterior']['rmse'], '4.1f')}"
+        f"  cov50/90 {s['c_x_coverage_50']:.2f}/{s['c_x_coverage_90']:.2f}"
+    )
+    if s["n_with_abs_windows"]:
+        line += (
+            f"  | mu (n={s['n_with_abs_windows']} w/ ABS) bias {_pct(s['mu_posterior']['bias'])}"
+            f" RMSE {_pct(s['mu_posterior']['rmse'], '4.1f')}"
+            f" cov50/90 {s['mu_coverage_50']:.2f}/{s['mu_coverage_90']:.2f}"
+        )
+    line += f"  mu_observed share {s['mu_observed_share']:.2f}"
+    return line
+
+
+def payload(results: dict, duration: float, note: str, reps: int, wall: float) -> dict:
+    return {
         "description": __doc__.splitlines()[0],
         "method": "fast path (MAP + Laplace) for every rep",
         "vehicle": "compact_fwd",
         "drive_duration_s": duration,
+        "duration_note": note,
         "reps_per_setting": reps,
-        "wall_time_s": time.perf_counter() - t0,
+        "exclusions": "bias/RMSE/coverage over converged fits only; mu_max stats only over "
+        "converged drives with >= 1 detected ABS window",
+        "wall_time_s": wall,
         "targets": {
             "c_x_abs_bias_max": 0.02,
             "coverage_tolerance": 0.05,
@@ -175,12 +272,24 @@ def main() -> None:
         },
         "results": results,
     }
-    out = Path(args.out)
+
+
+def _finite(x):
+    """Non-finite floats (draws of a failed fit) as null: the file stays strict JSON."""
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_finite(v) for v in x]
+    if isinstance(x, float) and not np.isfinite(x):
+        return None
+    return x
+
+
+def write(out: Path, data: dict) -> None:
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(payload, indent=2) + "\n")
+    tmp.write_text(json.dumps(_finite(data), indent=2, allow_nan=False) + "\n")
     os.replace(tmp, out)
-    print(f"wrote {out} in {payload['wall_time_s']:.0f} s")
 
 
 if __name__ == "__main__":
