@@ -135,24 +135,26 @@ def vmax_distributions(vmax) -> bytes:
                 )
             )
     ax.plot([], [], color="k", lw=1.2, label="predictive mean and 90 % HDI")
-    ax.add_patch(
-        plt.Rectangle(
-            (0, 0),
-            0,
-            0,
-            fill=False,
-            hatch="///",
-            edgecolor="darkorange",
-            label="measured (Table 6.2): passed, next step failed",
+    if any(np.isfinite(r["measured_lo"]) for r in rows):
+        ax.add_patch(
+            plt.Rectangle(
+                (0, 0),
+                0,
+                0,
+                fill=False,
+                hatch="///",
+                edgecolor="darkorange",
+                label="measured (Table 6.2): passed, next step failed",
+            )
         )
-    )
     ax.set_yticks(y)
     ax.set_yticklabels([f"{r['tyre']} (C_xr {r['c_xr']:.0f})" for r in rows], fontsize=8)
     ax.set_xlabel("critical lane-change speed V_max [km/h]")
     ax.set_title(f"ISO 3888-2 V_max: predictive vs measured ({vmax.vehicle})")
-    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
     ax.grid(axis="x", alpha=0.3)
-    fig.tight_layout()
+    height = fig.get_figheight()
+    fig.legend(fontsize=8, loc="lower center", ncol=2, frameon=False)
+    fig.tight_layout(rect=(0.0, 0.45 / height, 1.0, 1.0))
     return _png(fig)
 
 

@@ -167,7 +167,9 @@ def tyre_section(
     diag = dict(tyre_diagnostics(idata))
     if diagnostics:
         diag.update(diagnostics)
-    diag.setdefault("method", str(idata.attrs.get("method", "unknown")))
+    if "method" not in diag:
+        nuts = "sample_stats" in idata.groups() and "diverging" in idata.sample_stats
+        diag["method"] = str(idata.attrs.get("method", "nuts" if nuts else "fast"))
     return TyreSection(
         name=name,
         tyre_type=tyre_type,
