@@ -271,14 +271,16 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
         report.diagnostics.append({"fit": f"wear {m}", "chains": 1, **d})
     ext = report.vmax.comparison.get("extended")
     if ext:
+        n_div = ext["divergences"]
         report.diagnostics.append(
             {
                 "fit": "V_max extended",
                 "method": "nuts",
                 "chains": 1,
-                "divergences": ext["divergences"],
-                "converged": ext["divergences"] == 0,
-                "reason": "single chain: no R-hat",
+                "divergences": n_div,
+                "converged": n_div == 0,
+                "reason": (f"{n_div} divergent transition(s); " if n_div else "")
+                + "single chain: no R-hat",
             }
         )
     report.timings = {
