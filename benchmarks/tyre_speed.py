@@ -1,0 +1,304 @@
+"""Wall time and peak memory of the per-tyre fits on one-hour (and ten-hour) 100 Hz drives.
+
+Targets (issue 4, 2-core machine): fast path (MAP + Laplace) ≤ 2 s after compilation; NUTS
+(4 chains × 1000 draws) ≤ 60 s; peak memory ≤ 2 GB; a ten-hour drive in ≤ 10× the one-hour
+time; no recompilation for new data of the same padded shape.
+
+Stages (one process, ``compact_fwd``, brush truth, all-season tyres, dry, 2 ABS events per hour):
+
+1. simulate two one-hour drives and window them (timed apart: not part of the fit);
+2. fast path on drive A including compilation, then on drive B (same padded shape) after
+   compilation — JAX compile events during the second fit are counted (``jax_log_compiles``)
+   and must be 0;
+3. ten one-hour drives stacked with ``stack_drives`` (10 drives, per-drive offsets and gains)
+   fitted with the fast path, with compilation and after compilation (the second call on the
+   same observations), compared with the one-hour after-compilation time;
+4. NUTS, 4 vectorised chains × 1000 draws after 500 warm-up steps (the ``fit_tyre_nuts``
+   default). Two short probes (``--nuts-probe`` warm-up + draws, then twice that) separate the
+   compile overhead from the time per step; if the full run would take more than
+   ``--nuts-budget`` seconds it is not run and its time is extrapolated linearly in the number
+   of steps from the probes (stated in the JSON).
+
+Peak memory is ``resource.getrusage(RUSAGE_SELF).ru_maxrss`` of this process, recorded after
+each stage (it only grows). The machine load average is recorded: this benchmark may share the
+2 cores with other work, which inflates every wall time.
+
+Usage: ``python benchmarks/tyre_speed.py [--nuts-budget S] [--skip-nuts]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import resource
+import time
+from pathlib import Path
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+import numpy as np  # noqa: E402
+
+from tyrebayes.inference import tyre_fit  # noqa: E402
+from tyrebayes.inference.tyre_data import observations_from_features, stack_drives  # noqa: E402
+from tyrebayes.inference.tyre_fit import fit_tyre  # noqa: E402
+from tyrebayes.physics.vehicle import load_vehicle  # noqa: E402
+from tyrebayes.simulate.drive import simulate_drive  # noqa: E402
+from tyrebayes.simulate.profiles import ProfileOptions  # noqa: E402
+from tyrebayes.streams import compute_features, validate_stream  # noqa: E402
+
+RESULTS = Path(__file__).parent / "results" / "tyre_speed.json"
+HOUR_S = 3600.0
+PAD_1H = 16384  # 3600 s / 0.25 s = 14,400 windows at most, plus ABS windows
+TARGETS = {"fast_after_compile_s": 2.0, "nuts_s": 60.0, "peak_mb": 2048.0, "ten_hour_ratio": 10.0}
+
+
+class _CompileCounter(logging.Handler):
+    """Counts JAX compilation log records (enabled by ``jax_log_compiles``)."""
+
+    def __init__(self):
+        super().__init__(level=logging.DEBUG)
+        self.messages: list[str] = []
+
+    def emit(self, record):
+        msg = record.getMessage()
+        if "ompil" in msg:
+            self.messages.append(msg.splitlines()[0][:200])
+
+
+def peak_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def windows_of(seed: int, vehicle) -> tuple[dict, float, float]:
+    """Simulate and window one one-hour drive; returns windows, sim seconds, windowing seconds."""
+    t0 = time.perf_counter()
+    df, truth = simulate_drive(
+        seed,
+        vehicle,
+        "all_season",
+        duration_s=HOUR_S,
+        profile=ProfileOptions(n_abs_events=2),
+        ambient_c=15.0,
+    )
+    t1 = time.perf_counter()
+    features = compute_features(validate_stream(df, vehicle), vehicle)
+    windows = observations_from_features(features, temperature_c=15.0)
+    t2 = time.perf_counter()
+    windows["_c_x_true"] = float(np.mean(truth.c_x))
+    return windows, t1 - t0, t2 - t1
+
+
+def _strip(w: dict) -> dict:
+    return {k: v for k, v in w.items() if not k.startswith("_")}
+
+
+def timed_fit(obs, **kwargs):
+    t0 = time.perf_counter()
+    fit = fit_tyre(obs, **kwargs)
+    return fit, time.perf_counter() - t0
+
+
+def fit_record(fit, seconds: float) -> dict:
+    s = fit.summary()
+    return {
+        "wall_s": seconds,
+        "converged": bool(fit.diagnostics.converged),
+        "reason": fit.diagnostics.reason,
+        "c_x_mean": s["c_x"]["mean"],
+        "c_x_sd": s["c_x"]["sd"],
+        "r_hat_max": fit.diagnostics.r_hat_max,
+        "ess_min": fit.diagnostics.ess_min,
+        "divergences": fit.diagnostics.divergences,
+        "n_windows": fit.n_samples_used,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--nuts-budget", type=float, default=600.0, help="max NUTS seconds")
+    parser.add_argument("--nuts-probe", type=int, default=25, help="warm-up = draws of probe 1")
+    parser.add_argument("--skip-nuts", action="store_true")
+    parser.add_argument("--out", default=str(RESULTS))
+    args = parser.parse_args()
+    out = Path(args.out)
+    vehicle = load_vehicle("compact_fwd")
+    res: dict = {
+        "description": __doc__.splitlines()[0],
+        "vehicle": "compact_fwd",
+        "sample_rate_hz": 100.0,
+        "drive_duration_s": HOUR_S,
+        "pad_to_one_hour": PAD_1H,
+        "cpu_count": os.cpu_count(),
+        "load_average_start": list(os.getloadavg()),
+        "targets": TARGETS,
+        "peak_rss_mb_after_stage": {},
+    }
+
+    def save() -> None:
+        res["load_average_now"] = list(os.getloadavg())
+        res["peak_rss_mb"] = peak_mb()
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(res, indent=2, default=float) + "\n")
+        os.replace(tmp, out)
+
+    # 1. two one-hour drives
+    wa, sim_a, win_a = windows_of(0, vehicle)
+    wb, sim_b, win_b = windows_of(1, vehicle)
+    res["simulate_one_hour_s"] = [sim_a, sim_b]
+    res["features_and_windows_one_hour_s"] = [win_a, win_b]
+    obs_a = stack_drives([_strip(wa)], ["dry"], pad_to=PAD_1H)
+    obs_b = stack_drives([_strip(wb)], ["dry"], pad_to=PAD_1H)
+    res["c_x_true"] = [wa["_c_x_true"], wb["_c_x_true"]]
+    res["peak_rss_mb_after_stage"]["simulate"] = peak_mb()
+
+    # 2. fast path: with compilation, then new data of the same shape
+    fit, t_first = timed_fit(obs_a, method="fast", seed=0)
+    first = fit_record(fit, t_first)
+    counter = _CompileCounter()
+    jax_logger = logging.getLogger("jax")
+    jax_logger.addHandler(counter)
+    old_level = jax_logger.level
+    jax_logger.setLevel(logging.DEBUG)
+    jax.config.update("jax_log_compiles", True)
+    laplace_before = tyre_fit._laplace_core.cache_info()
+    fit, t_second = timed_fit(obs_b, method="fast", seed=1)
+    laplace_after = tyre_fit._laplace_core.cache_info()
+    jax.config.update("jax_log_compiles", False)
+    jax_logger.setLevel(old_level)
+    jax_logger.removeHandler(counter)
+    second = fit_record(fit, t_second)
+    _, t_third = timed_fit(obs_a, method="fast", seed=2)
+    # Breakdown: the compiled MAP + Hessian + Laplace draws alone (the rest of fit_tyre is the
+    # log-likelihood / posterior predictive and the InferenceData assembly).
+    from tyrebayes.inference.tyre_model import TyrePriors
+
+    core, flat0 = tyre_fit._laplace_core(
+        tyre_fit._priors_key(TyrePriors()), "brush", tyre_fit._obs_key(obs_b), 2000, 2000
+    )
+    t0 = time.perf_counter()
+    jax.block_until_ready(core(flat0, obs_b, jax.random.PRNGKey(1)))
+    t_core = time.perf_counter() - t0
+    res["fast_one_hour"] = {
+        "with_compilation": first,
+        "after_compilation": second,
+        "after_compilation_repeat_s": t_third,
+        "after_compilation_map_laplace_core_only_s": t_core,
+        "compile_events_second_drive": len(counter.messages),
+        "compile_messages_second_drive": counter.messages[:10],
+        "laplace_cache_misses_second_drive": laplace_after.misses - laplace_before.misses,
+        "recompiled_for_same_shape": bool(counter.messages)
+        or laplace_after.misses > laplace_before.misses,
+    }
+    res["peak_rss_mb_after_stage"]["fast_one_hour"] = peak_mb()
+    save()
+    print(
+        f"fast 1 h: with compilation {t_first:.1f} s, after {t_second:.2f} s "
+        f"(repeat {t_third:.2f} s; MAP+Laplace core alone {t_core:.2f} s), "
+        f"compile events on 2nd drive {len(counter.messages)}",
+        flush=True,
+    )
+
+    # 3. ten hours: ten one-hour drives stacked
+    drives, sims = [_strip(wa), _strip(wb)], [sim_a, sim_b]
+    for seed in range(2, 10):
+        w, sim_s, _ = windows_of(seed, vehicle)
+        drives.append(_strip(w))
+        sims.append(sim_s)
+    obs10 = stack_drives(drives, ["dry"] * 10, pad_to=10 * PAD_1H)
+    res["peak_rss_mb_after_stage"]["simulate_ten"] = peak_mb()
+    fit10, t10_first = timed_fit(obs10, method="fast", seed=0)
+    fit10b, t10_second = timed_fit(obs10, method="fast", seed=1)
+    ratio = t10_second / t_second
+    res["fast_ten_hours"] = {
+        "layout": "10 one-hour drives stacked (stack_drives, pad_to 10 x 16384)",
+        "with_compilation": fit_record(fit10, t10_first),
+        "after_compilation": fit_record(fit10b, t10_second),
+        "ratio_to_one_hour_after_compilation": ratio,
+        "ratio_to_one_hour_with_compilation": t10_first / t_first,
+    }
+    res["peak_rss_mb_after_stage"]["fast_ten_hours"] = peak_mb()
+    save()
+    print(
+        f"fast 10 h: with compilation {t10_first:.1f} s, after {t10_second:.2f} s "
+        f"= {ratio:.1f}x the 1 h time; peak RSS {peak_mb():.0f} MB",
+        flush=True,
+    )
+    # 4. NUTS (last: it may be cut short by its budget)
+    if not args.skip_nuts:
+        probe_w, probe_s = args.nuts_probe, args.nuts_probe
+        fit, t_probe = timed_fit(
+            obs_a, method="nuts", num_chains=4, num_warmup=probe_w, num_samples=probe_s
+        )
+        fit2, t_probe2 = timed_fit(
+            obs_a, method="nuts", num_chains=4, num_warmup=2 * probe_w, num_samples=2 * probe_s
+        )
+        # t = compile + steps × per_step, from the two probes
+        per_step = max((t_probe2 - t_probe) / (probe_w + probe_s), 1e-9)
+        overhead = max(t_probe - per_step * (probe_w + probe_s), 0.0)
+        full_steps = 500 + 1000
+        estimate = overhead + per_step * full_steps
+        nuts = {
+            "chains": 4,
+            "probe": {
+                "warmup_samples": [probe_w, probe_s],
+                "wall_s": t_probe,
+                "warmup_samples_2": [2 * probe_w, 2 * probe_s],
+                "wall_s_2": t_probe2,
+                "per_step_s": per_step,
+                "overhead_s": overhead,
+            },
+            "estimate_full_s": estimate,
+        }
+        print(f"NUTS probe: per step {per_step:.3f} s, full estimate {estimate:.0f} s", flush=True)
+        if estimate <= args.nuts_budget:
+            fit, t_full = timed_fit(
+                obs_a, method="nuts", num_chains=4, num_warmup=500, num_samples=1000
+            )
+            nuts.update(
+                measured="full 4 chains x 1000 draws (500 warm-up)",
+                wall_s=t_full,
+                fit=fit_record(fit, t_full),
+            )
+        else:
+            nuts.update(
+                measured=f"probes only (4 chains x {probe_s} and x {2 * probe_s} draws); the "
+                "full 4 x 1000 (500 warm-up) time is extrapolated linearly in steps, with the "
+                "probes' compile overhead, because it exceeds the budget of "
+                f"{args.nuts_budget:.0f} s. Early warm-up steps are not representative of "
+                "adapted ones: the extrapolation is rough.",
+                wall_s=estimate,
+                extrapolated=True,
+                fit=fit_record(fit2, t_probe2),
+            )
+        res["nuts_one_hour"] = nuts
+        res["peak_rss_mb_after_stage"]["nuts_one_hour"] = peak_mb()
+        save()
+        print(
+            f"NUTS 4x1000: {nuts['wall_s']:.0f} s ({nuts['measured']}), "
+            f"converged {nuts['fit']['converged']} {nuts['fit']['reason']}",
+            flush=True,
+        )
+
+    fast_ok = second["wall_s"] <= TARGETS["fast_after_compile_s"]
+    nuts_s = res.get("nuts_one_hour", {}).get("wall_s")
+    print(
+        "targets: fast<=2s "
+        + ("met" if fast_ok else "MISSED")
+        + "; NUTS<=60s "
+        + ("n/a" if nuts_s is None else ("met" if nuts_s <= TARGETS["nuts_s"] else "MISSED"))
+        + "; memory<=2GB "
+        + ("met" if peak_mb() <= TARGETS["peak_mb"] else "MISSED")
+        + "; 10h<=10x1h "
+        + ("met" if ratio <= TARGETS["ten_hour_ratio"] else "MISSED")
+        + f"  (load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)"
+    )
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main()
