@@ -223,7 +223,8 @@ def observations_from_features(
 
     Two kinds of window enter the fit:
 
-    * **slip windows**: free rolling and traction, straight or gently curving, no spin. Braking
+    * **slip windows**: free rolling and traction with a non-negative total force (module
+      comment at ``pushing``), straight or gently curving, no spin. Braking
       windows are left out: the non-driven wheels that give V_x brake too, so the driven axle's
       measured slip there is σ_driven − σ_free, not σ_driven (:mod:`tyrebayes.streams.features`).
     * **ABS windows** (``at_limit``): braking windows whose wheel speeds oscillate the way ABS
@@ -256,7 +257,17 @@ def observations_from_features(
     """
     from ..streams.segments import FREE_ROLLING, TRACTION
 
-    usable = features.valid & ~features.spin & np.isin(features.label, (FREE_ROLLING, TRACTION))
+    # Only windows where the axles push (total force >= 0): a negative total may be engine drag on
+    # the driven axle or friction brakes on all four wheels, and the split between the axles is
+    # not observable without a brake signal. Guessing it puts a kink into ρ_x(σ_x) at zero force,
+    # which the model could only read as curvature (a spuriously low μ_max and a high C_x).
+    pushing = np.sum(features.fx_axle_n, axis=1) >= 0.0
+    usable = (
+        features.valid
+        & ~features.spin
+        & np.isin(features.label, (FREE_ROLLING, TRACTION))
+        & pushing
+    )
     correlation = max(1.0, features.smoothing_s * features.sample_rate_hz)
     slip_windows = windowed_observations(
         features.time_s,

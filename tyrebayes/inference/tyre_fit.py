@@ -132,7 +132,7 @@ class TyreFit:
 
 def _mu_observed(fit_draws: np.ndarray, priors: TyrePriors, obs: TyreObservations) -> dict:
     log_sd = np.std(np.log(fit_draws), axis=0)
-    contraction = 1.0 - log_sd / priors.mu_log_sd
+    contraction = 1.0 - log_sd / np.asarray(priors.mu_log_sd(obs.surfaces))
     at_limit = np.asarray(obs.mask & obs.at_limit)
     surface = np.asarray(obs.surface_index)
     return {

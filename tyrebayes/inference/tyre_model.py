@@ -46,6 +46,11 @@ REFERENCE_TEMPERATURE_C = 20.0
 # (ranges of the measured braking data in tyrebayes/data/braking_by_tyre_type.csv, which give
 # lower bounds 0.8-1.1 dry, 0.6-0.8 wet, 0.3-0.45 snow, 0.1-0.15 ice from mean deceleration).
 _MU_MEDIAN = {"dry": 1.0, "wet": 0.75, "snow": 0.35, "ice": 0.12}
+# Log-scale prior sd of μ_max per surface: the same data give dry 0.9-1.1 for every tyre type
+# (±15 %), wet 0.7-1.0, snow 0.18-0.45 and ice 0.08-0.15 (type matters most on winter surfaces).
+# A wide dry prior lets a drive without ABS read slip-signal distortions at high force as a low
+# peak (μ ~0.3 on dry asphalt, seen in simulation) and bias C_x through the curve's shape.
+_MU_LOG_SD = {"dry": 0.15, "wet": 0.2, "snow": 0.35, "ice": 0.4}
 
 
 class TyrePriors(eqx.Module):
@@ -60,8 +65,6 @@ class TyrePriors(eqx.Module):
     temp_sensitivity_mean, temp_sensitivity_sd : float
         κ in C_x(T) = C_xr exp(−κ(T − 20)) [1/K]; rubber stiffness falls ~0.5–1 %/K around
         room temperature, so 0.008 ± 0.006.
-    mu_log_sd : float
-        Log-scale sd of μ_max around the surface medians (0.35: a factor 1.4 either way).
     slip_offset_sd : float
         Per-drive slip at zero force [-]: rolling radii differ by fractions of a percent
         (DESIGN.md physics notes), the driven-minus-reference difference has sd ~0.004.
@@ -80,7 +83,6 @@ class TyrePriors(eqx.Module):
     c_xr_log_sd: float = 0.45
     temp_sensitivity_mean: float = 0.008
     temp_sensitivity_sd: float = 0.006
-    mu_log_sd: float = 0.35
     slip_offset_sd: float = 0.004
     force_gain_log_sd: float = 0.04
     force_spread_scale: float = 0.3
@@ -89,6 +91,10 @@ class TyrePriors(eqx.Module):
 
     def mu_median(self, surfaces: tuple[str, ...]) -> jax.Array:
         return jnp.array([_MU_MEDIAN[s] for s in surfaces])
+
+    def mu_log_sd(self, surfaces: tuple[str, ...]) -> jax.Array:
+        """Log-scale prior sd of μ_max on each surface (module table ``_MU_LOG_SD``)."""
+        return jnp.array([_MU_LOG_SD[s] for s in surfaces])
 
 
 def stiffness_at_temperature(c_xr, temp_sensitivity, temperature_c):
@@ -138,7 +144,8 @@ def tyre_model(
     )
     with numpyro.plate("surface", n_surfaces):
         mu = numpyro.sample(
-            "mu_max", dist.LogNormal(jnp.log(priors.mu_median(obs.surfaces)), priors.mu_log_sd)
+            "mu_max",
+            dist.LogNormal(jnp.log(priors.mu_median(obs.surfaces)), priors.mu_log_sd(obs.surfaces)),
         )
     abs_ratio = numpyro.sample(
         "abs_force_ratio",
