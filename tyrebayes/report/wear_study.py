@@ -38,6 +38,10 @@ SVI_DRAWS = 1000
 SVI_LEARNING_RATE = 0.02
 
 
+#: Deterministic sites of :func:`tyrebayes.inference.wear.wear_model`.
+_DETERMINISTIC_SITES = ("tau", "c_xr", "gamma")
+
+
 def fit_wear_svi(data, extended: bool, seed: int = 0, steps: int = SVI_STEPS):
     """MAP + Laplace fit of :func:`tyrebayes.inference.wear.wear_model`.
 
@@ -91,7 +95,12 @@ def fit_wear_svi(data, extended: bool, seed: int = 0, steps: int = SVI_STEPS):
         latent, det, loglik = draws_and_loglik(result.params, key_draw, key_det)
     finite = all(bool(np.all(np.isfinite(np.asarray(v)))) for v in latent.values())
     # a collapsed covariance (MAP at a boundary) gives draws without spread: not a posterior
-    degenerate = any(bool(np.any(np.std(np.asarray(v), axis=0) < 1e-12)) for v in latent.values())
+    # (the guide also returns the model's deterministic sites; τ is a constant 0 without pooling)
+    degenerate = any(
+        bool(np.any(np.std(np.asarray(v), axis=0) < 1e-12))
+        for k, v in latent.items()
+        if k not in _DETERMINISTIC_SITES
+    )
     samples = {k: np.asarray(v) for k, v in {**latent, **det}.items()}
     observed = {"depth": data.depth_mm} if data.depth_mm.size else {}
     idata = az.from_dict(
