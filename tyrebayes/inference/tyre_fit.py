@@ -32,7 +32,7 @@ from .tyre_model import TyrePriors, tyre_model
 # follow closely enough to call that an observation of the peak.
 MU_OBSERVED_CONTRACTION = 0.5
 # Posterior predictive draws kept (memory: draws × windows per observed site).
-MAX_PREDICTIVE_DRAWS = 400
+MAX_PREDICTIVE_DRAWS = 200
 
 
 @dataclasses.dataclass(frozen=True)
@@ -270,6 +270,11 @@ def fit_tyre_nuts(
         partial(tyre_model, priors=priors, kind=kind),
         target_accept_prob=0.9,
         init_strategy=init_to_median(num_samples=15),
+        # C_x and the force gain are identified only as a product (and C_xr with κ at one
+        # temperature): a dense mass matrix turns those ridges round in log space, where a
+        # diagonal one leaves NUTS at its maximum tree depth.
+        dense_mass=True,
+        max_tree_depth=8,
     )
     mcmc = MCMC(
         kernel,
