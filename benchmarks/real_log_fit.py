@@ -38,7 +38,8 @@ from tyrebayes.inference.tyre_data import observations_from_stream  # noqa: E402
 from tyrebayes.inference.tyre_fit import fit_tyre  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results"
-ASSUMPTIONS = [line.strip("* ").strip() for line in __doc__.split("\n\n")[1].split("\n* ")]
+# The bulleted list under "Assumptions" in the module docstring, one entry per bullet.
+ASSUMPTIONS = [" ".join(item.split()) for item in __doc__.split("\n\n")[2][2:].split("\n* ")]
 
 
 def main() -> None:

@@ -57,7 +57,6 @@ def simulated_drive():
     return features, truth
 
 
-@pytest.mark.slow
 def test_recovery_on_a_simulated_drive_with_abs(simulated_drive):
     features, truth = simulated_drive
     obs = stack_drives([observations_from_features(features)], ["dry"])
@@ -70,3 +69,30 @@ def test_recovery_on_a_simulated_drive_with_abs(simulated_drive):
     assert abs(summary["mu_max"]["mean"] / truth.mu_max - 1) < 0.08
     assert summary["mu_max_observed"] is True
     assert summary["diagnostics"]["converged"] is True
+
+
+def test_block_hessian_equals_the_dense_hessian_over_several_drives():
+    import jax
+    import jax.numpy as jnp
+    from jax.flatten_util import ravel_pytree
+    from numpyro.infer.util import initialize_model, potential_energy
+
+    from tyrebayes.inference.tyre_fit import _block_hessian
+    from tyrebayes.inference.tyre_model import tyre_model
+
+    drives = [linear_region_windows(seed, n=40) for seed in range(3)]
+    obs = stack_drives(drives, ["dry", "wet", "dry"])
+    with jax.numpy_rank_promotion("allow"):
+        init = initialize_model(jax.random.PRNGKey(0), tyre_model, model_args=(obs,))
+    flat, unravel = ravel_pytree(init.param_info.z)
+    flat = flat + 0.1 * jax.random.normal(jax.random.PRNGKey(1), flat.shape)
+
+    def f(x):
+        return potential_energy(tyre_model, (obs,), {}, unravel(x))
+
+    dense = jax.jit(jax.hessian(f))(flat)
+    hessian_at = _block_hessian(tyre_model, obs, init.param_info.z)
+    block = jax.jit(lambda x: hessian_at(f, x))(flat)
+    np.testing.assert_allclose(
+        block, 0.5 * (dense + dense.T), rtol=1e-9, atol=1e-9 * jnp.abs(dense).max()
+    )
