@@ -41,9 +41,8 @@ class TyreObservations(eqx.Module):
         The window is an ABS (force-at-the-limit) window: its slip is not measurable (all four
         wheels cycle) and its force observes μ_max directly.
     neighbour_slip : Float[Array, "n"]
-        Mean measured slip of the adjacent windows [-]. Its noise is independent of this window's,
-        while the true slip, which follows the pedals, is close to it: an instrument that locates
-        the window's true slip without using its own noisy measurement.
+        Mean measured slip of the adjacent windows [-]. The current model (slip regressed on force)
+        does not read it; window selection still drops windows without a neighbour.
     drive_index : Int[Array, "n"]
         Which drive (day) the window belongs to: 0 … n_drives − 1.
     surface_index : Int[Array, "n"]

@@ -142,6 +142,18 @@ def _mu_observed(fit_draws: np.ndarray, priors: TyrePriors, obs: TyreObservation
     }
 
 
+def _tyre_fit(idata, diagnostics, mu_draws, priors, obs: TyreObservations, kind: str) -> TyreFit:
+    """The result both fitting paths return."""
+    return TyreFit(
+        idata=idata,
+        diagnostics=diagnostics,
+        mu_observed=_mu_observed(mu_draws, priors, obs),
+        surfaces=obs.surfaces,
+        n_samples_used=obs.n_used,
+        kind=kind,
+    )
+
+
 def _thin_index(total: int, n: int) -> np.ndarray:
     return np.linspace(0, total - 1, min(n, total)).astype(int)
 
@@ -314,14 +326,7 @@ def fit_tyre_nuts(
         converged=not problems,
         reason="; ".join(problems),
     )
-    return TyreFit(
-        idata=idata,
-        diagnostics=diagnostics,
-        mu_observed=_mu_observed(samples["mu_max"], priors, obs),
-        surfaces=obs.surfaces,
-        n_samples_used=obs.n_used,
-        kind=kind,
-    )
+    return _tyre_fit(idata, diagnostics, samples["mu_max"], priors, obs, kind)
 
 
 @functools.lru_cache(maxsize=16)
@@ -493,14 +498,7 @@ def fit_tyre_fast(
         converged=not problems,
         reason="; ".join(problems),
     )
-    return TyreFit(
-        idata=idata,
-        diagnostics=diagnostics,
-        mu_observed=_mu_observed(samples["mu_max"], priors, obs),
-        surfaces=obs.surfaces,
-        n_samples_used=obs.n_used,
-        kind=kind,
-    )
+    return _tyre_fit(idata, diagnostics, samples["mu_max"], priors, obs, kind)
 
 
 def fit_tyre(obs: TyreObservations, method: str = "nuts", **kwargs) -> TyreFit:
