@@ -13,6 +13,7 @@ from tyrebayes.physics.tyre import (
     brush_lateral,
     brush_longitudinal,
     brush_longitudinal_inverse,
+    brush_longitudinal_inverse_and_slope,
     brush_peak_slip,
     linear_force,
     magic_formula_longitudinal,
@@ -112,6 +113,16 @@ def test_inverse_of_forward_is_identity_in_adhesion():
         brush_longitudinal_inverse(brush_longitudinal(s, 30.0, 0.9), 30.0, 0.9), s, atol=1e-9
     )
     assert float(jax.grad(brush_longitudinal_inverse)(0.0, 30.0, 0.9)) == pytest.approx(1 / 30)
+
+
+def test_inverse_slope_equals_its_autodiff_derivative():
+    rho = jnp.linspace(-0.89, 0.89, 179)
+    slip, slope = brush_longitudinal_inverse_and_slope(rho, 30.0, 0.9)
+    autodiff = jax.vmap(jax.grad(brush_longitudinal_inverse), (0, None, None))(rho, 30.0, 0.9)
+    np.testing.assert_allclose(slip, brush_longitudinal_inverse(rho, 30.0, 0.9))
+    np.testing.assert_allclose(slope, autodiff, rtol=1e-9)
+    beyond = brush_longitudinal_inverse_and_slope(jnp.array([-0.95, 0.9, 1.2]), 30.0, 0.9)[1]
+    np.testing.assert_array_equal(beyond, 0.0)
 
 
 def test_everything_vmaps_over_parameter_sets():

@@ -189,6 +189,25 @@ def brush_longitudinal_inverse(
     >>> round(float(brush_longitudinal(s, 30.0, 1.0)), 9)
     0.3
     """
+    return brush_longitudinal_inverse_and_slope(rho, c_x, mu)[0]
+
+
+def brush_longitudinal_inverse_and_slope(
+    rho: Scalarish, c_x: Scalarish, mu: Scalarish
+) -> tuple[Float[Array, "..."], Float[Array, "..."]]:
+    """:func:`brush_longitudinal_inverse` and its derivative dσ/dρ, in one pass.
+
+    In adhesion dρ/dσ = C_x (1 − |u|)² = C_x a² with a = (1 − |ρ|/μ)^{1/3}, so dσ/dρ = 1/(C_x a²):
+    no second pass of automatic differentiation (a likelihood that needs both per window, as the
+    per-tyre model's errors in variables do, halves its cost). At or beyond the peak the slip is
+    constant: slope 0.
+
+    Examples
+    --------
+    >>> s, slope = brush_longitudinal_inverse_and_slope(0.0, 30.0, 1.0)
+    >>> float(s), round(float(slope), 6)
+    (0.0, 0.033333)
+    """
     rho, c_x, mu = jnp.asarray(rho), jnp.asarray(c_x), jnp.asarray(mu)
     remaining = 1.0 - jnp.abs(rho) / mu
     inside = remaining > 1e-12
@@ -197,7 +216,9 @@ def brush_longitudinal_inverse(
     # derivative at 0, so the masked branch gets a safe argument (double-where).
     a = jnp.cbrt(jnp.where(inside, remaining, 1.0))
     adhesion = 3.0 * rho / (c_x * (1.0 + a + a**2))
-    return jnp.where(inside, adhesion, jnp.sign(rho) * 3.0 * mu / c_x)
+    slip = jnp.where(inside, adhesion, jnp.sign(rho) * 3.0 * mu / c_x)
+    slope = jnp.where(inside, 1.0 / (c_x * a**2), 0.0)
+    return slip, slope
 
 
 class BrushTyre(eqx.Module):

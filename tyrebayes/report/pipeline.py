@@ -71,11 +71,6 @@ def _demo_tyres(sizes: DemoSizes) -> list[tuple[str, str, object]]:
     return out
 
 
-def _bucket(n: int) -> int:
-    """Padded length shared by the demo's sets: the next power of two (>= 64)."""
-    return max(64, 1 << max(0, int(np.ceil(np.log2(max(n, 1))))))
-
-
 def _with_indices(idata, obs):
     """Add per-window drive, surface and temperature to a tyre fit (for ``tyrebayes report``)."""
     import arviz as az
@@ -109,7 +104,7 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
     from .._resources import data_dir
     from ..criticism import criticize_stream, criticize_table
     from ..inference.fleet import fit_fleet
-    from ..inference.tyre_data import observations_from_features, stack_drives
+    from ..inference.tyre_data import _bucket_size, observations_from_features, stack_drives
     from ..inference.tyre_fit import fit_tyre
     from ..inference.vmax import load_table_6_2
     from ..physics.vehicle import load_vehicle
@@ -165,7 +160,7 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
             surfaces.append(truth.surface)
         prepared.append((name, tyre_type, spec, windows, surfaces))
         steps.done()
-    pad = max(_bucket(sum(len(w["slip"]) for w in p[3])) for p in prepared)
+    pad = max(_bucket_size(sum(len(w["slip"]) for w in p[3])) for p in prepared)
     for i, (name, tyre_type, spec, windows, surfaces) in enumerate(prepared):
         steps.start(f"fit {name}")
         obs = stack_drives(windows, surfaces, pad_to=pad)
