@@ -174,7 +174,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="2 reps of 5-minute drives")
     parser.add_argument("--reps", type=int, default=50, help="drives per setting")
-    parser.add_argument("--duration", type=float, default=600.0, help="drive length [s]")
+    parser.add_argument("--duration", type=float, default=3600.0, help="drive length [s]")
     parser.add_argument("--out", default=str(RESULTS))
     args = parser.parse_args()
     reps, duration = (2, 300.0) if args.quick else (args.reps, args.duration)

@@ -460,7 +460,7 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
 
 
 def _stiffness_start(obs: TyreObservations, priors: TyrePriors) -> jax.Array:
-    """A data scale for the MAP starts' C_xr: the least-squares slope of force on slip within drives.
+    """A data scale for the MAP starts' C_xr: least-squares slope of force on slip within drives.
 
     Attenuated by the slip noise (below the truth), cheap, and on the data's scale where the
     prior median (35) may be far from it (``MAP_STARTS``).
