@@ -13,17 +13,14 @@ Stages (one process, ``compact_fwd``, brush truth, all-season tyres, dry, 2 ABS 
 3. ten one-hour drives stacked with ``stack_drives`` (10 drives, per-drive offsets and gains)
    fitted with the fast path, with compilation and after compilation (the second call on the
    same observations), compared with the one-hour after-compilation time;
-4. NUTS, 4 vectorised chains × 1000 draws after 500 warm-up steps (the ``fit_tyre_nuts``
-   default). Two short probes (``--nuts-probe`` warm-up + draws, then twice that) separate the
-   compile overhead from the time per step; if the full run would take more than
-   ``--nuts-budget`` seconds it is not run and its time is extrapolated linearly in the number
-   of steps from the probes (stated in the JSON).
+4. NUTS, 4 sequential chains × 1000 draws after 300 warm-up steps (the ``fit_tyre_nuts``
+   default, whitened at the Laplace mode), on drive A with compilation and on drive B after it.
 
 Peak memory is ``resource.getrusage(RUSAGE_SELF).ru_maxrss`` of this process, recorded after
 each stage (it only grows). The machine load average is recorded: this benchmark may share the
 2 cores with other work, which inflates every wall time.
 
-Usage: ``python benchmarks/tyre_speed.py [--nuts-budget S] [--skip-nuts]``.
+Usage: ``python benchmarks/tyre_speed.py [--skip-nuts]``.
 """
 
 from __future__ import annotations
@@ -52,7 +49,6 @@ from tyrebayes.streams import compute_features, validate_stream  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "tyre_speed.json"
 HOUR_S = 3600.0
-PAD_1H = 16384  # 3600 s / 0.25 s = 14,400 windows at most, plus ABS windows
 TARGETS = {"fast_after_compile_s": 2.0, "nuts_s": 60.0, "peak_mb": 2048.0, "ten_hour_ratio": 10.0}
 
 
@@ -119,8 +115,6 @@ def fit_record(fit, seconds: float) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--nuts-budget", type=float, default=600.0, help="max NUTS seconds")
-    parser.add_argument("--nuts-probe", type=int, default=25, help="warm-up = draws of probe 1")
     parser.add_argument("--skip-nuts", action="store_true")
     parser.add_argument("--out", default=str(RESULTS))
     args = parser.parse_args()
@@ -131,7 +125,7 @@ def main() -> None:
         "vehicle": "compact_fwd",
         "sample_rate_hz": 100.0,
         "drive_duration_s": HOUR_S,
-        "pad_to_one_hour": PAD_1H,
+        "padding": "default buckets (8 sizes per octave)",
         "cpu_count": os.cpu_count(),
         "load_average_start": list(os.getloadavg()),
         "targets": TARGETS,
@@ -151,8 +145,8 @@ def main() -> None:
     wb, sim_b, win_b = windows_of(1, vehicle)
     res["simulate_one_hour_s"] = [sim_a, sim_b]
     res["features_and_windows_one_hour_s"] = [win_a, win_b]
-    obs_a = stack_drives([_strip(wa)], ["dry"], pad_to=PAD_1H)
-    obs_b = stack_drives([_strip(wb)], ["dry"], pad_to=PAD_1H)
+    obs_a = stack_drives([_strip(wa)], ["dry"])
+    obs_b = stack_drives([_strip(wb)], ["dry"], pad_to=obs_a.slip.shape[0])
     res["c_x_true"] = [wa["_c_x_true"], wb["_c_x_true"]]
     res["peak_rss_mb_after_stage"]["simulate"] = peak_mb()
 
@@ -209,13 +203,14 @@ def main() -> None:
         w, sim_s, _ = windows_of(seed, vehicle)
         drives.append(_strip(w))
         sims.append(sim_s)
-    obs10 = stack_drives(drives, ["dry"] * 10, pad_to=10 * PAD_1H)
+    obs10 = stack_drives(drives, ["dry"] * 10)
     res["peak_rss_mb_after_stage"]["simulate_ten"] = peak_mb()
     fit10, t10_first = timed_fit(obs10, method="fast", seed=0)
     fit10b, t10_second = timed_fit(obs10, method="fast", seed=1)
     ratio = t10_second / t_second
     res["fast_ten_hours"] = {
-        "layout": "10 one-hour drives stacked (stack_drives, pad_to 10 x 16384)",
+        "layout": "10 one-hour drives stacked (stack_drives, default padding)",
+        "padded_windows": int(obs10.slip.shape[0]),
         "with_compilation": fit_record(fit10, t10_first),
         "after_compilation": fit_record(fit10b, t10_second),
         "ratio_to_one_hour_after_compilation": ratio,
@@ -228,58 +223,22 @@ def main() -> None:
         f"= {ratio:.1f}x the 1 h time; peak RSS {peak_mb():.0f} MB",
         flush=True,
     )
-    # 4. NUTS (last: it may be cut short by its budget)
+    # 4. NUTS, 4 chains x 1000 draws: drive A with compilation, drive B (same shape) after it
     if not args.skip_nuts:
-        probe_w, probe_s = args.nuts_probe, args.nuts_probe
-        fit, t_probe = timed_fit(
-            obs_a, method="nuts", num_chains=4, num_warmup=probe_w, num_samples=probe_s
+        nuts = {"chains": 4, "num_samples": 1000, "num_warmup": 300}
+        fit, t_first = timed_fit(obs_a, method="nuts", num_chains=4, num_samples=1000, seed=0)
+        nuts["with_compilation"] = fit_record(fit, t_first)
+        fit, t_full = timed_fit(obs_b, method="nuts", num_chains=4, num_samples=1000, seed=1)
+        nuts.update(
+            measured="full 4 chains x 1000 draws (300 warm-up), after compilation",
+            wall_s=t_full,
+            fit=fit_record(fit, t_full),
         )
-        fit2, t_probe2 = timed_fit(
-            obs_a, method="nuts", num_chains=4, num_warmup=2 * probe_w, num_samples=2 * probe_s
-        )
-        # t = compile + steps × per_step, from the two probes
-        per_step = max((t_probe2 - t_probe) / (probe_w + probe_s), 1e-9)
-        overhead = max(t_probe - per_step * (probe_w + probe_s), 0.0)
-        full_steps = 500 + 1000
-        estimate = overhead + per_step * full_steps
-        nuts = {
-            "chains": 4,
-            "probe": {
-                "warmup_samples": [probe_w, probe_s],
-                "wall_s": t_probe,
-                "warmup_samples_2": [2 * probe_w, 2 * probe_s],
-                "wall_s_2": t_probe2,
-                "per_step_s": per_step,
-                "overhead_s": overhead,
-            },
-            "estimate_full_s": estimate,
-        }
-        print(f"NUTS probe: per step {per_step:.3f} s, full estimate {estimate:.0f} s", flush=True)
-        if estimate <= args.nuts_budget:
-            fit, t_full = timed_fit(
-                obs_a, method="nuts", num_chains=4, num_warmup=500, num_samples=1000
-            )
-            nuts.update(
-                measured="full 4 chains x 1000 draws (500 warm-up)",
-                wall_s=t_full,
-                fit=fit_record(fit, t_full),
-            )
-        else:
-            nuts.update(
-                measured=f"probes only (4 chains x {probe_s} and x {2 * probe_s} draws); the "
-                "full 4 x 1000 (500 warm-up) time is extrapolated linearly in steps, with the "
-                "probes' compile overhead, because it exceeds the budget of "
-                f"{args.nuts_budget:.0f} s. Early warm-up steps are not representative of "
-                "adapted ones: the extrapolation is rough.",
-                wall_s=estimate,
-                extrapolated=True,
-                fit=fit_record(fit2, t_probe2),
-            )
         res["nuts_one_hour"] = nuts
         res["peak_rss_mb_after_stage"]["nuts_one_hour"] = peak_mb()
         save()
         print(
-            f"NUTS 4x1000: {nuts['wall_s']:.0f} s ({nuts['measured']}), "
+            f"NUTS 4x1000: {t_first:.0f} s with compilation, {t_full:.0f} s after, "
             f"converged {nuts['fit']['converged']} {nuts['fit']['reason']}",
             flush=True,
         )
