@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import time
 from pathlib import Path
 
 import jax
@@ -48,8 +49,10 @@ def main() -> None:
     args = parser.parse_args()
     stream = data_dir() / "comma2k19_rav4_segment.csv"
     obs = observations_from_stream(stream, "suv_rav4", surface="dry", temperature_c=25.0)
-    kwargs = {"num_chains": 2, "num_samples": 1000} if args.method == "nuts" else {}
+    kwargs = {"num_chains": 4, "num_samples": 1000} if args.method == "nuts" else {}
+    t0 = time.perf_counter()
     fit = fit_tyre(obs, method=args.method, seed=0, **kwargs)
+    fit_wall_s = time.perf_counter() - t0
     summary = fit.summary()
 
     idata = fit.idata
@@ -111,6 +114,8 @@ def main() -> None:
         "stream": "tyrebayes/data/comma2k19_rav4_segment.csv",
         "vehicle": "suv_rav4",
         "method": args.method,
+        "fit_wall_s_with_compilation": fit_wall_s,
+        "load_average": list(os.getloadavg()),
         "assumptions": ASSUMPTIONS,
         "summary": summary,
         "posterior_predictive": {
