@@ -176,6 +176,9 @@ def main() -> None:
     parser.add_argument("--reps", type=int, default=50, help="drives per setting")
     parser.add_argument("--duration", type=float, default=3600.0, help="drive length [s]")
     parser.add_argument("--out", default=str(RESULTS))
+    parser.add_argument(
+        "--settings", default="", help="comma-separated setting names to run (default: all)"
+    )
     args = parser.parse_args()
     reps, duration = (2, 300.0) if args.quick else (args.reps, args.duration)
     settings = [
@@ -186,6 +189,14 @@ def main() -> None:
     ]
     if args.quick:
         settings = settings[:2]
+    if args.settings:
+        wanted = args.settings.split(",")
+        unknown = sorted(set(wanted) - {st["name"] for st in settings})
+        if unknown:
+            parser.error(
+                f"--settings: expected names from {[st['name'] for st in settings]}, got {unknown}"
+            )
+        settings = [st for st in settings if st["name"] in wanted]
     vehicle = load_vehicle("compact_fwd")
     # One padded size for every drive: the fast path compiles once.
     pad_to = 1 << int(np.ceil(np.log2(duration * 4 + 64)))
