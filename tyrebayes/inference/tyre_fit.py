@@ -589,8 +589,9 @@ def fit_tyre_fast(
 ) -> TyreFit:
     """Fast path: MAP with optimistix BFGS on the unconstrained space plus a Laplace approximation.
 
-    Draws come from the Gaussian N(mode, H⁻¹) on the unconstrained space, mapped through the
-    model's constraints. Convergence: the optimiser reports success within ``max_steps`` and H
+    The MAP search runs from the starts in ``MAP_STARTS`` at once (vectorised) and keeps the
+    best successful one: a long drive's posterior has spurious local modes. Draws come from the
+    Gaussian N(mode, H⁻¹) on the unconstrained space, mapped through the model's constraints. Convergence: the optimiser reports success within ``max_steps`` and H
     is positive definite. The solver, Hessian and draws are compiled once per data shape
     (padded bucket, number of drives, surfaces): new data of the same shape reuse them.
     """
