@@ -26,11 +26,11 @@ and of μ_max for the posterior, and the coverage of its central 50 % and 90 % i
 * With Magic Formula truth the model's brush curve has the wrong shape after the peak: μ_max
   coverage there tests the shared ABS force ratio's prior, not the brush model's calibration.
 
-The issue asks for one-hour drives; the default here is 10-minute drives (``--duration 600``)
-so that 4 settings × 50 drives fit in ~15 min on the shared 2-core machine. The JSON records the
-duration used (``drive_duration_s``, ``duration_note``).
+Drives last one hour by default, as the issue asks (``--duration`` for shorter ones). One
+setting of 50 one-hour drives takes 20–40 min on the shared 2-core machine; ``--settings``
+runs a subset so that settings can run in separate processes (merge their ``results``).
 
-Usage: ``python benchmarks/tyre_recovery.py [--quick] [--reps N] [--duration S]``.
+Usage: ``python benchmarks/tyre_recovery.py [--quick] [--reps N] [--duration S] [--settings A,B]``.
 """
 
 from __future__ import annotations
