@@ -285,7 +285,7 @@ def fit_tyre_nuts(
     seed: int = 0,
     progress_bar: bool = False,
 ) -> TyreFit:
-    """Full NUTS fit (``num_chains`` vectorised chains) in Laplace-whitened coordinates.
+    """Full NUTS fit (``num_chains`` sequential chains) in Laplace-whitened coordinates.
 
     Why whitened: with thousands of windows the posterior is narrow and its scales differ by
     orders of magnitude (a slip offset known to 1e-5, a ratio to 1e-1). NUTS started at the prior
@@ -591,9 +591,10 @@ def fit_tyre_fast(
 
     The MAP search runs from the starts in ``MAP_STARTS`` at once (vectorised) and keeps the
     best successful one: a long drive's posterior has spurious local modes. Draws come from the
-    Gaussian N(mode, H⁻¹) on the unconstrained space, mapped through the model's constraints. Convergence: the optimiser reports success within ``max_steps`` and H
-    is positive definite. The solver, Hessian and draws are compiled once per data shape
-    (padded bucket, number of drives, surfaces): new data of the same shape reuse them.
+    Gaussian N(mode, H⁻¹) on the unconstrained space, mapped through the model's constraints.
+    Convergence: the optimiser reports success within ``max_steps`` and H is positive definite.
+    The solver, Hessian and draws are compiled once per data shape (padded bucket, number of
+    drives, surfaces): new data of the same shape reuse them.
     """
     priors = TyrePriors() if priors is None else priors
     _check_kind(kind)
