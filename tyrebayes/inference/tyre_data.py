@@ -43,6 +43,11 @@ class TyreObservations(eqx.Module):
     neighbour_slip : Float[Array, "n"]
         Mean measured slip of the adjacent windows [-]. The current model (slip regressed on force)
         does not read it; window selection still drops windows without a neighbour.
+    rho_score, rho_score_slope : Float[Array, "n"]
+        d/dρ log p(ρ_obs) and its derivative [1/-, 1/-²] at each window's measured force, with p
+        the density of the measured forces of the window's drive (slip windows only; 0 for ABS
+        windows): :func:`force_density_score`. They give the model E[ρ_true | ρ_obs] and
+        Var[ρ_true | ρ_obs] without assuming the shape of the force distribution.
     drive_index : Int[Array, "n"]
         Which drive (day) the window belongs to: 0 … n_drives − 1.
     surface_index : Int[Array, "n"]
@@ -61,6 +66,8 @@ class TyreObservations(eqx.Module):
     rho_sd: Float[Array, "n"]
     temperature_c: Float[Array, "n"]
     neighbour_slip: Float[Array, "n"]
+    rho_score: Float[Array, "n"]
+    rho_score_slope: Float[Array, "n"]
     at_limit: Bool[Array, "n"]
     drive_index: Int[Array, "n"]
     surface_index: Int[Array, "n"]
@@ -93,6 +100,67 @@ def _bucket_size(n: int) -> int:
         return 64
     step = 1 << max(0, int(np.floor(np.log2(n))) - 3)
     return int(-(-n // step) * step)
+
+
+def force_density_score(
+    rho: np.ndarray, bandwidth: float | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Score s(ρ) = d/dρ log p(ρ) of the measured forces' density, and ds/dρ, at each ρ.
+
+    Why: with ρ_obs = ρ_true + ε, ε ~ Normal(0, η²), Tweedie's formula gives the true force of a
+    window exactly from the density p of the *measured* forces, whatever the distribution of the
+    true ones: E[ρ_true | ρ_obs] = ρ_obs + η² s(ρ_obs), Var[ρ_true | ρ_obs] = η² (1 + η² s′(ρ_obs)).
+    A drive's forces are far from Gaussian (a dense cruising cluster, a long tail of hard
+    accelerations): assuming a Gaussian population shrinks the cluster too little and the tail too
+    much, which the brush model reads as curvature (C_x 20 % high, μ_max half the truth with
+    ρ noise of 0.012, in simulation).
+
+    p is a Gaussian kernel density estimate, linearly binned on a grid of bandwidth/8 and
+    convolved with the kernel and its derivatives, so the cost is linear in the number of windows.
+
+    Parameters
+    ----------
+    rho : ndarray
+        Measured normalised forces of one drive's slip windows [-] (finite).
+    bandwidth : float, optional
+        Kernel sd [-]; default Silverman's rule 0.9 min(sd, IQR/1.34) n^(-1/5).
+
+    Returns
+    -------
+    (score, score_slope) : (ndarray, ndarray)
+        s(ρ_i) [1/-] and s′(ρ_i) [1/-²].
+    """
+    x = np.asarray(rho, dtype=float)
+    if x.size < 2 or not np.all(np.isfinite(x)):
+        raise BadInputError(
+            f"force density: expected at least 2 finite forces, got {x.size} "
+            f"({int(np.sum(~np.isfinite(x)))} non-finite)"
+        )
+    if bandwidth is None:
+        iqr = float(np.subtract(*np.quantile(x, [0.75, 0.25])))
+        spread = min(float(np.std(x)), iqr / 1.34) or float(np.std(x)) or 1e-3
+        bandwidth = 0.9 * spread * x.size ** (-0.2)
+    h = float(bandwidth)
+    step = h / 8.0
+    lo = x.min() - 6.0 * h
+    n_grid = int(np.ceil((x.max() + 6.0 * h - lo) / step)) + 1
+    # Linear binning: each force splits its unit weight between its two neighbouring grid nodes.
+    position = (x - lo) / step
+    left = np.floor(position).astype(int)
+    frac = position - left
+    counts = np.bincount(left, 1.0 - frac, minlength=n_grid + 1)
+    counts += np.bincount(left + 1, frac, minlength=n_grid + 1)
+    offsets = np.arange(-48, 49) * step / h  # the kernel out to 6 bandwidths
+    phi = np.exp(-0.5 * offsets**2)
+    # Convolution with φ(u), φ'(u) = −u φ, φ''(u) = (u² − 1) φ, u = (ρ − ρ_j)/h: p, p'·h, p''·h².
+    density = np.convolve(counts, phi, "same")
+    slope = np.convolve(counts, -offsets * phi, "same") / h
+    curvature = np.convolve(counts, (offsets**2 - 1.0) * phi, "same") / h**2
+    grid = lo + step * np.arange(len(counts))
+    p = np.interp(x, grid, density)
+    score = np.interp(x, grid, slope) / p
+    score_slope = np.interp(x, grid, curvature) / p - score**2
+    return score, score_slope
 
 
 def window_means(
@@ -325,6 +393,15 @@ def observations_from_features(
     return {k: np.concatenate([slip_windows[k], limit_windows[k]]) for k in limit_windows}
 
 
+def _slip_window_scores(rho: np.ndarray, at_limit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`force_density_score` over one drive's slip windows; 0 for its ABS windows."""
+    score, score_slope = np.zeros(len(rho)), np.zeros(len(rho))
+    slip_windows = ~at_limit & np.isfinite(rho)
+    if slip_windows.sum() >= 2:
+        score[slip_windows], score_slope[slip_windows] = force_density_score(rho[slip_windows])
+    return score, score_slope
+
+
 def stack_drives(
     drives: Sequence[dict[str, np.ndarray]],
     surfaces: Sequence[str],
@@ -354,13 +431,16 @@ def stack_drives(
         raise BadInputError(f"surface: expected one of {SURFACES}, got {unknown[0]!r}")
     used_surfaces = tuple(s for s in SURFACES if s in surfaces)
     keys = ("slip", "rho", "slip_sd", "rho_sd", "temperature_c", "neighbour_slip", "at_limit")
-    parts = {k: [] for k in keys}
+    parts = {k: [] for k in (*keys, "rho_score", "rho_score_slope")}
     drive_idx, surface_idx = [], []
     for d, (drive, surface) in enumerate(zip(drives, surfaces, strict=True)):
         m = len(drive["slip"])
         drive = {"at_limit": np.zeros(m, dtype=bool), **drive}
-        for k in parts:
+        for k in keys:
             parts[k].append(np.asarray(drive[k], dtype=bool if k == "at_limit" else float))
+        score, score_slope = _slip_window_scores(parts["rho"][-1], parts["at_limit"][-1])
+        parts["rho_score"].append(score)
+        parts["rho_score_slope"].append(score_slope)
         drive_idx.append(np.full(m, d))
         surface_idx.append(np.full(m, used_surfaces.index(surface)))
     n = sum(len(p) for p in parts["slip"])
@@ -381,6 +461,8 @@ def stack_drives(
         rho_sd=jnp.asarray(pad(cat["rho_sd"], 1.0)),
         temperature_c=jnp.asarray(pad(cat["temperature_c"], 20.0)),
         neighbour_slip=jnp.asarray(pad(cat["neighbour_slip"], 0.0)),
+        rho_score=jnp.asarray(pad(cat["rho_score"], 0.0)),
+        rho_score_slope=jnp.asarray(pad(cat["rho_score_slope"], 0.0)),
         at_limit=jnp.asarray(pad(cat["at_limit"], False)),
         drive_index=jnp.asarray(pad(np.concatenate(drive_idx), 0)),
         surface_index=jnp.asarray(pad(np.concatenate(surface_idx), 0)),

@@ -572,6 +572,8 @@ def _template_observations(size: int, n_drives: int, surfaces: tuple) -> TyreObs
         rho_sd=jnp.ones(size),
         temperature_c=jnp.full(size, 20.0),
         neighbour_slip=zeros,
+        rho_score=zeros,
+        rho_score_slope=zeros,
         at_limit=jnp.zeros(size, dtype=bool),
         drive_index=jnp.zeros(size, dtype=int),
         surface_index=jnp.zeros(size, dtype=int),
