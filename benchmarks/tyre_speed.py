@@ -13,8 +13,10 @@ Stages (one process, ``compact_fwd``, brush truth, all-season tyres, dry, 2 ABS 
 3. ten one-hour drives stacked with ``stack_drives`` (10 drives, per-drive offsets and gains)
    fitted with the fast path, with compilation and after compilation (the second call on the
    same observations), compared with the one-hour after-compilation time;
-4. NUTS, 4 sequential chains × 1000 draws after 300 warm-up steps (the ``fit_tyre_nuts``
-   default, whitened at the Laplace mode), on drive A with compilation and on drive B after it.
+4. NUTS, 4 chains × 1000 draws after 300 warm-up steps (the ``fit_tyre_nuts`` default,
+   whitened at the Laplace mode; two chains at a time, one per core: this benchmark, like the
+   ``tyrebayes`` command, gives JAX one CPU device per core), on drive A with compilation and
+   on drive B after it.
 
 Peak memory is ``resource.getrusage(RUSAGE_SELF).ru_maxrss`` of this process, recorded after
 each stage (it only grows). The machine load average is recorded: this benchmark may share the
@@ -33,7 +35,11 @@ import resource
 import time
 from pathlib import Path
 
-import jax
+import numpyro
+
+numpyro.set_host_device_count(max(1, min(4, os.cpu_count() or 1)))
+
+import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 

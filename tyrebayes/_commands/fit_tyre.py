@@ -85,6 +85,10 @@ def _text(summary: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpyro
+
+    # One JAX device per core before JAX starts: NUTS then runs its chains side by side.
+    numpyro.set_host_device_count(max(1, min(4, os.cpu_count() or 1)))
     import jax
 
     # The slip signal is ~1e-3 and its noise ~1e-4: the MAP search and the Hessian need float64.
