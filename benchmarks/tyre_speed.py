@@ -10,17 +10,18 @@ Stages (one process, ``compact_fwd``, brush truth, all-season tyres, dry, 2 ABS 
 2. fast path on drive A including compilation, then on drive B (same padded shape) after
    compilation — JAX compile events during the second fit are counted (``jax_log_compiles``)
    and must be 0;
-3. ten one-hour drives stacked with ``stack_drives`` (10 drives, per-drive offsets and gains)
-   fitted with the fast path, with compilation and after compilation (the second call on the
-   same observations), compared with the one-hour after-compilation time;
-4. NUTS, 4 chains × 1000 draws after 300 warm-up steps (the ``fit_tyre_nuts`` default,
+3. NUTS, 4 chains × 1000 draws after 300 warm-up steps (the ``fit_tyre_nuts`` default,
    whitened at the Laplace mode; two chains at a time, one per core: this benchmark, like the
    ``tyrebayes`` command, gives JAX one CPU device per core), on drive A with compilation and
    on drive B after it.
+4. ten one-hour drives stacked with ``stack_drives`` (10 drives, per-drive offsets and gains)
+   fitted with the fast path, with compilation and after compilation (the second call on the
+   same observations), compared with the one-hour after-compilation time;
 
 Peak memory is ``resource.getrusage(RUSAGE_SELF).ru_maxrss`` of this process, recorded after
-each stage (it only grows). The machine load average is recorded: this benchmark may share the
-2 cores with other work, which inflates every wall time.
+each stage (it only grows); the 2 GB target is checked after the one-hour stages (1-3), before
+the ten-hour stage loads ten simulated drives into the process. The machine load average is
+recorded: this benchmark may share the 2 cores with other work, which inflates every wall time.
 
 Usage: ``python benchmarks/tyre_speed.py [--skip-nuts]``.
 """
@@ -209,7 +210,32 @@ def main() -> None:
         flush=True,
     )
 
-    # 3. ten hours: ten one-hour drives stacked
+    # 3. NUTS, 4 chains x 1000 draws: drive A with compilation, drive B (same shape) after it
+    if not args.skip_nuts:
+        nuts = {"chains": 4, "num_samples": 1000, "num_warmup": 300}
+        fit, t_first = timed_fit(obs_a, method="nuts", num_chains=4, num_samples=1000, seed=0)
+        nuts["with_compilation"] = fit_record(fit, t_first)
+        fit, t_full = timed_fit(obs_b, method="nuts", num_chains=4, num_samples=1000, seed=1)
+        nuts.update(
+            measured="full 4 chains x 1000 draws (300 warm-up), after compilation",
+            wall_s=t_full,
+            fit=fit_record(fit, t_full),
+        )
+        res["nuts_one_hour"] = nuts
+        res["peak_rss_mb_after_stage"]["nuts_one_hour"] = peak_mb()
+        save()
+        print(
+            f"NUTS 4x1000: {t_first:.0f} s with compilation, {t_full:.0f} s after, "
+            f"converged {nuts['fit']['converged']} {nuts['fit']['reason']}",
+            flush=True,
+        )
+
+    # Everything on one-hour drives is done: the memory target is about them (the ten-hour
+    # stage below holds ten simulated drives in this process as well).
+    res["peak_rss_mb_one_hour_stages"] = peak_mb()
+    save()
+
+    # 4. ten hours: ten one-hour drives stacked
     drives, sims = [_strip(wa), _strip(wb)], [sim_a, sim_b]
     for seed in range(2, 10):
         w, sim_s, _ = windows_of(seed, vehicle)
@@ -235,26 +261,6 @@ def main() -> None:
         f"= {ratio:.1f}x the 1 h time; peak RSS {peak_mb():.0f} MB",
         flush=True,
     )
-    # 4. NUTS, 4 chains x 1000 draws: drive A with compilation, drive B (same shape) after it
-    if not args.skip_nuts:
-        nuts = {"chains": 4, "num_samples": 1000, "num_warmup": 300}
-        fit, t_first = timed_fit(obs_a, method="nuts", num_chains=4, num_samples=1000, seed=0)
-        nuts["with_compilation"] = fit_record(fit, t_first)
-        fit, t_full = timed_fit(obs_b, method="nuts", num_chains=4, num_samples=1000, seed=1)
-        nuts.update(
-            measured="full 4 chains x 1000 draws (300 warm-up), after compilation",
-            wall_s=t_full,
-            fit=fit_record(fit, t_full),
-        )
-        res["nuts_one_hour"] = nuts
-        res["peak_rss_mb_after_stage"]["nuts_one_hour"] = peak_mb()
-        save()
-        print(
-            f"NUTS 4x1000: {t_first:.0f} s with compilation, {t_full:.0f} s after, "
-            f"converged {nuts['fit']['converged']} {nuts['fit']['reason']}",
-            flush=True,
-        )
-
     fast_ok = second["wall_s"] <= TARGETS["fast_after_compile_s"]
     nuts_s = res.get("nuts_one_hour", {}).get("wall_s")
     print(
@@ -263,7 +269,7 @@ def main() -> None:
         + "; NUTS<=60s "
         + ("n/a" if nuts_s is None else ("met" if nuts_s <= TARGETS["nuts_s"] else "MISSED"))
         + "; memory<=2GB "
-        + ("met" if peak_mb() <= TARGETS["peak_mb"] else "MISSED")
+        + ("met" if res["peak_rss_mb_one_hour_stages"] <= TARGETS["peak_mb"] else "MISSED")
         + "; 10h<=10x1h "
         + ("met" if ratio <= TARGETS["ten_hour_ratio"] else "MISSED")
         + f"  (load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)"
