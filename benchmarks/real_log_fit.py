@@ -24,7 +24,12 @@ import os
 import time
 from pathlib import Path
 
-import jax
+import numpyro
+
+# One JAX device per core, as the ``tyrebayes`` command does: NUTS chains run side by side.
+numpyro.set_host_device_count(max(1, min(4, os.cpu_count() or 1)))
+
+import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
