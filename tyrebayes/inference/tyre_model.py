@@ -28,10 +28,11 @@ v = η²(1 + η² s′(ρ_obs))/g² with η = λ_ρ sρ and s the score of the d
 measured forces (:func:`tyrebayes.inference.tyre_data.force_density_score`): it holds whatever
 the distribution of the true forces. A Gaussian population of true forces (the previous model)
 shrinks the dense cruising cluster too little and the tail of hard accelerations too much; the
-brush curve read that as curvature: C_x +20 % and μ_max at half the truth on a simulated
-one-hour drive with the true slips and Gaussian force noise of 0.012, against +4 % and −10 % with
-this form. The marginal of ρ_obs keeps a Gaussian summary Normal(g m_d, √(g²τ_d² + η²)) per drive:
-it carries no information on C_x or μ_max and serves the log-likelihood and the predictive checks.
+brush curve read that as curvature: C_x +20 % and μ_max at half the truth on two simulated
+one-hour drives with the true slips and Gaussian force noise of 0.012, against C_x +4 % and μ_max
+−9 % and −15 % with this form. The marginal of ρ_obs keeps a Gaussian summary
+Normal(g m_d, √(g²τ_d² + η²)) per drive: it carries no information on C_x or μ_max and serves the
+log-likelihood and the predictive checks.
 
 ABS windows observe the total normalised force ρ_obs = −g_d r μ_s + ε with r the ratio of an ABS
 window's mean force to the peak, one parameter shared by all windows: it is a property of the
