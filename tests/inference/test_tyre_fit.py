@@ -142,3 +142,20 @@ def test_block_hessian_equals_the_dense_hessian_over_several_drives():
     np.testing.assert_allclose(
         block, 0.5 * (dense + dense.T), rtol=1e-9, atol=1e-9 * jnp.abs(dense).max()
     )
+
+
+def test_chains_run_side_by_side_in_equal_groups():
+    # conftest gives JAX two CPU devices.
+    from tyrebayes.inference.tyre_fit import _chains_per_run
+
+    assert [_chains_per_run(n) for n in (1, 2, 3, 4)] == [1, 2, 1, 2]
+
+
+def test_coarse_search_windows_keep_padding_at_the_end():
+    from tyrebayes.inference.tyre_fit import _every_nth_window
+
+    obs = stack_drives([linear_region_windows(4, n=100)], ["dry"], pad_to=128)
+    coarse = _every_nth_window(obs, 4)
+    assert coarse.slip.shape == (32,) and coarse.n_drives == obs.n_drives
+    np.testing.assert_array_equal(np.asarray(coarse.rho), np.asarray(obs.rho)[::4])
+    assert np.asarray(coarse.mask).sum() == 25 and not np.asarray(coarse.mask)[25:].any()

@@ -658,8 +658,10 @@ def fit_tyre_fast(
 ) -> TyreFit:
     """Fast path: MAP with optimistix BFGS on the unconstrained space plus a Laplace approximation.
 
-    The MAP search runs from the starts in ``MAP_STARTS`` at once (vectorised) and keeps the
-    best successful one: a long drive's posterior has spurious local modes. Draws come from the
+    The MAP search runs from the starts in ``MAP_STARTS`` at once (vectorised) on every
+    ``_search_stride``-th window and refines the best successful one on all windows: a long
+    drive's posterior has spurious local modes. Each BFGS run works in parameters rescaled by the
+    curvature at its start. Draws come from the
     Gaussian N(mode, H⁻¹) on the unconstrained space, mapped through the model's constraints.
     Convergence: the optimiser reports success within ``max_steps`` and H is positive definite.
     The solver, Hessian and draws are compiled once per data shape (padded bucket, number of
