@@ -111,7 +111,7 @@ def skewed_force_windows(seed: int, n: int = 1000) -> dict:
     cluster = rng.normal(0.04, 0.015, n)
     tail = 0.02 + rng.exponential(0.09, n)
     rho_true = np.clip(np.where(rng.random(n) < 0.65, cluster, tail), 0.0, 0.6)
-    slip_true = brush_longitudinal_inverse(rho_true, C_X_TRUE, 1.0) + SLIP_OFFSET_TRUE
+    slip_true = np.asarray(brush_longitudinal_inverse(rho_true, C_X_TRUE, 1.0)) + SLIP_OFFSET_TRUE
     return {
         "slip": slip_true + rng.normal(0.0, 2e-4, n),
         "rho": rho_true + rng.normal(0.0, 0.012, n),
