@@ -417,7 +417,7 @@ def stack_drives(
     surfaces : sequence of str
         Surface of each drive, from ``SURFACES``.
     pad_to : int, optional
-        Padded length; default the next power of two.
+        Padded length; default ``_bucket_size`` (8 sizes per octave).
     """
     if len(drives) != len(surfaces):
         raise BadInputError(
