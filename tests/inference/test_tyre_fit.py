@@ -159,3 +159,68 @@ def test_coarse_search_windows_keep_padding_at_the_end():
     assert coarse.slip.shape == (32,) and coarse.n_drives == obs.n_drives
     np.testing.assert_array_equal(np.asarray(coarse.rho), np.asarray(obs.rho)[::4])
     assert np.asarray(coarse.mask).sum() == 25 and not np.asarray(coarse.mask)[25:].any()
+
+
+def test_predictive_core_matches_the_model_log_likelihood():
+    """The stored log-likelihood is the model's (numpyro), slip of ABS windows excluded."""
+    import jax
+    from numpyro.infer import Predictive, log_likelihood
+
+    from tyrebayes.inference.tyre_fit import _predictive_core
+    from tyrebayes.inference.tyre_model import tyre_model
+
+    windows = linear_region_windows(5, n=200)
+    windows["at_limit"] = np.zeros(200, dtype=bool)
+    windows["at_limit"][[50, 51, 52]] = True
+    windows["rho"][[50, 51, 52]] = -0.95
+    obs = stack_drives([windows], ["dry"], pad_to=256)
+    prior = Predictive(tyre_model, num_samples=6)(jax.random.PRNGKey(3), obs)
+    draws = {k: v for k, v in prior.items() if k not in ("slip_obs", "rho_obs", "force_below_peak")}
+    expected = log_likelihood(tyre_model, draws, obs)
+    loglik, ppc = _predictive_core("brush", (256, 1, ("dry",)), 6)(
+        draws, obs, jax.random.PRNGKey(4)
+    )
+    mask, at_limit = np.asarray(obs.mask), np.asarray(obs.at_limit)
+    np.testing.assert_allclose(
+        np.asarray(loglik["rho_obs"])[:, mask], np.asarray(expected["rho_obs"])[:, mask], rtol=1e-9
+    )
+    slip_windows = mask & ~at_limit
+    np.testing.assert_allclose(
+        np.asarray(loglik["slip_obs"])[:, slip_windows],
+        np.asarray(expected["slip_obs"])[:, slip_windows],
+        rtol=1e-9,
+    )
+    assert not np.asarray(loglik["slip_obs"])[:, at_limit].any()
+    assert all(
+        np.isfinite(np.asarray(v)[:, mask]).all() and v.shape == (6, 256) for v in ppc.values()
+    )
+
+
+def test_search_reads_a_bounded_number_of_windows():
+    from tyrebayes.inference.tyre_fit import SEARCH_WINDOWS, _search_stride
+
+    for size in (512, 4096, 9216, 90112, 1 << 20):
+        searched = -(-size // _search_stride(size))
+        assert searched == size or SEARCH_WINDOWS <= searched < 2 * SEARCH_WINDOWS
+
+
+def test_search_starts_each_drive_at_its_own_slip_offset():
+    """Per-drive nuisances start from each drive's data, not at the prior median."""
+    import jax
+    from jax.flatten_util import ravel_pytree
+
+    from tyrebayes.inference.tyre_fit import _model_layout, _start
+    from tyrebayes.inference.tyre_model import TyrePriors
+
+    first, second = linear_region_windows(6), linear_region_windows(7)
+    second["slip"] = second["slip"] + 0.003
+    obs = stack_drives([first, second], ["dry", "dry"], pad_to=2048)
+    _, _, params = _model_layout(tuple(jax.tree.leaves(TyrePriors())), "brush", (2048, 2, ("dry",)))
+    flat, unravel = ravel_pytree(params)
+    start = unravel(_start(flat, unravel, obs, TyrePriors(), 1.0, 0.0))
+    offsets = np.asarray(start["slip_offset"])
+    # Both drives have the true offset 0.002 (+0.003 on the second) up to the attenuated slope.
+    assert abs(offsets[1] - offsets[0] - 0.003) < 5e-4
+    assert np.allclose(
+        np.asarray(start["force_level"]), [first["rho"].mean(), second["rho"].mean()]
+    )

@@ -24,12 +24,12 @@ from jax.flatten_util import ravel_pytree
 from numpyro import handlers
 from numpyro.distributions import constraints
 from numpyro.distributions.transforms import biject_to
-from numpyro.infer import MCMC, NUTS, Predictive, init_to_median, log_likelihood
+from numpyro.infer import MCMC, NUTS, init_to_median
 from numpyro.infer.util import constrain_fn, initialize_model, potential_energy
 
 from .summary import summarize
 from .tyre_data import TyreObservations
-from .tyre_model import TyrePriors, tyre_model
+from .tyre_model import TyrePriors, tyre_model, window_likelihood
 
 # μ_max counts as observed on a surface only where the drive reached the limit (ABS windows) and
 # the posterior sd of log μ_max is below half the prior sd. Without ABS windows the curvature of
@@ -183,31 +183,51 @@ def _obs_key(obs: TyreObservations) -> tuple:
 
 
 @functools.lru_cache(maxsize=16)
-def _predictive_core(priors_key: tuple, kind: str, obs_key: tuple, n_draws: int):
-    """Jitted log-likelihood and posterior predictive for ``n_draws`` draws (compiled once)."""
+def _predictive_core(kind: str, obs_key: tuple, n_draws: int):
+    """Jitted per-window log-likelihood and posterior predictive draws (compiled once per shape).
+
+    ``core(samples, obs, key)`` gives ``(loglik, ppc)``, each ``{"slip_obs", "rho_obs"}`` of
+    shape (draws, windows). Both come from :func:`window_likelihood`, evaluated once per draw:
+    the Normal log-densities of the measured slip and force, and draws from those Normals. The
+    slip of an ABS window is not observed: its log-likelihood is 0, as in the model's mask.
+    (The true slip is integrated out, so the predictive force is not conditioned on the measured
+    slip; slip_obs is drawn around the slip of the measured force.)
+    """
     del obs_key, n_draws  # part of the cache key: one compilation per shape
-    priors = TyrePriors(*priors_key)
-    model = partial(tyre_model, priors=priors, kind=kind)
+
+    def one_draw(params, obs, key):
+        lik = window_likelihood(params, obs, kind)
+        slip_observed = obs.mask & ~obs.at_limit
+        slip_ll = dist.Normal(lik.slip_loc, lik.slip_scale).log_prob(obs.slip)
+        loglik = {
+            "slip_obs": jnp.where(slip_observed, slip_ll, 0.0),
+            "rho_obs": dist.Normal(lik.rho_loc, lik.rho_scale).log_prob(obs.rho),
+        }
+        key_slip, key_rho = jax.random.split(key)
+
+        def draw(k, loc, scale):
+            return loc + scale * jax.random.normal(k, loc.shape, dtype=loc.dtype)
+
+        ppc = {
+            "slip_obs": draw(key_slip, lik.slip_loc, lik.slip_scale),
+            "rho_obs": draw(key_rho, lik.rho_loc, lik.rho_scale),
+        }
+        return loglik, ppc
 
     @jax.jit
     def core(samples, obs, key):
-        loglik = log_likelihood(model, samples, obs)
-        # Unconditioned copy of the model: the observed sites are drawn, not copied from data.
-        # (The true slip is integrated out, so the predictive ρ_obs is conditional on the
-        # measured slip only through the shrinkage; slip_obs is drawn around m.)
-        ppc = Predictive(
-            partial(model, observed=False),
-            posterior_samples=samples,
-            return_sites=["slip_obs", "rho_obs"],
-        )(key, obs)
-        names = ("slip_obs", "rho_obs")
-        return {k: loglik[k] for k in names}, {k: ppc[k] for k in names}
+        keys = jax.random.split(key, next(iter(samples.values())).shape[0])
+        # A few draws at a time rather than all at once: the intermediates of 200 draws of a
+        # long drive do not fit in cache (ten one-hour drives: 1.2 s against 2.6 s).
+        return jax.lax.map(
+            lambda args: one_draw(args[0], obs, args[1]), (samples, keys), batch_size=8
+        )
 
     return core
 
 
 def _to_inference_data(
-    samples: dict, n_chains: int, obs: TyreObservations, priors, kind, key, sample_stats=None
+    samples: dict, n_chains: int, obs: TyreObservations, kind: str, key, sample_stats=None
 ) -> az.InferenceData:
     """Build InferenceData with posterior, log-likelihood, posterior predictive, observed data.
 
@@ -224,22 +244,28 @@ def _to_inference_data(
     posterior = {k: by_chain(v) for k, v in samples.items()}
     per_chain = next(iter(posterior.values())).shape[1]
     keep = _thin_index(per_chain, max(1, MAX_PREDICTIVE_DRAWS // n_chains))
+    # Single precision, like the stored result: a long drive's per-window arrays are the bulk
+    # of a fast fit's time (ten one-hour drives: ~6 s of 11 in float64).
     thinned = {
-        k: jnp.asarray(v[:, keep].reshape((-1,) + v.shape[2:])) for k, v in posterior.items()
+        k: jnp.asarray(v[:, keep].reshape((-1,) + v.shape[2:]), dtype=jnp.float32)
+        for k, v in posterior.items()
     }
-    core = _predictive_core(_priors_key(priors), kind, _obs_key(obs), len(keep) * n_chains)
-    loglik, ppc = core(thinned, obs, key)
+    core = _predictive_core(kind, _obs_key(obs), len(keep) * n_chains)
+    loglik, ppc = core(thinned, _single_precision(obs), key)
+
+    used = int(mask.sum())
+    # stack_drives pads at the end: then the used windows are a view, not a copy of the array.
+    windows = slice(0, used) if mask[:used].all() else mask
 
     def per_window(x):
-        # float32 halves the memory; values beyond its range (a failed fit's) become ±inf.
-        with np.errstate(over="ignore"):
-            x = np.asarray(x).astype(np.float32)[:, mask]
+        # Computed in float32 (values beyond its range, a failed fit's, are ±inf).
+        x = np.asarray(x, dtype=np.float32)[:, windows]
         return x.reshape((n_chains, len(keep)) + x.shape[1:])
 
     loglik = {k: per_window(v) for k, v in loglik.items()}
     ppc = {k: per_window(v) for k, v in ppc.items()}
     dims = {"slip_obs": ["window"], "rho_obs": ["window"], "mu_max": ["surface"]}
-    coords = {"surface": list(obs.surfaces), "window": np.arange(int(mask.sum()))}
+    coords = {"surface": list(obs.surfaces), "window": np.arange(used)}
     thin_coords = {**coords, "draw": keep}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -312,7 +338,7 @@ def fit_tyre_nuts(
     samples = {k: np.asarray(v) for k, v in samples.items()}
     diverging = np.asarray(diverging).reshape(num_chains, -1)
     idata = _to_inference_data(
-        samples, num_chains, obs, priors, kind, key_ppc, sample_stats={"diverging": diverging}
+        samples, num_chains, obs, kind, key_ppc, sample_stats={"diverging": diverging}
     )
     r_hat_max, ess_min = _scalar_diagnostics(idata)
     divergences = int(diverging.sum())
@@ -336,13 +362,29 @@ def fit_tyre_nuts(
 
 
 def _whitened_model(obs, mode, scale, *, model, unravel):
-    """The model's posterior over u, with unconstrained parameters z = mode + scale @ u."""
+    """The model's posterior over u, with unconstrained parameters z = mode + scale @ u.
+
+    The model itself is evaluated in single precision (``obs`` comes in float32, z is cast): its
+    gradient costs 2.6x less than in float64 on this CPU (one-hour drive, 9,216 padded windows:
+    0.79 vs 2.05 ms), and rounding changes the energy by ~1e-3 nats, far below the energy
+    errors of a leapfrog trajectory that NUTS accepts. u, the mass matrix and the tree building
+    stay in float64 (numpyro mixes the two if they do not), and the mode and its Hessian, where
+    differences of 1e-8 matter, come from the float64 fast path.
+    """
     u = numpyro.sample(
         "u", dist.ImproperUniform(constraints.real, (), event_shape=(mode.shape[0],))
     )
+    params = jax.tree.map(lambda z: z.astype(jnp.float32), unravel(mode + scale @ u))
     with handlers.block():  # the inner model's sites stay out of this trace
-        energy = potential_energy(model, (obs,), {}, unravel(mode + scale @ u))
-    numpyro.factor("log_density", -energy)
+        energy = potential_energy(model, (obs,), {}, params)
+    numpyro.factor("log_density", -energy.astype(mode.dtype))
+
+
+def _single_precision(obs: TyreObservations) -> TyreObservations:
+    """``obs`` with its floating-point fields in float32 (see :func:`_whitened_model`)."""
+    return jax.tree.map(
+        lambda x: x.astype(jnp.float32) if jnp.issubdtype(x.dtype, jnp.floating) else x, obs
+    )
 
 
 def _model_layout(priors_key: tuple, kind: str, obs_key: tuple):
@@ -412,12 +454,13 @@ def _nuts_runner(
 
     def run(key, obs, mode, scale, u_init, progress_bar):
         mcmc.progress_bar = progress_bar
+        obs_single = _single_precision(obs)
         u, diverging = [], []
         for group, run_key in enumerate(jax.random.split(key, num_chains // per_run)):
             chains = slice(group * per_run, (group + 1) * per_run)
             mcmc.run(
                 run_key,
-                obs,
+                obs_single,
                 mode,
                 scale,
                 init_params={"u": u_init[chains]},
@@ -450,22 +493,27 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
 
     def minimise_from(flat_start, obs):
         # BFGS starts from the identity, but the posterior's scales differ by orders of magnitude
-        # (a slip offset known to 1e-5, a force level to 1e-2). Rescaling every parameter by its
-        # curvature at the start, x = start + y/√|H_ii|, cut the steps 2-6x (one-hour drive:
-        # 240-360 to 105-140; ten drives: 1,040-1,390 to 170-520).
-        curvature = jnp.abs(
-            jnp.diagonal(hessian_at(lambda f: negative_log_posterior(f, obs), flat_start))
-        )
-        scale = 1.0 / jnp.sqrt(jnp.where(jnp.isfinite(curvature), jnp.maximum(curvature, 1.0), 1.0))
+        # (a slip offset known to 1e-5, a force level to 1e-2) and its parameters are
+        # correlated (C_xr with μ_max and the slip offsets). It works in y with
+        # x = start + W y, W = V |Λ|^(-1/2) from the Hessian at the start (eigenvalues in
+        # absolute value, floored: far from the mode H need not be positive definite), so that
+        # its first step is a Newton step. Steps per BFGS run, search (four starts) and
+        # refinement, with the data-driven starts of _start: one one-hour drive 45-56 and 40
+        # (diagonal rescaling x = start + y/√|H_ii|: 69-74 and 84); ten stacked one-hour drives
+        # 32-53 and 49 (79-83 and 103). Without any rescaling a one-hour drive took 240-360.
+        hessian = hessian_at(lambda f: negative_log_posterior(f, obs), flat_start)
+        finite = jnp.all(jnp.isfinite(hessian))
+        eigenvalues, vectors = jnp.linalg.eigh(jnp.where(finite, hessian, jnp.eye(len(flat_start))))
+        whiten = vectors / jnp.sqrt(jnp.maximum(jnp.abs(eigenvalues), 1.0))[None, :]
 
         def rescaled(y, obs):
-            return negative_log_posterior(flat_start + scale * y, obs)
+            return negative_log_posterior(flat_start + whiten @ y, obs)
 
         solver = optx.BFGS(rtol=1e-8, atol=1e-8)
         sol = optx.minimise(
             rescaled, solver, jnp.zeros_like(flat_start), args=obs, max_steps=max_steps, throw=False
         )
-        return flat_start + scale * sol.value, sol.result
+        return flat_start + whiten @ sol.value, sol.result
 
     stride = _search_stride(obs_key[0])
 
@@ -505,15 +553,21 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
     return core, flat0
 
 
-def _search_stride(size: int) -> int:
-    """Every how many windows the multi-start search reads: 4 from 4,096 padded windows on.
+# Windows the multi-start search reads at most (about a quarter of a one-hour 100 Hz drive).
+SEARCH_WINDOWS = 2304
 
+
+def _search_stride(size: int) -> int:
+    """Every how many windows the multi-start search reads: about :data:`SEARCH_WINDOWS` of them.
+
+    The search only has to find the right basin; the refinement on all windows finds the mode.
     On one full one-hour drive the spurious mode lay ~3,000 nats below the right one, so a
     quarter of the windows should still keep a gap of several hundred (an estimate; the
-    spurious-mode regression test and the recovery benchmark pass with it). Four starts on it
-    cost one full-data search; short drives keep every window.
+    spurious-mode regression test and the recovery benchmark pass with it). A fixed budget keeps
+    the search's cost from growing with the data: ten one-hour drives pay one search, not ten.
+    Short drives keep every window.
     """
-    return 4 if size >= 4096 else 1
+    return max(1, size // SEARCH_WINDOWS)
 
 
 def _every_nth_window(obs: TyreObservations, n: int) -> TyreObservations:
@@ -528,22 +582,32 @@ def _every_nth_window(obs: TyreObservations, n: int) -> TyreObservations:
     return dataclasses.replace(obs, **arrays)
 
 
+def _drive_moments(obs: TyreObservations):
+    """Per-drive means of slip and force and their centred second moments (slip windows only).
+
+    Returns ``(slip_mean, rho_mean, rho_var, slip_rho_cov, slip_var)``, each of shape
+    ``(n_drives,)``; a drive without slip windows gets zeros.
+    """
+    weight = (obs.mask & ~obs.at_limit).astype(obs.slip.dtype)
+    count = jnp.maximum(jax.ops.segment_sum(weight, obs.drive_index, obs.n_drives), 1.0)
+
+    def mean(x):
+        return jax.ops.segment_sum(weight * x, obs.drive_index, obs.n_drives) / count
+
+    slip_mean, rho_mean = mean(obs.slip), mean(obs.rho)
+    slip = obs.slip - slip_mean[obs.drive_index]
+    rho = obs.rho - rho_mean[obs.drive_index]
+    return slip_mean, rho_mean, mean(rho**2), mean(slip * rho), mean(slip**2)
+
+
 def _stiffness_start(obs: TyreObservations, priors: TyrePriors) -> jax.Array:
     """A data scale for the MAP starts' C_xr: least-squares slope of force on slip within drives.
 
     Attenuated by the slip noise (below the truth), cheap, and on the data's scale where the
     prior median (35) may be far from it (``MAP_STARTS``).
     """
-    weight = (obs.mask & ~obs.at_limit).astype(obs.slip.dtype)
-    drive = obs.drive_index
-
-    def within_drive(x):
-        total = jax.ops.segment_sum(weight * x, drive, obs.n_drives)
-        count = jax.ops.segment_sum(weight, drive, obs.n_drives)
-        return x - (total / jnp.maximum(count, 1.0))[drive]
-
-    slip, rho = within_drive(obs.slip), within_drive(obs.rho)
-    slope = jnp.sum(weight * slip * rho) / jnp.sum(weight * slip**2)
+    *_, slip_rho_cov, slip_var = _drive_moments(obs)
+    slope = jnp.sum(slip_rho_cov) / jnp.sum(slip_var)
     usable = jnp.isfinite(slope) & (slope > 0)
     return jnp.clip(jnp.where(usable, slope, priors.c_xr_median), 5.0, 200.0)
 
@@ -558,12 +622,23 @@ MAP_STARTS = ((1.0, 0.0), (1.35, 0.0), (1.0, 2.0), (1.35, 2.0))
 
 
 def _start(flat_init, unravel, obs, priors, stiffness_factor, mu_sds):
-    """One starting point of the MAP search (unconstrained, flat), the rest at ``flat_init``."""
+    """One starting point of the MAP search (unconstrained, flat).
+
+    C_xr and μ_max as ``MAP_STARTS`` says; each drive's force level and spread from its measured
+    forces and its slip offset from its mean slip and force at that C_xr (so that BFGS does not
+    spend hundreds of steps walking forty per-drive parameters in from the prior medians); the
+    rest at ``flat_init``.
+    """
     start = unravel(flat_init)
-    to_unconstrained = biject_to(constraints.positive).inv
-    start["c_xr"] = to_unconstrained(stiffness_factor * _stiffness_start(obs, priors))
+    positive = biject_to(constraints.positive).inv
+    c_xr = stiffness_factor * _stiffness_start(obs, priors)
+    start["c_xr"] = positive(c_xr)
     mu = priors.mu_median(obs.surfaces) * jnp.exp(mu_sds * priors.mu_log_sd(obs.surfaces))
-    start["mu_max"] = to_unconstrained(mu)
+    start["mu_max"] = positive(mu)
+    slip_mean, rho_mean, rho_var, *_ = _drive_moments(obs)
+    start["force_level"] = rho_mean
+    start["force_spread"] = positive(jnp.sqrt(jnp.maximum(rho_var, 1e-6)))
+    start["slip_offset"] = jnp.clip(slip_mean - rho_mean / c_xr, -0.02, 0.02)
     return ravel_pytree(start)[0]
 
 
@@ -684,7 +759,7 @@ def fit_tyre_fast(
     samples = {k: np.asarray(v) for k, v in draws.items()}
     if not all(np.all(np.isfinite(v)) for v in samples.values()):
         problems.append("non-finite draws")
-    idata = _to_inference_data(samples, 1, obs, priors, kind, key_ppc)
+    idata = _to_inference_data(samples, 1, obs, kind, key_ppc)
     diagnostics = FitDiagnostics(
         method="fast",
         r_hat_max=float("nan"),

@@ -41,6 +41,8 @@ ABS controller and of the curve's shape after the peak, so it does not average o
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -175,12 +177,64 @@ def tyre_model(
         force_spread = numpyro.sample("force_spread", dist.HalfNormal(priors.force_spread_scale))
 
     weights = obs.mask.astype(obs.temperature_c.dtype)
-    d = obs.drive_index
     mean_temperature = jnp.sum(weights * obs.temperature_c) / jnp.maximum(jnp.sum(weights), 1.0)
     numpyro.deterministic("c_x", stiffness_at_temperature(c_xr, kappa, mean_temperature))
 
-    gain, level, spread = force_gain[d], force_level[d], force_spread[d]
-    rho_noise = rho_noise_scale * obs.rho_sd
+    params = dict(
+        c_xr=c_xr,
+        temp_sensitivity=kappa,
+        mu_max=mu,
+        abs_force_ratio=abs_ratio,
+        rho_noise_scale=rho_noise_scale,
+        slip_noise_scale=slip_noise_scale,
+        slip_offset=slip_offset,
+        force_gain=force_gain,
+        force_level=force_level,
+        force_spread=force_spread,
+    )
+    lik = window_likelihood(params, obs, kind)
+    numpyro.factor("force_below_peak", jnp.sum(lik.below_peak))
+    with numpyro.plate("window", obs.slip.shape[0]):
+        with numpyro.handlers.mask(mask=obs.mask):
+            numpyro.sample(
+                "rho_obs",
+                dist.Normal(lik.rho_loc, lik.rho_scale),
+                obs=obs.rho if observed else None,
+            )
+        with numpyro.handlers.mask(mask=obs.mask & ~obs.at_limit):
+            numpyro.sample(
+                "slip_obs",
+                dist.Normal(lik.slip_loc, lik.slip_scale),
+                obs=obs.slip if observed else None,
+            )
+
+
+class WindowLikelihood(NamedTuple):
+    """Per-window likelihood of :func:`tyre_model` given its parameters.
+
+    ``slip_loc``, ``slip_scale``: Normal of the measured slip (slip windows); ``rho_loc``,
+    ``rho_scale``: Normal of the measured force (all windows); ``below_peak``: the log of the
+    probability that a slip window's true force lies under μ_max (0 for ABS and padding).
+    """
+
+    slip_loc: jax.Array
+    slip_scale: jax.Array
+    rho_loc: jax.Array
+    rho_scale: jax.Array
+    below_peak: jax.Array
+
+
+def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowLikelihood:
+    """The windows' likelihood terms of :func:`tyre_model` (see the module docstring).
+
+    ``params`` holds the model's sampled sites by name (``c_xr``, ``temp_sensitivity``,
+    ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale`` and the per-drive
+    ``slip_offset``, ``force_gain``, ``force_level``, ``force_spread``); other keys are ignored,
+    so a posterior draw can be passed as it is. The model and the posterior predictive share it.
+    """
+    d = obs.drive_index
+    gain, level, spread = (params[k][d] for k in ("force_gain", "force_level", "force_spread"))
+    rho_noise = params["rho_noise_scale"] * obs.rho_sd
     # The true force given its measurement, by Tweedie's formula on the density of the measured
     # forces (tyre_data.force_density_score): exact for Gaussian noise whatever the shape of the
     # force distribution. ρ_obs/g has noise η/g and score g·s(ρ_obs), so the gain just divides.
@@ -188,17 +242,17 @@ def tyre_model(
     noise2 = rho_noise**2
     rho_hat = (obs.rho + noise2 * obs.rho_score) / gain
     rho_var = noise2 / gain**2 * jnp.clip(1.0 + noise2 * obs.rho_score_slope, 0.05, 1.0)
-    c_x = stiffness_at_temperature(c_xr, kappa, obs.temperature_c)
-    mu_window = mu[obs.surface_index]
+    c_x = stiffness_at_temperature(params["c_xr"], params["temp_sensitivity"], obs.temperature_c)
+    mu_window = params["mu_max"][obs.surface_index]
     slip, slip_slope = _slip_and_slope(kind, rho_hat, c_x, mu_window)
-    slip_scale = jnp.sqrt((slip_noise_scale * obs.slip_sd) ** 2 + slip_slope**2 * rho_var)
+    slip_scale = jnp.sqrt((params["slip_noise_scale"] * obs.slip_sd) ** 2 + slip_slope**2 * rho_var)
 
     # ABS windows: the total force sits near the peak, the slip is not measurable.
-    limit_mean = -gain * abs_ratio * mu_window
+    limit_mean = -gain * params["abs_force_ratio"] * mu_window
     # Window-to-window spread of ABS cycling around the shared ratio: ~2 % of μ.
-    limit_scale = jnp.sqrt(rho_noise**2 + (0.02 * mu_window) ** 2)
-    rho_mean = jnp.where(obs.at_limit, limit_mean, gain * level)
-    rho_scale = jnp.where(obs.at_limit, limit_scale, jnp.sqrt((gain * spread) ** 2 + rho_noise**2))
+    limit_scale = jnp.sqrt(noise2 + (0.02 * mu_window) ** 2)
+    rho_loc = jnp.where(obs.at_limit, limit_mean, gain * level)
+    rho_scale = jnp.where(obs.at_limit, limit_scale, jnp.sqrt((gain * spread) ** 2 + noise2))
 
     # Outside ABS the force is quasi-static and below the peak: the true force of every slip
     # window lies under μ. Without this the inverse, which maps forces beyond the peak to the
@@ -206,19 +260,20 @@ def tyre_model(
     # C_x twice the truth).
     headroom = (mu_window - jnp.abs(rho_hat)) / jnp.sqrt(rho_var + (0.02 * mu_window) ** 2)
     below_peak = jnp.where(obs.mask & ~obs.at_limit, jax.scipy.special.log_ndtr(headroom), 0.0)
-    numpyro.factor("force_below_peak", jnp.sum(below_peak))
-
-    with numpyro.plate("window", obs.slip.shape[0]):
-        with numpyro.handlers.mask(mask=obs.mask):
-            numpyro.sample(
-                "rho_obs", dist.Normal(rho_mean, rho_scale), obs=obs.rho if observed else None
-            )
-        with numpyro.handlers.mask(mask=obs.mask & ~obs.at_limit):
-            numpyro.sample(
-                "slip_obs",
-                dist.Normal(slip + slip_offset[d], slip_scale),
-                obs=obs.slip if observed else None,
-            )
+    return WindowLikelihood(
+        slip_loc=slip + params["slip_offset"][d],
+        slip_scale=slip_scale,
+        rho_loc=rho_loc,
+        rho_scale=rho_scale,
+        below_peak=below_peak,
+    )
 
 
-__all__ = ["SURFACES", "TyrePriors", "stiffness_at_temperature", "tyre_model"]
+__all__ = [
+    "SURFACES",
+    "TyrePriors",
+    "WindowLikelihood",
+    "stiffness_at_temperature",
+    "tyre_model",
+    "window_likelihood",
+]
