@@ -69,3 +69,10 @@ def test_fast_fit_of_a_simulated_drive(tmp_path, capsys):
     assert payload["mu_max_observed"] is True
     assert payload["n_samples_used"] > 100
     assert out.is_file() and not list(tmp_path.glob(".*tmp*"))
+
+
+def test_model_choices_are_the_model_kinds():
+    from tyrebayes._commands.fit_tyre import MODEL_CHOICES
+    from tyrebayes.inference.tyre_model import DEFAULT_KIND, MODEL_KINDS
+
+    assert set(MODEL_CHOICES) == set(MODEL_KINDS) and MODEL_CHOICES[0] == DEFAULT_KIND

@@ -357,3 +357,36 @@ def test_bad_magic_formula_parameters_name_field_and_value(field, value):
     fields = dict(fnomin_n=4000.0, pkx1=21.5, pdx1=1.2, pcx1=1.6, pex1=0.3) | {field: value}
     with pytest.raises(ValueError, match=rf"{field}: .*got {value}"):
         MagicFormulaLongitudinal(**fields)
+
+
+def test_shaped_inverse_is_the_brush_at_shape_one_and_its_slope_is_the_derivative():
+    import jax
+    import jax.numpy as jnp
+
+    from tyrebayes.physics.tyre import (
+        brush_longitudinal_inverse_and_slope,
+        shaped_longitudinal_inverse_and_slope,
+    )
+
+    rho = jnp.linspace(-0.95, 0.95, 39)
+    brush = brush_longitudinal_inverse_and_slope(rho, 35.0, 1.0)
+    shaped = shaped_longitudinal_inverse_and_slope(rho, 35.0, 1.0, 1.0)
+    np.testing.assert_allclose(shaped[0], brush[0], rtol=1e-12)
+    np.testing.assert_allclose(shaped[1], brush[1], rtol=1e-10)
+    for p in (0.8, 2.0, 2.7):
+        slip, slope = shaped_longitudinal_inverse_and_slope(rho, 35.0, 1.0, p)
+        autodiff = jax.vmap(
+            jax.grad(lambda r, p=p: shaped_longitudinal_inverse_and_slope(r, 35.0, 1.0, p)[0])
+        )(rho)
+        np.testing.assert_allclose(slope, autodiff, rtol=1e-9)
+        # slope 1/C_x at zero force, the peak slip 3μ/C_x at the peak, monotone in between
+        assert float(shaped_longitudinal_inverse_and_slope(1e-9, 35.0, 1.0, p)[1]) == pytest.approx(
+            1 / 35.0
+        )
+        assert float(shaped_longitudinal_inverse_and_slope(1.0, 35.0, 1.0, p)[0]) == pytest.approx(
+            3 / 35.0
+        )
+        assert np.all(np.diff(np.asarray(slip)) > 0)
+    # A later bend: at 30 % of the peak, p = 2 needs less slip than the brush.
+    later = shaped_longitudinal_inverse_and_slope(0.3, 35.0, 1.0, 2.0)[0]
+    assert float(later) < float(brush_longitudinal_inverse_and_slope(0.3, 35.0, 1.0)[0])

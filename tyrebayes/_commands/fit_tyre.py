@@ -18,6 +18,10 @@ from typing import Any
 from .._errors import BadInputError
 from ._common import atomic_path, existing_file, print_json
 
+# tyrebayes.inference.tyre_model.MODEL_KINDS, default first; spelled out here because importing
+# the model would start JAX before run() gives it one device per core (a test checks they agree).
+MODEL_CHOICES = ("shaped", "brush", "linear")
+
 #: Exit status of a fit that did not converge.
 EXIT_NOT_CONVERGED = 3
 
@@ -55,7 +59,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="tyre temperature [°C] (default: mean ambient_temperature column, else 20)",
     )
     parser.add_argument(
-        "--model", choices=("brush", "linear"), default="brush", help="mean model (default brush)"
+        "--model",
+        choices=MODEL_CHOICES,
+        default=MODEL_CHOICES[0],
+        help="mean model (default shaped: the brush model with a fitted shape exponent)",
     )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", help="write the fit as ArviZ InferenceData (netCDF)")

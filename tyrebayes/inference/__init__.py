@@ -11,6 +11,6 @@ from .tyre_fit import fit_tyre as fit_tyre
 from .tyre_fit import fit_tyre_fast as fit_tyre_fast
 from .tyre_fit import fit_tyre_nuts as fit_tyre_nuts
 from .tyre_model import TyrePriors as TyrePriors
-from .tyre_model import tyre_model as tyre_model
 from .tyre_model import WindowLikelihood as WindowLikelihood
+from .tyre_model import tyre_model as tyre_model
 from .tyre_model import window_likelihood as window_likelihood

@@ -29,7 +29,7 @@ from numpyro.infer.util import constrain_fn, initialize_model, potential_energy
 
 from .summary import summarize
 from .tyre_data import TyreObservations
-from .tyre_model import TyrePriors, tyre_model, window_likelihood
+from .tyre_model import DEFAULT_KIND, TyrePriors, check_kind, tyre_model, window_likelihood
 
 # μ_max counts as observed on a surface only where the drive reached the limit (ABS windows) and
 # the posterior sd of log μ_max is below half the prior sd. Without ABS windows the curvature of
@@ -158,11 +158,6 @@ def _tyre_fit(idata, diagnostics, mu_draws, priors, obs: TyreObservations, kind:
         n_samples_used=obs.n_used,
         kind=kind,
     )
-
-
-def _check_kind(kind: str) -> None:
-    if kind not in ("brush", "linear"):
-        raise ValueError(f"tyre model kind: expected 'brush' or 'linear', got {kind!r}")
 
 
 def _thin_index(total: int, n: int) -> np.ndarray:
@@ -304,7 +299,7 @@ def fit_tyre_nuts(
     obs: TyreObservations,
     *,
     priors: TyrePriors | None = None,
-    kind: str = "brush",
+    kind: str = DEFAULT_KIND,
     num_chains: int = 4,
     num_warmup: int = 300,
     num_samples: int = 1000,
@@ -326,7 +321,7 @@ def fit_tyre_nuts(
     per data shape (padded bucket, drives, surfaces) and sampler settings.
     """
     priors = TyrePriors() if priors is None else priors
-    _check_kind(kind)
+    check_kind(kind)
     key_laplace, key_init, key_run, key_ppc = jax.random.split(jax.random.PRNGKey(seed), 4)
     core, flat0 = _laplace_core(_priors_key(priors), kind, _obs_key(obs), LAPLACE_DRAWS, 2000)
     mode, _, _, scale, _ = core(flat0, obs, key_laplace)
@@ -728,7 +723,7 @@ def fit_tyre_fast(
     obs: TyreObservations,
     *,
     priors: TyrePriors | None = None,
-    kind: str = "brush",
+    kind: str = DEFAULT_KIND,
     num_draws: int = LAPLACE_DRAWS,
     seed: int = 0,
     max_steps: int = 2000,
@@ -745,7 +740,7 @@ def fit_tyre_fast(
     drives, surfaces): new data of the same shape reuse them.
     """
     priors = TyrePriors() if priors is None else priors
-    _check_kind(kind)
+    check_kind(kind)
     key_draw, key_ppc = jax.random.split(jax.random.PRNGKey(seed))
     core, flat0 = _laplace_core(_priors_key(priors), kind, _obs_key(obs), num_draws, max_steps)
     _, result, min_eig, _, draws = core(flat0, obs, key_draw)

@@ -49,7 +49,10 @@ import jax.numpy as jnp
 import numpyro
 import numpyro.distributions as dist
 
-from ..physics.tyre import brush_longitudinal_inverse_and_slope
+from ..physics.tyre import (
+    brush_longitudinal_inverse_and_slope,
+    shaped_longitudinal_inverse_and_slope,
+)
 from .tyre_data import SURFACES, TyreObservations
 
 REFERENCE_TEMPERATURE_C = 20.0
@@ -91,6 +94,10 @@ class TyrePriors(eqx.Module):
         0.9–1.0 μ and measured Magic Formula curves 0.9–1.0 μ (they fall slowly after the peak);
         the measured deceleration adds body pitch and drag (up to ~+3 %): 0.97 ± 0.04, so
         1.05 is two sds out.
+    curve_shape_median, curve_shape_log_sd : float
+        Shape exponent p of the ``"shaped"`` model (LogNormal): p = 1 is the brush model, a
+        measured Magic Formula curve (Pacejka 2006, 205/60R15) is matched by p = 2.04 to 0.07 %
+        of its slip below 70 % of the peak; 1.5 ± 0.35 in log puts 90 % between 0.84 and 2.7.
     """
 
     c_xr_median: float = 35.0
@@ -102,6 +109,8 @@ class TyrePriors(eqx.Module):
     force_spread_scale: float = 0.3
     abs_force_ratio: float = 0.97
     abs_force_ratio_sd: float = 0.04
+    curve_shape_median: float = 1.5
+    curve_shape_log_sd: float = 0.35
 
     def mu_median(self, surfaces: tuple[str, ...]) -> jax.Array:
         return jnp.array([_MU_MEDIAN[s] for s in surfaces])
@@ -116,7 +125,20 @@ def stiffness_at_temperature(c_xr, temp_sensitivity, temperature_c):
     return c_xr * jnp.exp(-temp_sensitivity * (temperature_c - REFERENCE_TEMPERATURE_C))
 
 
-def _slip_and_slope(kind: str, rho, c_x, mu):
+MODEL_KINDS = ("shaped", "brush", "linear")
+# The shaped family contains the brush (p = 1) and fits Magic Formula tyres too: with Magic
+# Formula truth the brush read C_x +9 % and μ_max +8 % (four one-hour drives with ABS), the
+# shaped model +4 % and +1 %; with brush truth the two agree (tyre_recovery.py has the counts).
+DEFAULT_KIND = "shaped"
+
+
+def check_kind(kind: str) -> None:
+    """Raise ValueError unless ``kind`` is one of :data:`MODEL_KINDS`."""
+    if kind not in MODEL_KINDS:
+        raise ValueError(f"tyre model kind: expected one of {MODEL_KINDS}, got {kind!r}")
+
+
+def _slip_and_slope(kind: str, rho, c_x, mu, shape):
     """Slip of a force in adhesion, f⁻¹(ρ), and its derivative dσ/dρ, elementwise.
 
     Forces at or beyond the peak map to the peak slip (zero derivative): a μ below the measured
@@ -124,13 +146,15 @@ def _slip_and_slope(kind: str, rho, c_x, mu):
     """
     if kind == "linear":
         return rho / c_x, jnp.broadcast_to(1.0 / c_x, jnp.shape(rho))
+    if kind == "shaped":
+        return shaped_longitudinal_inverse_and_slope(rho, c_x, mu, shape)
     return brush_longitudinal_inverse_and_slope(rho, c_x, mu)
 
 
 def tyre_model(
     obs: TyreObservations,
     priors: TyrePriors | None = None,
-    kind: str = "brush",
+    kind: str = DEFAULT_KIND,
     observed: bool = True,
 ):
     """NumPyro model of one tyre set's windows (see the module docstring).
@@ -141,15 +165,17 @@ def tyre_model(
         Window-averaged observations (possibly several drives and surfaces).
     priors : TyrePriors, optional
         Prior scales (default :class:`TyrePriors`).
-    kind : {"brush", "linear"}
+    kind : {"brush", "shaped", "linear"}
         Mean model: the brush model identifies μ_max where the data reach the nonlinear region;
-        the linear model is for drives that never leave the linear region.
+        ``"shaped"`` adds the curve's shape exponent p (``curve_shape``; p = 1 is the brush,
+        :func:`~tyrebayes.physics.tyre.shaped_longitudinal_inverse_and_slope`) for tyres whose
+        curve bends later than the brush's; the linear model is for drives that never leave the
+        linear region.
     observed : bool
         Condition on the measured slip and force (True) or sample them (posterior predictive).
     """
     priors = TyrePriors() if priors is None else priors
-    if kind not in ("brush", "linear"):
-        raise ValueError(f"tyre model kind: expected 'brush' or 'linear', got {kind!r}")
+    check_kind(kind)
     n_drives, n_surfaces = obs.n_drives, obs.n_surfaces
 
     c_xr = numpyro.sample("c_xr", dist.LogNormal(jnp.log(priors.c_xr_median), priors.c_xr_log_sd))
@@ -167,6 +193,12 @@ def tyre_model(
         # 600 draws, the rest ≥ 275), and 1.05 is already two sds out.
         dist.Normal(priors.abs_force_ratio, priors.abs_force_ratio_sd),
     )
+    curve_shape = 1.0
+    if kind == "shaped":
+        curve_shape = numpyro.sample(
+            "curve_shape",
+            dist.LogNormal(jnp.log(priors.curve_shape_median), priors.curve_shape_log_sd),
+        )
     rho_noise_scale = numpyro.sample("rho_noise_scale", dist.LogNormal(0.0, 0.5))
     # The stated slip noise is a local estimate of coloured noise; its scale is inferred.
     slip_noise_scale = numpyro.sample("slip_noise_scale", dist.LogNormal(0.0, 0.3))
@@ -185,6 +217,7 @@ def tyre_model(
         temp_sensitivity=kappa,
         mu_max=mu,
         abs_force_ratio=abs_ratio,
+        curve_shape=curve_shape,
         rho_noise_scale=rho_noise_scale,
         slip_noise_scale=slip_noise_scale,
         slip_offset=slip_offset,
@@ -228,7 +261,8 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     """The windows' likelihood terms of :func:`tyre_model` (see the module docstring).
 
     ``params`` holds the model's sampled sites by name (``c_xr``, ``temp_sensitivity``,
-    ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale`` and the per-drive
+    ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale``, ``curve_shape``
+    (``"shaped"`` only) and the per-drive
     ``slip_offset``, ``force_gain``, ``force_level``, ``force_spread``); other keys are ignored,
     so a posterior draw can be passed as it is. The model and the posterior predictive share it.
     """
@@ -244,7 +278,8 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     rho_var = noise2 / gain**2 * jnp.clip(1.0 + noise2 * obs.rho_score_slope, 0.05, 1.0)
     c_x = stiffness_at_temperature(params["c_xr"], params["temp_sensitivity"], obs.temperature_c)
     mu_window = params["mu_max"][obs.surface_index]
-    slip, slip_slope = _slip_and_slope(kind, rho_hat, c_x, mu_window)
+    shape = params["curve_shape"] if kind == "shaped" else 1.0
+    slip, slip_slope = _slip_and_slope(kind, rho_hat, c_x, mu_window, shape)
     slip_scale = jnp.sqrt((params["slip_noise_scale"] * obs.slip_sd) ** 2 + slip_slope**2 * rho_var)
 
     # ABS windows: the total force sits near the peak, the slip is not measurable.
@@ -270,6 +305,9 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
 
 
 __all__ = [
+    "DEFAULT_KIND",
+    "MODEL_KINDS",
+    "check_kind",
     "SURFACES",
     "TyrePriors",
     "WindowLikelihood",
