@@ -31,9 +31,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "fit-tyre",
         help="posterior of C_x, C_xr and mu_max of one tyre set from a stream",
         description=(
-            "Fit the per-tyre errors-in-variables brush model to a stream file and print the "
-            "posterior of C_x, C_xr (20 °C), mu_max and the slip offset. Exit status 3 when the "
-            "fit did not converge."
+            "Fit the per-tyre errors-in-variables tyre-curve model (brush family) to a stream "
+            "file and print the posterior of C_x, C_xr (20 °C), mu_max and the slip offset. Exit "
+            "status 3 when the fit did not converge."
         ),
     )
     parser.add_argument("stream", help="stream file (.csv, .parquet, .mf4)")

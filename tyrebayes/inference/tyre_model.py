@@ -7,10 +7,12 @@ Measurement model for window i of drive d on surface s (all quantities normalise
     σ_obs,i   = f⁻¹(ρ_true,i; C_x(T_i), μ_s) + s0_d + ε_σ,   ε_σ ~ Normal(0, λ_σ sσ_i)
     C_x(T)    = C_xr exp(−κ (T − 20 °C))                  (stiffness temperature compensation)
 
-with f⁻¹ the inverse of the brush model in adhesion (thesis ch. 3, eq. 3.3–3.4: slope C_x at zero,
-peak μ) or of the linear model, s0_d the per-drive slip at zero force (rolling-radius mismatch
-between the driven and the reference wheels, plus IMU bias over C_x: in the linear region the two
-cannot be told apart, so one offset carries both), g_d the per-drive force gain (vehicle mass,
+with f⁻¹ the inverse of the tyre curve in adhesion: the brush model (thesis ch. 3, eq. 3.3–3.4:
+slope C_x at zero, peak μ), by default widened to a family with one shape exponent p (p = 1 the
+brush, p ≈ 2 a measured Magic Formula curve; ``kind="shaped"``), or the linear model; s0_d the
+per-drive slip at zero force (rolling-radius mismatch between the driven and the reference
+wheels, plus IMU bias over C_x: in the linear region the two cannot be told apart, so one offset
+carries both), g_d the per-drive force gain (vehicle mass,
 axle load and IMU gain are known to a few percent only: without it the posterior of C_x would be
 narrower than what ordinary sensors can tell) and λ_σ, λ_ρ noise scales on the stated sensor
 noise.
@@ -94,10 +96,16 @@ class TyrePriors(eqx.Module):
         0.9–1.0 μ and measured Magic Formula curves 0.9–1.0 μ (they fall slowly after the peak);
         the measured deceleration adds body pitch and drag (up to ~+3 %): 0.97 ± 0.04, so
         1.05 is two sds out.
-    curve_shape_median, curve_shape_log_sd : float
-        Shape exponent p of the ``"shaped"`` model (LogNormal): p = 1 is the brush model, a
-        measured Magic Formula curve (Pacejka 2006, 205/60R15) is matched by p = 2.04 to 0.07 %
-        of its slip below 70 % of the peak; 1.5 ± 0.35 in log puts 90 % between 0.84 and 2.7.
+    curve_bend_scale : float
+        Half-normal scale of p − 1, with p the shape exponent of the ``"shaped"`` model: p = 1 is
+        the brush model, a measured Magic Formula curve (Pacejka 2006, 205/60R15) is matched by
+        p = 2.04 to 0.07 % of its slip below 70 % of the peak. p < 1 would bend earlier than the
+        brush, with a cusp at zero slip that no tyre has (and that let a drive without ABS read
+        force noise as early bending: C_x +7-10 % on skewed synthetic forces). Scale 1: median
+        p 1.67, 90 % below 2.64.
+    force_noise_log_sd, slip_noise_log_sd : float
+        Log-scale sds of λ_ρ and λ_σ, the scales on the stated force and slip noise (median 1:
+        the stream states the noise it measured).
     """
 
     c_xr_median: float = 35.0
@@ -109,8 +117,9 @@ class TyrePriors(eqx.Module):
     force_spread_scale: float = 0.3
     abs_force_ratio: float = 0.97
     abs_force_ratio_sd: float = 0.04
-    curve_shape_median: float = 1.5
-    curve_shape_log_sd: float = 0.35
+    curve_bend_scale: float = 1.0
+    force_noise_log_sd: float = 0.5
+    slip_noise_log_sd: float = 0.3
 
     def mu_median(self, surfaces: tuple[str, ...]) -> jax.Array:
         return jnp.array([_MU_MEDIAN[s] for s in surfaces])
@@ -195,13 +204,15 @@ def tyre_model(
     )
     curve_shape = 1.0
     if kind == "shaped":
-        curve_shape = numpyro.sample(
-            "curve_shape",
-            dist.LogNormal(jnp.log(priors.curve_shape_median), priors.curve_shape_log_sd),
-        )
-    rho_noise_scale = numpyro.sample("rho_noise_scale", dist.LogNormal(0.0, 0.5))
+        bend = numpyro.sample("curve_bend", dist.HalfNormal(priors.curve_bend_scale))
+        curve_shape = numpyro.deterministic("curve_shape", 1.0 + bend)
+    rho_noise_scale = numpyro.sample(
+        "rho_noise_scale", dist.LogNormal(0.0, priors.force_noise_log_sd)
+    )
     # The stated slip noise is a local estimate of coloured noise; its scale is inferred.
-    slip_noise_scale = numpyro.sample("slip_noise_scale", dist.LogNormal(0.0, 0.3))
+    slip_noise_scale = numpyro.sample(
+        "slip_noise_scale", dist.LogNormal(0.0, priors.slip_noise_log_sd)
+    )
     with numpyro.plate("drive", n_drives):
         slip_offset = numpyro.sample("slip_offset", dist.Normal(0.0, priors.slip_offset_sd))
         force_gain = numpyro.sample("force_gain", dist.LogNormal(0.0, priors.force_gain_log_sd))
