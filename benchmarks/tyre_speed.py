@@ -4,7 +4,8 @@ Targets (issue 4, 2-core machine): fast path (MAP + Laplace) ≤ 2 s after compi
 (4 chains × 1000 draws) ≤ 60 s; peak memory ≤ 2 GB; a ten-hour drive in ≤ 10× the one-hour
 time; no recompilation for new data of the same padded shape.
 
-Stages (one process, ``compact_fwd``, brush truth, all-season tyres, dry, 2 ABS events per hour):
+Stages (one process, ``compact_fwd``, brush truth, all-season tyres, dry, 2 ABS events per hour;
+the fits use the default model):
 
 1. simulate two one-hour drives and window them (timed apart: not part of the fit);
 2. fast path on drive A including compilation, then on drive B (same padded shape) after
@@ -187,10 +188,15 @@ def main() -> None:
     _, t_third = timed_fit(obs_a, method="fast", seed=2)
     # Breakdown: the compiled MAP + Hessian + Laplace draws alone (the rest of fit_tyre is the
     # log-likelihood / posterior predictive and the InferenceData assembly).
-    from tyrebayes.inference.tyre_model import TyrePriors
+    from tyrebayes.inference.tyre_model import DEFAULT_KIND, TyrePriors
 
+    # The same cache entry as the fits above (default model, draws and steps).
     core, flat0 = tyre_fit._laplace_core(
-        tyre_fit._priors_key(TyrePriors()), "brush", tyre_fit._obs_key(obs_b), 2000, 2000
+        tyre_fit._priors_key(TyrePriors()),
+        DEFAULT_KIND,
+        tyre_fit._obs_key(obs_b),
+        tyre_fit.LAPLACE_DRAWS,
+        2000,
     )
     t0 = time.perf_counter()
     jax.block_until_ready(core(flat0, obs_b, jax.random.PRNGKey(1)))

@@ -52,3 +52,17 @@ def test_tyre_section_without_indices_uses_mean_offsets() -> None:
     sec = tyre_section(_idata(with_indices=False), "t")
     assert sec.slip.shape == sec.rho.shape == (300,)
     assert np.all(np.isfinite(sec.slip)) and sec.diagnostics["chains"] == 1
+
+
+def test_shaped_curves_are_the_brush_at_shape_one_and_straighter_above():
+    from tyrebayes.physics.tyre import brush_longitudinal
+    from tyrebayes.report.sections import _shaped_curves
+
+    slip = np.linspace(-0.12, 0.12, 61)
+    c_x, mu = np.array([30.0, 45.0]), np.array([1.0, 0.8])
+    brush = np.asarray(brush_longitudinal(slip[None, :], c_x[:, None], mu[:, None], 1.0))
+    np.testing.assert_allclose(_shaped_curves(slip, c_x, mu, np.ones(2)), brush, atol=2e-3)
+    # p = 2 bends later: more force than the brush at every slip between zero and the peak.
+    later = _shaped_curves(slip, c_x, mu, np.full(2, 2.0))
+    inside = (slip > 0.005) & (slip < 0.9 * 3 * mu.min() / c_x.max())
+    assert np.all(later[:, inside] > brush[:, inside])

@@ -27,6 +27,22 @@ def _flat(idata, name: str) -> np.ndarray:
     return v.reshape((-1,) + v.shape[2:])
 
 
+def _shaped_curves(slip, c_x, mu, shape) -> np.ndarray:
+    """ρ(σ) on the slip grid for each draw of the shaped model (draws × grid).
+
+    The model gives slip as a function of force; each draw's curve is traced over forces up to
+    the peak and read at the grid by interpolation (flat at ±μ beyond the peak slip).
+    """
+    from ..physics.tyre import shaped_longitudinal_inverse_and_slope
+
+    y = np.linspace(-1.0, 1.0, 401)
+    curves = []
+    for c, m, p in zip(c_x, mu, shape, strict=True):
+        traced = np.asarray(shaped_longitudinal_inverse_and_slope(m * y, c, m, p)[0])
+        curves.append(np.interp(slip, traced, m * y))
+    return np.asarray(curves)
+
+
 def _thin(n: int, k: int = CURVE_DRAWS) -> np.ndarray:
     return np.linspace(0, n - 1, min(n, k)).astype(int)
 
@@ -144,9 +160,14 @@ def tyre_section(
         lo = min(float(np.quantile(pts, 0.005)), -0.002) if pts.size else -0.01
         hi = max(float(np.quantile(pts, 0.995)), 0.004) if pts.size else 0.02
         grid = np.linspace(lo * 1.15, hi * 1.15, GRID_POINTS)
-        f = np.asarray(
-            brush_longitudinal(grid[None, :], c_s[idx, None], mu[idx, i, None], slide[idx, None])
-        )
+        if "curve_shape" in post:
+            f = _shaped_curves(grid, c_s[idx], mu[idx, i], _flat(idata, "curve_shape")[idx])
+        else:
+            f = np.asarray(
+                brush_longitudinal(
+                    grid[None, :], c_s[idx, None], mu[idx, i, None], slide[idx, None]
+                )
+            )
         q = np.quantile(f, BAND, axis=0)
         curve[s] = (grid, q[0], q[1], q[2])
 

@@ -8,9 +8,10 @@ SECTION_TEXT = {
     "tyres": (
         "Each panel is one tyre set: 0.25 s windows of measured slip and normalised force of the "
         "driven axle (per-drive slip and force offsets removed at their posterior means), and the "
-        "brush-model curve of the posterior (median and 90 % band) per road surface. The slope at "
-        "zero is C_x at the drives' tyre temperature; C_xr is the same stiffness compensated to "
-        "20 °C. ABS windows (if any) inform μ_max through their force level and are not drawn."
+        "tyre curve of the posterior (brush family, median and 90 % band) per road surface. The "
+        "slope at zero is C_x at the drives' tyre temperature; C_xr is the same stiffness "
+        "compensated to 20 °C. ABS windows (if any) inform μ_max through their force level and "
+        "are not drawn."
     ),
     "fleet": (
         "The thesis fitted one least-squares line of friction potential against 1/C_xr over all "
