@@ -29,9 +29,10 @@ and of μ_max for the posterior, and the coverage of its central 50 % and 90 % i
 * With Magic Formula truth neither model curve has the right shape after the peak: μ_max
   coverage there also tests the shared ABS force ratio's prior.
 
-Drives last one hour by default, as the issue asks (``--duration`` for shorter ones). One
-setting of 50 one-hour drives takes 20–40 min on the shared 2-core machine; ``--settings``
-runs a subset so that settings can run in separate processes (merge their ``results``).
+Drives last one hour by default, as the issue asks (``--duration`` for shorter ones). Two
+settings of 50 one-hour drives (both models fitted on each) took 12 min in one process while a
+second process ran the other two on the 2-core machine; ``--settings`` runs a subset so that
+settings can run in separate processes (merge their ``results``).
 
 Usage: ``python benchmarks/tyre_recovery.py [--quick] [--reps N] [--duration S] [--settings A,B]``.
 """
