@@ -207,16 +207,15 @@ def test_search_reads_a_bounded_number_of_windows():
 
 def test_search_starts_each_drive_at_its_own_slip_offset():
     """Per-drive nuisances start from each drive's data, not at the prior median."""
-    import jax
     from jax.flatten_util import ravel_pytree
 
-    from tyrebayes.inference.tyre_fit import _model_layout, _start
+    from tyrebayes.inference.tyre_fit import _model_layout, _priors_key, _start
     from tyrebayes.inference.tyre_model import TyrePriors
 
     first, second = linear_region_windows(6), linear_region_windows(7)
     second["slip"] = second["slip"] + 0.003
     obs = stack_drives([first, second], ["dry", "dry"], pad_to=2048)
-    _, _, params = _model_layout(tuple(jax.tree.leaves(TyrePriors())), "brush", (2048, 2, ("dry",)))
+    _, _, params = _model_layout(_priors_key(TyrePriors()), "brush", (2048, 2, ("dry",)))
     flat, unravel = ravel_pytree(params)
     start = unravel(_start(flat, unravel, obs, TyrePriors(), 1.0, 0.0))
     offsets = np.asarray(start["slip_offset"])

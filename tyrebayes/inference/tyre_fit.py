@@ -239,8 +239,9 @@ def _to_inference_data(
     posterior = {k: by_chain(v) for k, v in samples.items()}
     per_chain = next(iter(posterior.values())).shape[1]
     keep = _thin_index(per_chain, max(1, MAX_PREDICTIVE_DRAWS // n_chains))
-    # Single precision, like the stored result (per-window arrays of 200 draws are a large part
-    # of a fast fit's time on long data: ten one-hour drives, 6.7 s in float32 against 7.7 s).
+    # Single precision, like the stored result (on ten one-hour drives it took 6.7 s against
+    # 7.7 s in float64, measured with numpyro's log_likelihood and Predictive before
+    # window_likelihood replaced them).
     thinned = {
         k: jnp.asarray(v[:, keep].reshape((-1,) + v.shape[2:]), dtype=jnp.float32)
         for k, v in posterior.items()
@@ -493,7 +494,8 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
         # x = start + W y, W = V |Λ|^(-1/2) from the Hessian at the start (eigenvalues in
         # absolute value, floored: far from the mode H need not be positive definite), so that
         # its first step is a Newton step. Steps per BFGS run, search (four starts) and
-        # refinement, with the data-driven starts of _start: one one-hour drive 45-56 and 40
+        # refinement, with the data-driven starts of _start (brush model, measured before the
+        # shaped model became the default): one one-hour drive 45-56 and 40
         # (diagonal rescaling x = start + y/√|H_ii|: 69-74 and 84); ten stacked one-hour drives
         # 32-53 and 49 (79-83 and 103). Without any rescaling a one-hour drive took 240-360.
         hessian = hessian_at(lambda f: negative_log_posterior(f, obs), flat_start)
@@ -595,13 +597,15 @@ def _drive_moments(obs: TyreObservations):
     return slip_mean, rho_mean, mean(rho**2), mean(slip * rho), mean(slip**2)
 
 
-def _stiffness_start(obs: TyreObservations, priors: TyrePriors) -> jax.Array:
+def _stiffness_start(moments, priors: TyrePriors) -> jax.Array:
     """A data scale for the MAP starts' C_xr: least-squares slope of force on slip within drives.
+
+    ``moments`` is what :func:`_drive_moments` returns.
 
     Attenuated by the slip noise (below the truth), cheap, and on the data's scale where the
     prior median (35) may be far from it (``MAP_STARTS``).
     """
-    *_, slip_rho_cov, slip_var = _drive_moments(obs)
+    *_, slip_rho_cov, slip_var = moments
     slope = jnp.sum(slip_rho_cov) / jnp.sum(slip_var)
     usable = jnp.isfinite(slope) & (slope > 0)
     return jnp.clip(jnp.where(usable, slope, priors.c_xr_median), 5.0, 200.0)
@@ -626,11 +630,12 @@ def _start(flat_init, unravel, obs, priors, stiffness_factor, mu_sds):
     """
     start = unravel(flat_init)
     positive = biject_to(constraints.positive).inv
-    c_xr = stiffness_factor * _stiffness_start(obs, priors)
+    moments = _drive_moments(obs)
+    c_xr = stiffness_factor * _stiffness_start(moments, priors)
     start["c_xr"] = positive(c_xr)
     mu = priors.mu_median(obs.surfaces) * jnp.exp(mu_sds * priors.mu_log_sd(obs.surfaces))
     start["mu_max"] = positive(mu)
-    slip_mean, rho_mean, rho_var, *_ = _drive_moments(obs)
+    slip_mean, rho_mean, rho_var, *_ = moments
     start["force_level"] = rho_mean
     start["force_spread"] = positive(jnp.sqrt(jnp.maximum(rho_var, 1e-6)))
     start["slip_offset"] = jnp.clip(slip_mean - rho_mean / c_xr, -0.02, 0.02)
@@ -732,9 +737,9 @@ def fit_tyre_fast(
 
     The MAP search runs from the starts in ``MAP_STARTS`` at once (vectorised) on every
     ``_search_stride``-th window and refines the best successful one on all windows: a long
-    drive's posterior has spurious local modes. Each BFGS run works in parameters rescaled by the
-    curvature at its start. Draws come from the
-    Gaussian N(mode, H⁻¹) on the unconstrained space, mapped through the model's constraints.
+    drive's posterior has spurious local modes. Each BFGS run works in parameters whitened by
+    the Hessian at its start. Draws come from the Gaussian N(mode, H⁻¹) on the unconstrained
+    space, mapped through the model's constraints.
     Convergence: the optimiser reports success within ``max_steps`` and H is positive definite.
     The solver, Hessian and draws are compiled once per data shape (padded bucket, number of
     drives, surfaces): new data of the same shape reuse them.

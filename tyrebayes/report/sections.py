@@ -35,12 +35,10 @@ def _shaped_curves(slip, c_x, mu, shape) -> np.ndarray:
     """
     from ..physics.tyre import shaped_longitudinal_inverse_and_slope
 
-    y = np.linspace(-1.0, 1.0, 401)
-    curves = []
-    for c, m, p in zip(c_x, mu, shape, strict=True):
-        traced = np.asarray(shaped_longitudinal_inverse_and_slope(m * y, c, m, p)[0])
-        curves.append(np.interp(slip, traced, m * y))
-    return np.asarray(curves)
+    c_x, mu, shape = (np.asarray(v, float)[:, None] for v in (c_x, mu, shape))
+    rho = mu * np.linspace(-1.0, 1.0, 401)[None, :]
+    traced = np.asarray(shaped_longitudinal_inverse_and_slope(rho, c_x, mu, shape)[0])
+    return np.stack([np.interp(slip, t, r) for t, r in zip(traced, rho, strict=True)])
 
 
 def _thin(n: int, k: int = CURVE_DRAWS) -> np.ndarray:
