@@ -69,6 +69,23 @@ def test_rho_and_noise(synthetic):
     assert 0 < feats.nuisances.rho_offset_sd < 0.05
 
 
+def test_traction_split_force_is_continuous_through_zero(synthetic):
+    # In traction the two forces are the same; under braking rho_driven takes the brake balance
+    # (0.7 front) and rho_driven_traction keeps the traction split, so that a window of samples
+    # scattered around zero force by noise averages one continuous function of ax.
+    feats, _ = synthetic
+    total = np.sum(feats.fx_axle_n, axis=1)
+    traction = feats.valid & (total > 500.0)
+    braking = feats.valid & (total < -500.0)
+    assert np.allclose(feats.rho_driven_traction[traction], feats.rho_driven[traction])
+    assert np.all(feats.rho_driven_traction[braking] < feats.rho_driven[braking])
+    # The FWD front axle carries the whole total force (plus the rear's rolling resistance).
+    fz = feats.fz_axle_n[:, 0]
+    assert np.allclose(
+        feats.rho_driven_traction[braking] * fz[braking], total[braking], rtol=0.05, atol=200
+    )
+
+
 def test_nuisances_exposed(synthetic):
     feats, truth = synthetic
     nuis = feats.nuisances

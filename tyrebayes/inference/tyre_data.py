@@ -20,6 +20,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
 from .._errors import BadInputError
+from .force_density import force_density_score
 
 SURFACES = ("dry", "wet", "snow", "ice")
 
@@ -45,9 +46,10 @@ class TyreObservations(eqx.Module):
         does not read it; window selection still drops windows without a neighbour.
     rho_score, rho_score_slope : Float[Array, "n"]
         d/dρ log p(ρ_obs) and its derivative [1/-, 1/-²] at each window's measured force, with p
-        the density of the measured forces of the window's drive (slip windows only; 0 for ABS
-        windows): :func:`force_density_score`. They give the model E[ρ_true | ρ_obs] and
-        Var[ρ_true | ρ_obs] without assuming the shape of the force distribution.
+        the density of the measured forces of the window's drive at the window's noise (slip
+        windows only; 0 for ABS windows): :func:`.force_density.force_density_score`. They give
+        the model E[ρ_true | ρ_obs] and Var[ρ_true | ρ_obs] without assuming the shape of the
+        force distribution.
     drive_index : Int[Array, "n"]
         Which drive (day) the window belongs to: 0 … n_drives − 1.
     surface_index : Int[Array, "n"]
@@ -102,67 +104,6 @@ def _bucket_size(n: int) -> int:
     return int(-(-n // step) * step)
 
 
-def force_density_score(
-    rho: np.ndarray, bandwidth: float | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Score s(ρ) = d/dρ log p(ρ) of the measured forces' density, and ds/dρ, at each ρ.
-
-    Why: with ρ_obs = ρ_true + ε, ε ~ Normal(0, η²), Tweedie's formula gives the true force of a
-    window exactly from the density p of the *measured* forces, whatever the distribution of the
-    true ones: E[ρ_true | ρ_obs] = ρ_obs + η² s(ρ_obs), Var[ρ_true | ρ_obs] = η² (1 + η² s′(ρ_obs)).
-    A drive's forces are far from Gaussian (a dense cruising cluster, a long tail of hard
-    accelerations): assuming a Gaussian population shrinks the cluster too little and the tail too
-    much, which the brush model reads as curvature (C_x 20 % high, μ_max half the truth with
-    ρ noise of 0.012, in simulation).
-
-    p is a Gaussian kernel density estimate, linearly binned on a grid of bandwidth/8 and
-    convolved with the kernel and its derivatives, so the cost is linear in the number of windows.
-
-    Parameters
-    ----------
-    rho : ndarray
-        Measured normalised forces of one drive's slip windows [-] (finite).
-    bandwidth : float, optional
-        Kernel sd [-]; default Silverman's rule 0.9 min(sd, IQR/1.34) n^(-1/5).
-
-    Returns
-    -------
-    (score, score_slope) : (ndarray, ndarray)
-        s(ρ_i) [1/-] and s′(ρ_i) [1/-²].
-    """
-    x = np.asarray(rho, dtype=float)
-    if x.size < 2 or not np.all(np.isfinite(x)):
-        raise BadInputError(
-            f"force density: expected at least 2 finite forces, got {x.size} "
-            f"({int(np.sum(~np.isfinite(x)))} non-finite)"
-        )
-    if bandwidth is None:
-        iqr = float(np.subtract(*np.quantile(x, [0.75, 0.25])))
-        spread = min(float(np.std(x)), iqr / 1.34) or float(np.std(x)) or 1e-3
-        bandwidth = 0.9 * spread * x.size ** (-0.2)
-    h = float(bandwidth)
-    step = h / 8.0
-    lo = x.min() - 6.0 * h
-    n_grid = int(np.ceil((x.max() + 6.0 * h - lo) / step)) + 1
-    # Linear binning: each force splits its unit weight between its two neighbouring grid nodes.
-    position = (x - lo) / step
-    left = np.floor(position).astype(int)
-    frac = position - left
-    counts = np.bincount(left, 1.0 - frac, minlength=n_grid + 1)
-    counts += np.bincount(left + 1, frac, minlength=n_grid + 1)
-    offsets = np.arange(-48, 49) * step / h  # the kernel out to 6 bandwidths
-    phi = np.exp(-0.5 * offsets**2)
-    # Convolution with φ(u), φ'(u) = −u φ, φ''(u) = (u² − 1) φ, u = (ρ − ρ_j)/h: p, p'·h, p''·h².
-    density = np.convolve(counts, phi, "same")
-    slope = np.convolve(counts, -offsets * phi, "same") / h
-    curvature = np.convolve(counts, (offsets**2 - 1.0) * phi, "same") / h**2
-    grid = lo + step * np.arange(len(counts))
-    p = np.interp(x, grid, density)
-    score = np.interp(x, grid, slope) / p
-    score_slope = np.interp(x, grid, curvature) / p - score**2
-    return score, score_slope
-
-
 def window_means(
     values: np.ndarray, valid: np.ndarray, window: int
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -198,6 +139,7 @@ def windowed_observations(
     window_s: float = 0.25,
     min_fraction_valid: float = 0.8,
     correlation_samples: float = 1.0,
+    also: dict[str, np.ndarray] | None = None,
 ) -> dict[str, np.ndarray]:
     """Average per-sample slip and force over short windows (one drive).
 
@@ -220,12 +162,15 @@ def windowed_observations(
     correlation_samples : float
         Number of consecutive samples over which the noise is correlated (the smoothing window of
         the features); a mean of k samples then has noise sd·√(c/k) rather than sd/√k.
+    also : dict of str to ndarray, optional
+        Further per-sample channels to average over the same samples (returned by name).
 
     Returns
     -------
     dict
         ``slip``, ``rho``, ``slip_sd``, ``rho_sd``, ``temperature_c`` arrays, one entry per kept
-        window, and ``neighbour_slip``. The noise sd of a window mean of k samples is sd/√k.
+        window, and ``neighbour_slip`` (and the ``also`` channels). The noise sd of a window mean
+        of k samples is sd/√k.
     """
     time_s = np.asarray(time_s, dtype=float)
     n = len(time_s)
@@ -239,6 +184,7 @@ def windowed_observations(
         "slip_sd": np.broadcast_to(np.asarray(slip_sd, dtype=float), (n,)),
         "rho_sd": np.broadcast_to(np.asarray(rho_sd, dtype=float), (n,)),
         "temperature_c": np.broadcast_to(np.asarray(temperature_c, dtype=float), (n,)),
+        **{name: np.asarray(values, dtype=float) for name, values in (also or {}).items()},
     }
     for name, arr in arrays.items():
         if arr.shape != (n,):
@@ -297,10 +243,11 @@ def observations_from_features(
 
     Two kinds of window enter the fit:
 
-    * **slip windows**: free rolling and traction with a non-negative total force (module
-      comment at ``pushing``), straight or gently curving, no spin. Braking
-      windows are left out: the non-driven wheels that give V_x brake too, so the driven axle's
-      measured slip there is σ_driven − σ_free, not σ_driven (:mod:`tyrebayes.streams.features`).
+    * **slip windows**: windows of free rolling, traction and braking samples (straight or gently
+      curving, no spin) whose mean total force is non-negative (comment at ``pushing``); the
+      force is the driven axle's with the traction split. Braking windows are left out: the
+      non-driven wheels that give V_x brake too, so the driven axle's measured slip there is
+      σ_driven − σ_free, not σ_driven (:mod:`tyrebayes.streams.features`).
     * **ABS windows** (``at_limit``): braking windows whose wheel speeds oscillate the way ABS
       pressure modulation makes them (per-wheel speed relative to the four-wheel mean with a
       within-window sd above ``abs_oscillation_factor`` times the drive's median). All four
@@ -327,33 +274,48 @@ def observations_from_features(
     Returns
     -------
     dict
-        As :func:`windowed_observations`, plus ``at_limit`` (bool per window).
+        As :func:`windowed_observations`, plus ``at_limit`` (bool per window) and ``rho_score``,
+        ``rho_score_slope`` (:func:`force_density_score` over all the drive's windows, 0 for ABS).
     """
-    from ..streams.segments import FREE_ROLLING, TRACTION
+    from ..streams.segments import BRAKING, FREE_ROLLING, TRACTION
 
-    # Only windows where the axles push (total force >= 0): a negative total may be engine drag on
-    # the driven axle or friction brakes on all four wheels, and the split between the axles is
-    # not observable without a brake signal. Guessing it puts a kink into ρ_x(σ_x) at zero force,
-    # which the model could only read as curvature (a spuriously low μ_max and a high C_x).
-    pushing = np.sum(features.fx_axle_n, axis=1) >= 0.0
+    # Samples are not selected on their own force: a sample whose noise takes the total force
+    # below zero would drop out, so the windows kept near zero force would average only the
+    # samples the noise pushed up (+0.02 on the window force near zero with doubled noise; C_x
+    # +5-15 % on one-hour drives). Every sample of free rolling, traction and braking enters a
+    # window, the force with the traction split throughout (continuous through zero), and the
+    # selection is then made on the window's force, which the model conditions on anyway.
     usable = (
-        features.valid
-        & ~features.spin
-        & np.isin(features.label, (FREE_ROLLING, TRACTION))
-        & pushing
+        features.valid & ~features.spin & np.isin(features.label, (FREE_ROLLING, TRACTION, BRAKING))
     )
     correlation = max(1.0, features.smoothing_s * features.sample_rate_hz)
-    slip_windows = windowed_observations(
+    rho_total = np.sum(features.fx_axle_n, axis=1) / np.sum(features.fz_axle_n, axis=1)
+    windows = windowed_observations(
         features.time_s,
         features.slip_driven,
-        features.rho_driven,
+        features.rho_driven_traction,
         features.slip_driven_sd,
         features.rho_driven_sd,
         temperature_c=temperature_c,
         usable=usable,
         window_s=window_s,
         correlation_samples=correlation,
+        also={"rho_total": rho_total},
     )
+    # The density of the measured forces (for E[ρ_true | ρ_obs], tyre_model) is that of every
+    # window: estimated on the kept ones only, it would fall off artificially at the cut.
+    window_rho_total = windows.pop("rho_total")
+    score, score_slope = _slip_window_scores(
+        windows["rho"], windows["rho_sd"], np.zeros(len(windows["rho"]), bool)
+    )
+    # Only windows where the axles push (total force >= 0): a negative total may be engine drag on
+    # the driven axle or friction brakes on all four wheels, and the split between the axles is
+    # not observable without a brake signal. Guessing it puts a kink into ρ_x(σ_x) at zero force,
+    # which the model could only read as curvature (a spuriously low μ_max and a high C_x).
+    pushing = window_rho_total >= 0.0
+    slip_windows = {k: v[pushing] for k, v in windows.items()}
+    slip_windows["rho_score"] = score[pushing]
+    slip_windows["rho_score_slope"] = score_slope[pushing]
     slip_windows["at_limit"] = np.zeros(len(slip_windows["slip"]), dtype=bool)
 
     dt = 1.0 / features.sample_rate_hz
@@ -388,17 +350,23 @@ def observations_from_features(
         "rho_sd": np.nan_to_num(rho_sd[at_limit], nan=0.01) * factor,
         "temperature_c": np.full(m, float(temperature_c)),
         "neighbour_slip": np.zeros(m),
+        "rho_score": np.zeros(m),
+        "rho_score_slope": np.zeros(m),
         "at_limit": np.ones(m, dtype=bool),
     }
     return {k: np.concatenate([slip_windows[k], limit_windows[k]]) for k in limit_windows}
 
 
-def _slip_window_scores(rho: np.ndarray, at_limit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _slip_window_scores(
+    rho: np.ndarray, rho_sd: np.ndarray, at_limit: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """:func:`force_density_score` over one drive's slip windows; 0 for its ABS windows."""
     score, score_slope = np.zeros(len(rho)), np.zeros(len(rho))
-    slip_windows = ~at_limit & np.isfinite(rho)
+    slip_windows = ~at_limit & np.isfinite(rho) & np.isfinite(rho_sd) & (rho_sd > 0)
     if slip_windows.sum() >= 2:
-        score[slip_windows], score_slope[slip_windows] = force_density_score(rho[slip_windows])
+        score[slip_windows], score_slope[slip_windows] = force_density_score(
+            rho[slip_windows], rho_sd[slip_windows]
+        )
     return score, score_slope
 
 
@@ -413,7 +381,9 @@ def stack_drives(
     Parameters
     ----------
     drives : sequence of dict
-        Outputs of :func:`windowed_observations`, one per drive.
+        Outputs of :func:`windowed_observations` or :func:`observations_from_features`, one per
+        drive. Their ``rho_score`` and ``rho_score_slope`` are used if present, else computed
+        from the drive's slip windows (:func:`force_density_score`).
     surfaces : sequence of str
         Surface of each drive, from ``SURFACES``.
     pad_to : int, optional
@@ -438,9 +408,14 @@ def stack_drives(
         drive = {"at_limit": np.zeros(m, dtype=bool), **drive}
         for k in keys:
             parts[k].append(np.asarray(drive[k], dtype=bool if k == "at_limit" else float))
-        score, score_slope = _slip_window_scores(parts["rho"][-1], parts["at_limit"][-1])
-        parts["rho_score"].append(score)
-        parts["rho_score_slope"].append(score_slope)
+        if "rho_score" in drive:
+            score, score_slope = drive["rho_score"], drive["rho_score_slope"]
+        else:
+            score, score_slope = _slip_window_scores(
+                parts["rho"][-1], parts["rho_sd"][-1], parts["at_limit"][-1]
+            )
+        parts["rho_score"].append(np.asarray(score, dtype=float))
+        parts["rho_score_slope"].append(np.asarray(score_slope, dtype=float))
         drive_idx.append(np.full(m, d))
         surface_idx.append(np.full(m, used_surfaces.index(surface)))
     n = sum(len(p) for p in parts["slip"])

@@ -26,12 +26,16 @@ exactly: given ρ_obs, ρ_true has mean ρ̂ and variance v, and
 
 ρ̂ and v come from Tweedie's formula, ρ̂ = (ρ_obs + η² s(ρ_obs))/g and
 v = η²(1 + η² s′(ρ_obs))/g² with η = λ_ρ sρ and s the score of the density of the drive's
-measured forces (:func:`tyrebayes.inference.tyre_data.force_density_score`): it holds whatever
-the distribution of the true forces. A Gaussian population of true forces (the previous model)
-shrinks the dense cruising cluster too little and the tail of hard accelerations too much; the
-brush curve read that as curvature: C_x +20 % and μ_max at half the truth on two simulated
-one-hour drives with the true slips and Gaussian force noise of 0.012, against C_x +4 % and μ_max
-−9 % and −15 % with this form. The marginal of ρ_obs keeps a Gaussian summary
+measured forces (:func:`tyrebayes.inference.force_density.force_density_score`, a deconvolved
+mixture): it holds whatever the distribution of the true forces. A Gaussian population of true
+forces (the previous model) shrinks the dense cruising cluster too little and the tail of hard
+accelerations too much; the brush curve read that as curvature: C_x +20 % and μ_max at half the
+truth on two simulated one-hour drives with the true slips and Gaussian force noise of 0.012,
+against C_x +4 % and μ_max −9 % and −15 % with this form. The score has to be smooth as well as
+right: a kernel estimate's score is noisy where the forces are dense, an error in ρ̂ that
+attenuated the slope again (two one-hour drives with the true slips and ideal white force noise
+of twice the default sensors': C_x +5.6 % and +10.3 %, λ_ρ read as 0.8; with the deconvolved
+mixture −0.8 % and +1.5 %, λ_ρ 1.0). The marginal of ρ_obs keeps a Gaussian summary
 Normal(g m_d, √(g²τ_d² + η²)) per drive: it carries no information on C_x or μ_max and serves the
 log-likelihood and the predictive checks.
 
@@ -287,9 +291,10 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     gain, level, spread = (params[k][d] for k in ("force_gain", "force_level", "force_spread"))
     rho_noise = params["rho_noise_scale"] * obs.rho_sd
     # The true force given its measurement, by Tweedie's formula on the density of the measured
-    # forces (tyre_data.force_density_score): exact for Gaussian noise whatever the shape of the
-    # force distribution. ρ_obs/g has noise η/g and score g·s(ρ_obs), so the gain just divides.
-    # The variance factor is clipped: a kernel estimate's curvature is noisy in sparse tails.
+    # forces (force_density.force_density_score): exact for Gaussian noise whatever the shape of
+    # the force distribution. ρ_obs/g has noise η/g and score g·s(ρ_obs), so the gain just
+    # divides. The variance factor is clipped: with λ_ρ > 1 the stated noise's mixture can give
+    # a negative variance.
     noise2 = rho_noise**2
     rho_hat = (obs.rho + noise2 * obs.rho_score) / gain
     rho_var = noise2 / gain**2 * jnp.clip(1.0 + noise2 * obs.rho_score_slope, 0.05, 1.0)

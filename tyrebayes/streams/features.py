@@ -89,6 +89,9 @@ class StreamFeatures(eqx.Module):
     fx_axle_n, fz_axle_n : (n, 2) longitudinal force and load per axle [N]
     rho_axle : (n, 2) ρ_x = F_x / F_z per axle [-]
     rho_driven, rho_driven_sd : ρ_x of the driven axle (total for AWD) and its noise [-]
+    rho_driven_traction : ρ_x of the driven axle with the traction split at every sample, braking
+        included [-]: continuous through zero force, where ``rho_driven`` switches to the brake
+        balance sample by sample (see :func:`tyrebayes.inference.observations_from_features`)
     friction_power_w : |F_x V_x σ_x| of the driven axle, eq. 4.19a [W]
     ax_mps2 : IMU ax minus the estimated offset (includes road grade) [m/s²]
     ay_mps2 : IMU ay minus its offset [m/s²]
@@ -120,6 +123,7 @@ class StreamFeatures(eqx.Module):
     rho_axle: Float[np.ndarray, "n 2"]
     rho_driven: Float[np.ndarray, "n"]
     rho_driven_sd: Float[np.ndarray, "n"]
+    rho_driven_traction: Float[np.ndarray, "n"]
     friction_power_w: Float[np.ndarray, "n"]
     ax_mps2: Float[np.ndarray, "n"]
     ay_mps2: Float[np.ndarray, "n"]
@@ -257,6 +261,8 @@ def _force_balance_chunk(
         jnp.where(braking, fxr_b, fxr_t),
         fz_front,
         fz_rear,
+        fxf_t,
+        fxr_t,
     )
 
 
@@ -269,10 +275,11 @@ def _force_balance(
     speed: np.ndarray,
     brake_front_share: float,
 ) -> tuple[np.ndarray, ...]:
-    """Resistance, longitudinal axle forces (front, rear) and axle loads (front, rear) [N].
+    """Resistance, axle forces (front, rear), axle loads (front, rear), traction-split forces [N].
 
     Eq. 4.23 inverted by :func:`single_track_inverse`: traction follows the drive's split,
     braking the brake balance (front share), a property of the brake system, not of the drive.
+    The last two are the axle forces with the traction split at every sample.
     """
     braking_vehicle = dataclasses.replace(
         vehicle, drive="awd", front_drive_fraction=float(brake_front_share)
@@ -287,7 +294,7 @@ def _force_balance(
         for i in range(0, padded, _CHUNK)
     ]
     return tuple(
-        np.concatenate([np.asarray(p[k]) for p in parts])[:n].astype(float) for k in range(5)
+        np.concatenate([np.asarray(p[k]) for p in parts])[:n].astype(float) for k in range(7)
     )
 
 
@@ -408,7 +415,7 @@ def compute_features(
 
     speed_for_drag = np.where(np.isfinite(vx), np.maximum(vx, 0.0), 0.0)
     ax_f = np.nan_to_num(ax)
-    resistance, fx_front, fx_rear, fz_front, fz_rear = _force_balance(
+    resistance, fx_front, fx_rear, fz_front, fz_rear, fxf_traction, fxr_traction = _force_balance(
         vehicle,
         ax_f,
         np.nan_to_num(ay),
@@ -428,6 +435,12 @@ def compute_features(
         k = 0 if vehicle.driven_axle == "front" else 1
         fx_driven, fz_driven = fx_axle[:, k], fz_axle[:, k]
     rho_driven = fx_driven / fz_driven
+    fx_traction_axle = np.column_stack([fxf_traction, fxr_traction])
+    fx_traction_axle = np.where(valid[:, None] & np.isfinite(ax)[:, None], fx_traction_axle, np.nan)
+    fx_traction = {"front": fx_traction_axle[:, 0], "rear": fx_traction_axle[:, 1]}.get(
+        vehicle.driven_axle, fx_traction_axle.sum(axis=1)
+    )
+    rho_driven_traction = fx_traction / fz_driven
     # Per-sample noise of the smoothed ax, scaled by the axle's share of m·ax. The offset's
     # uncertainty is common to the whole log and reported apart (nuisances.rho_offset_sd).
     ax_sd_local = local_noise_sd(data["ax"].to_numpy(dtype=float), window, span)
@@ -488,6 +501,7 @@ def compute_features(
         rho_axle=rho_axle,
         rho_driven=rho_driven,
         rho_driven_sd=rho_driven_sd,
+        rho_driven_traction=rho_driven_traction,
         friction_power_w=friction_power,
         ax_mps2=ax,
         ay_mps2=ay,

@@ -1,0 +1,128 @@
+"""A drive's measured-force density, deconvolved: what the model needs for E[ρ_true | ρ_obs].
+
+With ρ_obs = ρ_true + ε, ε ~ Normal(0, η²), Tweedie's formula gives the true force of a window
+from the density p of the *measured* forces, whatever the distribution of the true ones:
+E[ρ_true | ρ_obs] = ρ_obs + η² s(ρ_obs) and Var[ρ_true | ρ_obs] = η² (1 + η² s′(ρ_obs)), with
+s = d/dρ log p the score. A drive's forces are far from Gaussian (a dense cruising cluster, a long
+tail of hard accelerations), so p has to be estimated without assuming a shape.
+
+Why a deconvolved mixture and not a kernel estimate of p: the correction η² s is large where the
+forces are dense and the noise is not small against their spread (near zero force with doubled
+sensor noise a regression on the raw forces underestimates the slope by a third), and a kernel
+estimate's score is noisy there — its bandwidth is set for the density, not for its derivative.
+That noise is an error in the corrected force, which attenuates the fitted slope again: on
+simulated one-hour drives with ideal white force noise, a kernel score left C_x +2 to +10 %
+high. Here p is a mixture whose components are the true forces' mixture components widened by
+each window's own noise, p_i(ρ) = Σ_k w_k Normal(ρ; m_k, τ_k² + η_i²), fitted by maximum
+likelihood (extreme deconvolution, Bovy, Hogg & Roweis 2011, in one dimension): no component
+can be narrower than the noise, so the score is smooth where the kernel estimate's was not, and
+heteroscedastic noise is handled window by window.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from jaxtyping import Float
+
+from .._errors import BadInputError
+
+N_COMPONENTS = 8
+_MAX_ITERATIONS = 400
+_TOLERANCE = 1e-6  # on the mean log-likelihood per window [nats]
+
+
+def deconvolve_forces(
+    rho: Float[np.ndarray, "n"],
+    noise_sd: Float[np.ndarray, "n"],
+    n_components: int = N_COMPONENTS,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gaussian mixture of the true forces, given measured forces with known noise.
+
+    Expectation-maximisation of Σ_i log Σ_k w_k Normal(ρ_i; m_k, τ_k² + η_i²).
+
+    Parameters
+    ----------
+    rho : ndarray
+        Measured normalised forces [-] (finite).
+    noise_sd : ndarray
+        Each force's noise sd η_i [-] (> 0).
+    n_components : int
+        Mixture components.
+
+    Returns
+    -------
+    (weights, means, variances) : tuple of ndarray
+        w_k [-], m_k [-] and τ_k² [-²] of the true forces' mixture.
+    """
+    x = np.asarray(rho, dtype=float)
+    noise2 = np.broadcast_to(np.asarray(noise_sd, dtype=float) ** 2, x.shape)[:, None]
+    if x.size < 2 or not np.all(np.isfinite(x)) or not np.all(noise2 > 0):
+        raise BadInputError(
+            f"force density: expected at least 2 finite forces with noise sd > 0, got {x.size} "
+            f"({int(np.sum(~np.isfinite(x)))} non-finite)"
+        )
+    k = min(n_components, x.size)
+    means = np.quantile(x, (np.arange(k) + 0.5) / k)
+    variances = np.full(k, max(np.var(x) / k**2, 1e-10))
+    weights = np.full(k, 1.0 / k)
+    previous = -np.inf
+    for _ in range(_MAX_ITERATIONS):
+        total = variances + noise2
+        log_joint = -0.5 * (x[:, None] - means) ** 2 / total - 0.5 * np.log(total) + np.log(weights)
+        top = log_joint.max(axis=1, keepdims=True)
+        log_norm = top[:, 0] + np.log(np.exp(log_joint - top).sum(axis=1))
+        resp = np.exp(log_joint - log_norm[:, None])
+        # Each component's posterior of the true force of each window (mean, variance).
+        gain = variances / total
+        post_mean = means + gain * (x[:, None] - means)
+        post_var = variances * (1.0 - gain)
+        count = resp.sum(axis=0) + 1e-300
+        weights = np.maximum(count / x.size, 1e-300)
+        means = (resp * post_mean).sum(axis=0) / count
+        spread = (resp * ((post_mean - means) ** 2 + post_var)).sum(axis=0)
+        variances = np.maximum(spread / count, 1e-12)
+        mean_log_lik = float(np.mean(log_norm))
+        if mean_log_lik - previous < _TOLERANCE:
+            break
+        previous = mean_log_lik
+    return weights, means, variances
+
+
+def force_density_score(
+    rho: Float[np.ndarray, "n"],
+    noise_sd: Float[np.ndarray, "n"],
+    n_components: int = N_COMPONENTS,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Score s_i = d/dρ log p_i(ρ_i) of each window's measured-force density, and ds_i/dρ.
+
+    p_i is the deconvolved mixture of :func:`deconvolve_forces` widened by window i's own noise,
+    so that ρ_i + η_i² s_i is E[ρ_true | ρ_obs] for that window (module docstring).
+
+    Parameters
+    ----------
+    rho : ndarray
+        Measured normalised forces of one drive's windows [-] (finite).
+    noise_sd : ndarray
+        Their noise sds η_i [-].
+    n_components : int
+        Mixture components.
+
+    Returns
+    -------
+    (score, score_slope) : (ndarray, ndarray)
+        s_i [1/-] and s′_i [1/-²].
+    """
+    weights, means, variances = deconvolve_forces(rho, noise_sd, n_components)
+    x = np.asarray(rho, dtype=float)[:, None]
+    noise2 = np.broadcast_to(np.asarray(noise_sd, dtype=float) ** 2, x.shape[:1])
+    total = variances + noise2[:, None]
+    z = (x - means) / total
+    log_phi = np.log(weights) - 0.5 * (x - means) * z - 0.5 * np.log(total)
+    phi = np.exp(log_phi - log_phi.max(axis=1, keepdims=True))
+    p = phi.sum(axis=1)
+    score = (phi * -z).sum(axis=1) / p
+    curvature = (phi * (z**2 - 1.0 / total)).sum(axis=1) / p
+    return score, curvature - score**2
+
+
+__all__ = ["N_COMPONENTS", "deconvolve_forces", "force_density_score"]
