@@ -143,8 +143,8 @@ def stiffness_at_temperature(c_xr, temp_sensitivity, temperature_c):
 
 MODEL_KINDS = ("shaped", "brush", "linear")
 # The shaped family contains the brush (p = 1) and fits Magic Formula tyres too. Fifty one-hour
-# drives with ABS (tyre_recovery.json): Magic Formula truth, C_x +2.6 % and μ_max +1.7 % against
-# the brush model's +7.2 % and +10.3 %; brush truth, C_x +0.1 % against +2.0 %.
+# drives with ABS (tyre_recovery.json): Magic Formula truth, C_x +3.6 % and μ_max +1.4 % against
+# the brush model's +7.1 % and +8.5 %; brush truth, C_x +1.3 % against +2.5 %.
 DEFAULT_KIND = "shaped"
 
 
