@@ -68,8 +68,7 @@ def deconvolve_forces(
     weights = np.full(k, 1.0 / k)
     previous = -np.inf
     for _ in range(_MAX_ITERATIONS):
-        total = variances + noise2
-        log_joint = -0.5 * (x[:, None] - means) ** 2 / total - 0.5 * np.log(total) + np.log(weights)
+        log_joint, total = _component_log_densities(x, noise2, weights, means, variances)
         top = log_joint.max(axis=1, keepdims=True)
         log_norm = top[:, 0] + np.log(np.exp(log_joint - top).sum(axis=1))
         resp = np.exp(log_joint - log_norm[:, None])
@@ -87,6 +86,12 @@ def deconvolve_forces(
             break
         previous = mean_log_lik
     return weights, means, variances
+
+
+def _component_log_densities(x, noise2, weights, means, variances):
+    """log(w_k Normal(x_i; m_k, τ_k² + η_i²)) up to a constant, and τ_k² + η_i² (windows × k)."""
+    total = variances + noise2
+    return -0.5 * (x[:, None] - means) ** 2 / total - 0.5 * np.log(total) + np.log(weights), total
 
 
 def force_density_score(
@@ -114,11 +119,10 @@ def force_density_score(
         s_i [1/-] and s′_i [1/-²].
     """
     weights, means, variances = deconvolve_forces(rho, noise_sd, n_components)
-    x = np.asarray(rho, dtype=float)[:, None]
-    noise2 = np.broadcast_to(np.asarray(noise_sd, dtype=float) ** 2, x.shape[:1])
-    total = variances + noise2[:, None]
-    z = (x - means) / total
-    log_phi = np.log(weights) - 0.5 * (x - means) * z - 0.5 * np.log(total)
+    x = np.asarray(rho, dtype=float)
+    noise2 = np.broadcast_to(np.asarray(noise_sd, dtype=float) ** 2, x.shape)[:, None]
+    log_phi, total = _component_log_densities(x, noise2, weights, means, variances)
+    z = (x[:, None] - means) / total
     phi = np.exp(log_phi - log_phi.max(axis=1, keepdims=True))
     p = phi.sum(axis=1)
     score = (phi * -z).sum(axis=1) / p

@@ -33,11 +33,11 @@ accelerations too much; the brush curve read that as curvature: C_x +20 % and μ
 truth on two simulated one-hour drives with the true slips and Gaussian force noise of 0.012,
 against C_x +4 % and μ_max −9 % and −15 % with this form. The score has to be smooth as well as
 right: a kernel estimate's score is noisy where the forces are dense, an error in ρ̂ that
-attenuated the slope again (two one-hour drives with the true slips and ideal white force noise
-of twice the default sensors': C_x +5.6 % and +10.3 %, λ_ρ read as 0.8; with the deconvolved
-mixture −0.8 % and +1.5 %, λ_ρ 1.0). The marginal of ρ_obs keeps a Gaussian summary
-Normal(g m_d, √(g²τ_d² + η²)) per drive: it carries no information on C_x or μ_max and serves the
-log-likelihood and the predictive checks.
+attenuated the slope again (two one-hour drives, slips from the brush curve at the true forces
+plus slip noise, ideal white force noise of twice the default sensors': C_x +5.6 % and +10.3 %,
+λ_ρ read as 0.8; with the deconvolved mixture −0.8 % and +1.5 %, λ_ρ 1.0). The marginal of ρ_obs
+keeps a Gaussian summary Normal(g m_d, √(g²τ_d² + η²)) per drive: it carries no information on
+C_x or μ_max and serves the log-likelihood and the predictive checks.
 
 ABS windows observe the total normalised force ρ_obs = −g_d r μ_s + ε with r the ratio of an ABS
 window's mean force to the peak, one parameter shared by all windows: it is a property of the
@@ -293,8 +293,10 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     # The true force given its measurement, by Tweedie's formula on the density of the measured
     # forces (force_density.force_density_score): exact for Gaussian noise whatever the shape of
     # the force distribution. ρ_obs/g has noise η/g and score g·s(ρ_obs), so the gain just
-    # divides. The variance factor is clipped: with λ_ρ > 1 the stated noise's mixture can give
-    # a negative variance.
+    # divides. The variance factor is clipped to [0.05, 1]: with λ_ρ > 1 a single component's
+    # factor 1 − λ²η²/(τ² + η²) can fall below zero. The upper bound dates from the kernel
+    # estimate (raising it to 5 moved C_x by 0.3-0.5 points on one drive, then); between mixture
+    # components the factor can exceed 1, and that is not re-measured.
     noise2 = rho_noise**2
     rho_hat = (obs.rho + noise2 * obs.rho_score) / gain
     rho_var = noise2 / gain**2 * jnp.clip(1.0 + noise2 * obs.rho_score_slope, 0.05, 1.0)

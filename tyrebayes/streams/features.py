@@ -426,21 +426,20 @@ def compute_features(
     )
     fx_axle = np.column_stack([fx_front, fx_rear])
     fz_axle = np.column_stack([fz_front, fz_rear])
-    fx_axle = np.where(valid[:, None] & np.isfinite(ax)[:, None], fx_axle, np.nan)
+    has_force = (valid & np.isfinite(ax))[:, None]
+    fx_axle = np.where(has_force, fx_axle, np.nan)
+    fx_traction_axle = np.where(has_force, np.column_stack([fxf_traction, fxr_traction]), np.nan)
     rho_axle = fx_axle / fz_axle
-    if vehicle.driven_axle == "both":
-        fx_driven = fx_axle.sum(axis=1)
-        fz_driven = fz_axle.sum(axis=1)
-    else:
-        k = 0 if vehicle.driven_axle == "front" else 1
-        fx_driven, fz_driven = fx_axle[:, k], fz_axle[:, k]
+
+    def driven(per_axle: np.ndarray) -> np.ndarray:
+        """The driven axle's column, or the sum of both for AWD."""
+        if vehicle.driven_axle == "both":
+            return per_axle.sum(axis=1)
+        return per_axle[:, 0 if vehicle.driven_axle == "front" else 1]
+
+    fx_driven, fz_driven = driven(fx_axle), driven(fz_axle)
     rho_driven = fx_driven / fz_driven
-    fx_traction_axle = np.column_stack([fxf_traction, fxr_traction])
-    fx_traction_axle = np.where(valid[:, None] & np.isfinite(ax)[:, None], fx_traction_axle, np.nan)
-    fx_traction = {"front": fx_traction_axle[:, 0], "rear": fx_traction_axle[:, 1]}.get(
-        vehicle.driven_axle, fx_traction_axle.sum(axis=1)
-    )
-    rho_driven_traction = fx_traction / fz_driven
+    rho_driven_traction = driven(fx_traction_axle) / fz_driven
     # Per-sample noise of the smoothed ax, scaled by the axle's share of m·ax. The offset's
     # uncertainty is common to the whole log and reported apart (nuisances.rho_offset_sd).
     ax_sd_local = local_noise_sd(data["ax"].to_numpy(dtype=float), window, span)
