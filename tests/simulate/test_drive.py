@@ -178,9 +178,13 @@ def test_truth_is_self_consistent(model):
         ),
         rtol=1e-10,
     )
-    # Ideal IMU: specific force a_x + g sin(grade), gravity included.
+    # Ideal IMU: specific force a_x + g sin(grade), gravity included, in the body frame pitched
+    # by the vehicle's squat/dive k·a_x.
+    pitch = veh.pitch_gradient_rad_per_mps2 * tr.ax_mps2
+    specific = tr.ax_mps2 + GRAVITY_MPS2 * np.sin(tr.grade_rad)
+    vertical = GRAVITY_MPS2 * np.cos(tr.grade_rad)
     np.testing.assert_allclose(
-        df["ax"].to_numpy(), tr.ax_mps2 + GRAVITY_MPS2 * np.sin(tr.grade_rad), atol=1e-9
+        df["ax"].to_numpy(), specific * np.cos(pitch) + vertical * np.sin(pitch), atol=1e-9
     )
 
 

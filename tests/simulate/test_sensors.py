@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import equinox as eqx
 import numpy as np
 import pytest
 
@@ -58,11 +59,32 @@ def test_ideal_sensor_passes_signals_through():
 def test_mounting_pitch_bias_and_gain_enter_ax():
     rng = np.random.default_rng(1)
     ideal = SensorModel.ideal()
-    sensor = SensorModel(**{**_fields(ideal), "ax_gain": 0.8})
-    df = measure(rng, sensor, _offsets(pitch=-0.05, bias=(0.1, -0.2)), **_signals(accel=1.0))
+    offsets = eqx.tree_at(lambda o: o.ax_gain, _offsets(pitch=-0.05, bias=(0.1, -0.2)), 0.8)
+    df = measure(rng, ideal, offsets, **_signals(accel=1.0))
     expected = 0.8 * (1.0 * np.cos(-0.05) + GRAVITY_MPS2 * np.sin(-0.05)) + 0.1
     np.testing.assert_allclose(df["ax"], expected, atol=1e-12)
     np.testing.assert_allclose(df["ay"], -0.2, atol=1e-12)
+
+
+def test_body_pitch_over_reads_ax_by_the_pitch_gain():
+    """Squat/dive of k rad per m/s² makes a level IMU read a_x (1 + g·k) to first order."""
+    k = 0.002
+    for accel in (-6.0, 2.0):
+        df = measure(
+            np.random.default_rng(1),
+            SensorModel.ideal(),
+            _offsets(),
+            **_signals(accel=accel),
+            pitch_gradient_rad_per_mps2=k,
+        )
+        np.testing.assert_allclose(df["ax"], accel * (1 + GRAVITY_MPS2 * k), rtol=2e-4)
+
+
+def test_ax_gain_is_drawn_per_drive_around_the_sensor_gain():
+    sensor = SensorModel(ax_gain=0.9, ax_gain_sd=0.01)
+    gains = [draw_sensor_truth(np.random.default_rng(s), sensor, 0.3).ax_gain for s in range(400)]
+    assert np.mean(gains) == pytest.approx(0.9, abs=0.002)
+    assert np.std(gains) / 0.9 == pytest.approx(0.01, rel=0.15)
 
 
 def _fields(model: SensorModel) -> dict:

@@ -69,6 +69,23 @@ def test_rho_and_noise(synthetic):
     assert 0 < feats.nuisances.rho_offset_sd < 0.05
 
 
+def test_body_pitch_gain_is_removed_from_the_force(synthetic):
+    """The IMU over-reads a_x by 1 + g·k as the body squats and dives; the features remove it."""
+    feats, truth = synthetic
+    ok = feats.valid & (np.abs(truth["rho_driven"]) > 0.02)
+
+    def gain(rho: np.ndarray) -> float:
+        x = truth["rho_driven"][ok]
+        return float(np.polyfit(x, rho[ok], 1)[0])
+
+    assert gain(feats.rho_driven) == pytest.approx(1.0, abs=0.005)
+    # Ignoring the pitch (a vehicle file with k = 0) leaves the forces ~2 % high.
+    flat = dataclasses.replace(VEHICLE, pitch_gradient_rad_per_mps2=0.0)
+    df, _ = synthetic_stream(VEHICLE, duration_s=120.0, rate_hz=100.0, seed=11)
+    unaware = compute_features(validate_stream(df, flat), flat)
+    assert gain(unaware.rho_driven) == pytest.approx(1.0196, abs=0.005)
+
+
 def test_traction_split_force_is_continuous_through_zero(synthetic):
     # In traction the two forces are the same; under braking rho_driven takes the brake balance
     # (0.7 front) and rho_driven_traction keeps the traction split, so that a window of samples

@@ -68,6 +68,11 @@ class Vehicle(eqx.Module):
         Body width [m] (ISO 3888-2 lane widths, cone strikes).
     front_drive_fraction : float
         Share of the traction force on the front axle for ``"awd"`` [-].
+    pitch_gradient_rad_per_mps2 : float
+        Body pitch per unit longitudinal acceleration, squat and dive of the suspension
+        [rad/(m/s²)], nose-up positive for positive a_x. A body-fixed IMU then reads
+        a_x (1 + g·k) (see :func:`body_pitch_gain`). Passenger cars pitch about 1°/g, i.e.
+        k ≈ 0.002, the default.
 
     Numeric fields may be arrays of one shape: a batch of vehicles for ``eqx.filter_vmap``
     (``drive`` is static and shared by the batch).
@@ -86,6 +91,7 @@ class Vehicle(eqx.Module):
     rolling_resistance: Param = 0.011
     width_m: Param = 1.80
     front_drive_fraction: Param = 0.5
+    pitch_gradient_rad_per_mps2: Param = 0.002
 
     def __check_init__(self):
         for name in (
@@ -102,6 +108,9 @@ class Vehicle(eqx.Module):
             check_positive("Vehicle", name, getattr(self, name))
         check_nonnegative("Vehicle", "drag_area_m2", self.drag_area_m2)
         check_nonnegative("Vehicle", "rolling_resistance", self.rolling_resistance)
+        check_in_range(
+            "Vehicle", "pitch_gradient_rad_per_mps2", self.pitch_gradient_rad_per_mps2, 0.0, 0.02
+        )
         check_in_range("Vehicle", "front_drive_fraction", self.front_drive_fraction, 0.0, 1.0)
         if self.drive not in _DRIVES:
             raise ValueError(f"Vehicle.drive: expected one of {_DRIVES}, got {self.drive!r}")
@@ -165,6 +174,21 @@ def load_vehicle(name_or_path: str | Path) -> Vehicle:
             raise ValueError(f"vehicle file {path}: {key} must be a number, got {value!r}")
     fields = {k: (v if k == "drive" else float(v)) for k, v in fields.items()}
     return Vehicle(**fields)
+
+
+def body_pitch_gain(vehicle: Vehicle) -> Param:
+    """Factor 1 + g·k by which a body-fixed IMU over-reads a_x as the body pitches [-].
+
+    The body pitches by k·a_x (squat under traction, dive under braking, both nose-up for
+    positive a_x), so the IMU's x axis picks up g·sin(k·a_x) ≈ g·k·a_x of gravity on top of a_x.
+    A fixed mounting pitch adds a constant instead, which the offset estimate removes.
+
+    Examples
+    --------
+    >>> round(float(body_pitch_gain(load_vehicle("compact_fwd"))), 4)
+    1.0196
+    """
+    return 1.0 + GRAVITY_MPS2 * vehicle.pitch_gradient_rad_per_mps2
 
 
 def axle_loads(vehicle: Vehicle, ax: Batch) -> tuple[Float[Array, "..."], Float[Array, "..."]]:

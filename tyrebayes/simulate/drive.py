@@ -517,6 +517,7 @@ def simulate_drive(
         speed_mps=at_log(np.hypot(v, kin.vy)),
         ambient_c=ambient_c,
         wheelbase_m=vehicle.wheelbase_m,
+        pitch_gradient_rad_per_mps2=vehicle.pitch_gradient_rad_per_mps2,
     )
     mu_peak = float(mu)
     abs_pk = (
@@ -547,6 +548,7 @@ def simulate_drive(
         c_y_per_rad=float(tyre.c_y_per_rad),
         ambient_c=float(ambient_c),
         mounting_pitch_rad=float(offsets.mounting_pitch_rad),
+        ax_gain=float(offsets.ax_gain),
         yaw_rate_bias_radps=float(offsets.yaw_rate_bias_radps),
         wheel_speed_step_radps=float(offsets.wheel_speed_step_radps),
         abs_peak_slip=abs_pk,

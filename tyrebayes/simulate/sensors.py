@@ -83,14 +83,13 @@ class SensorModel(eqx.Module):
         Sd of the resonant vehicle vibration on (ax, ay, az) [m/s²].
     accel_vibration_hz : float
         Its frequency [Hz] (the real log: 10-15 Hz on ax and az, the rear wheels' mode).
-    ax_gain : float
-        Scale factor of the logged ax [-] (the real dashcam reads 0.79 of the acceleration).
+    ax_gain, ax_gain_sd : float
+        Scale factor of the logged ax [-] (the real dashcam reads 0.79 of the acceleration), and
+        its relative spread from drive to drive (accelerometer scale-factor error, ~1 %).
     imu_bias_mean_mps2, imu_bias_sd_mps2 : float
         Accelerometer bias of ax and ay [m/s²].
     mounting_pitch_mean_rad, mounting_pitch_sd_rad : float
         IMU mounting pitch (nose-up positive) [rad].
-    body_pitch_rad_per_mps2 : float
-        Suspension pitch per unit longitudinal acceleration (squat/dive) [rad/(m/s²)].
     yaw_rate_noise_radps, yaw_rate_bias_sd_radps : float
         Gyro noise and bias [rad/s].
     steering_resolution_rad, steering_noise_rad : float
@@ -137,11 +136,11 @@ class SensorModel(eqx.Module):
     )
     accel_vibration_hz: float = 12.0
     ax_gain: float = 1.0
+    ax_gain_sd: float = 0.01
     imu_bias_mean_mps2: float = 0.0
     imu_bias_sd_mps2: float = 0.05
     mounting_pitch_mean_rad: float = 0.0
     mounting_pitch_sd_rad: float = 0.02
-    body_pitch_rad_per_mps2: float = 0.002
     yaw_rate_noise_radps: float = 0.0015
     yaw_rate_bias_sd_radps: float = 0.001
     steering_resolution_rad: float = float(np.deg2rad(0.1))
@@ -166,6 +165,7 @@ class SensorModel(eqx.Module):
                     "radius_error_sd",
                     "accel_vibration_hz",
                     "ax_gain",
+                    "ax_gain_sd",
                     "imu_bias_sd_mps2",
                     "mounting_pitch_sd_rad",
                     "yaw_rate_noise_radps",
@@ -224,7 +224,7 @@ class SensorModel(eqx.Module):
                 "timing_jitter wheel_speed_resolution_kmh "
                 "roughness_log_sd radius_error_sd "
                 "imu_bias_sd_mps2 mounting_pitch_sd_rad "
-                "body_pitch_rad_per_mps2 yaw_rate_noise_radps yaw_rate_bias_sd_radps "
+                "ax_gain_sd yaw_rate_noise_radps yaw_rate_bias_sd_radps "
                 "steering_resolution_rad steering_noise_rad gnss_noise_mps drop_probability "
                 "dropout_bursts_per_hour ambient_resolution_c bumps_per_km"
             ).split()
@@ -254,6 +254,7 @@ class SensorModel(eqx.Module):
             mounting_pitch_sd_rad=0.0,
             imu_bias_sd_mps2=0.0,
             ax_gain=0.79,
+            ax_gain_sd=0.0,
             radius_error_mean=(0.0084, 0.0085, 0.0096, 0.0100),
             radius_error_sd=0.0,
             gnss_hold=False,
@@ -298,6 +299,7 @@ class SensorTruth(eqx.Module):
         R_i = R_nom (1 + ε_i).
     imu_bias_mps2 : accelerometer bias (ax, ay) [m/s²].
     mounting_pitch_rad : IMU mounting pitch [rad], nose-up positive.
+    ax_gain : scale factor of the logged ax [-].
     yaw_rate_bias_radps : gyro bias [rad/s].
     wheel_speed_step_radps : quantisation step of the logged wheel speeds [rad/s].
     """
@@ -307,12 +309,13 @@ class SensorTruth(eqx.Module):
     mounting_pitch_rad: float
     yaw_rate_bias_radps: float
     wheel_speed_step_radps: float
+    ax_gain: float = 1.0
 
 
 def draw_sensor_truth(
     rng: np.random.Generator, sensor: SensorModel, wheel_radius_m: float
 ) -> SensorTruth:
-    """Draw the per-drive offsets of ``sensor`` (radius errors, IMU bias, mounting pitch)."""
+    """Draw the per-drive offsets of ``sensor`` (radius errors, IMU bias, pitch and gain)."""
     return SensorTruth(
         radius_error=np.asarray(sensor.radius_error_mean, dtype=float)
         + rng.standard_normal(4) * sensor.radius_error_sd,
@@ -322,6 +325,7 @@ def draw_sensor_truth(
         ),
         yaw_rate_bias_radps=float(rng.standard_normal() * sensor.yaw_rate_bias_sd_radps),
         wheel_speed_step_radps=sensor.wheel_speed_resolution_kmh / 3.6 / wheel_radius_m,
+        ax_gain=float(sensor.ax_gain * (1.0 + rng.standard_normal() * sensor.ax_gain_sd)),
     )
 
 
@@ -416,6 +420,7 @@ def measure(
     speed_mps: np.ndarray,
     ambient_c: float,
     wheelbase_m: float = 2.7,
+    pitch_gradient_rad_per_mps2: float = 0.0,
 ) -> pd.DataFrame:
     """Turn true signals at the logged times into the logged stream (DESIGN.md stream contract).
 
@@ -443,6 +448,8 @@ def measure(
         Ambient temperature [°C].
     wheelbase_m : float
         Wheelbase [m]: a bump reaches the rear wheels a wheelbase after the front ones.
+    pitch_gradient_rad_per_mps2 : float
+        The vehicle's body pitch per unit acceleration (squat/dive) [rad/(m/s²)].
 
     Returns
     -------
@@ -482,7 +489,7 @@ def measure(
     omega = np.maximum(_quantise(omega, offsets.wheel_speed_step_radps), 0.0)
 
     # IMU: specific force in the sensor frame, pitched by mounting + suspension pitch on a grade.
-    pitch = offsets.mounting_pitch_rad + sensor.body_pitch_rad_per_mps2 * accel_mps2
+    pitch = offsets.mounting_pitch_rad + pitch_gradient_rad_per_mps2 * accel_mps2
     # Vehicle vibration (one mode, three axes) and white noise, both scaled by road roughness and
     # fading out at standstill like the wheel noise.
     shake = (rough * np.maximum(moving, 0.2))[:, None]
@@ -494,7 +501,7 @@ def measure(
     g = GRAVITY_MPS2
     fx = accel_mps2 + g * np.sin(grade_rad)
     fz = g * np.cos(grade_rad)
-    ax = sensor.ax_gain * (fx * np.cos(pitch) + fz * np.sin(pitch)) + offsets.imu_bias_mps2[0]
+    ax = offsets.ax_gain * (fx * np.cos(pitch) + fz * np.sin(pitch)) + offsets.imu_bias_mps2[0]
     ax = ax + body[:, 0]
     ay = ay_mps2 + offsets.imu_bias_mps2[1] + body[:, 1]
     az = -fx * np.sin(pitch) + fz * np.cos(pitch) + body[:, 2]

@@ -52,6 +52,7 @@ SCALARS: tuple[str, ...] = (
     "c_y_per_rad",
     "ambient_c",
     "mounting_pitch_rad",
+    "ax_gain",
     "yaw_rate_bias_radps",
     "wheel_speed_step_radps",
     "abs_peak_slip",
@@ -72,7 +73,8 @@ class DriveTruth(eqx.Module):
     -------
     c_xr : compensated stiffness at 20 °C [-]. mu_max : peak friction on this surface at the
     static load [-]. mu_slide_ratio, c_y_per_rad : the tyre's other parameters. ambient_c [°C].
-    mounting_pitch_rad : IMU mounting pitch [rad] (nose-up +). yaw_rate_bias_radps [rad/s].
+    mounting_pitch_rad : IMU mounting pitch [rad] (nose-up +). ax_gain : IMU scale factor on ax
+    [-]. yaw_rate_bias_radps [rad/s].
     wheel_speed_step_radps : logged wheel-speed quantisation [rad/s]. abs_peak_slip : slip at the
     peak at static load and mean ABS temperature [-] (NaN without ABS events).
 
@@ -108,6 +110,7 @@ class DriveTruth(eqx.Module):
     c_y_per_rad: float
     ambient_c: float
     mounting_pitch_rad: float
+    ax_gain: float
     yaw_rate_bias_radps: float
     wheel_speed_step_radps: float
     abs_peak_slip: float

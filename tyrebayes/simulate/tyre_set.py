@@ -113,6 +113,7 @@ def simulate_tyre_set_drives(
             mounting_pitch_rad=car.mounting_pitch_rad,
             yaw_rate_bias_radps=car.yaw_rate_bias_radps,
             wheel_speed_step_radps=car.wheel_speed_step_radps,
+            ax_gain=car.ax_gain,
         )
         seed = int(children[i + 1].generate_state(1)[0])
         out.append(

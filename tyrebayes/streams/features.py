@@ -13,7 +13,8 @@ Steps (thesis chapter 4.3):
    wheels brake and slip too, so the driven axle's measured slip is about σ_driven − σ_free
    (for AWD, relative to the median wheel, biased towards zero). Traction samples are clean.
 5. IMU offset from ax − dV_x/dt; the offset-corrected ax keeps the road grade, which is exactly
-   what the force balance needs.
+   what the force balance needs. The body's squat and dive (the vehicle's pitch gradient k) make
+   the IMU over-read a_x by 1 + g·k; that gain is removed, before the offset estimate too.
 6. Axle forces from :func:`tyrebayes.physics.vehicle.single_track_inverse` (eq. 4.23) with drag
    and rolling resistance; axle loads with longitudinal load transfer; ρ_x = F_x / F_z.
 7. Friction power w_x = |F_x V_x σ_x| (eq. 4.19a) and regime labels.
@@ -45,6 +46,7 @@ from ..physics.vehicle import (
     Vehicle,
     aero_drag,
     axle_loads,
+    body_pitch_gain,
     rolling_resistance_force,
     single_track_inverse,
 )
@@ -391,8 +393,13 @@ def compute_features(
     vx_sd = probe_sd[:, 5]
 
     # IMU offset against the wheel-speed derivative; the corrected ax keeps the road grade.
+    # Squat and dive add g·k·a_x to the reading: left in, the forces read 1 + g·k ≈ 2 % high and
+    # C_x with them (the model's force gain is centred at 1), and a drive that brakes more than
+    # it accelerates would shift the offset.
+    pitch_gain = float(body_pitch_gain(vehicle))
     dvx_dt = smoothed_derivative(vx_safe, dt, deriv_window)
     ax_smooth_d = nan_moving_average(data["ax"].to_numpy(dtype=float), deriv_window)
+    ax_smooth_d = ax_smooth_d - (pitch_gain - 1.0) * dvx_dt
     steady = valid & ~spin & (np.abs(dvx_dt) < 4.0)
     if ax_offset_mps2 is None:
         ax_offset, ax_offset_sd = estimate_ax_offset(ax_smooth_d, dvx_dt, steady, rate)
@@ -400,7 +407,7 @@ def compute_features(
             ax_offset, ax_offset_sd = 0.0, float("nan")
     else:
         ax_offset, ax_offset_sd = float(ax_offset_mps2), 0.0
-    ax = ax_raw - ax_offset
+    ax = (ax_raw - ax_offset) / pitch_gain
     grade = np.arcsin(np.clip((ax_smooth_d - ax_offset - dvx_dt) / GRAVITY_MPS2, -1.0, 1.0))
     if ax_offset_mps2 is None:
         # The offset also holds g·sin(mean grade of this log), which nothing in one log can
@@ -442,7 +449,7 @@ def compute_features(
     rho_driven_traction = driven(fx_traction_axle) / fz_driven
     # Per-sample noise of the smoothed ax, scaled by the axle's share of m·ax. The offset's
     # uncertainty is common to the whole log and reported apart (nuisances.rho_offset_sd).
-    ax_sd_local = local_noise_sd(data["ax"].to_numpy(dtype=float), window, span)
+    ax_sd_local = local_noise_sd(data["ax"].to_numpy(dtype=float), window, span) / pitch_gain
     share = np.where(
         np.abs(fx_axle.sum(axis=1)) > 0, np.abs(fx_driven) / np.abs(fx_axle.sum(axis=1)), 1.0
     )

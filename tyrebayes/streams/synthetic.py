@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..physics.vehicle import GRAVITY_MPS2, Vehicle
+from ..physics.vehicle import GRAVITY_MPS2, Vehicle, body_pitch_gain
 
 _KMH_STEP = 0.01 / 3.6  # CAN wheel-speed resolution of 0.01 km/h, in m/s
 
@@ -144,7 +144,11 @@ def synthetic_stream(
         "wheel_speed_fr": omega[:, 1],
         "wheel_speed_rl": omega[:, 2],
         "wheel_speed_rr": omega[:, 3],
-        "ax": ax_true + g * np.sin(grade) + ax_offset_mps2 + rng.normal(0, imu_noise_mps2, n),
+        # The body squats and dives by k·a_x: to first order the IMU reads a_x (1 + g·k).
+        "ax": ax_true * float(body_pitch_gain(vehicle))
+        + g * np.sin(grade)
+        + ax_offset_mps2
+        + rng.normal(0, imu_noise_mps2, n),
         "ay": ay_true + rng.normal(0, imu_noise_mps2, n),
         "yaw_rate": yaw + rng.normal(0, 0.002, n),
         "steering_wheel_angle": steer * vehicle.steering_ratio + rng.normal(0, 0.002, n),
