@@ -12,9 +12,9 @@ slope C_x at zero, peak μ), by default widened to a family with one shape expon
 brush, p ≈ 2 a measured Magic Formula curve; ``kind="shaped"``), or the linear model; s0_d the
 per-drive slip at zero force (rolling-radius mismatch between the driven and the reference
 wheels, plus IMU bias over C_x: in the linear region the two cannot be told apart, so one offset
-carries both), g_d the per-drive force gain (vehicle mass, axle load and IMU gain are known to a
-few percent only: without it the posterior of C_x would be narrower than what ordinary sensors
-can tell) and λ_σ, λ_ρ noise scales on the stated sensor noise.
+carries both), g_d the per-drive force gain (axle load share, IMU gain and body pitch are known
+to a few percent only: without it the posterior of C_x would be narrower than what ordinary
+sensors can tell) and λ_σ, λ_ρ noise scales on the stated sensor noise.
 
 Why slip on force and not force on slip: both are measured with noise (errors in variables). A
 regression of force on noisy slip attenuates the slope by var(σ_true)/var(σ_obs) — with wheel-speed
@@ -89,16 +89,21 @@ class TyrePriors(eqx.Module):
         Per-drive slip at zero force [-]: rolling radii differ by fractions of a percent
         (DESIGN.md physics notes), the driven-minus-reference difference has sd ~0.004.
     force_gain_log_sd : float
-        Log-scale sd of the per-drive force gain g_d: mass (passengers, fuel) ±3 %, IMU gain
-        ±1 %, static axle load share ±2 % → 0.04.
+        Log-scale sd of the per-drive force gain g_d, the measured over the true ρ_x. The mass
+        cancels from F_x/F_z; what does not is where it sits and how the IMU reads a_x: the static
+        load share of the driven axle ±2 % (passengers, luggage), the IMU scale factor ±1 %, the
+        pitch gradient's over-read of a_x ±0.5 %.
+        :class:`~tyrebayes.simulate.vehicle_truth.VehicleSpread` draws cars with these errors;
+        their gains have a log-sd of 0.023, rounded up to 0.025 for the CoG height's
+        load-transfer error. (It was 0.04 with the mass counted, which does
+        not enter ρ_x, and C_x's intervals were wider than its errors: 90 % coverage 1.00.)
     force_spread_scale : float
         Half-normal scale of the spread τ_d of the true force within a drive [-].
     abs_force_ratio, abs_force_ratio_sd : float
         Window-mean |ρ_x| of an ABS window as a fraction of μ_max, and its spread: ABS cycles
         the slip around the peak (about 0.5–1.5 peak slip), where the brush curve delivers
         0.9–1.0 μ and measured Magic Formula curves 0.9–1.0 μ (they fall slowly after the peak);
-        the measured deceleration adds body pitch and drag (up to ~+3 %): 0.97 ± 0.04, so
-        1.05 is two sds out.
+        0.97 ± 0.04, so 1.05 is two sds out.
     curve_bend_median, curve_bend_log_sd : float
         Log-normal prior of p − 1, with p the shape exponent of the ``"shaped"`` model: p = 1 is
         the brush model, a measured Magic Formula curve (Pacejka 2006, 205/60R15) is matched by
@@ -119,7 +124,7 @@ class TyrePriors(eqx.Module):
     temp_sensitivity_mean: float = 0.008
     temp_sensitivity_sd: float = 0.006
     slip_offset_sd: float = 0.004
-    force_gain_log_sd: float = 0.04
+    force_gain_log_sd: float = 0.025
     force_spread_scale: float = 0.3
     abs_force_ratio: float = 0.97
     abs_force_ratio_sd: float = 0.04

@@ -1,0 +1,64 @@
+"""The car driven differs from its vehicle file: the pipeline's force gain is the one predicted."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from tyrebayes.physics.vehicle import load_vehicle
+from tyrebayes.simulate.drive import simulate_drive
+from tyrebayes.simulate.sensors import SensorModel, draw_sensor_truth
+from tyrebayes.simulate.vehicle_truth import VehicleSpread, draw_true_vehicle, force_gain
+from tyrebayes.streams import compute_features, validate_stream
+
+NOMINAL = load_vehicle("compact_fwd")
+
+
+def test_draws_keep_mass_and_move_share_height_and_pitch():
+    rng = np.random.default_rng(0)
+    cars = [draw_true_vehicle(rng, NOMINAL, VehicleSpread()) for _ in range(500)]
+    share = np.array([1 - c.cog_to_front_axle_m / c.wheelbase_m for c in cars])
+    nominal_share = 1 - NOMINAL.cog_to_front_axle_m / NOMINAL.wheelbase_m
+    assert {c.mass_kg for c in cars} == {NOMINAL.mass_kg}
+    assert np.mean(share) == pytest.approx(nominal_share, abs=0.002)
+    assert np.std(share) == pytest.approx(0.012, rel=0.15)
+    pitch = np.log([c.pitch_gradient_rad_per_mps2 for c in cars])
+    assert np.std(pitch) == pytest.approx(0.25, rel=0.15)
+    # No spread: the vehicle file itself.
+    same = draw_true_vehicle(rng, NOMINAL, VehicleSpread(0.0, 0.0, 0.0))
+    assert same.cog_to_front_axle_m == pytest.approx(NOMINAL.cog_to_front_axle_m)
+
+
+def test_spread_rejects_unphysical_values():
+    with pytest.raises(ValueError, match="front_load_share_sd"):
+        VehicleSpread(front_load_share_sd=-0.1)
+
+
+def test_pipeline_force_gain_is_the_predicted_one():
+    """A rear-loaded, stiffer car with a 3 % IMU gain: features read ρ_x at force_gain × truth.
+
+    The three errors do not cancel (about −3 % in all), and the gain is read to 1 %."""
+    car = dataclasses.replace(
+        NOMINAL,
+        cog_to_front_axle_m=NOMINAL.cog_to_front_axle_m + 0.08,
+        pitch_gradient_rad_per_mps2=0.001,
+    )
+    sensor = SensorModel()
+    offsets = dataclasses.replace(
+        draw_sensor_truth(np.random.default_rng(3), sensor, NOMINAL.wheel_radius_m), ax_gain=1.03
+    )
+    df, truth = simulate_drive(
+        5, car, "summer", duration_s=600.0, sensor=sensor, sensor_offsets=offsets
+    )
+    feats = compute_features(validate_stream(df, NOMINAL), NOMINAL)
+    rho_true = np.interp(feats.time_s, truth.time_s, truth.rho_x_driven)
+    # Selected on the true force only: a label cut on the measured force would flatten the slope.
+    used = (rho_true > 0.03) & feats.valid & ~feats.spin
+    slope = np.polyfit(rho_true[used], feats.rho_driven[used], 1)[0]
+    expected = force_gain(car, NOMINAL, ax_gain=1.03)
+    g = 9.80665
+    front_load = (NOMINAL.cog_to_rear_axle_m - 0.08) / NOMINAL.cog_to_rear_axle_m  # true/assumed
+    assert expected == pytest.approx(1.03 * (1 + g * 0.001) / (1 + g * 0.002) * front_load)
+    assert slope == pytest.approx(expected, abs=0.008)
