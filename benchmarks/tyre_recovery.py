@@ -36,9 +36,9 @@ and of μ_max for the posterior, and the coverage of its central 50 % and 90 % i
   coverage there also tests the shared ABS force ratio's prior.
 
 Drives last one hour by default, as the issue asks (``--duration`` for shorter ones). Two
-settings of 50 one-hour drives (both models fitted on each) took 19-20 min in one process while
-a second process ran the other two on the 2-core machine (and a test run shared it part of the
-time; 12 min without it, before the force density was deconvolved); ``--settings`` runs a
+settings of 50 one-hour drives (both models fitted on each) took 17-18 min in one process while
+a second process ran the other two on the 2-core machine (and the test suite ran alongside at
+lower priority); ``--settings`` runs a
 subset so that settings can run in separate processes (merge their ``results``).
 
 Usage: ``python benchmarks/tyre_recovery.py [--quick] [--reps N] [--duration S] [--settings A,B]``.

@@ -148,8 +148,8 @@ def stiffness_at_temperature(c_xr, temp_sensitivity, temperature_c):
 
 MODEL_KINDS = ("shaped", "brush", "linear")
 # The shaped family contains the brush (p = 1) and fits Magic Formula tyres too. Fifty one-hour
-# drives with ABS (tyre_recovery.json): Magic Formula truth, C_x +3.6 % and μ_max +1.4 % against
-# the brush model's +7.1 % and +8.5 %; brush truth, C_x +1.3 % against +2.5 %.
+# drives with ABS (tyre_recovery.json): Magic Formula truth, C_x +1.2 % and μ_max −0.5 % against
+# the brush model's +5.2 % and +7.1 %; brush truth, C_x −0.8 % against +0.5 %.
 DEFAULT_KIND = "shaped"
 
 
