@@ -6,7 +6,7 @@ The mass cancels from that ratio (F_x = m a_x and F_z ∝ m g, up to drag), but 
 does not: passengers and luggage move the static front load share, the centre of gravity's
 height sets the load transfer, and the suspension's pitch gradient sets how much the IMU
 over-reads a_x (:func:`tyrebayes.physics.vehicle.body_pitch_gain`). The IMU's own scale-factor
-error is a sensor offset (:class:`~tyrebayes.simulate.sensors.SensorModel.ax_gain_sd`).
+error is a sensor offset (:attr:`~tyrebayes.simulate.sensors.SensorModel.ax_gain_sd`).
 
 :func:`draw_true_vehicle` draws such a car around a vehicle file, so that a recovery benchmark
 tests the model in the world its priors describe (simulation-based calibration), not in one
@@ -38,13 +38,14 @@ class VehicleSpread(eqx.Module):
     Parameters
     ----------
     front_load_share_sd : float
-        Sd of the static front-axle load share (absolute) [-]. Two rear passengers or a full
-        boot move a compact's 62 % front share by 1-2 points: 0.012, i.e. ±2 % of the front load.
+        Sd of the static front-axle load share (absolute) [-]. Two rear passengers (150 kg at
+        55 % of the wheelbase behind the front axle) move the compact's 62 % front share to
+        60.5 %: 0.012, i.e. ±2 % of the front load (an assumption of that size).
     cog_height_rel_sd : float
         Relative sd of the centre-of-gravity height [-] (load, roof box): 0.05.
     pitch_gradient_rel_sd : float
-        Relative sd of the body pitch gradient [-]: published squat/dive gradients of passenger
-        cars spread by about a quarter around 1°/g: 0.25.
+        Relative sd of the body pitch gradient [-]: 0.25 around the vehicle file's value, an
+        assumption (suspension tuning and load differ from car to car).
 
     Together with an IMU scale-factor error of 1 % these give the driven axle's ρ_x a gain
     error (:func:`force_gain`) with a log-sd of 0.023 on the front-driven compact at small a_x
