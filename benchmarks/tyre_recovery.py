@@ -36,7 +36,7 @@ and of μ_max for the posterior, and the coverage of its central 50 % and 90 % i
   coverage there also tests the shared ABS force ratio's prior.
 
 Drives last one hour by default, as the issue asks (``--duration`` for shorter ones). Two
-settings of 50 one-hour drives (both models fitted on each) took 17-18 min in one process while
+settings of 50 one-hour drives (both models fitted on each) took 16.5-17.5 min in one process while
 a second process ran the other two on the 2-core machine (and the test suite ran alongside at
 lower priority); ``--settings`` runs a
 subset so that settings can run in separate processes (merge their ``results``).

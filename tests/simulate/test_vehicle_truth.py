@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from tyrebayes.physics.vehicle import load_vehicle
+from tyrebayes.physics.vehicle import GRAVITY_MPS2, load_vehicle
 from tyrebayes.simulate.drive import simulate_drive
 from tyrebayes.simulate.sensors import SensorModel, draw_sensor_truth
 from tyrebayes.simulate.vehicle_truth import VehicleSpread, draw_true_vehicle, force_gain
@@ -58,7 +58,7 @@ def test_pipeline_force_gain_is_the_predicted_one():
     used = (rho_true > 0.03) & feats.valid & ~feats.spin
     slope = np.polyfit(rho_true[used], feats.rho_driven[used], 1)[0]
     expected = force_gain(car, NOMINAL, ax_gain=1.03)
-    g = 9.80665
+    g = GRAVITY_MPS2
     front_load = (NOMINAL.cog_to_rear_axle_m - 0.08) / NOMINAL.cog_to_rear_axle_m  # true/assumed
     assert expected == pytest.approx(1.03 * (1 + g * 0.001) / (1 + g * 0.002) * front_load)
     assert slope == pytest.approx(expected, abs=0.008)
