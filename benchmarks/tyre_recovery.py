@@ -66,11 +66,17 @@ from tyrebayes.simulate.drive import simulate_drive  # noqa: E402
 from tyrebayes.simulate.profiles import ProfileOptions  # noqa: E402
 from tyrebayes.simulate.sensors import SensorModel, scale_noise  # noqa: E402
 from tyrebayes.simulate.vehicle_truth import (  # noqa: E402
+    ThermalSpread,
     VehicleSpread,
+    draw_true_thermal,
     draw_true_vehicle,
     force_gain,
 )
-from tyrebayes.streams import compute_features, validate_stream  # noqa: E402
+from tyrebayes.streams import (  # noqa: E402
+    compute_features,
+    features_tyre_temperature,
+    validate_stream,
+)
 
 RESULTS = Path(__file__).parent / "results" / "tyre_recovery.json"
 TYRES = ("winter", "all_season", "summer")
@@ -97,6 +103,8 @@ def one_drive(seed: int, setting: dict, duration_s: float, vehicle, pad_to: int)
     # The car driven is not the vehicle file (load share, CoG height, pitch gradient; the IMU's
     # gain is drawn with the sensor offsets): the fit's force-gain prior describes this spread.
     car = draw_true_vehicle(np.random.default_rng([seed, 7]), vehicle, VehicleSpread())
+    # Nor do its tyres heat exactly as the pipeline's nominal thermal model assumes.
+    thermal = draw_true_thermal(np.random.default_rng([seed, 8]), ThermalSpread())
     df, truth = simulate_drive(
         seed,
         car,
@@ -106,10 +114,12 @@ def one_drive(seed: int, setting: dict, duration_s: float, vehicle, pad_to: int)
         tyre_model=setting["truth"],
         sensor=sensor,
         ambient_c=15.0,
+        thermal=thermal,
     )
     features = compute_features(validate_stream(df, vehicle), vehicle)
     ambient = float(np.nanmean(df["ambient_temperature"])) if "ambient_temperature" in df else 20.0
-    windows = observations_from_features(features, temperature_c=ambient)
+    tyre_temperature = features_tyre_temperature(features, ambient_c=ambient)
+    windows = observations_from_features(features, temperature_c=tyre_temperature)
     obs = stack_drives([windows], ["dry"], pad_to=pad_to)
     fit = fit_tyre(obs, method="fast", seed=seed)
     brush = fit_tyre(obs, method="fast", seed=seed, kind="brush")
@@ -127,6 +137,9 @@ def one_drive(seed: int, setting: dict, duration_s: float, vehicle, pad_to: int)
         "seed": seed,
         "tyre": tyre,
         "c_x_true": c_x_true,
+        "c_x_true_time_sd": float(np.std(truth.c_x) / c_x_true),
+        "tyre_temperature_rise_est": float(np.mean(tyre_temperature) - ambient),
+        "tyre_temperature_rise_true": float(np.mean(truth.tyre_temperature_c) - ambient),
         "mu_true": float(truth.mu_max),
         "force_gain_true": force_gain(car, vehicle, truth.ax_gain),
         "force_gain_post": float(np.mean(fit.draws("force_gain"))),

@@ -44,12 +44,16 @@ from .physics.wear import relative_wear as relative_wear
 from .physics.wear import wear_integral as wear_integral
 from .simulate.drive import simulate_drive as simulate_drive
 from .simulate.fleet import simulate_fleet as simulate_fleet
+from .simulate.vehicle_truth import ThermalSpread as ThermalSpread
 from .simulate.vehicle_truth import VehicleSpread as VehicleSpread
+from .simulate.vehicle_truth import draw_true_thermal as draw_true_thermal
 from .simulate.vehicle_truth import draw_true_vehicle as draw_true_vehicle
 from .streams.features import StreamFeatures as StreamFeatures
 from .streams.features import compute_features as compute_features
 from .streams.io import read_stream as read_stream
 from .streams.io import write_stream as write_stream
+from .streams.tyre_temperature import driven_tyre_temperature as driven_tyre_temperature
+from .streams.tyre_temperature import features_tyre_temperature as features_tyre_temperature
 from .streams.validate import ValidatedStream as ValidatedStream
 from .streams.validate import validate_stream as validate_stream
 

@@ -56,7 +56,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--temperature",
         type=float,
         default=None,
-        help="tyre temperature [°C] (default: mean ambient_temperature column, else 20)",
+        help="a fixed tyre temperature [°C] (default: estimated along the drive from speed "
+        "and loads with the thermal model, starting at the ambient)",
+    )
+    parser.add_argument(
+        "--ambient",
+        type=float,
+        default=None,
+        help="ambient temperature [°C] (default: mean ambient_temperature column, else 20)",
     )
     parser.add_argument(
         "--model",
@@ -110,6 +117,7 @@ def run(args: argparse.Namespace) -> int:
         args.vehicle,
         surface=args.surface,
         temperature_c=args.temperature,
+        ambient_c=args.ambient,
     )
     fit = fit_tyre(obs, method=args.method, kind=args.model, seed=args.seed)
     summary = fit.summary()

@@ -23,6 +23,9 @@ from .._errors import BadInputError
 from .force_density import force_density_score
 
 SURFACES = ("dry", "wet", "snow", "ice")
+# Windows further apart than this are treated as independent (their correlation is below
+# 0.95^40 ≈ 0.13 even at the prior's largest plausible window-to-window correlation).
+MAX_CORRELATED_LAG = 40.0
 
 
 class TyreObservations(eqx.Module):
@@ -44,6 +47,12 @@ class TyreObservations(eqx.Module):
     neighbour_slip : Float[Array, "n"]
         Mean measured slip of the adjacent windows [-]. The current model (slip regressed on force)
         does not read it; window selection still drops windows without a neighbour.
+    slip_lag : Float[Array, "n"]
+        Time from the window before it in the array to this window, in window lengths [-], where
+        both are slip windows of the same drive; +inf otherwise (first window, after a gap of
+        more than ``MAX_CORRELATED_LAG`` windows, ABS windows, padding). The slip errors of
+        nearby windows are correlated (feature smoothing, slowly varying wheel-speed errors);
+        the model gives them an exponentially decaying correlation over this lag.
     rho_score, rho_score_slope : Float[Array, "n"]
         d/dρ log p(ρ_obs) and its derivative [1/-, 1/-²] at each window's measured force, with p
         the density of the measured forces of the window's drive at the window's noise (slip
@@ -68,6 +77,7 @@ class TyreObservations(eqx.Module):
     rho_sd: Float[Array, "n"]
     temperature_c: Float[Array, "n"]
     neighbour_slip: Float[Array, "n"]
+    slip_lag: Float[Array, "n"]
     rho_score: Float[Array, "n"]
     rho_score_slope: Float[Array, "n"]
     at_limit: Bool[Array, "n"]
@@ -114,6 +124,12 @@ def window_means(
     with np.errstate(invalid="ignore", divide="ignore"):
         means = v.sum(axis=1) / counts
     return means, counts
+
+
+def window_centres(time_s: np.ndarray, window: int, n_blocks: int) -> np.ndarray:
+    """Centre times of the first ``n_blocks`` blocks of ``window`` samples [s]."""
+    dt = float(np.median(np.diff(time_s))) if len(time_s) > 1 else 0.0
+    return np.asarray(time_s, dtype=float)[: n_blocks * window : window] + 0.5 * (window - 1) * dt
 
 
 def _neighbour_mean(values: np.ndarray) -> np.ndarray:
@@ -168,8 +184,8 @@ def windowed_observations(
     Returns
     -------
     dict
-        ``slip``, ``rho``, ``slip_sd``, ``rho_sd``, ``temperature_c`` arrays, one entry per kept
-        window, and ``neighbour_slip`` (and the ``also`` channels). The noise sd of a window mean
+        ``slip``, ``rho``, ``slip_sd``, ``rho_sd``, ``temperature_c``, ``time_s`` (the time of
+        the window's centre) arrays, one entry per kept window, and ``neighbour_slip`` (and the ``also`` channels). The noise sd of a window mean
         of k samples is sd/√k.
     """
     time_s = np.asarray(time_s, dtype=float)
@@ -197,6 +213,7 @@ def windowed_observations(
     for name, arr in arrays.items():
         means, counts = window_means(arr, valid, window)
         out[name] = means
+    out["time_s"] = window_centres(time_s, window, len(counts))
     keep = counts >= max(1, int(np.ceil(min_fraction_valid * window)))
     out["neighbour_slip"] = _neighbour_mean(np.where(keep, out["slip"], np.nan))
     keep &= np.isfinite(out["neighbour_slip"])
@@ -233,7 +250,7 @@ def _inner_runs(flags: np.ndarray, min_run: int) -> np.ndarray:
 def observations_from_features(
     features,
     *,
-    temperature_c: float = 20.0,
+    temperature_c: float | np.ndarray = 20.0,
     window_s: float = 0.25,
     abs_oscillation_factor: float = 5.0,
     abs_min_decel: float = 0.05,
@@ -258,8 +275,10 @@ def observations_from_features(
     ----------
     features : StreamFeatures
         From :func:`tyrebayes.streams.compute_features`.
-    temperature_c : float
-        Tyre temperature estimate for the drive [°C] (e.g. the ambient temperature column).
+    temperature_c : float or ndarray
+        Tyre temperature [°C]: one value for the drive, or one per sample of ``features``
+        (:func:`tyrebayes.streams.tyre_temperature.features_tyre_temperature`, what
+        :func:`observations_from_stream` uses); windows take its mean over their samples.
     window_s : float
         Window length [s].
     abs_oscillation_factor : float
@@ -333,6 +352,9 @@ def observations_from_features(
     rho_mean, counts = window_means(rho_total, valid, window)
     sd_ok = valid & np.isfinite(features.rho_driven_sd)
     rho_sd, _ = window_means(features.rho_driven_sd, sd_ok, window)
+    sample_temperature = np.broadcast_to(np.asarray(temperature_c, dtype=float), valid.shape)
+    limit_temperature, _ = window_means(sample_temperature, np.ones_like(valid), window)
+    limit_time = window_centres(features.time_s, window, len(rho_mean))
     enough = counts >= 0.8 * window
     baseline = np.nanmedian(np.where(enough, oscillation, np.nan)) if enough.any() else np.nan
     candidate = (
@@ -349,7 +371,8 @@ def observations_from_features(
         "rho": rho_mean[at_limit],
         "slip_sd": np.ones(m),
         "rho_sd": np.nan_to_num(rho_sd[at_limit], nan=0.01) * factor,
-        "temperature_c": np.full(m, float(temperature_c)),
+        "temperature_c": limit_temperature[at_limit],
+        "time_s": limit_time[at_limit],
         "neighbour_slip": np.zeros(m),
         "rho_score": np.zeros(m),
         "rho_score_slope": np.zeros(m),
@@ -371,6 +394,28 @@ def _slip_window_scores(
     return score, score_slope
 
 
+def _slip_lags(time_s: np.ndarray | None, at_limit: np.ndarray) -> np.ndarray:
+    """``slip_lag`` of one drive's windows (see :class:`TyreObservations`).
+
+    Without window times (``time_s`` absent) every window is independent. The window length is
+    the shortest step between consecutive slip windows.
+    """
+    lag = np.full(len(at_limit), np.inf)
+    if time_s is None or len(at_limit) < 2:
+        return lag
+    time_s = np.asarray(time_s, dtype=float)
+    step = np.diff(time_s)
+    both_slip = ~at_limit[1:] & ~at_limit[:-1]
+    forward = both_slip & np.isfinite(step) & (step > 0)
+    if not forward.any():
+        return lag
+    window = float(np.min(step[forward]))
+    in_windows = step / window
+    near = forward & (in_windows <= MAX_CORRELATED_LAG)
+    lag[1:][near] = in_windows[near]
+    return lag
+
+
 def stack_drives(
     drives: Sequence[dict[str, np.ndarray]],
     surfaces: Sequence[str],
@@ -384,7 +429,8 @@ def stack_drives(
     drives : sequence of dict
         Outputs of :func:`windowed_observations` or :func:`observations_from_features`, one per
         drive. Their ``rho_score`` and ``rho_score_slope`` are used if present, else computed
-        from the drive's slip windows (:func:`force_density_score`).
+        from the drive's slip windows (:func:`force_density_score`); their ``time_s`` (window
+        times, increasing) gives ``slip_lag``, and without it the windows count as independent.
     surfaces : sequence of str
         Surface of each drive, from ``SURFACES``.
     pad_to : int, optional
@@ -402,7 +448,7 @@ def stack_drives(
         raise BadInputError(f"surface: expected one of {SURFACES}, got {unknown[0]!r}")
     used_surfaces = tuple(s for s in SURFACES if s in surfaces)
     keys = ("slip", "rho", "slip_sd", "rho_sd", "temperature_c", "neighbour_slip", "at_limit")
-    parts = {k: [] for k in (*keys, "rho_score", "rho_score_slope")}
+    parts = {k: [] for k in (*keys, "rho_score", "rho_score_slope", "slip_lag")}
     drive_idx, surface_idx = [], []
     for d, (drive, surface) in enumerate(zip(drives, surfaces, strict=True)):
         m = len(drive["slip"])
@@ -415,6 +461,7 @@ def stack_drives(
             score, score_slope = _slip_window_scores(
                 parts["rho"][-1], parts["rho_sd"][-1], parts["at_limit"][-1]
             )
+        parts["slip_lag"].append(_slip_lags(drive.get("time_s"), parts["at_limit"][-1]))
         parts["rho_score"].append(np.asarray(score, dtype=float))
         parts["rho_score_slope"].append(np.asarray(score_slope, dtype=float))
         drive_idx.append(np.full(m, d))
@@ -437,6 +484,7 @@ def stack_drives(
         rho_sd=jnp.asarray(pad(cat["rho_sd"], 1.0)),
         temperature_c=jnp.asarray(pad(cat["temperature_c"], 20.0)),
         neighbour_slip=jnp.asarray(pad(cat["neighbour_slip"], 0.0)),
+        slip_lag=jnp.asarray(pad(cat["slip_lag"], np.inf)),
         rho_score=jnp.asarray(pad(cat["rho_score"], 0.0)),
         rho_score_slope=jnp.asarray(pad(cat["rho_score_slope"], 0.0)),
         at_limit=jnp.asarray(pad(cat["at_limit"], False)),
@@ -454,6 +502,7 @@ def observations_from_stream(
     *,
     surface: str = "dry",
     temperature_c: float | None = None,
+    ambient_c: float | None = None,
     window_s: float = 0.25,
     channel_map: dict[str, str] | None = None,
 ) -> TyreObservations:
@@ -468,7 +517,12 @@ def observations_from_stream(
     surface : str
         Road surface of the drive, one of :data:`SURFACES` (sets the μ_max prior).
     temperature_c : float, optional
-        Tyre temperature [°C]; default the mean ``ambient_temperature`` column, else 20 °C.
+        A fixed tyre temperature for the whole drive [°C]. Default: the driven tyres' temperature
+        estimated sample by sample from the drive's speed and loads
+        (:func:`~tyrebayes.streams.tyre_temperature.features_tyre_temperature`), starting cold.
+    ambient_c : float, optional
+        Ambient temperature [°C] for that estimate; default the mean ``ambient_temperature``
+        column, else 20 °C.
     window_s : float
         Window length [s].
 
@@ -479,6 +533,7 @@ def observations_from_stream(
     """
     from ..physics.vehicle import Vehicle, load_vehicle
     from ..streams import compute_features, read_stream, validate_stream
+    from ..streams.tyre_temperature import features_tyre_temperature
 
     if not isinstance(vehicle, Vehicle):
         try:
@@ -488,12 +543,14 @@ def observations_from_stream(
     if surface not in SURFACES:
         raise BadInputError(f"surface: expected one of {SURFACES}, got {surface!r}")
     stream = validate_stream(read_stream(path, channel_map), vehicle)
-    if temperature_c is None:
-        temperature_c = 20.0
+    if ambient_c is None:
+        ambient_c = 20.0
         if "ambient_temperature" in stream.data:
             ambient = stream.data["ambient_temperature"].to_numpy(dtype=float)
             if np.isfinite(ambient).any():
-                temperature_c = float(np.nanmean(ambient))
+                ambient_c = float(np.nanmean(ambient))
     features = compute_features(stream, vehicle)
+    if temperature_c is None:
+        temperature_c = features_tyre_temperature(features, ambient_c=ambient_c)
     windows = observations_from_features(features, temperature_c=temperature_c, window_s=window_s)
     return stack_drives([windows], [surface])

@@ -576,6 +576,9 @@ def _every_nth_window(obs: TyreObservations, n: int) -> TyreObservations:
         for f in dataclasses.fields(obs)
         if not f.metadata.get("static")
     }
+    # Every n-th window has no neighbour in the array: the search treats the windows as
+    # independent (it only has to find the basin; the refinement on all windows correlates them).
+    arrays["slip_lag"] = jnp.full_like(arrays["slip_lag"], jnp.inf)
     return dataclasses.replace(obs, **arrays)
 
 
@@ -713,6 +716,7 @@ def _template_observations(size: int, n_drives: int, surfaces: tuple) -> TyreObs
         rho_sd=jnp.ones(size),
         temperature_c=jnp.full(size, 20.0),
         neighbour_slip=zeros,
+        slip_lag=jnp.full(size, jnp.inf),
         rho_score=zeros,
         rho_score_slope=zeros,
         at_limit=jnp.zeros(size, dtype=bool),

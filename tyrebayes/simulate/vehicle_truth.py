@@ -29,6 +29,7 @@ import dataclasses
 import equinox as eqx
 import numpy as np
 
+from ..physics.thermal import ThermalParams
 from ..physics.vehicle import Vehicle, axle_loads, body_pitch_gain
 
 
@@ -90,6 +91,62 @@ def draw_true_vehicle(rng: np.random.Generator, vehicle: Vehicle, spread: Vehicl
         cog_height_m=float(vehicle.cog_height_m) * float(np.exp(spread.cog_height_rel_sd * z[1])),
         pitch_gradient_rad_per_mps2=float(vehicle.pitch_gradient_rad_per_mps2)
         * float(np.exp(spread.pitch_gradient_rel_sd * z[2])),
+    )
+
+
+class ThermalSpread(eqx.Module):
+    """Spread of a real tyre's heat balance around the nominal :class:`ThermalParams`.
+
+    The pipeline estimates tyre temperature with the nominal parameters
+    (:mod:`tyrebayes.streams.tyre_temperature`); a simulated drive whose tyres heat exactly that
+    way would test the estimate in a world it cannot miss. Relative (log-scale) sds, assumptions
+    of the size of the spread between tyre sizes and label classes:
+
+    Parameters
+    ----------
+    rolling_resistance_rel_sd : float
+        EU label classes C-E span f_rr 0.0075-0.0105 around 0.010: 0.15.
+    heat_capacity_rel_sd : float
+        Tyre mass 7-11 kg for the same car: 0.2.
+    convection_rel_sd : float
+        Wheel-arch flow and rim differ from car to car: 0.2 on both convection coefficients.
+    """
+
+    rolling_resistance_rel_sd: float = 0.15
+    heat_capacity_rel_sd: float = 0.2
+    convection_rel_sd: float = 0.2
+
+    def __check_init__(self):
+        for name in ("rolling_resistance_rel_sd", "heat_capacity_rel_sd", "convection_rel_sd"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and 0.0 <= value < 1.0):
+                raise ValueError(f"ThermalSpread.{name}: expected a value in [0, 1), got {value}")
+
+
+def draw_true_thermal(
+    rng: np.random.Generator, spread: ThermalSpread, nominal: ThermalParams | None = None
+) -> ThermalParams:
+    """The heat balance of the tyres actually driven: ``nominal`` with its coefficients redrawn.
+
+    Examples
+    --------
+    >>> p = draw_true_thermal(np.random.default_rng(0), ThermalSpread())
+    >>> p.rolling_resistance != ThermalParams().rolling_resistance
+    True
+    """
+    nominal = ThermalParams() if nominal is None else nominal
+    z = rng.standard_normal(3)
+    return ThermalParams(
+        rolling_resistance=float(nominal.rolling_resistance)
+        * float(np.exp(spread.rolling_resistance_rel_sd * z[0])),
+        heat_capacity_j_per_k=float(nominal.heat_capacity_j_per_k)
+        * float(np.exp(spread.heat_capacity_rel_sd * z[1])),
+        convection_still_w_per_k=float(nominal.convection_still_w_per_k)
+        * float(np.exp(spread.convection_rel_sd * z[2])),
+        convection_speed_w_per_k=float(nominal.convection_speed_w_per_k)
+        * float(np.exp(spread.convection_rel_sd * z[2])),
+        convection_speed_exponent=nominal.convection_speed_exponent,
+        friction_heat_fraction=nominal.friction_heat_fraction,
     )
 
 

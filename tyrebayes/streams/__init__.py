@@ -10,5 +10,7 @@ from .schema import OPTIONAL_COLUMNS as OPTIONAL_COLUMNS
 from .schema import REQUIRED_COLUMNS as REQUIRED_COLUMNS
 from .segments import SEGMENT_KINDS as SEGMENT_KINDS
 from .segments import SegmentThresholds as SegmentThresholds
+from .tyre_temperature import driven_tyre_temperature as driven_tyre_temperature
+from .tyre_temperature import features_tyre_temperature as features_tyre_temperature
 from .validate import ValidatedStream as ValidatedStream
 from .validate import validate_stream as validate_stream
