@@ -23,9 +23,6 @@ from .._errors import BadInputError
 from .force_density import force_density_score
 
 SURFACES = ("dry", "wet", "snow", "ice")
-# Windows further apart than this are treated as independent (their correlation is below
-# 0.95^40 ≈ 0.13 even at the prior's largest plausible window-to-window correlation).
-MAX_CORRELATED_LAG = 40.0
 
 
 class TyreObservations(eqx.Module):
@@ -47,12 +44,10 @@ class TyreObservations(eqx.Module):
     neighbour_slip : Float[Array, "n"]
         Mean measured slip of the adjacent windows [-]. The current model (slip regressed on force)
         does not read it; window selection still drops windows without a neighbour.
-    slip_lag : Float[Array, "n"]
-        Time from the window before it in the array to this window, in window lengths [-], where
-        both are slip windows of the same drive; +inf otherwise (first window, after a gap of
-        more than ``MAX_CORRELATED_LAG`` windows, ABS windows, padding). The slip errors of
-        nearby windows are correlated (feature smoothing, slowly varying wheel-speed errors);
-        the model gives them an exponentially decaying correlation over this lag.
+    slip_weight : Float[Array, "n"]
+        Weight of the window's slip in the likelihood [-]: 1 from :func:`stack_drives`; the fits
+        set it to the drive's share of independent information in its windows, 1/(variance
+        inflation) of its slip errors (:mod:`.window_correlation`).
     rho_score, rho_score_slope : Float[Array, "n"]
         d/dρ log p(ρ_obs) and its derivative [1/-, 1/-²] at each window's measured force, with p
         the density of the measured forces of the window's drive at the window's noise (slip
@@ -77,7 +72,7 @@ class TyreObservations(eqx.Module):
     rho_sd: Float[Array, "n"]
     temperature_c: Float[Array, "n"]
     neighbour_slip: Float[Array, "n"]
-    slip_lag: Float[Array, "n"]
+    slip_weight: Float[Array, "n"]
     rho_score: Float[Array, "n"]
     rho_score_slope: Float[Array, "n"]
     at_limit: Bool[Array, "n"]
@@ -394,28 +389,6 @@ def _slip_window_scores(
     return score, score_slope
 
 
-def _slip_lags(time_s: np.ndarray | None, at_limit: np.ndarray) -> np.ndarray:
-    """``slip_lag`` of one drive's windows (see :class:`TyreObservations`).
-
-    Without window times (``time_s`` absent) every window is independent. The window length is
-    the shortest step between consecutive slip windows.
-    """
-    lag = np.full(len(at_limit), np.inf)
-    if time_s is None or len(at_limit) < 2:
-        return lag
-    time_s = np.asarray(time_s, dtype=float)
-    step = np.diff(time_s)
-    both_slip = ~at_limit[1:] & ~at_limit[:-1]
-    forward = both_slip & np.isfinite(step) & (step > 0)
-    if not forward.any():
-        return lag
-    window = float(np.min(step[forward]))
-    in_windows = step / window
-    near = forward & (in_windows <= MAX_CORRELATED_LAG)
-    lag[1:][near] = in_windows[near]
-    return lag
-
-
 def stack_drives(
     drives: Sequence[dict[str, np.ndarray]],
     surfaces: Sequence[str],
@@ -429,8 +402,8 @@ def stack_drives(
     drives : sequence of dict
         Outputs of :func:`windowed_observations` or :func:`observations_from_features`, one per
         drive. Their ``rho_score`` and ``rho_score_slope`` are used if present, else computed
-        from the drive's slip windows (:func:`force_density_score`); their ``time_s`` (window
-        times, increasing) gives ``slip_lag``, and without it the windows count as independent.
+        from the drive's slip windows (:func:`force_density_score`). Windows are kept in the
+        order given (time order: the slip-weight estimate reads neighbours in the array).
     surfaces : sequence of str
         Surface of each drive, from ``SURFACES``.
     pad_to : int, optional
@@ -448,7 +421,7 @@ def stack_drives(
         raise BadInputError(f"surface: expected one of {SURFACES}, got {unknown[0]!r}")
     used_surfaces = tuple(s for s in SURFACES if s in surfaces)
     keys = ("slip", "rho", "slip_sd", "rho_sd", "temperature_c", "neighbour_slip", "at_limit")
-    parts = {k: [] for k in (*keys, "rho_score", "rho_score_slope", "slip_lag")}
+    parts = {k: [] for k in (*keys, "rho_score", "rho_score_slope")}
     drive_idx, surface_idx = [], []
     for d, (drive, surface) in enumerate(zip(drives, surfaces, strict=True)):
         m = len(drive["slip"])
@@ -461,7 +434,6 @@ def stack_drives(
             score, score_slope = _slip_window_scores(
                 parts["rho"][-1], parts["rho_sd"][-1], parts["at_limit"][-1]
             )
-        parts["slip_lag"].append(_slip_lags(drive.get("time_s"), parts["at_limit"][-1]))
         parts["rho_score"].append(np.asarray(score, dtype=float))
         parts["rho_score_slope"].append(np.asarray(score_slope, dtype=float))
         drive_idx.append(np.full(m, d))
@@ -484,7 +456,7 @@ def stack_drives(
         rho_sd=jnp.asarray(pad(cat["rho_sd"], 1.0)),
         temperature_c=jnp.asarray(pad(cat["temperature_c"], 20.0)),
         neighbour_slip=jnp.asarray(pad(cat["neighbour_slip"], 0.0)),
-        slip_lag=jnp.asarray(pad(cat["slip_lag"], np.inf)),
+        slip_weight=jnp.ones(size),
         rho_score=jnp.asarray(pad(cat["rho_score"], 0.0)),
         rho_score_slope=jnp.asarray(pad(cat["rho_score_slope"], 0.0)),
         at_limit=jnp.asarray(pad(cat["at_limit"], False)),

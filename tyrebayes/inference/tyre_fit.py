@@ -30,6 +30,7 @@ from numpyro.infer.util import constrain_fn, initialize_model, potential_energy
 from .summary import summarize
 from .tyre_data import TyreObservations
 from .tyre_model import DEFAULT_KIND, TyrePriors, check_kind, tyre_model, window_likelihood
+from .window_correlation import slip_weights
 
 # μ_max counts as observed on a surface only where the drive reached the limit (ABS windows) and
 # the posterior sd of log μ_max is below half the prior sd. Without ABS windows the curvature of
@@ -93,7 +94,10 @@ class TyreFit:
     n_samples_used : int
         Number of windows that entered the likelihood.
     kind : str
-        ``"brush"`` or ``"linear"``.
+        ``"shaped"``, ``"brush"`` or ``"linear"``.
+    slip_variance_inflation : tuple of float
+        Per drive, the variance inflation of the slip errors by their correlation between
+        windows; each window's slip counted 1/this in the fit (:mod:`.window_correlation`).
     """
 
     idata: az.InferenceData
@@ -102,6 +106,7 @@ class TyreFit:
     surfaces: tuple
     n_samples_used: int
     kind: str
+    slip_variance_inflation: tuple
 
     def draws(self, name: str) -> np.ndarray:
         """Posterior draws of a variable, chains and draws flattened on the first axis."""
@@ -133,6 +138,7 @@ class TyreFit:
             "method": self.diagnostics.method,
             "model": self.kind,
             "n_samples_used": self.n_samples_used,
+            "slip_variance_inflation": [float(x) for x in self.slip_variance_inflation],
             "n_abs_windows": int(np.asarray(self.idata.constant_data["at_limit"]).sum()),
         }
 
@@ -148,7 +154,9 @@ def _mu_observed(fit_draws: np.ndarray, priors: TyrePriors, obs: TyreObservation
     }
 
 
-def _tyre_fit(idata, diagnostics, mu_draws, priors, obs: TyreObservations, kind: str) -> TyreFit:
+def _tyre_fit(
+    idata, diagnostics, mu_draws, priors, obs: TyreObservations, kind: str, inflation
+) -> TyreFit:
     """The result both fitting paths return."""
     return TyreFit(
         idata=idata,
@@ -157,7 +165,25 @@ def _tyre_fit(idata, diagnostics, mu_draws, priors, obs: TyreObservations, kind:
         surfaces=obs.surfaces,
         n_samples_used=obs.n_used,
         kind=kind,
+        slip_variance_inflation=tuple(float(x) for x in inflation),
     )
+
+
+def _weighted_by_correlation(obs: TyreObservations, draws: dict, kind: str):
+    """``obs`` with each drive's slip weight 1/VIF from the residuals at the draws' mean.
+
+    Returns ``(obs, inflation)``. The weights change the posterior's width, not its centre
+    (to first order), so a first fit with unit weights gives residuals good enough for them.
+    """
+    point = {k: jnp.mean(jnp.asarray(v), axis=0) for k, v in draws.items()}
+    lik = window_likelihood(point, obs, kind)
+    z = np.asarray((obs.slip - lik.slip_loc) / lik.slip_scale)
+    slip_window = np.asarray(obs.mask & ~obs.at_limit)
+    weights, inflation = slip_weights(
+        z, slip_window, np.asarray(obs.drive_index), obs.n_drives
+    )
+    weighted = dataclasses.replace(obs, slip_weight=jnp.asarray(weights, dtype=obs.slip.dtype))
+    return weighted, inflation
 
 
 def _thin_index(total: int, n: int) -> np.ndarray:
@@ -325,6 +351,8 @@ def fit_tyre_nuts(
     check_kind(kind)
     key_laplace, key_init, key_run, key_ppc = jax.random.split(jax.random.PRNGKey(seed), 4)
     core, flat0 = _laplace_core(_priors_key(priors), kind, _obs_key(obs), LAPLACE_DRAWS, 2000)
+    *_, first_draws = core(flat0, obs, key_laplace)
+    obs, inflation = _weighted_by_correlation(obs, first_draws, kind)
     mode, _, _, scale, _ = core(flat0, obs, key_laplace)
     runner = _nuts_runner(
         _priors_key(priors), kind, _obs_key(obs), num_chains, num_warmup, num_samples
@@ -354,7 +382,7 @@ def fit_tyre_nuts(
         converged=not problems,
         reason="; ".join(problems),
     )
-    return _tyre_fit(idata, diagnostics, samples["mu_max"], priors, obs, kind)
+    return _tyre_fit(idata, diagnostics, samples["mu_max"], priors, obs, kind, inflation)
 
 
 def _whitened_model(obs, mode, scale, *, model, unravel):
@@ -576,9 +604,6 @@ def _every_nth_window(obs: TyreObservations, n: int) -> TyreObservations:
         for f in dataclasses.fields(obs)
         if not f.metadata.get("static")
     }
-    # Every n-th window has no neighbour in the array: the search treats the windows as
-    # independent (it only has to find the basin; the refinement on all windows correlates them).
-    arrays["slip_lag"] = jnp.full_like(arrays["slip_lag"], jnp.inf)
     return dataclasses.replace(obs, **arrays)
 
 
@@ -716,7 +741,7 @@ def _template_observations(size: int, n_drives: int, surfaces: tuple) -> TyreObs
         rho_sd=jnp.ones(size),
         temperature_c=jnp.full(size, 20.0),
         neighbour_slip=zeros,
-        slip_lag=jnp.full(size, jnp.inf),
+        slip_weight=jnp.ones(size),
         rho_score=zeros,
         rho_score_slope=zeros,
         at_limit=jnp.zeros(size, dtype=bool),
@@ -752,6 +777,8 @@ def fit_tyre_fast(
     check_kind(kind)
     key_draw, key_ppc = jax.random.split(jax.random.PRNGKey(seed))
     core, flat0 = _laplace_core(_priors_key(priors), kind, _obs_key(obs), num_draws, max_steps)
+    *_, first_draws = core(flat0, obs, key_draw)
+    obs, inflation = _weighted_by_correlation(obs, first_draws, kind)
     _, result, min_eig, _, draws = core(flat0, obs, key_draw)
     optimiser_ok = bool(result == optx.RESULTS.successful)
     positive_definite = bool(float(min_eig) > 0)
@@ -773,7 +800,7 @@ def fit_tyre_fast(
         converged=not problems,
         reason="; ".join(problems),
     )
-    return _tyre_fit(idata, diagnostics, samples["mu_max"], priors, obs, kind)
+    return _tyre_fit(idata, diagnostics, samples["mu_max"], priors, obs, kind, inflation)
 
 
 def fit_tyre(obs: TyreObservations, method: str = "nuts", **kwargs) -> TyreFit:

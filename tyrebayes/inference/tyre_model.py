@@ -117,12 +117,6 @@ class TyrePriors(eqx.Module):
     force_noise_log_sd, slip_noise_log_sd : float
         Log-scale sds of λ_ρ and λ_σ, the scales on the stated force and slip noise (median 1:
         the stream states the noise it measured).
-    slip_error_correlation_a, slip_error_correlation_b : float
-        Beta prior of φ, the correlation of the standardised slip errors of adjacent windows
-        (φ^lag at a lag of several windows). Beta(2, 2): anything from 0.1 to 0.9 is plausible
-        before the data, and φ = 1 (no information in a second window) is excluded. On simulated
-        one-hour drives the measured errors of adjacent 0.25 s windows correlated by 0.38 (the
-        features' 0.2 s smoothing spills into the next window), 0.18 at 1 s.
     """
 
     c_xr_median: float = 35.0
@@ -138,8 +132,6 @@ class TyrePriors(eqx.Module):
     curve_bend_log_sd: float = 1.0
     force_noise_log_sd: float = 0.5
     slip_noise_log_sd: float = 0.3
-    slip_error_correlation_a: float = 2.0
-    slip_error_correlation_b: float = 2.0
 
     def mu_median(self, surfaces: tuple[str, ...]) -> jax.Array:
         return jnp.array([_MU_MEDIAN[s] for s in surfaces])
@@ -236,12 +228,6 @@ def tyre_model(
     slip_noise_scale = numpyro.sample(
         "slip_noise_scale", dist.LogNormal(0.0, priors.slip_noise_log_sd)
     )
-    # Slip errors of nearby windows are correlated: treated as independent, a drive's thousands of
-    # windows over-counted its information (module docstring).
-    slip_error_correlation = numpyro.sample(
-        "slip_error_correlation",
-        dist.Beta(priors.slip_error_correlation_a, priors.slip_error_correlation_b),
-    )
     with numpyro.plate("drive", n_drives):
         slip_offset = numpyro.sample("slip_offset", dist.Normal(0.0, priors.slip_offset_sd))
         force_gain = numpyro.sample("force_gain", dist.LogNormal(0.0, priors.force_gain_log_sd))
@@ -260,7 +246,6 @@ def tyre_model(
         curve_shape=curve_shape,
         rho_noise_scale=rho_noise_scale,
         slip_noise_scale=slip_noise_scale,
-        slip_error_correlation=slip_error_correlation,
         slip_offset=slip_offset,
         force_gain=force_gain,
         force_level=force_level,
@@ -275,7 +260,12 @@ def tyre_model(
                 dist.Normal(lik.rho_loc, lik.rho_scale),
                 obs=obs.rho if observed else None,
             )
-        with numpyro.handlers.mask(mask=obs.mask & ~obs.at_limit):
+        # Each window's slip counts with the weight of its share of independent information
+        # (obs.slip_weight, window_correlation.py): nearby windows' errors are correlated.
+        with (
+            numpyro.handlers.mask(mask=obs.mask & ~obs.at_limit),
+            numpyro.handlers.scale(scale=obs.slip_weight),
+        ):
             numpyro.sample(
                 "slip_obs",
                 dist.Normal(lik.slip_loc, lik.slip_scale),
@@ -283,29 +273,10 @@ def tyre_model(
             )
 
 
-def _given_previous_window(loc, scale, obs: TyreObservations, correlation):
-    """The Normal of each window's measured slip given the window before it (AR(1) errors).
-
-    The standardised errors z = (σ_obs − loc)/scale follow a stationary Gaussian AR(1) process
-    in time, sampled at the windows: corr(z_i, z_(i−1)) = c_i = φ^lag_i, with lag_i the windows'
-    distance (``obs.slip_lag``; +inf, so c_i = 0, where there is no previous window). Then
-    σ_obs,i | σ_obs,(i−1) ~ Normal(loc_i + c_i scale_i z_(i−1), scale_i √(1 − c_i²)), and the
-    product of these conditionals is the joint density of the drive's slips (exact, also at
-    irregular lags: an Ornstein-Uhlenbeck process sampled at the window times).
-    """
-    finite = jnp.isfinite(obs.slip_lag)
-    # Double where: φ^inf has a NaN gradient even where the branch is not taken.
-    c = jnp.where(finite, correlation ** jnp.where(finite, obs.slip_lag, 1.0), 0.0)
-    z = (obs.slip - loc) / scale
-    z_previous = jnp.concatenate([jnp.zeros_like(z[:1]), z[:-1]])
-    return loc + c * scale * z_previous, scale * jnp.sqrt(1.0 - c**2)
-
-
 class WindowLikelihood(NamedTuple):
     """Per-window likelihood of :func:`tyre_model` given its parameters.
 
-    ``slip_loc``, ``slip_scale``: Normal of the measured slip given the previous window's
-    (slip windows; :func:`_given_previous_window`); ``rho_loc``,
+    ``slip_loc``, ``slip_scale``: Normal of the measured slip (slip windows); ``rho_loc``,
     ``rho_scale``: Normal of the measured force (all windows); ``below_peak``: the log of the
     probability that a slip window's true force lies under μ_max (0 for ABS and padding).
     """
@@ -321,8 +292,8 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     """The windows' likelihood terms of :func:`tyre_model` (see the module docstring).
 
     ``params`` holds the model's sampled sites by name (``c_xr``, ``temp_sensitivity``,
-    ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale``,
-    ``slip_error_correlation``, ``curve_shape`` (``"shaped"`` only) and the per-drive ``slip_offset``, ``force_gain``, ``force_level``,
+    ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale``, ``curve_shape``
+    (``"shaped"`` only) and the per-drive ``slip_offset``, ``force_gain``, ``force_level``,
     ``force_spread``); other keys are ignored, so a posterior draw can be passed as it is. The
     model and the posterior predictive share it.
     """
@@ -358,11 +329,8 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     # C_x twice the truth).
     headroom = (mu_window - jnp.abs(rho_hat)) / jnp.sqrt(rho_var + (0.02 * mu_window) ** 2)
     below_peak = jnp.where(obs.mask & ~obs.at_limit, jax.scipy.special.log_ndtr(headroom), 0.0)
-    slip_loc, slip_scale = _given_previous_window(
-        slip + params["slip_offset"][d], slip_scale, obs, params["slip_error_correlation"]
-    )
     return WindowLikelihood(
-        slip_loc=slip_loc,
+        slip_loc=slip + params["slip_offset"][d],
         slip_scale=slip_scale,
         rho_loc=rho_loc,
         rho_scale=rho_scale,
