@@ -180,8 +180,8 @@ def windowed_observations(
     -------
     dict
         ``slip``, ``rho``, ``slip_sd``, ``rho_sd``, ``temperature_c``, ``time_s`` (the time of
-        the window's centre) arrays, one entry per kept window, and ``neighbour_slip`` (and the ``also`` channels). The noise sd of a window mean
-        of k samples is sd/√k.
+        the window's centre) arrays, one entry per kept window, and ``neighbour_slip`` (and the
+        ``also`` channels). The noise sd of a window mean of k samples is sd/√k.
     """
     time_s = np.asarray(time_s, dtype=float)
     n = len(time_s)

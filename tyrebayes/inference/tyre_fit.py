@@ -179,9 +179,7 @@ def _weighted_by_correlation(obs: TyreObservations, draws: dict, kind: str):
     lik = window_likelihood(point, obs, kind)
     z = np.asarray((obs.slip - lik.slip_loc) / lik.slip_scale)
     slip_window = np.asarray(obs.mask & ~obs.at_limit)
-    weights, inflation = slip_weights(
-        z, slip_window, np.asarray(obs.drive_index), obs.n_drives
-    )
+    weights, inflation = slip_weights(z, slip_window, np.asarray(obs.drive_index), obs.n_drives)
     weighted = dataclasses.replace(obs, slip_weight=jnp.asarray(weights, dtype=obs.slip.dtype))
     return weighted, inflation
 

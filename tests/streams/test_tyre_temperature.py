@@ -1,0 +1,73 @@
+"""The driven tyres' temperature estimated from a stream (lumped heat balance)."""
+
+import numpy as np
+import pytest
+
+from tyrebayes._errors import BadInputError
+from tyrebayes.physics.thermal import ThermalParams, steady_state_temperature
+from tyrebayes.streams.tyre_temperature import driven_tyre_temperature, features_tyre_temperature
+
+
+def constant_drive(hours: float = 2.0, rate_hz: float = 10.0):
+    t = np.arange(0.0, hours * 3600.0, 1.0 / rate_hz)
+    return t, np.full(t.size, 27.78), np.full(t.size, 4865.0), np.full(t.size, 20.0)
+
+
+def test_constant_driving_settles_at_the_steady_state():
+    t, speed, load, power = constant_drive()
+    temp = driven_tyre_temperature(t, speed, load, power, ambient_c=10.0)
+    expected = float(steady_state_temperature(ThermalParams(), 4865.0, 27.78, 20.0, 10.0))
+    assert temp[0] == 10.0
+    # Two hours are 15 time constants at this speed (~8 min): settled to 0.05 K.
+    assert temp[-1] == pytest.approx(expected, abs=0.05)
+    assert np.all(np.diff(temp) >= -1e-9)  # warming only, from a cold start
+
+
+def test_dropped_samples_are_bridged_not_propagated():
+    t, speed, load, power = constant_drive(hours=0.5)
+    clean = driven_tyre_temperature(t, speed, load, power, ambient_c=10.0)
+    speed = speed.copy()
+    speed[1000:1200] = np.nan  # 20 s dropped: the thermal mass does not notice
+    gappy = driven_tyre_temperature(t, speed, load, power, ambient_c=10.0)
+    assert np.all(np.isfinite(gappy))
+    assert np.max(np.abs(gappy - clean)) < 1e-6
+
+
+def test_a_warm_start_cools_towards_the_steady_state_when_parked():
+    t = np.arange(0.0, 1800.0, 1.0)
+    zeros = np.zeros(t.size)
+    temp = driven_tyre_temperature(
+        t, zeros, np.full(t.size, 4000.0), zeros, ambient_c=5.0, initial_c=40.0
+    )
+    assert temp[0] == 40.0 and 5.0 < temp[-1] < 40.0
+
+
+def test_bad_inputs_name_what_was_expected():
+    t, speed, load, power = constant_drive(hours=0.01)
+    with pytest.raises(BadInputError, match="load expected shape"):
+        driven_tyre_temperature(t, speed, load[:-1], power, ambient_c=10.0)
+    with pytest.raises(BadInputError, match="finite ambient"):
+        driven_tyre_temperature(t, speed, load, power, ambient_c=float("nan"))
+
+
+def test_simulated_drive_temperature_is_read_from_the_stream():
+    """The simulator's tyres heat with other coefficients than the nominal ones the estimate
+    uses (ThermalSpread); the estimate must follow the warm-up's shape: the model infers the
+    stiffness' temperature sensitivity, so a scale error is absorbed, a wrong shape is not."""
+    from tyrebayes.physics.vehicle import load_vehicle
+    from tyrebayes.simulate.drive import simulate_drive
+    from tyrebayes.simulate.vehicle_truth import ThermalSpread, draw_true_thermal
+    from tyrebayes.streams import compute_features, validate_stream
+
+    vehicle = load_vehicle("compact_fwd")
+    thermal = draw_true_thermal(np.random.default_rng(3), ThermalSpread())
+    df, truth = simulate_drive(
+        5, vehicle, "summer", duration_s=900.0, ambient_c=15.0, thermal=thermal
+    )
+    features = compute_features(validate_stream(df, vehicle), vehicle)
+    estimate = features_tyre_temperature(features, ambient_c=15.0)
+    index = np.searchsorted(truth.time_s, features.time_s - 1e-9)
+    true = np.asarray(truth.tyre_temperature_c)[index][:, :2].mean(axis=1)
+    assert np.corrcoef(estimate, true)[0, 1] > 0.98
+    rise_ratio = (estimate[-1] - 15.0) / (true[-1] - 15.0)
+    assert 0.5 < rise_ratio < 2.0
