@@ -9,6 +9,10 @@ share, CoG height, pitch gradient) and its IMU gain with the sensor offsets, whi
 and the fit assume the file, as they would on a real car: the coverage check then tests the
 intervals in the world their priors describe. ``force_gain_true`` is the measured-over-true ρ_x
 this gives (``force_gain``), ``force_gain_post`` the posterior mean of the model's force gain.
+Likewise its tyres heat with thermal coefficients drawn around the nominal ones
+(``ThermalSpread``), while the pipeline estimates their temperature along the drive with the
+nominal model (``features_tyre_temperature``); the rows record the mean estimated and true
+temperature rise and how much the true C_x varied along the drive (``c_x_true_time_sd``).
 
 * this package's errors-in-variables posterior (fast path: MAP + Laplace; NUTS for all reps is
   too slow on the 2-core machine — see ``tyre_speed.json``) with its default mean model
@@ -35,11 +39,11 @@ and of μ_max for the posterior, and the coverage of its central 50 % and 90 % i
 * With Magic Formula truth neither model curve has the right shape after the peak: μ_max
   coverage there also tests the shared ABS force ratio's prior.
 
-Drives last one hour by default, as the issue asks (``--duration`` for shorter ones). Two
-settings of 50 one-hour drives (both models fitted on each) took 16.5-17.5 min in one process while
-a second process ran the other two on the 2-core machine (and the test suite ran alongside at
-lower priority); ``--settings`` runs a
-subset so that settings can run in separate processes (merge their ``results``).
+Drives last one hour by default, as the issue asks (``--duration`` for shorter ones). One setting
+of 50 one-hour drives (both models fitted on each) took 250-265 s (noise x2, with its rejected
+streams, 200 s) in one process while a second process ran two other settings on the 2-core
+machine (447 and 470 s per process for two settings each); ``--settings`` runs a subset so that
+settings can run in separate processes (merge their ``results``).
 
 Usage: ``python benchmarks/tyre_recovery.py [--quick] [--reps N] [--duration S] [--settings A,B]``.
 """

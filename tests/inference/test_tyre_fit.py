@@ -224,3 +224,36 @@ def test_search_starts_each_drive_at_its_own_slip_offset():
     assert np.allclose(
         np.asarray(start["force_level"]), [first["rho"].mean(), second["rho"].mean()]
     )
+
+
+def test_the_warm_up_reveals_the_stiffness_temperature_sensitivity():
+    """A hidden effect: the tyres warm from 5 °C by ~20 K over 20 minutes and C_x falls ~15 %.
+
+    Fitted at one temperature, the warm-up is invisible (κ stays at its prior) and leaves
+    correlated residuals; with the tyre temperature estimated from the stream the fit must find
+    κ near the simulator's (0.00825 1/K for this summer tyre) and the residuals' correlation
+    must drop. Seeded; the tolerances are three posterior sds (κ was 0.0091 ± 0.0012).
+    """
+    from tyrebayes.physics.thermal import StiffnessTemperature, temperature_sensitivity
+    from tyrebayes.physics.vehicle import load_vehicle
+    from tyrebayes.simulate.drive import simulate_drive
+    from tyrebayes.streams import compute_features, features_tyre_temperature, validate_stream
+
+    vehicle = load_vehicle("compact_fwd")
+    df, truth = simulate_drive(11, vehicle, "summer", duration_s=1200.0, ambient_c=5.0)
+    features = compute_features(validate_stream(df, vehicle), vehicle)
+    estimate = features_tyre_temperature(features, ambient_c=5.0)
+    fits = {
+        name: fit_tyre(
+            stack_drives([observations_from_features(features, temperature_c=t)], ["dry"]),
+            method="fast",
+        )
+        for name, t in (("warming", estimate), ("constant", 5.0))
+    }
+    kappa = fits["warming"].draws("temp_sensitivity")
+    kappa_true = float(temperature_sensitivity(truth.c_xr, StiffnessTemperature()))
+    assert np.std(kappa) < 0.35 * 0.006  # the prior sd
+    assert abs(np.mean(kappa) - kappa_true) < 3 * np.std(kappa)
+    assert np.std(fits["constant"].draws("temp_sensitivity")) > 0.8 * 0.006
+    inflation = {name: fit.slip_variance_inflation[0] for name, fit in fits.items()}
+    assert inflation["warming"] < 0.8 * inflation["constant"], inflation

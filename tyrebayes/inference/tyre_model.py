@@ -39,6 +39,13 @@ plus slip noise, ideal white force noise of twice the default sensors': C_x +5.6
 keeps a Gaussian summary Normal(g m_d, √(g²τ_d² + η²)) per drive: it carries no information on
 C_x or μ_max and serves the log-likelihood and the predictive checks.
 
+Nearby windows' slip errors are correlated (the features' smoothing spills across windows), so
+each window's slip log-likelihood counts with the weight ``obs.slip_weight``, its drive's share
+of independent information, which the fits estimate from a first fit's residuals
+(:mod:`tyrebayes.inference.window_correlation`). C_x(T) follows the tyre temperature of each
+window, which the pipeline estimates from the drive's speed and loads
+(:mod:`tyrebayes.streams.tyre_temperature`); so κ is inferred from the drive's warm-up.
+
 ABS windows observe the total normalised force ρ_obs = −g_d r μ_s + ε with r the ratio of an ABS
 window's mean force to the peak, one parameter shared by all windows: it is a property of the
 ABS controller and of the curve's shape after the peak, so it does not average out over windows.
