@@ -2,7 +2,7 @@
 
 The per-tyre model treats the windows' slip errors as independent. They are not: the features
 are smoothed over 0.2 s, which spills into the next 0.25 s window, and wheel-speed errors vary
-slowly (on simulated one-hour drives the standardised errors of adjacent windows correlated by
+slowly (on one simulated one-hour drive the standardised errors of adjacent windows correlated by
 0.38, at 1 s by 0.18; sums over 10-300 s blocks had 2.2-2.4 times the variance of independent
 errors). Counted as independent, a drive's thousands of windows claimed about √2.3 times the
 precision they hold, and C_x's intervals were too narrow (50/90 % coverage 0.32-0.48/0.80-0.86).

@@ -33,6 +33,17 @@ from ..physics.thermal import ThermalParams
 from ..physics.vehicle import Vehicle, axle_loads, body_pitch_gain
 
 
+def _check_spreads(spread: eqx.Module, upper: float) -> None:
+    """Raise ValueError unless every field of ``spread`` is finite and in [0, upper)."""
+    for field in dataclasses.fields(spread):
+        value = getattr(spread, field.name)
+        if not (np.isfinite(value) and 0.0 <= value < upper):
+            raise ValueError(
+                f"{type(spread).__name__}.{field.name}: expected a value in [0, {upper}), "
+                f"got {value}"
+            )
+
+
 class VehicleSpread(eqx.Module):
     """Drive-to-drive spread of the real car around its vehicle file.
 
@@ -58,10 +69,7 @@ class VehicleSpread(eqx.Module):
     pitch_gradient_rel_sd: float = 0.25
 
     def __check_init__(self):
-        for name in ("front_load_share_sd", "cog_height_rel_sd", "pitch_gradient_rel_sd"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and 0.0 <= value < 0.5):
-                raise ValueError(f"VehicleSpread.{name}: expected a value in [0, 0.5), got {value}")
+        _check_spreads(self, 0.5)
 
 
 def draw_true_vehicle(rng: np.random.Generator, vehicle: Vehicle, spread: VehicleSpread) -> Vehicle:
@@ -117,10 +125,7 @@ class ThermalSpread(eqx.Module):
     convection_rel_sd: float = 0.2
 
     def __check_init__(self):
-        for name in ("rolling_resistance_rel_sd", "heat_capacity_rel_sd", "convection_rel_sd"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and 0.0 <= value < 1.0):
-                raise ValueError(f"ThermalSpread.{name}: expected a value in [0, 1), got {value}")
+        _check_spreads(self, 1.0)
 
 
 def draw_true_thermal(

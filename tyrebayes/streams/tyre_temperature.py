@@ -4,9 +4,10 @@ The stiffness of a tyre falls with its temperature (thesis ch. 3.3.1), and a tyr
 of kelvin within minutes of driving: rolling-resistance losses (~1 kW per tyre at 100 km/h)
 dwarf the contact-patch friction work. A drive's windows therefore see a C_x that drifts with
 speed history. Fitting one C_x at the ambient temperature reads that drift as noise the model
-does not know: on 22 simulated one-hour drives (compact, 15 °C ambient, tyres warming from
-ambient) the C_x error beyond the force gain had an sd of 3.1 %, and 2.2 % when the fit was given
-each window's true tyre temperature, while the posterior left room for 0.9 %.
+does not know: on 35 simulated one-hour drives (compact, 15 °C ambient, tyres warming from
+ambient, fits with unit slip weights) the C_x error beyond the force gain had an sd of 3.0 %, and
+2.1 % when the fit was given each window's true tyre temperature, while the posterior left room
+for 0.9 %.
 
 This module runs :func:`tyrebayes.physics.thermal.simulate_tyre_temperature` on the stream's own
 speed, axle loads and friction power, with nominal thermal parameters. The estimate's *scale*
