@@ -14,7 +14,8 @@ def test_gaussian_forces_deconvolve_to_their_own_spread():
     m, s, eta = 0.05, 0.03, 0.02
     rho = rng.normal(m, s, 20_000) + rng.normal(0.0, eta, 20_000)
     noise = np.full(rho.size, eta)
-    weights, means, variances = deconvolve_forces(rho, noise)
+    weights, means, variances, iterations, converged = deconvolve_forces(rho, noise)
+    assert converged and iterations < 400
     mean = np.sum(weights * means)
     variance = np.sum(weights * (variances + means**2)) - mean**2
     assert mean == pytest.approx(m, abs=0.002)
@@ -57,3 +58,13 @@ def test_score_rejects_non_finite_forces_and_zero_noise():
         force_density_score(np.array([0.1, np.nan, 0.2]), np.full(3, 0.01))
     with pytest.raises(BadInputError, match="noise sd > 0"):
         force_density_score(np.array([0.1, 0.2, 0.3]), np.zeros(3))
+
+
+def test_em_that_runs_out_of_steps_says_so(monkeypatch):
+    import tyrebayes.inference.force_density as force_density
+
+    rng = np.random.default_rng(2)
+    rho = np.concatenate([rng.normal(0.02, 0.01, 3000), rng.exponential(0.1, 1000)])
+    monkeypatch.setattr(force_density, "_MAX_ITERATIONS", 3)
+    mixture = deconvolve_forces(rho, np.full(rho.size, 0.01))
+    assert (mixture.iterations, mixture.converged) == (3, False)

@@ -4,8 +4,10 @@ Synthetic window observations (no simulator) keep these fast; one compiled fast-
 (1024 windows, one dry drive) is shared with ``test_tyre_fit.py`` through the fit cache.
 """
 
+import jax
 import numpy as np
 import pytest
+from numpyro import handlers
 
 from tyrebayes.inference.tyre_data import _inner_runs, stack_drives
 from tyrebayes.inference.tyre_fit import fit_tyre
@@ -81,6 +83,19 @@ def test_bad_kind_is_a_value_error():
     obs = stack_drives([linear_region_windows(1, n=50)], ["dry"])
     with pytest.raises(ValueError, match="expected one of .*'brush'.*, got 'fiala'"):
         tyre_model(obs, TyrePriors(), kind="fiala")
+
+
+def test_imu_gain_uncertainty_widens_only_its_drives_force_gain_prior():
+    """A drive whose forces were divided by an estimated IMU gain (log-sd 0.06) gets a force-gain
+    prior of log-sd √(0.025² + 0.06²); the other drive keeps the car's own 0.025."""
+    plain = linear_region_windows(3, n=50)
+    dashcam = {**linear_region_windows(4, n=50), "imu_gain_log_sd": np.full(50, 0.06)}
+    obs = stack_drives([plain, dashcam], ["dry", "dry"])
+    np.testing.assert_allclose(np.asarray(obs.imu_gain_log_sd[:100]), [0.0] * 50 + [0.06] * 50)
+    with jax.numpy_rank_promotion("allow"):
+        trace = handlers.trace(handlers.seed(tyre_model, 0)).get_trace(obs, TyrePriors())
+    scale = np.asarray(trace["force_gain"]["fn"].scale)
+    np.testing.assert_allclose(scale, [0.025, np.hypot(0.025, 0.06)], rtol=1e-6)
 
 
 def test_stack_drives_checks_surfaces_and_counts():

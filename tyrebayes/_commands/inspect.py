@@ -80,6 +80,13 @@ def summarize_stream(path: str, vehicle_name: str, channel_map: dict[str, str]) 
             "ax_offset_mps2": nuis.ax_offset_mps2,
             "ax_offset_sd_mps2": nuis.ax_offset_sd_mps2,
             "pitch_offset_deg": math.degrees(nuis.pitch_offset_rad),
+            "ax_gain": {
+                "estimate": nuis.ax_gain.estimate,
+                "estimate_sd": nuis.ax_gain.estimate_sd,
+                "p_uncalibrated": nuis.ax_gain.p_uncalibrated,
+                "applied": nuis.ax_gain.applied,
+                "applied_log_sd": nuis.ax_gain.applied_log_sd,
+            },
             "ay_offset_mps2": nuis.ay_offset_mps2,
             "speed_scale": nuis.speed_scale,
             "speed_scale_sd": nuis.speed_scale_sd,
@@ -133,6 +140,11 @@ def _text(summary: dict[str, Any]) -> str:
     lines.append(
         f"IMU ax offset {n['ax_offset_mps2']:.3f} ± {n['ax_offset_sd_mps2']:.3f} m/s² "
         f"(pitch {n['pitch_offset_deg']:.2f}°); radius ratios {np.round(n['radius_ratio'], 4)}"
+    )
+    g = n["ax_gain"]
+    lines.append(
+        f"IMU ax gain {g['estimate']:.3f} ± {g['estimate_sd']:.3f} against dV_x/dt "
+        f"(P(uncalibrated) {g['p_uncalibrated']:.2f}; ax divided by {g['applied']:.3f})"
     )
     if "speed_error" in summary:
         e = summary["speed_error"]

@@ -22,21 +22,41 @@ is handled window by window.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from jaxtyping import Float
 
 from .._errors import BadInputError
 
 N_COMPONENTS = 8
+# EM is stopped after this many steps: on 20 simulated one-hour drives 5 reached it, and running
+# those on to 5,000 steps moved E[ρ_true | ρ_obs] by at most 0.25 of the window's noise sd (rms
+# 0.003-0.04): not worth the 1-10 s more per drive, but reported (ForceMixture.converged).
 _MAX_ITERATIONS = 400
 _TOLERANCE = 1e-6  # on the mean log-likelihood per window [nats]
+
+
+class ForceMixture(NamedTuple):
+    """The true forces' Gaussian mixture from :func:`deconvolve_forces`.
+
+    ``weights`` w_k [-], ``means`` m_k [-], ``variances`` τ_k² [-²]; ``iterations`` EM steps
+    taken, ``converged`` whether the mean log-likelihood per window settled to within
+    ``_TOLERANCE`` before the step limit.
+    """
+
+    weights: np.ndarray
+    means: np.ndarray
+    variances: np.ndarray
+    iterations: int
+    converged: bool
 
 
 def deconvolve_forces(
     rho: Float[np.ndarray, "n"],
     noise_sd: Float[np.ndarray, "n"],
     n_components: int = N_COMPONENTS,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> ForceMixture:
     """Gaussian mixture of the true forces, given measured forces with known noise.
 
     Expectation-maximisation of Σ_i log Σ_k w_k Normal(ρ_i; m_k, τ_k² + η_i²).
@@ -52,8 +72,9 @@ def deconvolve_forces(
 
     Returns
     -------
-    (weights, means, variances) : tuple of ndarray
-        w_k [-], m_k [-] and τ_k² [-²] of the true forces' mixture.
+    ForceMixture
+        w_k, m_k and τ_k² of the true forces' mixture, with the EM steps taken and whether it
+        converged (a mixture stopped at the step limit is still usable: see ``_MAX_ITERATIONS``).
     """
     x = np.asarray(rho, dtype=float)
     noise2 = np.broadcast_to(np.asarray(noise_sd, dtype=float) ** 2, x.shape)[:, None]
@@ -67,7 +88,9 @@ def deconvolve_forces(
     variances = np.full(k, max(np.var(x) / k**2, 1e-10))
     weights = np.full(k, 1.0 / k)
     previous = -np.inf
-    for _ in range(_MAX_ITERATIONS):
+    converged, iterations = False, 0
+    while iterations < _MAX_ITERATIONS:
+        iterations += 1
         log_joint, total = _component_log_densities(x, noise2, weights, means, variances)
         top = log_joint.max(axis=1, keepdims=True)
         log_norm = top[:, 0] + np.log(np.exp(log_joint - top).sum(axis=1))
@@ -83,9 +106,10 @@ def deconvolve_forces(
         variances = np.maximum(spread / count, 1e-12)
         mean_log_lik = float(np.mean(log_norm))
         if mean_log_lik - previous < _TOLERANCE:
+            converged = True
             break
         previous = mean_log_lik
-    return weights, means, variances
+    return ForceMixture(weights, means, variances, iterations, converged)
 
 
 def _component_log_densities(x, noise2, weights, means, variances):
@@ -118,7 +142,7 @@ def force_density_score(
     (score, score_slope) : (ndarray, ndarray)
         s_i [1/-] and s′_i [1/-²].
     """
-    weights, means, variances = deconvolve_forces(rho, noise_sd, n_components)
+    weights, means, variances, *_ = deconvolve_forces(rho, noise_sd, n_components)
     x = np.asarray(rho, dtype=float)
     noise2 = np.broadcast_to(np.asarray(noise_sd, dtype=float) ** 2, x.shape)[:, None]
     log_phi, total = _component_log_densities(x, noise2, weights, means, variances)
@@ -130,4 +154,4 @@ def force_density_score(
     return score, curvature - score**2
 
 
-__all__ = ["N_COMPONENTS", "deconvolve_forces", "force_density_score"]
+__all__ = ["N_COMPONENTS", "ForceMixture", "deconvolve_forces", "force_density_score"]

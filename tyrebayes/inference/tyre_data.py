@@ -48,6 +48,11 @@ class TyreObservations(eqx.Module):
         Weight of the window's slip in the likelihood [-]: 1 from :func:`stack_drives`; the fits
         set it to the drive's share of independent information in its windows, 1/(variance
         inflation) of its slip errors (:mod:`.window_correlation`).
+    imu_gain_log_sd : Float[Array, "n"]
+        Log-scale uncertainty of the IMU scale factor the stream pipeline divided the window's
+        drive's forces by [-] (:func:`tyrebayes.streams.nuisances.imu_gain_correction`; 0 where
+        the IMU was left as it is). One value per drive, repeated over its windows like
+        ``slip_weight``; the model widens that drive's force-gain prior by it.
     rho_score, rho_score_slope : Float[Array, "n"]
         d/dρ log p(ρ_obs) and its derivative [1/-, 1/-²] at each window's measured force, with p
         the density of the measured forces of the window's drive at the window's noise (slip
@@ -73,6 +78,7 @@ class TyreObservations(eqx.Module):
     temperature_c: Float[Array, "n"]
     neighbour_slip: Float[Array, "n"]
     slip_weight: Float[Array, "n"]
+    imu_gain_log_sd: Float[Array, "n"]
     rho_score: Float[Array, "n"]
     rho_score_slope: Float[Array, "n"]
     at_limit: Bool[Array, "n"]
@@ -373,7 +379,10 @@ def observations_from_features(
         "rho_score_slope": np.zeros(m),
         "at_limit": np.ones(m, dtype=bool),
     }
-    return {k: np.concatenate([slip_windows[k], limit_windows[k]]) for k in limit_windows}
+    out = {k: np.concatenate([slip_windows[k], limit_windows[k]]) for k in limit_windows}
+    # One value for the drive: the uncertainty of the IMU scale factor its forces were divided by.
+    out["imu_gain_log_sd"] = np.full(len(out["slip"]), features.nuisances.ax_gain.applied_log_sd)
+    return out
 
 
 def _slip_window_scores(
@@ -421,11 +430,12 @@ def stack_drives(
         raise BadInputError(f"surface: expected one of {SURFACES}, got {unknown[0]!r}")
     used_surfaces = tuple(s for s in SURFACES if s in surfaces)
     keys = ("slip", "rho", "slip_sd", "rho_sd", "temperature_c", "neighbour_slip", "at_limit")
-    parts = {k: [] for k in (*keys, "rho_score", "rho_score_slope")}
+    parts = {k: [] for k in (*keys, "rho_score", "rho_score_slope", "imu_gain_log_sd")}
     drive_idx, surface_idx = [], []
     for d, (drive, surface) in enumerate(zip(drives, surfaces, strict=True)):
         m = len(drive["slip"])
-        drive = {"at_limit": np.zeros(m, dtype=bool), **drive}
+        drive = {"at_limit": np.zeros(m, dtype=bool), "imu_gain_log_sd": np.zeros(m), **drive}
+        parts["imu_gain_log_sd"].append(np.asarray(drive["imu_gain_log_sd"], dtype=float))
         for k in keys:
             parts[k].append(np.asarray(drive[k], dtype=bool if k == "at_limit" else float))
         if "rho_score" in drive:
@@ -457,6 +467,7 @@ def stack_drives(
         temperature_c=jnp.asarray(pad(cat["temperature_c"], 20.0)),
         neighbour_slip=jnp.asarray(pad(cat["neighbour_slip"], 0.0)),
         slip_weight=jnp.ones(size),
+        imu_gain_log_sd=jnp.asarray(pad(cat["imu_gain_log_sd"], 0.0)),
         rho_score=jnp.asarray(pad(cat["rho_score"], 0.0)),
         rho_score_slope=jnp.asarray(pad(cat["rho_score_slope"], 0.0)),
         at_limit=jnp.asarray(pad(cat["at_limit"], False)),

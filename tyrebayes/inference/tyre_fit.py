@@ -740,6 +740,7 @@ def _template_observations(size: int, n_drives: int, surfaces: tuple) -> TyreObs
         temperature_c=jnp.full(size, 20.0),
         neighbour_slip=zeros,
         slip_weight=jnp.ones(size),
+        imu_gain_log_sd=zeros,
         rho_score=zeros,
         rho_score_slope=zeros,
         at_limit=jnp.zeros(size, dtype=bool),

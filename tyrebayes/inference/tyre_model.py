@@ -235,9 +235,18 @@ def tyre_model(
     slip_noise_scale = numpyro.sample(
         "slip_noise_scale", dist.LogNormal(0.0, priors.slip_noise_log_sd)
     )
+    # A drive whose forces the stream pipeline divided by an estimated IMU scale factor (a
+    # dashcam's) carries that estimate's uncertainty on top of the car's own spread.
+    imu_gain_log_sd = jnp.maximum(
+        jax.ops.segment_max(
+            jnp.where(obs.mask, obs.imu_gain_log_sd, 0.0), obs.drive_index, num_segments=n_drives
+        ),
+        0.0,
+    )
+    force_gain_log_sd = jnp.sqrt(priors.force_gain_log_sd**2 + imu_gain_log_sd**2)
     with numpyro.plate("drive", n_drives):
         slip_offset = numpyro.sample("slip_offset", dist.Normal(0.0, priors.slip_offset_sd))
-        force_gain = numpyro.sample("force_gain", dist.LogNormal(0.0, priors.force_gain_log_sd))
+        force_gain = numpyro.sample("force_gain", dist.LogNormal(0.0, force_gain_log_sd))
         force_level = numpyro.sample("force_level", dist.Normal(0.0, 0.3))
         force_spread = numpyro.sample("force_spread", dist.HalfNormal(priors.force_spread_scale))
 

@@ -14,7 +14,9 @@ Steps (thesis chapter 4.3):
    (for AWD, relative to the median wheel, biased towards zero). Traction samples are clean.
 5. IMU offset from ax − dV_x/dt; the offset-corrected ax keeps the road grade, which is exactly
    what the force balance needs. The body's squat and dive (the vehicle's pitch gradient k) make
-   the IMU over-read a_x by 1 + g·k; that gain is removed, before the offset estimate too.
+   the IMU over-read a_x by 1 + g·k; that gain is removed, before the offset estimate too. The
+   IMU's own scale factor is estimated against dV_x/dt and removed when the IMU is clearly not
+   calibrated (a dashcam's; :func:`~tyrebayes.streams.nuisances.imu_gain_correction`).
 6. Axle forces from :func:`tyrebayes.physics.vehicle.single_track_inverse` (eq. 4.23) with drag
    and rolling resistance; axle loads with longitudinal load transfer; ρ_x = F_x / F_z.
 7. Friction power w_x = |F_x V_x σ_x| (eq. 4.19a) and regime labels.
@@ -53,10 +55,13 @@ from ..physics.vehicle import (
 from .filters import nan_moving_average, smoothed_derivative, window_samples
 from .noise import local_noise_sd
 from .nuisances import (
+    ImuGainCorrection,
     StreamNuisances,
+    estimate_ax_gain,
     estimate_ax_offset,
     estimate_radius_ratios,
     estimate_speed_scale,
+    imu_gain_correction,
     mean_grade_sd,
 )
 from .schema import WHEEL_COLUMNS
@@ -308,6 +313,7 @@ def compute_features(
     spin_threshold: float = 0.1,
     brake_front_share: float = 0.7,
     ax_offset_mps2: float | None = None,
+    ax_gain: float | None = None,
     thresholds: SegmentThresholds = DEFAULT_THRESHOLDS,
 ) -> StreamFeatures:
     """Per-sample features of a validated stream.
@@ -327,6 +333,10 @@ def compute_features(
         Share of the braking force on the front axle (brake balance) [-]; about 0.7 for cars.
     ax_offset_mps2 : float, optional
         Known IMU longitudinal offset; by default estimated from ax − dV_x/dt.
+    ax_gain : float, optional
+        Known IMU longitudinal scale factor (ax reads this times the acceleration); by default
+        estimated against the wheel speeds' dV_x/dt and applied only when the IMU is clearly
+        not calibrated (:func:`~tyrebayes.streams.nuisances.imu_gain_correction`).
     thresholds : SegmentThresholds
         Regime thresholds for the labels.
 
@@ -399,8 +409,17 @@ def compute_features(
     pitch_gain = float(body_pitch_gain(vehicle))
     dvx_dt = smoothed_derivative(vx_safe, dt, deriv_window)
     ax_smooth_d = nan_moving_average(data["ax"].to_numpy(dtype=float), deriv_window)
-    ax_smooth_d = ax_smooth_d - (pitch_gain - 1.0) * dvx_dt
     steady = valid & ~spin & (np.abs(dvx_dt) < 4.0)
+    # The IMU's scale factor against the wheel speeds' dV_x/dt (which the pitch over-read is part
+    # of): a calibrated IMU is left to the tyre model's force gain, a badly scaled one (a
+    # dashcam) would scale every force and C_x with it, so ax is divided by its estimate.
+    if ax_gain is None:
+        gain, gain_sd = estimate_ax_gain(ax_smooth_d, dvx_dt, steady, rate)
+        imu_gain = imu_gain_correction(gain / pitch_gain, gain_sd / pitch_gain)
+    else:
+        imu_gain = ImuGainCorrection(float(ax_gain), 0.0, 1.0, float(ax_gain), 0.0)
+    ax_raw = ax_raw / imu_gain.applied
+    ax_smooth_d = ax_smooth_d / imu_gain.applied - (pitch_gain - 1.0) * dvx_dt
     if ax_offset_mps2 is None:
         ax_offset, ax_offset_sd = estimate_ax_offset(ax_smooth_d, dvx_dt, steady, rate)
         if not np.isfinite(ax_offset):
@@ -449,7 +468,9 @@ def compute_features(
     rho_driven_traction = driven(fx_traction_axle) / fz_driven
     # Per-sample noise of the smoothed ax, scaled by the axle's share of m·ax. The offset's
     # uncertainty is common to the whole log and reported apart (nuisances.rho_offset_sd).
-    ax_sd_local = local_noise_sd(data["ax"].to_numpy(dtype=float), window, span) / pitch_gain
+    ax_sd_local = local_noise_sd(data["ax"].to_numpy(dtype=float), window, span) / (
+        pitch_gain * imu_gain.applied
+    )
     share = np.where(
         np.abs(fx_axle.sum(axis=1)) > 0, np.abs(fx_driven) / np.abs(fx_axle.sum(axis=1)), 1.0
     )
@@ -479,6 +500,7 @@ def compute_features(
         radius_ratio_seconds=radius_seconds,
         ax_offset_mps2=float(ax_offset),
         ax_offset_sd_mps2=float(ax_offset_sd),
+        ax_gain=imu_gain,
         pitch_offset_rad=float(np.arcsin(np.clip(ax_offset / GRAVITY_MPS2, -1, 1))),
         ay_offset_mps2=ay_offset,
         quantisation_radps=quant,

@@ -19,6 +19,8 @@ import equinox as eqx
 import numpy as np
 from jaxtyping import Bool, Float
 
+from .filters import nan_moving_average
+
 # Effective number of independent samples: grade and vibration are correlated over about a
 # second, so a standard error from N samples at 100 Hz divides by sqrt(seconds), not sqrt(N).
 _CORRELATION_S = 1.0
@@ -43,6 +45,9 @@ class StreamNuisances(eqx.Module):
     ax_offset_sd_mps2 : float
         Its standard error [m/s²], including the uncertainty of the log's mean grade (which one
         log cannot separate from the mounting pitch; several logs of one car can).
+    ax_gain : ImuGainCorrection
+        The IMU's longitudinal scale factor against the wheel-speed derivative, and whether ax
+        was divided by it (:func:`imu_gain_correction`).
     pitch_offset_rad : float
         The offset read as a mounting pitch, asin(offset / g) [rad].
     ay_offset_mps2 : float
@@ -68,6 +73,7 @@ class StreamNuisances(eqx.Module):
     radius_ratio_seconds: float
     ax_offset_mps2: float
     ax_offset_sd_mps2: float
+    ax_gain: ImuGainCorrection
     pitch_offset_rad: float
     ay_offset_mps2: float
     quantisation_radps: Float[np.ndarray, "4"]
@@ -106,6 +112,145 @@ def estimate_ax_offset(
     diff = ax_mps2 - dvx_dt_mps2
     ok = use & np.isfinite(diff)
     return _robust_mean_se(diff[ok], sample_rate_hz)
+
+
+# Blocks for the gain's standard error: the residual stays correlated over seconds.
+_GAIN_BLOCK_S = 5.0
+# Grade varies over hundreds of metres and correlates with acceleration (cars slow uphill), which
+# biases a plain slope: 0.745 for a true 0.8 on a simulated 600 s drive. Both signals are
+# high-passed by removing their 20 s moving average (0.790 there); the driver's accelerations,
+# lasting seconds, pass.
+_GAIN_HIGHPASS_S = 20.0
+
+
+def estimate_ax_gain(
+    ax_mps2: Float[np.ndarray, "n"],
+    dvx_dt_mps2: Float[np.ndarray, "n"],
+    use: Bool[np.ndarray, "n"],
+    sample_rate_hz: float,
+) -> tuple[float, float]:
+    """IMU longitudinal scale factor: slope of ax on dV_x/dt from the wheel speeds [-].
+
+    The wheel speeds give dV_x/dt on an absolute scale (the rolling radius is known to a fraction
+    of a percent); the accelerometer reads k (dV_x/dt + g sin grade) + bias. Both are
+    high-passed (their 20 s moving average removed), which takes out the bias and most of the
+    grade, and the least-squares slope of one on the other is k. The standard error is a block
+    sandwich over 5 s blocks, since the residual (the rest of the grade, the smoothed noise) is
+    correlated over seconds.
+
+    Returns
+    -------
+    (gain, standard error); NaN for both when fewer than two blocks or no acceleration spread.
+
+    Examples
+    --------
+    >>> dv = np.sin(np.linspace(0.0, 60.0, 6000)); ax = 0.8 * dv + 0.1
+    >>> round(estimate_ax_gain(ax, dv, np.ones(6000, bool), 100.0)[0], 3)
+    0.8
+    """
+    ok = use & np.isfinite(ax_mps2) & np.isfinite(dvx_dt_mps2)
+    span = max(1, int(round(_GAIN_HIGHPASS_S * sample_rate_hz)))
+
+    def highpass(v: np.ndarray) -> np.ndarray:
+        v = np.where(ok, v, np.nan)
+        return v - nan_moving_average(v, span)
+
+    x_all, y_all = highpass(dvx_dt_mps2), highpass(ax_mps2)
+    ok = ok & np.isfinite(x_all) & np.isfinite(y_all)
+    block = np.floor(np.flatnonzero(ok) / (_GAIN_BLOCK_S * sample_rate_hz)).astype(int)
+    x, y = x_all[ok], y_all[ok]
+    if x.size < 3 or np.unique(block).size < 2:
+        return float("nan"), float("nan")
+    xc = x - x.mean()
+    sxx = float(np.sum(xc**2))
+    if not sxx > 0:
+        return float("nan"), float("nan")
+    gain = float(np.sum(xc * (y - y.mean())) / sxx)
+    resid = (y - y.mean()) - gain * xc
+    scores = np.bincount(block - block.min(), weights=xc * resid)
+    return gain, float(np.sqrt(np.sum(scores**2)) / sxx)
+
+
+# Scale factor of a longitudinal accelerometer: an automotive IMU is calibrated to about 1 %
+# (the spread the simulator draws, SensorModel.ax_gain_sd); an aftermarket or phone-grade one
+# need not be (the real RAV4 dashcam of comma2k19 reads a_x at 0.79 of the wheel-speed and GNSS
+# derivatives alike, benchmarks/real_vs_sim.py). The prior is a mixture of the two.
+IMU_GAIN_SD_CALIBRATED = 0.01
+IMU_GAIN_SD_UNCALIBRATED = 0.3
+IMU_UNCALIBRATED_PRIOR = 0.05
+
+
+class ImuGainCorrection(eqx.Module):
+    """What the stream pipeline does about the IMU's scale factor (:func:`imu_gain_correction`).
+
+    Fields
+    ------
+    estimate, estimate_sd : float
+        Slope of ax on dV_x/dt and its standard error [-] (:func:`estimate_ax_gain`); NaN when
+        the log has no accelerations to check it with.
+    p_uncalibrated : float
+        Posterior probability that the IMU is not calibrated to its nominal scale [-].
+    applied : float
+        The gain ax is divided by [-]: the posterior mean of the gain beyond a calibrated IMU's
+        (whose ~1 % the tyre model's force-gain prior already carries), so 1 for a calibrated
+        IMU and about the estimate for a clearly uncalibrated one.
+    applied_log_sd : float
+        Log-scale uncertainty of ``applied`` beyond a calibrated IMU's [-]: the uncalibrated
+        component's posterior spread and the mixture's own. The tyre model widens the drive's
+        force-gain prior by it.
+    """
+
+    estimate: float
+    estimate_sd: float
+    p_uncalibrated: float
+    applied: float
+    applied_log_sd: float
+
+    @property
+    def uncalibrated(self) -> bool:
+        """The IMU is more probably uncalibrated than calibrated."""
+        return self.p_uncalibrated > 0.5
+
+
+def imu_gain_correction(gain: float, gain_sd: float) -> ImuGainCorrection:
+    """The IMU gain to divide ax by, from its estimate under a two-component prior.
+
+    A calibrated IMU has gain 1 ± ``IMU_GAIN_SD_CALIBRATED``, an uncalibrated one
+    1 ± ``IMU_GAIN_SD_UNCALIBRATED`` (prior probability ``IMU_UNCALIBRATED_PRIOR``); their
+    marginal likelihoods give the posterior probability of each. The applied gain is the
+    posterior mean with the calibrated component counted as exactly 1 (the tyre model's force
+    gain covers its spread), so the correction is continuous in the estimate: negligible for an
+    automotive IMU, about the estimate for a dashcam's, and in between as uncertain as the
+    evidence. An estimate without information (NaN) leaves ax as it is.
+
+    Examples
+    --------
+    >>> round(imu_gain_correction(1.004, 0.003).applied, 4)
+    1.0
+    >>> round(imu_gain_correction(0.79, 0.02).applied, 2)
+    0.79
+    """
+    if not (np.isfinite(gain) and np.isfinite(gain_sd) and gain_sd > 0):
+        return ImuGainCorrection(float(gain), float(gain_sd), IMU_UNCALIBRATED_PRIOR, 1.0, 0.0)
+
+    def log_evidence(prior_sd: float) -> float:
+        var = prior_sd**2 + gain_sd**2
+        return -0.5 * (gain - 1.0) ** 2 / var - 0.5 * np.log(var)
+
+    log_odds = (
+        log_evidence(IMU_GAIN_SD_UNCALIBRATED)
+        - log_evidence(IMU_GAIN_SD_CALIBRATED)
+        + np.log(IMU_UNCALIBRATED_PRIOR / (1.0 - IMU_UNCALIBRATED_PRIOR))
+    )
+    p = float(1.0 / (1.0 + np.exp(-np.clip(log_odds, -700.0, 700.0))))
+    # The uncalibrated component's posterior: the estimate shrunk towards 1.
+    precision = 1.0 / gain_sd**2 + 1.0 / IMU_GAIN_SD_UNCALIBRATED**2
+    mean_u = (gain / gain_sd**2 + 1.0 / IMU_GAIN_SD_UNCALIBRATED**2) / precision
+    applied = p * mean_u + (1.0 - p)
+    variance = p * (1.0 / precision + (mean_u - applied) ** 2) + (1.0 - p) * (1.0 - applied) ** 2
+    return ImuGainCorrection(
+        float(gain), float(gain_sd), p, float(applied), float(np.sqrt(variance) / applied)
+    )
 
 
 # Road grade decorrelates over roughly a kilometre (~60 s of driving): a log of T seconds holds
