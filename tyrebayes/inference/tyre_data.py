@@ -226,6 +226,32 @@ def windowed_observations(
     return out
 
 
+def wheel_oscillation(
+    wheel_vx_mps: Float[np.ndarray, "n 4"],
+    valid: Bool[np.ndarray, "n"],
+    window: int,
+    sample_rate_hz: float,
+) -> Float[np.ndarray, "m"]:
+    """How much the wheels' speeds cycle within each window: the ABS detector's statistic [m/s].
+
+    Each wheel's speed relative to the four-wheel mean (in m/s rather than slip: at low speed
+    slip noise grows as 1/V and would look like ABS), high-passed by taking off its 0.5 s moving
+    average, then its sd within each window; the largest of the four wheels. ABS drives the
+    wheel speeds up and down several times a second, and that passes; a hard stop without ABS
+    only ramps the wheels apart (their slips differ), which a window's plain sd reads as
+    oscillation too (a 0.7 g stop in recovery seed 1003, brush_no_abs, made two ABS windows
+    and put μ_max at −32 %), and that the high-pass removes.
+    """
+    from ..streams.filters import nan_moving_average, window_samples
+
+    relative = wheel_vx_mps - np.mean(wheel_vx_mps, axis=1, keepdims=True)
+    relative = relative - nan_moving_average(relative, window_samples(0.5, sample_rate_hz))
+    ok = valid & np.all(np.isfinite(relative), axis=1)
+    return np.max(
+        np.column_stack([_window_sd(relative[:, i], ok, window) for i in range(4)]), axis=1
+    )
+
+
 def _window_sd(values: np.ndarray, valid: np.ndarray, window: int) -> np.ndarray:
     """Standard deviation within consecutive blocks of ``window`` samples (valid samples only)."""
     mean, counts = window_means(values, valid, window)
@@ -235,6 +261,25 @@ def _window_sd(values: np.ndarray, valid: np.ndarray, window: int) -> np.ndarray
     with np.errstate(invalid="ignore", divide="ignore"):
         var = np.where(ok, (v - mean[:, None]) ** 2, 0.0).sum(axis=1) / counts
     return np.sqrt(var)
+
+
+# An ABS window's force is within a few percent of the event's (the controller holds the tyres
+# near their peak); one well short of it is still in the entry ramp (one window at 0.83 of its
+# event's force in four simulated drives with the ramp-free oscillation statistic).
+_ABS_RUN_FORCE_SHARE = 0.9
+
+
+def _below_run_peak(at_limit: np.ndarray, rho: np.ndarray) -> np.ndarray:
+    """``at_limit`` without windows whose |ρ| is under 0.9 of their run's median |ρ|."""
+    start = at_limit & ~np.concatenate([[False], at_limit[:-1]])
+    run = np.cumsum(start)
+    keep = at_limit.copy()
+    for r in np.unique(run[at_limit]):
+        members = at_limit & (run == r)
+        keep[members] = np.abs(rho[members]) >= _ABS_RUN_FORCE_SHARE * np.median(
+            np.abs(rho[members])
+        )
+    return keep
 
 
 def _inner_runs(flags: np.ndarray, min_run: int) -> np.ndarray:
@@ -343,13 +388,10 @@ def observations_from_features(
     window = max(1, int(round(window_s / dt)))
     fx, fz = features.fx_axle_n, features.fz_axle_n
     rho_total = np.sum(fx, axis=1) / np.sum(fz, axis=1)
-    # In m/s rather than slip: at low speed slip noise grows as 1/V and would look like ABS.
-    wheel = features.wheel_vx_mps
-    relative = wheel - np.mean(wheel, axis=1, keepdims=True)
-    valid = features.valid & np.isfinite(rho_total) & np.all(np.isfinite(relative), axis=1)
-    oscillation = np.max(
-        np.column_stack([_window_sd(relative[:, i], valid, window) for i in range(4)]), axis=1
+    valid = (
+        features.valid & np.isfinite(rho_total) & np.all(np.isfinite(features.wheel_vx_mps), axis=1)
     )
+    oscillation = wheel_oscillation(features.wheel_vx_mps, valid, window, features.sample_rate_hz)
     rho_mean, counts = window_means(rho_total, valid, window)
     sd_ok = valid & np.isfinite(features.rho_driven_sd)
     rho_sd, _ = window_means(features.rho_driven_sd, sd_ok, window)
@@ -364,7 +406,7 @@ def observations_from_features(
         & (oscillation > abs_oscillation_factor * baseline)
         & (rho_mean < -abs_min_decel)
     )
-    at_limit = _inner_runs(candidate, min_run=abs_min_windows)
+    at_limit = _below_run_peak(_inner_runs(candidate, min_run=abs_min_windows), rho_mean)
     m = int(at_limit.sum())
     factor = np.sqrt(min(1.0, correlation / window))
     limit_windows = {
