@@ -45,7 +45,8 @@ streams, 200 s) in one process while a second process ran two other settings on 
 machine (447 and 470 s per process for two settings each); ``--settings`` runs a subset so that
 settings can run in separate processes (merge their ``results``).
 
-Usage: ``python benchmarks/tyre_recovery.py [--quick] [--reps N] [--duration S] [--settings A,B]``.
+Usage: ``python benchmarks/tyre_recovery.py [--quick] [--reps N] [--duration S] [--settings A,B]
+[--out FILE]``; ``--merge A.json B.json [--out FILE]`` combines runs of different settings.
 """
 
 from __future__ import annotations
@@ -206,6 +207,10 @@ def summarise(rows: list[dict]) -> dict:
         "c_x_tls": _rel(ok, "c_x_tls", "c_x_true"),
         "c_x_coverage_50": _share(ok, "c_x_cover50"),
         "c_x_coverage_90": _share(ok, "c_x_cover90"),
+        # Binomial sd of a coverage share at its nominal value: how far chance alone moves it.
+        "coverage_binomial_sd_50_90": [
+            float(np.sqrt(p * (1 - p) / max(len(ok), 1))) for p in (0.5, 0.9)
+        ],
         "c_x_rel_sd_mean": (
             float(np.mean([r["c_x_sd"] / r["c_x_post"] for r in ok])) if ok else None
         ),
@@ -239,7 +244,13 @@ def main() -> None:
     parser.add_argument(
         "--settings", default="", help="comma-separated setting names to run (default: all)"
     )
+    parser.add_argument(
+        "--merge", nargs="+", default=None, help="merge results files of separate runs into --out"
+    )
     args = parser.parse_args()
+    if args.merge:
+        merge(args.merge, Path(args.out))
+        return
     reps, duration = (2, 300.0) if args.quick else (args.reps, args.duration)
     settings = [
         {"name": "brush_abs", "truth": "brush", "abs_events": 2, "noise": 1.0},
@@ -353,7 +364,38 @@ def payload(results: dict, duration: float, note: str, reps: int, wall: float) -
             "mu_abs_bias_max_with_abs": 0.05,
         },
         "results": results,
+        "pooled_c_x_coverage": pooled_coverage(results),
     }
+
+
+def pooled_coverage(results: dict) -> dict:
+    """C_x coverage over the converged drives of every setting together."""
+    rows = [r for res in results.values() for r in res["drives"] if r["converged"]]
+    return {
+        "n": len(rows),
+        "coverage_50": _share(rows, "c_x_cover50"),
+        "coverage_90": _share(rows, "c_x_cover90"),
+    }
+
+
+def merge(paths: list[str], out: Path) -> None:
+    """One results file from runs of different settings in separate processes (``--settings``)."""
+    runs = [json.loads(Path(p).read_text()) for p in paths]
+    first = runs[0]
+    if any(r["drive_duration_s"] != first["drive_duration_s"] for r in runs):
+        raise SystemExit("--merge: expected runs of one drive duration, got several")
+    results = {name: res for r in runs for name, res in r["results"].items()}
+    wall = sum(r["wall_time_s"] for r in runs)
+    data = payload(
+        results, first["drive_duration_s"], first["duration_note"], first["reps_per_setting"], wall
+    )
+    data["run_note"] = (
+        "separate processes side by side on the 2-core machine ("
+        + "; ".join(f"{','.join(r['results'])}: {r['wall_time_s']:.0f} s" for r in runs)
+        + "); wall_time_s is their sum"
+    )
+    write(out, data)
+    print(f"merged {len(runs)} runs into {out}")
 
 
 def _finite(x):
