@@ -63,7 +63,7 @@ def test_fast_fit_of_a_simulated_drive(tmp_path, capsys):
     )
     payload = json.loads(capsys.readouterr().out)
     assert code == 0
-    for key in ("c_x", "c_xr", "mu_max", "slip_offset"):
+    for key in ("c_x", "c_xr", "mu_max", "slip_offset", "force_gain"):
         assert set(payload[key]) == {"mean", "sd", "hdi_90"}
     assert {"r_hat_max", "ess_min", "divergences", "converged"} <= set(payload["diagnostics"])
     assert payload["mu_max_observed"] is True

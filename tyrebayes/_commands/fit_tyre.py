@@ -90,6 +90,7 @@ def _text(summary: dict[str, Any]) -> str:
         line("mu_max", "mu_max")
         + ("" if summary["mu_max_observed"] else "  [not observed: prior only]"),
         line("slip offset", "slip_offset"),
+        line("force gain", "force_gain"),
         f"method {summary['method']}, {summary['n_samples_used']} windows "
         f"({summary['n_abs_windows']} ABS); R-hat max {d['r_hat_max']}, ESS min {d['ess_min']}, "
         f"divergences {d['divergences']}",

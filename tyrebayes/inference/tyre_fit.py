@@ -116,8 +116,9 @@ class TyreFit:
     def summary(self) -> dict:
         """The ``fit-tyre --json`` object: c_x, c_xr, mu_max, slip_offset summaries and flags.
 
-        ``mu_max`` and ``slip_offset`` describe the first surface and drive; ``mu_max_by_surface``
-        lists every surface.
+        ``mu_max``, ``slip_offset`` and ``force_gain`` (measured over true ρ_x: load share, IMU
+        scale, body pitch) describe the first surface and drive; ``mu_max_by_surface`` lists
+        every surface.
         """
         mu = self.draws("mu_max")
         return {
@@ -125,6 +126,7 @@ class TyreFit:
             "c_xr": summarize(self.draws("c_xr")),
             "mu_max": summarize(mu[:, 0]),
             "slip_offset": summarize(self.draws("slip_offset")[:, 0]),
+            "force_gain": summarize(self.draws("force_gain")[:, 0]),
             "mu_max_observed": bool(self.mu_observed[self.surfaces[0]]),
             "mu_max_by_surface": {
                 s: {**summarize(mu[:, i]), "observed": bool(self.mu_observed[s])}
