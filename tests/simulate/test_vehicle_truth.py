@@ -36,6 +36,28 @@ def test_spread_rejects_unphysical_values():
         VehicleSpread(front_load_share_sd=-0.1)
 
 
+def _drive_with_imu_gain(seed: int, car, ax_gain: float):
+    """A 600 s drive of ``car`` whose IMU reads a_x times ``ax_gain``; its features (read with the
+    vehicle file) and truth."""
+    sensor = SensorModel()
+    offsets = dataclasses.replace(
+        draw_sensor_truth(np.random.default_rng(seed - 2), sensor, NOMINAL.wheel_radius_m),
+        ax_gain=ax_gain,
+    )
+    df, truth = simulate_drive(
+        seed, car, "summer", duration_s=600.0, sensor=sensor, sensor_offsets=offsets
+    )
+    return compute_features(validate_stream(df, NOMINAL), NOMINAL), truth
+
+
+def _force_slope(feats, truth) -> float:
+    """Slope of the features' ρ_x on the true ρ_x of the driven axle."""
+    rho_true = np.interp(feats.time_s, truth.time_s, truth.rho_x_driven)
+    # Selected on the true force only: a label cut on the measured force would flatten the slope.
+    used = (rho_true > 0.03) & feats.valid & ~feats.spin
+    return float(np.polyfit(rho_true[used], feats.rho_driven[used], 1)[0])
+
+
 def test_pipeline_force_gain_is_the_predicted_one():
     """A rear-loaded, stiffer car with a 3 % IMU gain: features read ρ_x at force_gain × truth.
 
@@ -45,49 +67,25 @@ def test_pipeline_force_gain_is_the_predicted_one():
         cog_to_front_axle_m=NOMINAL.cog_to_front_axle_m + 0.08,
         pitch_gradient_rad_per_mps2=0.001,
     )
-    sensor = SensorModel()
-    offsets = dataclasses.replace(
-        draw_sensor_truth(np.random.default_rng(3), sensor, NOMINAL.wheel_radius_m), ax_gain=1.03
-    )
-    df, truth = simulate_drive(
-        5, car, "summer", duration_s=600.0, sensor=sensor, sensor_offsets=offsets
-    )
-    feats = compute_features(validate_stream(df, NOMINAL), NOMINAL)
-    rho_true = np.interp(feats.time_s, truth.time_s, truth.rho_x_driven)
-    # Selected on the true force only: a label cut on the measured force would flatten the slope.
-    used = (rho_true > 0.03) & feats.valid & ~feats.spin
-    slope = np.polyfit(rho_true[used], feats.rho_driven[used], 1)[0]
+    feats, truth = _drive_with_imu_gain(5, car, 1.03)
     expected = force_gain(car, NOMINAL, ax_gain=1.03)
     g = GRAVITY_MPS2
     front_load = (NOMINAL.cog_to_rear_axle_m - 0.08) / NOMINAL.cog_to_rear_axle_m  # true/assumed
     assert expected == pytest.approx(1.03 * (1 + g * 0.001) / (1 + g * 0.002) * front_load)
-    assert slope == pytest.approx(expected, abs=0.008)
+    assert _force_slope(feats, truth) == pytest.approx(expected, abs=0.008)
 
 
 def test_pipeline_finds_and_removes_a_dashcam_imu_gain():
     """An IMU reading a_x at 0.8 (the real RAV4 dashcam reads 0.79): hidden in a drive, the
     stream pipeline must find it against the wheel speeds and divide it out, so the forces read
     at the car's force gain without the IMU's (to 1.5 %), and pass its uncertainty on."""
-    sensor = SensorModel()
-    offsets = dataclasses.replace(
-        draw_sensor_truth(np.random.default_rng(4), sensor, NOMINAL.wheel_radius_m), ax_gain=0.8
-    )
-    df, truth = simulate_drive(
-        6, NOMINAL, "summer", duration_s=600.0, sensor=sensor, sensor_offsets=offsets
-    )
-    feats = compute_features(validate_stream(df, NOMINAL), NOMINAL)
+    feats, truth = _drive_with_imu_gain(6, NOMINAL, 0.8)
     imu = feats.nuisances.ax_gain
     assert imu.uncalibrated and imu.p_uncalibrated > 0.99
     assert imu.applied == pytest.approx(0.8, abs=0.02)
     assert 0.0 < imu.applied_log_sd < 0.03
-    rho_true = np.interp(feats.time_s, truth.time_s, truth.rho_x_driven)
-    used = (rho_true > 0.03) & feats.valid & ~feats.spin
-    slope = np.polyfit(rho_true[used], feats.rho_driven[used], 1)[0]
-    assert slope == pytest.approx(force_gain(NOMINAL, NOMINAL, ax_gain=0.8) / 0.8, abs=0.015)
+    expected = force_gain(NOMINAL, NOMINAL, ax_gain=0.8) / 0.8
+    assert _force_slope(feats, truth) == pytest.approx(expected, abs=0.015)
     # The same drive with a calibrated IMU is left as it is.
-    calibrated = dataclasses.replace(offsets, ax_gain=1.0)
-    df, _ = simulate_drive(
-        6, NOMINAL, "summer", duration_s=600.0, sensor=sensor, sensor_offsets=calibrated
-    )
-    imu = compute_features(validate_stream(df, NOMINAL), NOMINAL).nuisances.ax_gain
+    imu = _drive_with_imu_gain(6, NOMINAL, 1.0)[0].nuisances.ax_gain
     assert not imu.uncalibrated and imu.applied == pytest.approx(1.0, abs=0.002)
