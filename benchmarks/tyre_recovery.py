@@ -85,6 +85,12 @@ from tyrebayes.streams import (  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "tyre_recovery.json"
 TYRES = ("winter", "all_season", "summer")
+SETTINGS = (
+    {"name": "brush_abs", "truth": "brush", "abs_events": 2, "noise": 1.0},
+    {"name": "brush_no_abs", "truth": "brush", "abs_events": 0, "noise": 1.0},
+    {"name": "magic_formula_abs", "truth": "magic_formula", "abs_events": 2, "noise": 1.0},
+    {"name": "brush_abs_noise_x2", "truth": "brush", "abs_events": 2, "noise": 2.0},
+)
 
 
 def ols_slope(x: np.ndarray, y: np.ndarray) -> float:
@@ -101,7 +107,13 @@ def tls_slope(x: np.ndarray, y: np.ndarray, x_sd: np.ndarray, y_sd: np.ndarray) 
     )
 
 
-def one_drive(seed: int, setting: dict, duration_s: float, vehicle, pad_to: int) -> dict:
+def simulated_observations(seed: int, setting: dict, duration_s: float, vehicle, pad_to: int):
+    """One simulated drive of a setting through the stream pipeline.
+
+    Returns ``(obs, windows, truth, extras)``: the padded observations, the drive's windows, the
+    simulator's truth and a dict of what the rows record besides the fit (tyre type, drawn car,
+    ambient and the estimated tyre temperature).
+    """
     tyre = TYRES[seed % len(TYRES)]
     profile = ProfileOptions(n_abs_events=setting["abs_events"])
     sensor = scale_noise(SensorModel(), setting["noise"])
@@ -126,6 +138,14 @@ def one_drive(seed: int, setting: dict, duration_s: float, vehicle, pad_to: int)
     tyre_temperature = features_tyre_temperature(features, ambient_c=ambient)
     windows = observations_from_features(features, temperature_c=tyre_temperature)
     obs = stack_drives([windows], ["dry"], pad_to=pad_to)
+    extras = {"tyre": tyre, "car": car, "ambient": ambient, "tyre_temperature": tyre_temperature}
+    return obs, windows, truth, extras
+
+
+def one_drive(seed: int, setting: dict, duration_s: float, vehicle, pad_to: int) -> dict:
+    obs, windows, truth, extras = simulated_observations(seed, setting, duration_s, vehicle, pad_to)
+    tyre, car, ambient = extras["tyre"], extras["car"], extras["ambient"]
+    tyre_temperature = extras["tyre_temperature"]
     fit = fit_tyre(obs, method="fast", seed=seed)
     brush = fit_tyre(obs, method="fast", seed=seed, kind="brush")
     c_x_draws, mu_draws = fit.draws("c_x"), fit.draws("mu_max")[:, 0]
@@ -252,12 +272,7 @@ def main() -> None:
         merge(args.merge, Path(args.out))
         return
     reps, duration = (2, 300.0) if args.quick else (args.reps, args.duration)
-    settings = [
-        {"name": "brush_abs", "truth": "brush", "abs_events": 2, "noise": 1.0},
-        {"name": "brush_no_abs", "truth": "brush", "abs_events": 0, "noise": 1.0},
-        {"name": "magic_formula_abs", "truth": "magic_formula", "abs_events": 2, "noise": 1.0},
-        {"name": "brush_abs_noise_x2", "truth": "brush", "abs_events": 2, "noise": 2.0},
-    ]
+    settings = list(SETTINGS)
     if args.quick:
         settings = settings[:2]
     if args.settings:
