@@ -1,4 +1,4 @@
-"""Why the default model's C_x is biased by ±1.5 % with brush and Magic Formula truth: the shape.
+"""How the prior of the tyre curve's shape exponent moves C_x, with brush and Magic Formula truth.
 
 The default (``"shaped"``) tyre curve has one shape exponent p (p = 1 the brush; a measured Magic
 Formula curve is close to p = 2) and every p keeps the slope C_x at zero slip. On one drive
@@ -8,8 +8,9 @@ whatever sets p sets part of C_x. This script measures how much, on the recovery
 simulated one-hour drives (``tyre_recovery.simulated_observations``), for brush and Magic Formula
 truth with ABS:
 
-* the default prior of p − 1 (log-normal, median 0.5, log-sd 1) against two wider ones that put
-  more mass near the brush (median 0.25, log-sd 1.5; median 0.15, log-sd 2);
+* the default prior of p (0.5 plus a log-normal of median 1.2, log-sd 0.4) against the previous
+  one (1 plus a log-normal of median 0.5, log-sd 1: p ≥ 1, the brush at its bound), a wider one
+  of that form (median 0.15, log-sd 2) and a wider one of the default's (median 1, log-sd 0.5);
 * p held fixed (a prior of log-sd 0.01) at 1 (the brush model), 1.5, 2.04 and 2.5.
 
 Reported per variant: C_x bias, its Monte Carlo standard error, RMSE, the mean posterior sd,
@@ -37,10 +38,12 @@ from tyrebayes.inference.tyre_model import TyrePriors  # noqa: E402
 from tyrebayes.physics.vehicle import load_vehicle  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "shape_prior.json"
+# p = p_min + b, b log-normal: (p_min, median of b, log-sd of b).
 FREE_PRIORS = {
-    "default 0.5/1.0": (0.5, 1.0),
-    "wider 0.25/1.5": (0.25, 1.5),
-    "wider 0.15/2.0": (0.15, 2.0),
+    "default: 0.5 + LN(1.2, 0.4)": (0.5, 1.2, 0.4),
+    "previous: 1 + LN(0.5, 1.0)": (1.0, 0.5, 1.0),
+    "1 + LN(0.15, 2.0)": (1.0, 0.15, 2.0),
+    "0.5 + LN(1.0, 0.5)": (0.5, 1.0, 0.5),
 }
 FIXED_SHAPES = (1.0, 1.5, 2.04, 2.5)
 
@@ -48,14 +51,14 @@ FIXED_SHAPES = (1.0, 1.5, 2.04, 2.5)
 def variants() -> dict[str, tuple[str, TyrePriors]]:
     """Name -> (model kind, priors) of every fit made on each drive."""
     out = {
-        name: ("shaped", TyrePriors(curve_bend_median=m, curve_bend_log_sd=s))
-        for name, (m, s) in FREE_PRIORS.items()
+        name: ("shaped", TyrePriors(curve_shape_min=lo, curve_bend_median=m, curve_bend_log_sd=s))
+        for name, (lo, m, s) in FREE_PRIORS.items()
     }
     out["fixed p=1 (brush model)"] = ("brush", TyrePriors())
     for p in FIXED_SHAPES[1:]:
         out[f"fixed p={p}"] = (
             "shaped",
-            TyrePriors(curve_bend_median=p - 1.0, curve_bend_log_sd=0.01),
+            TyrePriors(curve_shape_min=0.5, curve_bend_median=p - 0.5, curve_bend_log_sd=0.01),
         )
     return out
 
