@@ -118,14 +118,15 @@ class TyrePriors(eqx.Module):
         median 1.2, log-sd 0.4: p between 1.1 and 2.8 with 90 %, median 1.7 — tyres are mostly
         Magic-Formula-like, and a brush-like curve lies in the prior's tail, not at a bound. C_x
         moves with p (a straighter start fits the same bending data with a lower C_x), so the
-        prior's pull on p is a pull on C_x: with p ≥ 1 (the previous prior, p − 1 log-normal with
-        median 0.5, log-sd 1) brush-truth drives fitted p 1.16 and C_x −1.5 %, Magic Formula
-        truth +1.5 %; with this prior −0.5 % and +1.3 % on the same 30 + 30 one-hour drives
-        (``benchmarks/shape_prior.py``). p < 1 (bending before the brush) once read force noise
-        as early bending; with the deconvolved force density it does not (the skewed-force test
-        windows: C_x −0.6 to −3.7 % with this prior, −1.1 to −4.2 % with p ≥ 1). Log-normal
-        rather than half-normal: the sampler sees log b, whose prior tail is then Gaussian (with
-        a half-normal NUTS did not converge on a one-hour drive: R-hat 1.021, a divergence).
+        prior's pull on p is a pull on C_x. On 30 + 30 one-hour drives
+        (``benchmarks/results/shape_prior.json``) brush truth gave C_x −0.6 % (fitted p 1.06)
+        and Magic Formula truth +1.2 % with this prior, −1.6 % (p 1.16) and +1.4 % with the
+        previous one (p ≥ 1: p − 1 log-normal, median 0.5, log-sd 1). p < 1 (bending before the
+        brush) once read force noise as early bending; with the deconvolved force density it
+        does not (skewed-force test windows, seeds 3-5: C_x −1.9 to −4.7 % with this prior,
+        −1.1 to −4.2 % with p ≥ 1). Log-normal rather than half-normal: the sampler sees log b,
+        whose prior tail is then Gaussian (with a half-normal NUTS did not converge on a
+        one-hour drive: R-hat 1.021, a divergence).
     force_noise_log_sd, slip_noise_log_sd : float
         Log-scale sds of λ_ρ and λ_σ, the scales on the stated force and slip noise (median 1:
         the stream states the noise it measured).
@@ -160,9 +161,9 @@ def stiffness_at_temperature(c_xr, temp_sensitivity, temperature_c):
 
 
 MODEL_KINDS = ("shaped", "brush", "linear")
-# The shaped family contains the brush (p = 1) and fits Magic Formula tyres too. Fifty one-hour
-# drives with ABS (tyre_recovery.json): Magic Formula truth, C_x +1.2 % and μ_max −0.5 % against
-# the brush model's +5.2 % and +7.1 %; brush truth, C_x −0.8 % against +0.5 %.
+# The shaped family contains the brush (p = 1) and fits Magic Formula tyres too. A hundred
+# one-hour drives with ABS (tyre_recovery.json): Magic Formula truth, C_x +1.0 % and μ_max −0.5 %
+# against the brush model's +5.4 % and +2.2 %; brush truth, C_x −1.0 % against −0.2 %.
 DEFAULT_KIND = "shaped"
 
 
