@@ -5,7 +5,10 @@ from .features import compute_features as compute_features
 from .features import speed_error as speed_error
 from .io import read_stream as read_stream
 from .io import write_stream as write_stream
+from .nuisances import ImuGainCorrection as ImuGainCorrection
 from .nuisances import StreamNuisances as StreamNuisances
+from .nuisances import estimate_ax_gain as estimate_ax_gain
+from .nuisances import imu_gain_correction as imu_gain_correction
 from .schema import OPTIONAL_COLUMNS as OPTIONAL_COLUMNS
 from .schema import REQUIRED_COLUMNS as REQUIRED_COLUMNS
 from .segments import SEGMENT_KINDS as SEGMENT_KINDS
