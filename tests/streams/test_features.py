@@ -217,3 +217,20 @@ def test_real_log_nuisances(real):
     assert -0.8 < nuis.ax_offset_mps2 < -0.4
     np.testing.assert_allclose(nuis.quantisation_radps, 0.01 / 3.6 / 0.35, rtol=1e-3)
     assert np.all(np.abs(nuis.radius_ratio - 1) < 0.005)
+    # The dashcam reads a_x low (0.79 against GNSS as a plain slope, real_vs_sim.py): the
+    # band-passed estimate must see it below a calibrated IMU's and pass the doubt on.
+    gain = nuis.ax_gain
+    assert gain.estimate + 2 * gain.estimate_sd < 1.0
+    assert 0.3 < gain.p_uncalibrated < 0.9 and gain.applied < 0.97 and gain.applied_log_sd > 0.03
+
+
+def test_a_known_imu_gain_is_divided_out_and_a_bad_one_rejected(synthetic):
+    feats, _ = synthetic
+    stream = validate_stream(synthetic_stream(VEHICLE, duration_s=120.0, rate_hz=100.0, seed=11)[0])
+    halved = dataclasses.replace(stream, data=stream.data.assign(ax=stream.data["ax"] * 0.5))
+    known = compute_features(halved, VEHICLE, ax_gain=0.5)
+    assert known.nuisances.ax_gain.applied == 0.5 and known.nuisances.ax_gain.uncalibrated
+    ok = feats.valid & known.valid
+    np.testing.assert_allclose(known.rho_driven[ok], feats.rho_driven[ok], atol=2e-3)
+    with pytest.raises(ValueError, match="ax_gain: expected a value > 0, got -1"):
+        compute_features(stream, VEHICLE, ax_gain=-1.0)

@@ -15,8 +15,9 @@ Steps (thesis chapter 4.3):
 5. IMU offset from ax − dV_x/dt; the offset-corrected ax keeps the road grade, which is exactly
    what the force balance needs. The body's squat and dive (the vehicle's pitch gradient k) make
    the IMU over-read a_x by 1 + g·k; that gain is removed, before the offset estimate too. The
-   IMU's own scale factor is estimated against dV_x/dt and removed when the IMU is clearly not
-   calibrated (a dashcam's; :func:`~tyrebayes.streams.nuisances.imu_gain_correction`).
+   IMU's own scale factor is estimated against dV_x/dt and divided out as far as the evidence
+   says the IMU is not calibrated (a dashcam's;
+   :func:`~tyrebayes.streams.nuisances.imu_gain_correction`).
 6. Axle forces from :func:`tyrebayes.physics.vehicle.single_track_inverse` (eq. 4.23) with drag
    and rolling resistance; axle loads with longitudinal load transfer; ρ_x = F_x / F_z.
 7. Friction power w_x = |F_x V_x σ_x| (eq. 4.19a) and regime labels.
@@ -335,8 +336,9 @@ def compute_features(
         Known IMU longitudinal offset; by default estimated from ax − dV_x/dt.
     ax_gain : float, optional
         Known IMU longitudinal scale factor (ax reads this times the acceleration); by default
-        estimated against the wheel speeds' dV_x/dt and applied only when the IMU is clearly
-        not calibrated (:func:`~tyrebayes.streams.nuisances.imu_gain_correction`).
+        estimated against the wheel speeds' dV_x/dt and divided out by its posterior mean under
+        a calibrated-or-not mixture prior: next to nothing for an automotive IMU, about the
+        estimate for a dashcam's (:func:`~tyrebayes.streams.nuisances.imu_gain_correction`).
     thresholds : SegmentThresholds
         Regime thresholds for the labels.
 
@@ -348,6 +350,8 @@ def compute_features(
         raise ValueError(f"brake_front_share: expected a value in [0, 1], got {brake_front_share}")
     if not spin_threshold > 0:
         raise ValueError(f"spin_threshold: expected a value > 0, got {spin_threshold}")
+    if ax_gain is not None and not ax_gain > 0:
+        raise ValueError(f"ax_gain: expected a value > 0, got {ax_gain}")
     data = stream.data
     rate = stream.sample_rate_hz
     dt = 1.0 / rate
@@ -417,7 +421,10 @@ def compute_features(
         gain, gain_sd = estimate_ax_gain(ax_smooth_d, dvx_dt, steady, rate)
         imu_gain = imu_gain_correction(gain / pitch_gain, gain_sd / pitch_gain)
     else:
-        imu_gain = ImuGainCorrection(float(ax_gain), 0.0, 1.0, float(ax_gain), 0.0)
+        # Given, not estimated: certain, and uncalibrated exactly when it is not 1.
+        imu_gain = ImuGainCorrection(
+            float(ax_gain), 0.0, float(ax_gain != 1.0), float(ax_gain), 0.0
+        )
     ax_raw = ax_raw / imu_gain.applied
     ax_smooth_d = ax_smooth_d / imu_gain.applied - (pitch_gain - 1.0) * dvx_dt
     if ax_offset_mps2 is None:
