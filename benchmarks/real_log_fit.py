@@ -23,6 +23,7 @@ Usage: ``python benchmarks/real_log_fit.py [--method fast|nuts]``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import time
@@ -44,7 +45,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from tyrebayes._resources import data_dir  # noqa: E402
-from tyrebayes.inference.tyre_data import observations_from_stream  # noqa: E402
+from tyrebayes.inference.tyre_data import observations_from_features, stack_drives  # noqa: E402
 from tyrebayes.inference.tyre_fit import fit_tyre  # noqa: E402
 from tyrebayes.physics.vehicle import load_vehicle  # noqa: E402
 from tyrebayes.streams import compute_features, read_stream, validate_stream  # noqa: E402
@@ -59,10 +60,10 @@ def main() -> None:
     parser.add_argument("--method", choices=("fast", "nuts"), default="nuts")
     args = parser.parse_args()
     stream = data_dir() / "comma2k19_rav4_segment.csv"
-    obs = observations_from_stream(stream, "suv_rav4", surface="dry", temperature_c=25.0)
     vehicle = load_vehicle("suv_rav4")
-    imu_gain = compute_features(validate_stream(read_stream(stream), vehicle), vehicle).nuisances
-    imu_gain = imu_gain.ax_gain
+    features = compute_features(validate_stream(read_stream(stream), vehicle), vehicle)
+    imu_gain = features.nuisances.ax_gain
+    obs = stack_drives([observations_from_features(features, temperature_c=25.0)], ["dry"])
     kwargs = {"num_chains": 4, "num_samples": 1000} if args.method == "nuts" else {}
     t0 = time.perf_counter()
     fit = fit_tyre(obs, method=args.method, seed=0, **kwargs)
@@ -131,13 +132,7 @@ def main() -> None:
         "fit_wall_s_with_compilation": fit_wall_s,
         "load_average": list(os.getloadavg()),
         "assumptions": ASSUMPTIONS,
-        "imu_gain": {
-            "estimate": imu_gain.estimate,
-            "estimate_sd": imu_gain.estimate_sd,
-            "p_uncalibrated": imu_gain.p_uncalibrated,
-            "applied": imu_gain.applied,
-            "applied_log_sd": imu_gain.applied_log_sd,
-        },
+        "imu_gain": dataclasses.asdict(imu_gain),
         "summary": summary,
         "posterior_predictive": {
             "checked": "slip_obs given the measured rho_x of each window (slip-on-force model)",

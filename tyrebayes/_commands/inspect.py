@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 from typing import Any
 
@@ -80,13 +81,7 @@ def summarize_stream(path: str, vehicle_name: str, channel_map: dict[str, str]) 
             "ax_offset_mps2": nuis.ax_offset_mps2,
             "ax_offset_sd_mps2": nuis.ax_offset_sd_mps2,
             "pitch_offset_deg": math.degrees(nuis.pitch_offset_rad),
-            "ax_gain": {
-                "estimate": nuis.ax_gain.estimate,
-                "estimate_sd": nuis.ax_gain.estimate_sd,
-                "p_uncalibrated": nuis.ax_gain.p_uncalibrated,
-                "applied": nuis.ax_gain.applied,
-                "applied_log_sd": nuis.ax_gain.applied_log_sd,
-            },
+            "ax_gain": dataclasses.asdict(nuis.ax_gain),
             "ay_offset_mps2": nuis.ay_offset_mps2,
             "speed_scale": nuis.speed_scale,
             "speed_scale_sd": nuis.speed_scale_sd,

@@ -32,7 +32,8 @@ from .._errors import BadInputError
 N_COMPONENTS = 8
 # EM is stopped after this many steps: on 20 simulated one-hour drives 5 reached it, and running
 # those on to 5,000 steps moved E[ρ_true | ρ_obs] by at most 0.25 of the window's noise sd (rms
-# 0.003-0.04): not worth the 1-10 s more per drive, but reported (ForceMixture.converged).
+# 0.003-0.04), where 400 steps already take 0.9-1.4 s per drive: reported, not run on
+# (ForceMixture.converged).
 _MAX_ITERATIONS = 400
 _TOLERANCE = 1e-6  # on the mean log-likelihood per window [nats]
 
