@@ -20,7 +20,7 @@ from ._common import atomic_path, existing_file, print_json
 
 # tyrebayes.inference.tyre_model.MODEL_KINDS, default first; spelled out here because importing
 # the model would start JAX before run() gives it one device per core (a test checks they agree).
-MODEL_CHOICES = ("shaped", "brush", "linear")
+MODEL_CHOICES = ("magic", "shaped", "brush", "linear")
 
 #: Exit status of a fit that did not converge.
 EXIT_NOT_CONVERGED = 3

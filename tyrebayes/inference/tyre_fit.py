@@ -27,9 +27,17 @@ from numpyro.distributions.transforms import biject_to
 from numpyro.infer import MCMC, NUTS, init_to_median
 from numpyro.infer.util import constrain_fn, initialize_model, potential_energy
 
+from .adequacy import Adequacy, assess_adequacy
 from .summary import summarize
 from .tyre_data import TyreObservations
-from .tyre_model import DEFAULT_KIND, TyrePriors, check_kind, tyre_model, window_likelihood
+from .tyre_model import (
+    DEFAULT_KIND,
+    TyrePriors,
+    check_kind,
+    curve_slip,
+    tyre_model,
+    window_likelihood,
+)
 from .window_correlation import slip_weights
 
 # μ_max counts as observed on a surface only where the drive reached the limit (ABS windows) and
@@ -94,10 +102,19 @@ class TyreFit:
     n_samples_used : int
         Number of windows that entered the likelihood.
     kind : str
-        ``"shaped"``, ``"brush"`` or ``"linear"``.
+        ``"magic"``, ``"shaped"``, ``"brush"`` or ``"linear"``.
     slip_variance_inflation : tuple of float
         Per drive, the variance inflation of the slip errors by their correlation between
         windows; each window's slip counted 1/this in the fit (:mod:`.window_correlation`).
+    adequacy : Adequacy
+        Whether the fitted model describes the drive (:mod:`.adequacy`); a converged fit can be
+        inadequate, and then its intervals are not to be trusted either.
+    force_range : float
+        The 90th percentile of |ρ_x| over the slip windows [-]: the range of force the drive used.
+    secant_stiffness : ndarray
+        Posterior draws of the secant slope ρ/σ of the fitted curve at ``force_range`` [-], on
+        the first surface at the drives' mean tyre temperature: what the drive measures directly.
+        C_x, the slope at zero, is that secant extrapolated through the curve's shape.
     """
 
     idata: az.InferenceData
@@ -107,6 +124,9 @@ class TyreFit:
     n_samples_used: int
     kind: str
     slip_variance_inflation: tuple
+    adequacy: Adequacy
+    force_range: float
+    secant_stiffness: np.ndarray
 
     def draws(self, name: str) -> np.ndarray:
         """Posterior draws of a variable, chains and draws flattened on the first axis."""
@@ -142,6 +162,12 @@ class TyreFit:
             "n_samples_used": self.n_samples_used,
             "slip_variance_inflation": [float(x) for x in self.slip_variance_inflation],
             "n_abs_windows": int(np.asarray(self.idata.constant_data["at_limit"]).sum()),
+            "adequate": self.adequacy.adequate,
+            "adequacy_reasons": list(self.adequacy.reasons),
+            "identified": {
+                "force_range": self.force_range,
+                "secant_stiffness": summarize(self.secant_stiffness),
+            },
         }
 
 
@@ -157,17 +183,66 @@ def _mu_observed(fit_draws: np.ndarray, priors: TyrePriors, obs: TyreObservation
 
 
 def _tyre_fit(
-    idata, diagnostics, mu_draws, priors, obs: TyreObservations, kind: str, inflation
+    idata, diagnostics, samples: dict, priors, obs: TyreObservations, kind: str, inflation
 ) -> TyreFit:
     """The result both fitting paths return."""
+    slip_window = np.asarray(obs.mask & ~obs.at_limit)
+    rho = np.asarray(obs.rho)[slip_window]
+    force_range = float(np.quantile(np.abs(rho), 0.9)) if rho.size else 0.0
     return TyreFit(
         idata=idata,
         diagnostics=diagnostics,
-        mu_observed=_mu_observed(mu_draws, priors, obs),
+        mu_observed=_mu_observed(samples["mu_max"], priors, obs),
         surfaces=obs.surfaces,
         n_samples_used=obs.n_used,
         kind=kind,
         slip_variance_inflation=tuple(float(x) for x in inflation),
+        adequacy=_adequacy(obs, samples, kind, priors),
+        force_range=force_range,
+        secant_stiffness=_secant_stiffness(samples, kind, force_range),
+    )
+
+
+def _secant_stiffness(samples: dict, kind: str, force: float) -> np.ndarray:
+    """Draws of ρ/σ(ρ) of the fitted curve at ``force`` (first surface, C_x at the mean T)."""
+    if force <= 0:
+        return np.asarray(samples["c_x"], float)
+    mu = np.asarray(samples["mu_max"])[:, 0]
+    force = np.minimum(force, 0.999 * mu)
+    slip = np.asarray(curve_slip(kind, force, samples["c_x"], mu, samples))
+    return force / slip
+
+
+def _adequacy(obs: TyreObservations, samples: dict, kind: str, priors: TyrePriors) -> Adequacy:
+    """:func:`.adequacy.assess_adequacy` at the posterior mean (slip windows, time order)."""
+    point = {k: jnp.mean(jnp.asarray(v), axis=0) for k, v in samples.items()}
+    lik = window_likelihood(point, obs, kind)
+    slip_window = np.asarray(obs.mask & ~obs.at_limit)
+    z = np.asarray((obs.slip - lik.slip_loc) / lik.slip_scale)[slip_window]
+    shape_sds = {}
+    if kind == "magic":
+        shape_sds = {
+            "shape C": (
+                float(np.mean(np.log(samples["curve_shape_excess"])))
+                - priors.curve_shape_excess_log_mean
+            )
+            / priors.curve_shape_excess_log_sd,
+            "curvature E": (
+                float(np.mean(np.log(samples["curve_curvature_gap"])))
+                - priors.curve_curvature_log_mean
+            )
+            / priors.curve_curvature_log_sd,
+        }
+    return assess_adequacy(
+        z,
+        np.asarray(obs.rho)[slip_window],
+        np.asarray(obs.drive_index)[slip_window],
+        obs.n_drives,
+        noise_scales={
+            "slip": float(np.mean(samples["slip_noise_scale"])),
+            "force": float(np.mean(samples["rho_noise_scale"])),
+        },
+        shape_prior_sds=shape_sds,
     )
 
 
@@ -382,7 +457,7 @@ def fit_tyre_nuts(
         converged=not problems,
         reason="; ".join(problems),
     )
-    return _tyre_fit(idata, diagnostics, samples["mu_max"], priors, obs, kind, inflation)
+    return _tyre_fit(idata, diagnostics, samples, priors, obs, kind, inflation)
 
 
 def _whitened_model(obs, mode, scale, *, model, unravel):
@@ -801,7 +876,7 @@ def fit_tyre_fast(
         converged=not problems,
         reason="; ".join(problems),
     )
-    return _tyre_fit(idata, diagnostics, samples["mu_max"], priors, obs, kind, inflation)
+    return _tyre_fit(idata, diagnostics, samples, priors, obs, kind, inflation)
 
 
 def fit_tyre(obs: TyreObservations, method: str = "nuts", **kwargs) -> TyreFit:

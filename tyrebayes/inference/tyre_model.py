@@ -63,6 +63,7 @@ import numpyro.distributions as dist
 
 from ..physics.tyre import (
     brush_longitudinal_inverse_and_slope,
+    magic_formula_inverse_and_slope,
     shaped_longitudinal_inverse_and_slope,
 )
 from .tyre_data import SURFACES, TyreObservations
@@ -127,6 +128,14 @@ class TyrePriors(eqx.Module):
         −1.1 to −4.2 % with p ≥ 1). Log-normal rather than half-normal: the sampler sees log b,
         whose prior tail is then Gaussian (with a half-normal NUTS did not converge on a
         one-hour drive: R-hat 1.021, a divergence).
+    curve_shape_excess_log_mean, curve_shape_excess_log_sd : float
+        Normal prior of log(C − 1), C the Magic Formula shape factor of the default ``"magic"``
+        curve; and ``curve_curvature_log_mean``, ``curve_curvature_log_sd`` that of log(1 − E),
+        E its curvature factor. The spread of the 9 distinct car/SUV sets of the shipped tyre
+        database (:func:`~tyrebayes.inference.tyre_curve_prior.curve_shape_prior`, sds widened by
+        √(1 + 1/9)): C 1.32-1.84 and E −4.1-0.63 among them, 90 % prior intervals C 1.33-1.87
+        and E −2.3-0.72. At 30 % of the peak these tyres' secant slope is 0.97-1.02 of the slope
+        at zero (the brush's 0.89), so a drive that stays there carries that range into C_x.
     force_noise_log_sd, slip_noise_log_sd : float
         Log-scale sds of λ_ρ and λ_σ, the scales on the stated force and slip noise (median 1:
         the stream states the noise it measured).
@@ -144,6 +153,10 @@ class TyrePriors(eqx.Module):
     curve_shape_min: float = 0.5
     curve_bend_median: float = 1.2
     curve_bend_log_sd: float = 0.4
+    curve_shape_excess_log_mean: float = -0.625
+    curve_shape_excess_log_sd: float = 0.292
+    curve_curvature_log_mean: float = -0.006
+    curve_curvature_log_sd: float = 0.768
     force_noise_log_sd: float = 0.5
     slip_noise_log_sd: float = 0.3
 
@@ -160,11 +173,11 @@ def stiffness_at_temperature(c_xr, temp_sensitivity, temperature_c):
     return c_xr * jnp.exp(-temp_sensitivity * (temperature_c - REFERENCE_TEMPERATURE_C))
 
 
-MODEL_KINDS = ("shaped", "brush", "linear")
-# The shaped family contains the brush (p = 1) and fits Magic Formula tyres too. A hundred
-# one-hour drives with ABS (tyre_recovery.json): Magic Formula truth, C_x +1.0 % and μ_max −0.5 %
-# against the brush model's +5.4 % and +2.2 %; brush truth, C_x −1.0 % against −0.2 %.
-DEFAULT_KIND = "shaped"
+MODEL_KINDS = ("magic", "shaped", "brush", "linear")
+# The Magic Formula curve with its shape and curvature drawn from the measured tyres'
+# (tyre_curve_prior.py): no single shape, and none that bends as early as the brush
+# (benchmarks/results/external_drives.json compares the kinds on drives the package did not make).
+DEFAULT_KIND = "magic"
 
 
 def check_kind(kind: str) -> None:
@@ -173,17 +186,32 @@ def check_kind(kind: str) -> None:
         raise ValueError(f"tyre model kind: expected one of {MODEL_KINDS}, got {kind!r}")
 
 
-def _slip_and_slope(kind: str, rho, c_x, mu, shape):
+def _slip_and_slope(kind: str, rho, c_x, mu, params: dict):
     """Slip of a force in adhesion, f⁻¹(ρ), and its derivative dσ/dρ, elementwise.
 
     Forces at or beyond the peak map to the peak slip (zero derivative): a μ below the measured
     forces then cannot fit their slips, which is how the slip windows bound μ from below.
+    ``params`` holds the curve's shape sites of ``kind`` (``curve_shape_c``, ``curve_curvature_e``
+    for ``"magic"``, ``curve_shape`` for ``"shaped"``).
     """
     if kind == "linear":
         return rho / c_x, jnp.broadcast_to(1.0 / c_x, jnp.shape(rho))
+    if kind == "magic":
+        return magic_formula_inverse_and_slope(
+            rho, c_x, mu, params["curve_shape_c"], params["curve_curvature_e"]
+        )
     if kind == "shaped":
-        return shaped_longitudinal_inverse_and_slope(rho, c_x, mu, shape)
+        return shaped_longitudinal_inverse_and_slope(rho, c_x, mu, params["curve_shape"])
     return brush_longitudinal_inverse_and_slope(rho, c_x, mu)
+
+
+def curve_slip(kind: str, rho, c_x, mu, params: dict):
+    """Slip of the fitted curve at force ρ in adhesion [-] (``params`` as :func:`_slip_and_slope`).
+
+    Broadcasts over posterior draws: ``c_x``, ``mu`` and the shape entries of ``params`` may be
+    arrays of draws.
+    """
+    return _slip_and_slope(kind, jnp.asarray(rho), jnp.asarray(c_x), jnp.asarray(mu), params)[0]
 
 
 def tyre_model(
@@ -228,13 +256,28 @@ def tyre_model(
         # 600 draws, the rest ≥ 275), and 1.05 is already two sds out.
         dist.Normal(priors.abs_force_ratio, priors.abs_force_ratio_sd),
     )
-    curve_shape = 1.0
+    curve = {}
+    if kind == "magic":
+        shape_excess = numpyro.sample(
+            "curve_shape_excess",
+            dist.LogNormal(priors.curve_shape_excess_log_mean, priors.curve_shape_excess_log_sd),
+        )
+        curvature_gap = numpyro.sample(
+            "curve_curvature_gap",
+            dist.LogNormal(priors.curve_curvature_log_mean, priors.curve_curvature_log_sd),
+        )
+        curve["curve_shape_c"] = numpyro.deterministic("curve_shape_c", 1.0 + shape_excess)
+        curve["curve_curvature_e"] = numpyro.deterministic(
+            "curve_curvature_e", 1.0 - curvature_gap
+        )
     if kind == "shaped":
         bend = numpyro.sample(
             "curve_bend",
             dist.LogNormal(jnp.log(priors.curve_bend_median), priors.curve_bend_log_sd),
         )
-        curve_shape = numpyro.deterministic("curve_shape", priors.curve_shape_min + bend)
+        curve["curve_shape"] = numpyro.deterministic(
+            "curve_shape", priors.curve_shape_min + bend
+        )
     rho_noise_scale = numpyro.sample(
         "rho_noise_scale", dist.LogNormal(0.0, priors.force_noise_log_sd)
     )
@@ -266,7 +309,7 @@ def tyre_model(
         temp_sensitivity=kappa,
         mu_max=mu,
         abs_force_ratio=abs_ratio,
-        curve_shape=curve_shape,
+        **curve,
         rho_noise_scale=rho_noise_scale,
         slip_noise_scale=slip_noise_scale,
         slip_offset=slip_offset,
@@ -335,8 +378,7 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     rho_var = noise2 / gain**2 * jnp.clip(1.0 + noise2 * obs.rho_score_slope, 0.05, 1.0)
     c_x = stiffness_at_temperature(params["c_xr"], params["temp_sensitivity"], obs.temperature_c)
     mu_window = params["mu_max"][obs.surface_index]
-    shape = params["curve_shape"] if kind == "shaped" else 1.0
-    slip, slip_slope = _slip_and_slope(kind, rho_hat, c_x, mu_window, shape)
+    slip, slip_slope = _slip_and_slope(kind, rho_hat, c_x, mu_window, params)
     slip_scale = jnp.sqrt((params["slip_noise_scale"] * obs.slip_sd) ** 2 + slip_slope**2 * rho_var)
 
     # ABS windows: the total force sits near the peak, the slip is not measurable.
@@ -365,6 +407,7 @@ __all__ = [
     "DEFAULT_KIND",
     "MODEL_KINDS",
     "check_kind",
+    "curve_slip",
     "SURFACES",
     "TyrePriors",
     "WindowLikelihood",

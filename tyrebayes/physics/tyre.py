@@ -399,3 +399,65 @@ def magic_formula_longitudinal(
     b = stiffness / (shape * mu)
     bs = b * slip
     return mu * jnp.sin(shape * jnp.arctan(bs - curvature * (bs - jnp.arctan(bs))))
+
+
+# Newton steps of the Magic Formula inverse: h(x) = (1 − E)x + E atan(x) is monotone for E < 1
+# and concave (E > 0) or convex (E < 0) on x > 0, so Newton from x = t converges monotonically;
+# eight steps reach float64 round-off for peak slips up to tan(π/(2·1.1)) ≈ 7 (C ≥ 1.1).
+_MF_NEWTON_STEPS = 8
+
+
+def magic_formula_inverse_and_slope(
+    rho: Scalarish, c_x: Scalarish, mu: Scalarish, shape: Scalarish, curvature: Scalarish
+) -> tuple[Float[Array, "..."], Float[Array, "..."]]:
+    """Slip of a force on a Magic Formula curve in adhesion, and dσ/dρ (pure longitudinal slip).
+
+    The curve is ρ = μ sin(C atan(Bσ − E(Bσ − atan Bσ))) with B = C_x/(C μ) (Pacejka 2006,
+    4.E9–E18 at one load; slope C_x at zero, peak μ). With y = ρ/μ and x = Bσ the inverse solves
+    (1 − E)x + E atan x = t, t = tan(asin(y)/C), by Newton's method (``_MF_NEWTON_STEPS``,
+    unrolled, so that gradients and Hessians flow through it). dρ/dσ = C_x √(1 − y²) h′(x)/(1 + t²)
+    with h′(x) = 1 − E + E/(1 + x²). Near zero the curve departs from its tangent with a cubic
+    term: ρ ≈ C_x σ (1 − x²((1 + E)/3 + C²/6)), where the brush model's departure is quadratic
+    (thesis eq. 3.3–3.4); that is why a brush fit to such a tyre reads its straight start as a
+    higher C_x. Forces at or beyond the peak map to the peak slip with slope 0, as in
+    :func:`brush_longitudinal_inverse_and_slope`.
+
+    Parameters
+    ----------
+    rho : array
+        Normalised longitudinal force ρ_x = F_x/F_z [-].
+    c_x : array
+        Slip stiffness, the slope at zero slip [-].
+    mu : array
+        Peak of the curve μ_max [-].
+    shape : array
+        Magic Formula shape factor C (> 1 for a curve with a peak) [-].
+    curvature : array
+        Magic Formula curvature factor E (< 1) [-].
+
+    Examples
+    --------
+    >>> mf = MagicFormulaLongitudinal(4000.0, pkx1=30.0, pdx1=1.0, pcx1=1.6, pex1=0.3)
+    >>> slip, _ = magic_formula_inverse_and_slope(0.5, 30.0, 1.0, 1.6, 0.3)
+    >>> round(float(magic_formula_longitudinal(slip, 4000.0, mf)), 6)
+    0.5
+    """
+    rho, c_x, mu = jnp.asarray(rho), jnp.asarray(c_x), jnp.asarray(mu)
+    shape, curvature = jnp.asarray(shape), jnp.asarray(curvature)
+    # Signed throughout (every step is odd in y), so that the derivative at ρ = 0 is right.
+    y = rho / mu
+    inside = jnp.abs(y) < 1.0
+    # At and beyond the peak: the peak slip (asin(±1) = ±π/2), with the double-where trick so
+    # that the clipped branch gives no NaN gradient.
+    y_in = jnp.where(inside, y, jnp.sign(y))
+    t = jnp.tan(jnp.arcsin(y_in) / shape)
+    x = t
+    for _ in range(_MF_NEWTON_STEPS):
+        h = (1.0 - curvature) * x + curvature * jnp.arctan(x) - t
+        x = x - h / (1.0 - curvature + curvature / (1.0 + x**2))
+    b = c_x / (shape * mu)
+    slip = x / b
+    dh = 1.0 - curvature + curvature / (1.0 + x**2)
+    force_slope = c_x * jnp.sqrt(jnp.where(inside, 1.0 - y_in**2, 1.0)) * dh / (1.0 + t**2)
+    slope = jnp.where(inside, 1.0 / force_slope, 0.0)
+    return slip, slope

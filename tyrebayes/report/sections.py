@@ -27,17 +27,26 @@ def _flat(idata, name: str) -> np.ndarray:
     return v.reshape((-1,) + v.shape[2:])
 
 
-def _shaped_curves(slip, c_x, mu, shape) -> np.ndarray:
-    """ρ(σ) on the slip grid for each draw of the shaped model (draws × grid).
+def _shaped_curves(slip, c_x, mu, shape, curvature=None) -> np.ndarray:
+    """ρ(σ) on the slip grid for each draw of the shaped or Magic Formula model (draws × grid).
 
     The model gives slip as a function of force; each draw's curve is traced over forces up to
-    the peak and read at the grid by interpolation (flat at ±μ beyond the peak slip).
+    the peak and read at the grid by interpolation (flat at ±μ beyond the peak slip). With
+    ``curvature`` the curve is the Magic Formula (shape C, curvature E), else the shaped family
+    (exponent p).
     """
-    from ..physics.tyre import shaped_longitudinal_inverse_and_slope
+    from ..physics.tyre import (
+        magic_formula_inverse_and_slope,
+        shaped_longitudinal_inverse_and_slope,
+    )
 
     c_x, mu, shape = (np.asarray(v, float)[:, None] for v in (c_x, mu, shape))
     rho = mu * np.linspace(-1.0, 1.0, 401)[None, :]
-    traced = np.asarray(shaped_longitudinal_inverse_and_slope(rho, c_x, mu, shape)[0])
+    if curvature is None:
+        traced = np.asarray(shaped_longitudinal_inverse_and_slope(rho, c_x, mu, shape)[0])
+    else:
+        curvature = np.asarray(curvature, float)[:, None]
+        traced = np.asarray(magic_formula_inverse_and_slope(rho, c_x, mu, shape, curvature)[0])
     return np.stack([np.interp(slip, t, r) for t, r in zip(traced, rho, strict=True)])
 
 
@@ -158,7 +167,15 @@ def tyre_section(
         lo = min(float(np.quantile(pts, 0.005)), -0.002) if pts.size else -0.01
         hi = max(float(np.quantile(pts, 0.995)), 0.004) if pts.size else 0.02
         grid = np.linspace(lo * 1.15, hi * 1.15, GRID_POINTS)
-        if "curve_shape" in post:
+        if "curve_shape_c" in post:
+            f = _shaped_curves(
+                grid,
+                c_s[idx],
+                mu[idx, i],
+                _flat(idata, "curve_shape_c")[idx],
+                _flat(idata, "curve_curvature_e")[idx],
+            )
+        elif "curve_shape" in post:
             f = _shaped_curves(grid, c_s[idx], mu[idx, i], _flat(idata, "curve_shape")[idx])
         else:
             f = np.asarray(

@@ -1,0 +1,146 @@
+"""Does the fitted per-tyre model describe the drive? Model adequacy, returned as data.
+
+A sampler can converge on a model that does not describe the data: its posterior is then precise
+and wrong. Beside ``converged`` every tyre fit carries :class:`Adequacy`, computed from the
+standardised slip residuals z = (σ_obs − E[σ | ρ_obs]) / sd at the posterior mean, window by
+window, with these checks (each a reason when it fails):
+
+* **correlated errors**: the batch-means variance inflation of z (:mod:`.window_correlation`)
+  above :data:`MAX_VARIANCE_INFLATION`. The features' smoothing alone makes it about 2.3 on the
+  package's simulated drives; far above that the slip errors wander over tens of seconds (a slip
+  offset that jumps, a radius that changes, a force error that drifts), which the model's single
+  offset per drive does not describe. The fit already counts each window at 1/inflation, so its
+  intervals widen, but its centre can be off.
+* **predictive misfit**: the share of slip windows outside the 90 % predictive band (|z| >
+  1.645) above :data:`MAX_OUTSIDE_90`: the model's noise does not describe the residuals.
+* **residual trend against force**: a least-squares line of z on the window force with a slope
+  whose t-value, deflated by √inflation, exceeds :data:`MAX_TREND_T`: the curve's shape is wrong
+  over the range the drive used.
+* **stated noise far off**: the fitted scale λ of the stated slip or force noise outside
+  [1/:data:`MAX_NOISE_FACTOR`, :data:`MAX_NOISE_FACTOR`]: the stream's noise estimates do not
+  hold for this drive.
+* **curve shape at the edge of the measured tyres**: the Magic Formula shape or curvature more
+  than :data:`MAX_SHAPE_PRIOR_SDS` prior sds from the measured tyres' mean.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .window_correlation import variance_inflation
+
+MAX_VARIANCE_INFLATION = 4.0
+MAX_OUTSIDE_90 = 0.2
+MAX_TREND_T = 4.0
+MAX_NOISE_FACTOR = 3.0
+MAX_SHAPE_PRIOR_SDS = 2.5
+
+
+@dataclasses.dataclass(frozen=True)
+class Adequacy:
+    """Whether a fitted model describes its data, and why not.
+
+    Attributes
+    ----------
+    adequate : bool
+        True when no check failed.
+    reasons : tuple of str
+        One line per failed check (empty when adequate).
+    variance_inflation : float
+        Largest per-drive variance inflation of the standardised slip residuals [-].
+    outside_90 : float
+        Share of slip windows outside the 90 % predictive band [-].
+    trend_t : float
+        t-value of the residuals' slope against the window force, deflated by √inflation [-].
+    """
+
+    adequate: bool
+    reasons: tuple[str, ...]
+    variance_inflation: float
+    outside_90: float
+    trend_t: float
+
+    def as_dict(self) -> dict:
+        return {**dataclasses.asdict(self), "reasons": list(self.reasons)}
+
+
+def assess_adequacy(
+    z: np.ndarray,
+    rho: np.ndarray,
+    drive_index: np.ndarray,
+    n_drives: int,
+    *,
+    noise_scales: dict[str, float],
+    shape_prior_sds: dict[str, float],
+) -> Adequacy:
+    """Run the checks of the module docstring on one fit's slip windows.
+
+    Parameters
+    ----------
+    z : ndarray
+        Standardised slip residuals of the slip windows, in time order within each drive [-].
+    rho : ndarray
+        Measured window force of the same windows [-].
+    drive_index : ndarray of int
+        Drive of each window.
+    n_drives : int
+        Number of drives.
+    noise_scales : dict of str to float
+        Posterior-mean scale of each stated noise (``"slip"``, ``"force"``) [-].
+    shape_prior_sds : dict of str to float
+        Posterior mean of each curve-shape parameter in prior sds from the prior mean [-].
+    """
+    z, rho = np.asarray(z, float), np.asarray(rho, float)
+    reasons = []
+    inflation = max(
+        (variance_inflation(z[drive_index == d]) for d in range(n_drives) if (drive_index == d).any()),
+        default=1.0,
+    )
+    if inflation > MAX_VARIANCE_INFLATION:
+        reasons.append(
+            f"slip errors correlated over many windows (variance inflation {inflation:.1f} > "
+            f"{MAX_VARIANCE_INFLATION:g}): a slowly varying slip or force error the model does "
+            "not describe"
+        )
+    outside = float(np.mean(np.abs(z) > 1.645)) if z.size else 0.0
+    if outside > MAX_OUTSIDE_90:
+        reasons.append(
+            f"{outside:.0%} of slip windows outside the 90 % predictive band "
+            f"(> {MAX_OUTSIDE_90:.0%})"
+        )
+    trend_t = 0.0
+    if z.size > 10 and np.std(rho) > 0:
+        x = rho - rho.mean()
+        slope = np.sum(x * z) / np.sum(x * x)
+        resid = z - z.mean() - slope * x
+        se = np.sqrt(np.sum(resid**2) / (z.size - 2) / np.sum(x * x))
+        trend_t = float(slope / se / np.sqrt(inflation))
+    if abs(trend_t) > MAX_TREND_T:
+        reasons.append(
+            f"slip residuals trend with the force (t = {trend_t:.1f}, |t| > {MAX_TREND_T:g}): the "
+            "curve's shape does not fit the range of force the drive used"
+        )
+    for name, scale in noise_scales.items():
+        if not 1.0 / MAX_NOISE_FACTOR <= scale <= MAX_NOISE_FACTOR:
+            reasons.append(
+                f"fitted {name} noise is {scale:.2f} times the stream's estimate (expected within "
+                f"a factor {MAX_NOISE_FACTOR:g})"
+            )
+    for name, sds in shape_prior_sds.items():
+        if abs(sds) > MAX_SHAPE_PRIOR_SDS:
+            reasons.append(
+                f"curve {name} {sds:+.1f} prior sds from the measured tyres' mean "
+                f"(beyond {MAX_SHAPE_PRIOR_SDS:g})"
+            )
+    return Adequacy(
+        adequate=not reasons,
+        reasons=tuple(reasons),
+        variance_inflation=float(inflation),
+        outside_90=outside,
+        trend_t=trend_t,
+    )
+
+
+__all__ = ["Adequacy", "assess_adequacy"]

@@ -1,0 +1,91 @@
+"""The prior over the tyre curve's shape, derived from measured tyres.
+
+Normal driving uses a fraction of μ_max, so the slip stiffness C_x (the slope at zero slip) is an
+extrapolation through the curve's shape: what a drive measures is the secant slope over the
+forces it used, and how that secant relates to the tangent at zero depends on how the curve
+bends. The per-tyre model's default curve is the Magic Formula
+(:func:`~tyrebayes.physics.tyre.magic_formula_inverse_and_slope`) with its shape factor C and
+curvature E unknown; their prior is the spread of the car and SUV tyres in the shipped
+database (``models/tyre_curves/mf_longitudinal_sets.csv``, public ``.tir`` files with sources),
+so that a drive that cannot tell the shape carries the measured tyres' range of shapes into
+C_x, and a drive that can (ABS stops, hard acceleration) narrows it.
+
+Parametrisation: log(C − 1) and log(1 − E) are Normal (C > 1 gives the curve a peak, E < 1 keeps
+it monotone up to the peak). Their means and sds are those of the distinct car/SUV (C, E_traction)
+sets, the sds widened by √(1 + 1/n) for the sets' own sampling (the predictive spread of one
+more tyre under a Normal model with estimated mean).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+
+from .._resources import models_dir
+
+CURVE_SET_CLASSES = ("car", "suv")
+
+
+@dataclasses.dataclass(frozen=True)
+class CurveShapePrior:
+    """Normal priors of log(C − 1) and log(1 − E) of the Magic Formula curve.
+
+    Attributes
+    ----------
+    shape_excess_log_mean, shape_excess_log_sd : float
+        Mean and sd of log(C − 1) [-].
+    curvature_log_mean, curvature_log_sd : float
+        Mean and sd of log(1 − E) [-].
+    n_sets : int
+        Distinct measured sets the numbers came from.
+    """
+
+    shape_excess_log_mean: float
+    shape_excess_log_sd: float
+    curvature_log_mean: float
+    curvature_log_sd: float
+    n_sets: int
+
+
+def load_tyre_curve_sets() -> pd.DataFrame:
+    """The shipped database of longitudinal Magic Formula sets (one row per set, with source)."""
+    return pd.read_csv(models_dir() / "tyre_curves" / "mf_longitudinal_sets.csv")
+
+
+def distinct_passenger_sets(table: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Car and SUV rows with distinct (C, E_traction), to two decimals.
+
+    The same tyre recurs under several names (the TNO 205/60R15 set in many example files, with
+    coefficients that differ in the fourth digit); each shape counts once.
+    """
+    table = load_tyre_curve_sets() if table is None else table
+    cars = table[table["class"].isin(CURVE_SET_CLASSES)]
+    key = cars[["C", "E_traction"]].round(2)
+    return cars.loc[~key.duplicated()].reset_index(drop=True)
+
+
+def curve_shape_prior(table: pd.DataFrame | None = None) -> CurveShapePrior:
+    """Derive :class:`CurveShapePrior` from the database (see the module docstring).
+
+    Examples
+    --------
+    >>> prior = curve_shape_prior()
+    >>> prior.n_sets
+    9
+    """
+    sets = distinct_passenger_sets(table)
+    n = len(sets)
+    if n < 3:
+        raise ValueError(f"tyre-curve prior: expected at least 3 car/SUV sets, got {n}")
+    shape = np.log(sets["C"].to_numpy(dtype=float) - 1.0)
+    curvature = np.log(1.0 - sets["E_traction"].to_numpy(dtype=float))
+    widen = np.sqrt(1.0 + 1.0 / n)
+    return CurveShapePrior(
+        shape_excess_log_mean=float(shape.mean()),
+        shape_excess_log_sd=float(shape.std(ddof=1) * widen),
+        curvature_log_mean=float(curvature.mean()),
+        curvature_log_sd=float(curvature.std(ddof=1) * widen),
+        n_sets=n,
+    )
