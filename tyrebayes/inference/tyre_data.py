@@ -24,6 +24,12 @@ from .force_density import force_density_score
 
 SURFACES = ("dry", "wet", "snow", "ice")
 
+# Length of the blocks whose slips share an offset in the model [s]: slow slip and force errors
+# (tyre radius drifting with temperature, IMU bias instability, road grade the features did not
+# remove) change over tens of seconds, the driver's force over 1-10 s, so within 5 s the force
+# still varies and the slow errors hardly do.
+BLOCK_S = 5.0
+
 
 class TyreObservations(eqx.Module):
     """Window-averaged observations of one tyre set (the driven axle), padded with a mask.
@@ -61,6 +67,10 @@ class TyreObservations(eqx.Module):
         force distribution.
     drive_index : Int[Array, "n"]
         Which drive (day) the window belongs to: 0 … n_drives − 1.
+    block_index : Int[Array, "n"]
+        Which block of :data:`BLOCK_S` seconds of its drive the window lies in, numbered across
+        drives (0 … n − 1; ABS windows and padding too, where nothing reads it). The model lets
+        each block's slip have its own small offset (:mod:`.tyre_model`).
     surface_index : Int[Array, "n"]
         Index into ``surfaces``.
     mask : Bool[Array, "n"]
@@ -83,6 +93,7 @@ class TyreObservations(eqx.Module):
     rho_score_slope: Float[Array, "n"]
     at_limit: Bool[Array, "n"]
     drive_index: Int[Array, "n"]
+    block_index: Int[Array, "n"]
     surface_index: Int[Array, "n"]
     mask: Bool[Array, "n"]
     n_drives: int = eqx.field(static=True)
@@ -263,6 +274,16 @@ def _window_sd(values: np.ndarray, valid: np.ndarray, window: int) -> np.ndarray
     return np.sqrt(var)
 
 
+# Slip windows need a total force of at least this [-]. Below zero the friction brakes act on
+# every wheel, the free-rolling wheels that give V_x brake too, and the driven axle's measured
+# slip is σ_driven − σ_free: read as traction it puts a kink at zero force. The total force is
+# known to about ±0.01 (drag area ±20 % and rolling resistance ±30 % against the vehicle file:
+# ±0.002-0.004 of ρ at 20 m/s; the road grade the features take from the IMU over 10 s and the
+# IMU offset: ±0.005-0.01), so windows within two of those of zero may be braking. Windows from
+# an independent generator measured near zero force had slips 1.6e-4 above the truth, on
+# average, against 0.5e-4 or less above 0.05.
+PUSHING_MARGIN = 0.02
+
 # An ABS window's force is within a few percent of the event's (the controller holds the tyres
 # near their peak); one well short of it is still in the entry ramp (one window at 0.83 of its
 # event's force in four simulated drives with the ramp-free oscillation statistic).
@@ -307,7 +328,7 @@ def observations_from_features(
     Two kinds of window enter the fit:
 
     * **slip windows**: windows of free rolling, traction and braking samples (straight or gently
-      curving, no spin) whose mean total force is non-negative (comment at ``pushing``); the
+      curving, no spin) whose mean total force is at least :data:`PUSHING_MARGIN`; the
       force is the driven axle's with the traction split. Braking windows are left out: the
       non-driven wheels that give V_x brake too, so the driven axle's measured slip there is
       σ_driven − σ_free, not σ_driven (:mod:`tyrebayes.streams.features`).
@@ -355,18 +376,17 @@ def observations_from_features(
         features.valid & ~features.spin & np.isin(features.label, (FREE_ROLLING, TRACTION, BRAKING))
     )
     correlation = max(1.0, features.smoothing_s * features.sample_rate_hz)
-    rho_total = np.sum(features.fx_axle_n, axis=1) / np.sum(features.fz_axle_n, axis=1)
     windows = windowed_observations(
         features.time_s,
         features.slip_driven,
         features.rho_driven_traction,
         features.slip_driven_sd,
-        features.rho_driven_sd,
+        features.rho_driven_traction_sd,
         temperature_c=temperature_c,
         usable=usable,
         window_s=window_s,
         correlation_samples=correlation,
-        also={"rho_total": rho_total},
+        also={"rho_total": features.rho_total_traction},
     )
     # The density of the measured forces (for E[ρ_true | ρ_obs], tyre_model) is that of every
     # window: estimated on the kept ones only, it would fall off artificially at the cut.
@@ -378,7 +398,7 @@ def observations_from_features(
     # the driven axle or friction brakes on all four wheels, and the split between the axles is
     # not observable without a brake signal. Guessing it puts a kink into ρ_x(σ_x) at zero force,
     # which the model could only read as curvature (a spuriously low μ_max and a high C_x).
-    pushing = window_rho_total >= 0.0
+    pushing = window_rho_total >= PUSHING_MARGIN
     slip_windows = {k: v[pushing] for k, v in windows.items()}
     slip_windows["rho_score"] = score[pushing]
     slip_windows["rho_score_slope"] = score_slope[pushing]
@@ -473,9 +493,15 @@ def stack_drives(
     used_surfaces = tuple(s for s in SURFACES if s in surfaces)
     keys = ("slip", "rho", "slip_sd", "rho_sd", "temperature_c", "neighbour_slip", "at_limit")
     parts = {k: [] for k in (*keys, "rho_score", "rho_score_slope", "imu_gain_log_sd")}
-    drive_idx, surface_idx = [], []
+    drive_idx, surface_idx, block_idx = [], [], []
+    n_blocks = 0
     for d, (drive, surface) in enumerate(zip(drives, surfaces, strict=True)):
         m = len(drive["slip"])
+        # Windows without times (hand-made drives) count BLOCK_S / 0.25 s windows to a block.
+        times = np.asarray(drive.get("time_s", 0.25 * np.arange(m)), dtype=float)
+        blocks = np.unique(np.floor(times / BLOCK_S).astype(np.int64), return_inverse=True)[1]
+        block_idx.append(n_blocks + blocks.reshape(-1))
+        n_blocks += int(blocks.max()) + 1 if m else 0
         drive = {"at_limit": np.zeros(m, dtype=bool), "imu_gain_log_sd": np.zeros(m), **drive}
         parts["imu_gain_log_sd"].append(np.asarray(drive["imu_gain_log_sd"], dtype=float))
         for k in keys:
@@ -514,6 +540,7 @@ def stack_drives(
         rho_score_slope=jnp.asarray(pad(cat["rho_score_slope"], 0.0)),
         at_limit=jnp.asarray(pad(cat["at_limit"], False)),
         drive_index=jnp.asarray(pad(np.concatenate(drive_idx), 0)),
+        block_index=jnp.asarray(pad(np.concatenate(block_idx), 0)),
         surface_index=jnp.asarray(pad(np.concatenate(surface_idx), 0)),
         mask=jnp.asarray(np.arange(size) < n),
         n_drives=len(drives),

@@ -162,6 +162,10 @@ class TyreFit:
             "n_samples_used": self.n_samples_used,
             "slip_variance_inflation": [float(x) for x in self.slip_variance_inflation],
             "n_abs_windows": int(np.asarray(self.idata.constant_data["at_limit"]).sum()),
+            "noise_scales": {
+                "slip": float(np.mean(self.draws("slip_noise_scale"))),
+                "force": float(np.mean(self.draws("rho_noise_scale"))),
+            },
             "adequate": self.adequacy.adequate,
             "adequacy_reasons": list(self.adequacy.reasons),
             "identified": {
@@ -218,7 +222,7 @@ def _adequacy(obs: TyreObservations, samples: dict, kind: str, priors: TyrePrior
     point = {k: jnp.mean(jnp.asarray(v), axis=0) for k, v in samples.items()}
     lik = window_likelihood(point, obs, kind)
     slip_window = np.asarray(obs.mask & ~obs.at_limit)
-    z = np.asarray((obs.slip - lik.slip_loc) / lik.slip_scale)[slip_window]
+    z = np.asarray((obs.slip - lik.slip_loc - lik.block_offset) / lik.slip_scale)[slip_window]
     shape_sds = {}
     if kind == "magic":
         shape_sds = {
@@ -238,10 +242,6 @@ def _adequacy(obs: TyreObservations, samples: dict, kind: str, priors: TyrePrior
         np.asarray(obs.rho)[slip_window],
         np.asarray(obs.drive_index)[slip_window],
         obs.n_drives,
-        noise_scales={
-            "slip": float(np.mean(samples["slip_noise_scale"])),
-            "force": float(np.mean(samples["rho_noise_scale"])),
-        },
         shape_prior_sds=shape_sds,
     )
 
@@ -254,7 +254,7 @@ def _weighted_by_correlation(obs: TyreObservations, draws: dict, kind: str):
     """
     point = {k: jnp.mean(jnp.asarray(v), axis=0) for k, v in draws.items()}
     lik = window_likelihood(point, obs, kind)
-    z = np.asarray((obs.slip - lik.slip_loc) / lik.slip_scale)
+    z = np.asarray((obs.slip - lik.slip_loc - lik.block_offset) / lik.slip_scale)
     slip_window = np.asarray(obs.mask & ~obs.at_limit)
     weights, inflation = slip_weights(z, slip_window, np.asarray(obs.drive_index), obs.n_drives)
     weighted = dataclasses.replace(obs, slip_weight=jnp.asarray(weights, dtype=obs.slip.dtype))
@@ -294,7 +294,10 @@ def _predictive_core(kind: str, obs_key: tuple, n_draws: int):
     def one_draw(params, obs, key):
         lik = window_likelihood(params, obs, kind)
         slip_observed = obs.mask & ~obs.at_limit
-        slip_ll = dist.Normal(lik.slip_loc, lik.slip_scale).log_prob(obs.slip)
+        # Given the window's block offset (its conditional mean): the per-window terms leave
+        # the blocks' shared offsets out, as the model's marginal does not.
+        slip_loc = lik.slip_loc + lik.block_offset
+        slip_ll = dist.Normal(slip_loc, lik.slip_scale).log_prob(obs.slip)
         loglik = {
             "slip_obs": jnp.where(slip_observed, slip_ll, 0.0),
             "rho_obs": dist.Normal(lik.rho_loc, lik.rho_scale).log_prob(obs.rho),
@@ -305,7 +308,7 @@ def _predictive_core(kind: str, obs_key: tuple, n_draws: int):
             return loc + scale * jax.random.normal(k, loc.shape, dtype=loc.dtype)
 
         ppc = {
-            "slip_obs": draw(key_slip, lik.slip_loc, lik.slip_scale),
+            "slip_obs": draw(key_slip, slip_loc, lik.slip_scale),
             "rho_obs": draw(key_rho, lik.rho_loc, lik.rho_scale),
         }
         return loglik, ppc
@@ -822,6 +825,7 @@ def _template_observations(size: int, n_drives: int, surfaces: tuple) -> TyreObs
         rho_score_slope=zeros,
         at_limit=jnp.zeros(size, dtype=bool),
         drive_index=jnp.zeros(size, dtype=int),
+        block_index=jnp.zeros(size, dtype=int),
         surface_index=jnp.zeros(size, dtype=int),
         mask=jnp.ones(size, dtype=bool),
         n_drives=n_drives,

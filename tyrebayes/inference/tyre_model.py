@@ -139,6 +139,14 @@ class TyrePriors(eqx.Module):
     force_noise_log_sd, slip_noise_log_sd : float
         Log-scale sds of λ_ρ and λ_σ, the scales on the stated force and slip noise (median 1:
         the stream states the noise it measured).
+    slip_drift_median, slip_drift_log_sd : float
+        Log-normal prior of τ, the sd of the slip offset each block of
+        :data:`~tyrebayes.inference.tyre_data.BLOCK_S` seconds adds to its drive's offset [-].
+        Slow slip errors come from rolling radii that drift with tyre temperature and pressure
+        (0.05-0.1 % of radius over minutes: 5e-4-1e-3 of slip) and from slow force errors that
+        the slip regression reads as slip (an IMU bias wandering by 0.1-0.2 m/s², road grade
+        the features did not remove: 0.01-0.03 of ρ_x, 2e-4-6e-4 of slip at C_x = 50); median
+        3e-4, 90 % between 6e-5 and 1.6e-3.
     """
 
     c_xr_median: float = 35.0
@@ -159,6 +167,8 @@ class TyrePriors(eqx.Module):
     curve_curvature_log_sd: float = 0.768
     force_noise_log_sd: float = 0.5
     slip_noise_log_sd: float = 0.3
+    slip_drift_median: float = 3e-4
+    slip_drift_log_sd: float = 1.0
 
     def mu_median(self, surfaces: tuple[str, ...]) -> jax.Array:
         return jnp.array([_MU_MEDIAN[s] for s in surfaces])
@@ -317,8 +327,14 @@ def tyre_model(
         force_level=force_level,
         force_spread=force_spread,
     )
+    params["slip_drift_sd"] = numpyro.sample(
+        "slip_drift_sd", dist.LogNormal(jnp.log(priors.slip_drift_median), priors.slip_drift_log_sd)
+    )
     lik = window_likelihood(params, obs, kind)
     numpyro.factor("force_below_peak", jnp.sum(lik.below_peak))
+    # The blocks' slip offsets, integrated out (window_likelihood): with them the slope comes
+    # from how slip and force vary within blocks, not from slow errors shared by a block.
+    numpyro.factor("slip_block_offsets", lik.block_log_correction)
     with numpyro.plate("window", obs.slip.shape[0]):
         with numpyro.handlers.mask(mask=obs.mask):
             numpyro.sample(
@@ -344,7 +360,10 @@ class WindowLikelihood(NamedTuple):
 
     ``slip_loc``, ``slip_scale``: Normal of the measured slip (slip windows); ``rho_loc``,
     ``rho_scale``: Normal of the measured force (all windows); ``below_peak``: the log of the
-    probability that a slip window's true force lies under μ_max (0 for ABS and padding).
+    probability that a slip window's true force lies under μ_max (0 for ABS and padding);
+    ``block_offset``: each slip window's block offset given its block's residuals (its
+    conditional mean; 0 elsewhere), which ``slip_loc`` leaves out; ``block_log_correction``: what
+    integrating the block offsets out adds to the slip log-likelihood (a scalar).
     """
 
     slip_loc: jax.Array
@@ -352,14 +371,37 @@ class WindowLikelihood(NamedTuple):
     rho_loc: jax.Array
     rho_scale: jax.Array
     below_peak: jax.Array
+    block_offset: jax.Array
+    block_log_correction: jax.Array
+
+
+def block_offsets(
+    residual: jax.Array, precision: jax.Array, block_index: jax.Array, drift_sd: jax.Array
+) -> tuple[jax.Array, jax.Array]:
+    """Integrate out one Normal(0, τ²) slip offset per block from Normal slip residuals.
+
+    With window precisions p_i (0 for windows that do not count) and residuals r_i, a block with
+    P = Σ p_i and Q = Σ p_i r_i has marginal log-likelihood Σ log N(r_i; 0, 1/p_i)
+    − ½ log(1 + τ²P) + ½ τ²Q²/(1 + τ²P) (Sherman-Morrison on the block's covariance
+    diag(1/p) + τ²11ᵀ): exact, and O(n). Returns (the correction, summed over blocks; the
+    conditional mean τ²Q/(1 + τ²P) of each window's block offset).
+    """
+    n = residual.shape[0]
+    total_precision = jax.ops.segment_sum(precision, block_index, num_segments=n)
+    total_weighted = jax.ops.segment_sum(precision * residual, block_index, num_segments=n)
+    tau2 = drift_sd**2
+    denominator = 1.0 + tau2 * total_precision
+    correction = jnp.sum(-0.5 * jnp.log(denominator) + 0.5 * tau2 * total_weighted**2 / denominator)
+    offset = (tau2 * total_weighted / denominator)[block_index]
+    return correction, jnp.where(precision > 0, offset, 0.0)
 
 
 def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowLikelihood:
     """The windows' likelihood terms of :func:`tyre_model` (see the module docstring).
 
     ``params`` holds the model's sampled sites by name (``c_xr``, ``temp_sensitivity``,
-    ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale``, ``curve_shape``
-    (``"shaped"`` only) and the per-drive ``slip_offset``, ``force_gain``, ``force_level``,
+    ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale``,
+    ``slip_drift_sd``, the curve's shape sites of ``kind`` and the per-drive ``slip_offset``, ``force_gain``, ``force_level``,
     ``force_spread``); other keys are ignored, so a posterior draw can be passed as it is. The
     model and the posterior predictive share it.
     """
@@ -394,12 +436,24 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     # C_x twice the truth).
     headroom = (mu_window - jnp.abs(rho_hat)) / jnp.sqrt(rho_var + (0.02 * mu_window) ** 2)
     below_peak = jnp.where(obs.mask & ~obs.at_limit, jax.scipy.special.log_ndtr(headroom), 0.0)
+    slip_loc = slip + params["slip_offset"][d]
+    precision = jnp.where(
+        obs.mask & ~obs.at_limit, obs.slip_weight / slip_scale**2, 0.0
+    ).astype(slip_loc.dtype)
+    correction, offset = block_offsets(
+        jnp.where(precision > 0, obs.slip - slip_loc, 0.0),
+        precision,
+        obs.block_index,
+        params["slip_drift_sd"],
+    )
     return WindowLikelihood(
-        slip_loc=slip + params["slip_offset"][d],
+        slip_loc=slip_loc,
         slip_scale=slip_scale,
         rho_loc=rho_loc,
         rho_scale=rho_scale,
         below_peak=below_peak,
+        block_offset=offset,
+        block_log_correction=correction,
     )
 
 
@@ -411,6 +465,7 @@ __all__ = [
     "SURFACES",
     "TyrePriors",
     "WindowLikelihood",
+    "block_offsets",
     "stiffness_at_temperature",
     "tyre_model",
     "window_likelihood",

@@ -447,10 +447,14 @@ def magic_formula_inverse_and_slope(
     # Signed throughout (every step is odd in y), so that the derivative at ρ = 0 is right.
     y = rho / mu
     inside = jnp.abs(y) < 1.0
-    # At and beyond the peak: the peak slip (asin(±1) = ±π/2), with the double-where trick so
-    # that the clipped branch gives no NaN gradient.
-    y_in = jnp.where(inside, y, jnp.sign(y))
-    t = jnp.tan(jnp.arcsin(y_in) / shape)
+    # At and beyond the peak: the peak slip, t = tan(π/(2C)). The double-where keeps asin away
+    # from ±1 in the branch not taken, whose infinite derivative would give NaN gradients.
+    y_in = jnp.where(inside, y, 0.5 * jnp.sign(y))
+    t = jnp.where(
+        inside,
+        jnp.tan(jnp.arcsin(y_in) / shape),
+        jnp.sign(y) * jnp.tan(0.5 * jnp.pi / shape),
+    )
     x = t
     for _ in range(_MF_NEWTON_STEPS):
         h = (1.0 - curvature) * x + curvature * jnp.arctan(x) - t

@@ -99,7 +99,12 @@ class StreamFeatures(eqx.Module):
     rho_driven, rho_driven_sd : ρ_x of the driven axle (total for AWD) and its noise [-]
     rho_driven_traction : ρ_x of the driven axle with the traction split at every sample, braking
         included [-]: continuous through zero force, where ``rho_driven`` switches to the brake
-        balance sample by sample (see :func:`tyrebayes.inference.observations_from_features`)
+        balance sample by sample (see :func:`tyrebayes.inference.observations_from_features`).
+        Its a_x is the wheel speeds' dV_x/dt plus the low-passed IMU − dV_x/dt (the road grade),
+        where V_x comes from free-rolling wheels (:func:`_traction_acceleration`)
+    rho_driven_traction_sd : noise of ``rho_driven_traction`` at the smoothing scale [-]
+    rho_total_traction : ΣF_x/ΣF_z with the same a_x as ``rho_driven_traction`` [-]: whether the
+        tyres push or brake
     friction_power_w : |F_x V_x σ_x| of the driven axle, eq. 4.19a [W]
     ax_mps2 : IMU ax minus the estimated offset (includes road grade) [m/s²]
     ay_mps2 : IMU ay minus its offset [m/s²]
@@ -132,6 +137,8 @@ class StreamFeatures(eqx.Module):
     rho_driven: Float[np.ndarray, "n"]
     rho_driven_sd: Float[np.ndarray, "n"]
     rho_driven_traction: Float[np.ndarray, "n"]
+    rho_driven_traction_sd: Float[np.ndarray, "n"]
+    rho_total_traction: Float[np.ndarray, "n"]
     friction_power_w: Float[np.ndarray, "n"]
     ax_mps2: Float[np.ndarray, "n"]
     ay_mps2: Float[np.ndarray, "n"]
@@ -221,12 +228,77 @@ def _vehicle_speed(
     return np.where(disagree, np.maximum(va, vb), mean), disagree
 
 
+def _slip_noise_probe(
+    slip_velocity: np.ndarray, force_velocity: np.ndarray, window: int
+) -> np.ndarray:
+    """The driven axle's slip velocity R·Ω − V_x less the part that follows the force.
+
+    The slip velocity σV_x moves with the force over 0.2-1 s, the scale at which its noise is
+    measured, so taken as it is its real changes count as noise (3-4× the noise on drives with
+    brisk acceleration changes). Here the part of it that the force explains linearly,
+    b·ρV_x, is taken off first, with b (≈ 1/C_x) from a least-squares fit over the drive of the
+    two signals high-passed like :func:`~tyrebayes.streams.noise.local_noise_sd` does; what is
+    left is sensor noise and what the linear fit misses.
+    """
+
+    def high_pass(x):
+        return x - nan_moving_average(x, 5 * window)
+
+    s, r = high_pass(slip_velocity), high_pass(force_velocity)
+    ok = np.isfinite(s) & np.isfinite(r)
+    denominator = float(np.sum(r[ok] ** 2))
+    slope = float(np.sum(s[ok] * r[ok])) / denominator if denominator > 0 else 0.0
+    return slip_velocity - slope * np.where(np.isfinite(force_velocity), force_velocity, 0.0)
+
+
 def _vx_noise_probe(wheel_vx: np.ndarray, drive: str) -> np.ndarray:
     """A zero-mean combination of the V_x wheels with the noise of their mean (motion cancels)."""
     if drive == "awd":
         return 0.25 * (wheel_vx[:, 0] - wheel_vx[:, 1] + wheel_vx[:, 2] - wheel_vx[:, 3])
     a, b = _NON_DRIVEN[drive]
     return 0.5 * (wheel_vx[:, a] - wheel_vx[:, b])
+
+
+# Low-pass of IMU a_x − dV_x/dt that carries the road grade into the traction force [s]: hills
+# change over hundreds of metres (tens of seconds), the IMU's coloured noise over seconds.
+GRADE_LOWPASS_S = 10.0
+
+
+def _traction_acceleration(
+    vx: np.ndarray,
+    ax_imu: np.ndarray,
+    wheel_vx_raw: np.ndarray,
+    drive: str,
+    dt: float,
+    window: int,
+    rate: float,
+    span: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Longitudinal specific force for the traction force, and its noise sd [m/s²].
+
+    The IMU's a_x carries coloured noise and vibration over 0.2-1 s, the scale of real changes of
+    acceleration, so that neither a high-pass nor the smoothing tells them apart; on drives from
+    an independent generator its error at the smoothing scale was 0.01-0.05 of ρ_x, as large as
+    the window's stated noise and, in the slip-on-force regression, an attenuation of the slope.
+    Where V_x comes from free-rolling wheels (FWD, RWD) their dV_x/dt measures the same
+    acceleration with the wheel speeds' far smaller noise (about 0.01 m/s² at 0.2 s), and only
+    what it lacks, g·sin(grade) (with the IMU offset left after correction), comes from the IMU,
+    low-passed over :data:`GRADE_LOWPASS_S`: a complementary filter. For AWD cars no wheel rolls
+    freely and the IMU is used as it is.
+
+    The noise is the local RMS of the same derivative of the V_x wheels' difference (the motion
+    cancels, their noise does not), with the IMU's share through the low-pass added.
+    """
+    if drive == "awd":
+        return ax_imu, np.full_like(ax_imu, np.nan)
+    dvx_dt = smoothed_derivative(vx, dt, window)
+    lowpass = window_samples(GRADE_LOWPASS_S, rate)
+    grade_accel = nan_moving_average(ax_imu - dvx_dt, lowpass)
+    probe = smoothed_derivative(_vx_noise_probe(wheel_vx_raw, drive), dt, window)
+    probe = probe - nan_moving_average(probe, span)
+    derivative_sd = np.sqrt(nan_moving_average(probe**2, span))
+    imu_sd = local_noise_sd(ax_imu, window, span) * np.sqrt(window / lowpass)
+    return dvx_dt + grade_accel, np.hypot(derivative_sd, imu_sd)
 
 
 def _spin_check(wheel_vx: np.ndarray, vx: np.ndarray, drive: str, threshold: float) -> np.ndarray:
@@ -392,19 +464,12 @@ def compute_features(
     wheel_vx_raw = _wheel_to_vx(omega_raw, yaw, steer, vehicle, trig)
     vx_raw = np.where(valid, _vehicle_speed(wheel_vx_raw, vehicle.drive, spin_threshold)[0], np.nan)
     slip_velocity = wheel_vx_raw - vx_raw[:, None]
-    probes = np.column_stack(
-        [
-            slip_velocity,
-            slip_velocity[:, driven_idx].mean(axis=1),
-            _vx_noise_probe(wheel_vx_raw, vehicle.drive),
-        ]
-    )
-    probe_sd = local_noise_sd(probes, window, span)  # one pass over all six probes
+    slip_velocity_driven = slip_velocity[:, driven_idx].mean(axis=1)
+    probes = np.column_stack([slip_velocity, _vx_noise_probe(wheel_vx_raw, vehicle.drive)])
+    probe_sd = local_noise_sd(probes, window, span)  # one pass over all five probes
     local_wheel = probe_sd[:, :4]
     slip_sd = local_wheel / vx_safe[:, None]
-    slip_driven_noise = probe_sd[:, 4]
-    slip_driven_sd = slip_driven_noise / vx_safe
-    vx_sd = probe_sd[:, 5]
+    vx_sd = probe_sd[:, 4]
 
     # IMU offset against the wheel-speed derivative; the corrected ax keeps the road grade.
     # Squat and dive add g·k·a_x to the reading: left in, the forces read 1 + g·k ≈ 2 % high and
@@ -472,7 +537,29 @@ def compute_features(
 
     fx_driven, fz_driven = driven(fx_axle), driven(fz_axle)
     rho_driven = fx_driven / fz_driven
-    rho_driven_traction = driven(fx_traction_axle) / fz_driven
+    ax_traction, ax_traction_sd = _traction_acceleration(
+        vx_safe, ax, wheel_vx_raw, vehicle.drive, dt, window, rate, span
+    )
+    traction = _force_balance(
+        vehicle,
+        np.nan_to_num(ax_traction),
+        np.nan_to_num(ay),
+        np.nan_to_num(yaw_acc),
+        np.nan_to_num(steer),
+        speed_for_drag,
+        brake_front_share,
+    )
+    fx_traction_driven = driven(np.column_stack(traction[5:7]))
+    fz_traction_driven = driven(np.column_stack(traction[3:5]))
+    has_traction = valid & np.isfinite(ax_traction)
+    rho_driven_traction = np.where(has_traction, fx_traction_driven / fz_traction_driven, np.nan)
+    slip_driven_noise = local_noise_sd(
+        _slip_noise_probe(slip_velocity_driven, rho_driven_traction * vx_safe, window), window, span
+    )
+    slip_driven_sd = slip_driven_noise / vx_safe
+    rho_total_traction = np.where(
+        has_traction, (traction[5] + traction[6]) / (traction[3] + traction[4]), np.nan
+    )
     # Per-sample noise of the smoothed ax, scaled by the axle's share of m·ax. The offset's
     # uncertainty is common to the whole log and reported apart (nuisances.rho_offset_sd).
     ax_sd_local = local_noise_sd(data["ax"].to_numpy(dtype=float), window, span) / (
@@ -483,6 +570,9 @@ def compute_features(
     )
     share = np.clip(np.nan_to_num(share, nan=1.0), 0.0, 1.0)
     rho_driven_sd = vehicle.mass_kg * ax_sd_local * np.maximum(share, 0.5) / fz_driven
+    rho_driven_traction_sd = vehicle.mass_kg * np.where(
+        np.isfinite(ax_traction_sd), ax_traction_sd, ax_sd_local
+    ) / fz_traction_driven
     friction_power = np.abs(fx_driven * vx_safe * slip_driven)
 
     label = label_samples(
@@ -537,6 +627,8 @@ def compute_features(
         rho_driven=rho_driven,
         rho_driven_sd=rho_driven_sd,
         rho_driven_traction=rho_driven_traction,
+        rho_driven_traction_sd=rho_driven_traction_sd,
+        rho_total_traction=rho_total_traction,
         friction_power_w=friction_power,
         ax_mps2=ax,
         ay_mps2=ay,
