@@ -16,6 +16,7 @@ from tyrebayes.physics.tyre import (
     brush_longitudinal_inverse_and_slope,
     brush_peak_slip,
     linear_force,
+    magic_formula_inverse_and_slope,
     magic_formula_longitudinal,
 )
 
@@ -390,3 +391,56 @@ def test_shaped_inverse_is_the_brush_at_shape_one_and_its_slope_is_the_derivativ
     # A later bend: at 30 % of the peak, p = 2 needs less slip than the brush.
     later = shaped_longitudinal_inverse_and_slope(0.3, 35.0, 1.0, 2.0)[0]
     assert float(later) < float(brush_longitudinal_inverse_and_slope(0.3, 35.0, 1.0)[0])
+
+
+# --- The Magic Formula inverse (the per-tyre model's default curve) -------------------------
+# Shapes spanning the shipped database's car/SUV sets (C 1.32-1.84, E -4.1-0.63) and beyond.
+MF_SHAPES = [(1.32, -0.32), (1.58, 0.11), (1.84, 0.63), (1.42, -4.12), (1.1, 0.9)]
+
+
+@pytest.mark.parametrize("shape, curvature", MF_SHAPES)
+def test_magic_formula_inverse_inverts_the_forward_curve(shape, curvature):
+    mf = MagicFormulaLongitudinal(4000.0, pkx1=40.0, pdx1=0.9, pcx1=shape, pex1=curvature)
+    rho = jnp.linspace(-0.89, 0.89, 41)
+    slip, slope = magic_formula_inverse_and_slope(rho, 40.0, 0.9, shape, curvature)
+    np.testing.assert_allclose(magic_formula_longitudinal(slip, 4000.0, mf), rho, atol=1e-12)
+    # dσ/dρ is the reciprocal of the forward slope (central differences, x64).
+    h = 1e-7
+    forward = (
+        magic_formula_longitudinal(slip + h, 4000.0, mf)
+        - magic_formula_longitudinal(slip - h, 4000.0, mf)
+    ) / (2 * h)
+    np.testing.assert_allclose(slope * forward, 1.0, rtol=1e-6)
+
+
+def test_magic_formula_inverse_identities():
+    # Slope 1/C_x at zero force, odd symmetry, the peak slip beyond the peak with slope 0.
+    slope0 = jax.grad(lambda r: magic_formula_inverse_and_slope(r, 35.0, 1.0, 1.6, 0.2)[0])(0.0)
+    assert float(slope0) == pytest.approx(1.0 / 35.0, rel=1e-12)
+    s_pos, _ = magic_formula_inverse_and_slope(0.4, 35.0, 1.0, 1.6, 0.2)
+    s_neg, _ = magic_formula_inverse_and_slope(-0.4, 35.0, 1.0, 1.6, 0.2)
+    assert float(s_neg) == pytest.approx(-float(s_pos), rel=1e-12)
+    at_peak, slope_at_peak = magic_formula_inverse_and_slope(1.0, 35.0, 1.0, 1.6, 0.2)
+    beyond, slope_beyond = magic_formula_inverse_and_slope(1.3, 35.0, 1.0, 1.6, 0.2)
+    mf = MagicFormulaLongitudinal(4000.0, pkx1=35.0, pdx1=1.0, pcx1=1.6, pex1=0.2)
+    assert float(magic_formula_longitudinal(at_peak, 4000.0, mf)) == pytest.approx(1.0, abs=1e-12)
+    assert float(beyond) == pytest.approx(float(at_peak), rel=1e-12)
+    assert float(slope_at_peak) == 0.0 and float(slope_beyond) == 0.0
+
+
+def test_magic_formula_inverse_gradients_and_hessian_are_finite_and_match_fd():
+    def slip_of(p):
+        return magic_formula_inverse_and_slope(p[0], p[1], p[2], p[3], p[4])[0]
+
+    point = jnp.array([0.3, 40.0, 0.9, 1.6, 0.2])
+    grad = jax.grad(slip_of)(point)
+    h = 1e-6
+    fd = jnp.array(
+        [(slip_of(point.at[i].add(h)) - slip_of(point.at[i].add(-h))) / (2 * h) for i in range(5)]
+    )
+    np.testing.assert_allclose(grad, fd, rtol=1e-6, atol=1e-12)
+    # Beyond the peak (ABS windows' forces): no NaN in gradients or second derivatives.
+    for rho in (0.0, 0.95, -1.2):
+        p = point.at[0].set(rho)
+        assert bool(jnp.all(jnp.isfinite(jax.grad(slip_of)(p))))
+        assert bool(jnp.all(jnp.isfinite(jax.hessian(slip_of)(p))))

@@ -87,20 +87,19 @@ def test_body_pitch_gain_is_removed_from_the_force(synthetic):
 
 
 def test_traction_split_force_is_continuous_through_zero(synthetic):
-    # In traction the two forces are the same; under braking rho_driven takes the brake balance
-    # (0.7 front) and rho_driven_traction keeps the traction split, so that a window of samples
-    # scattered around zero force by noise averages one continuous function of ax.
+    # In traction the two forces agree (rho_driven from the IMU, rho_driven_traction from the
+    # wheel speeds' dV_x/dt plus the IMU's grade: the IMU noise apart); under braking rho_driven
+    # takes the brake balance (0.7 front) and rho_driven_traction keeps the traction split, so
+    # that a window of samples scattered around zero force averages one continuous function.
     feats, _ = synthetic
     total = np.sum(feats.fx_axle_n, axis=1)
     traction = feats.valid & (total > 500.0)
     braking = feats.valid & (total < -500.0)
-    assert np.allclose(feats.rho_driven_traction[traction], feats.rho_driven[traction])
-    assert np.all(feats.rho_driven_traction[braking] < feats.rho_driven[braking])
-    # The FWD front axle carries the whole total force (plus the rear's rolling resistance).
-    fz = feats.fz_axle_n[:, 0]
-    assert np.allclose(
-        feats.rho_driven_traction[braking] * fz[braking], total[braking], rtol=0.05, atol=200
-    )
+    difference = feats.rho_driven_traction[traction] - feats.rho_driven[traction]
+    assert abs(np.mean(difference)) < 0.005 and np.std(difference) < 0.03
+    # Under braking both are negative; the wheels' dV_x/dt there is read off braking reference
+    # wheels, which the model never uses (slip windows need the tyres to push).
+    assert np.mean(feats.rho_driven_traction[braking] < 0.0) > 0.95
 
 
 def test_nuisances_exposed(synthetic):

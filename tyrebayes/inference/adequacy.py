@@ -16,6 +16,12 @@ window, with these checks (each a reason when it fails):
 * **residual trend against force**: a least-squares line of z on the window force with a slope
   whose t-value, deflated by √inflation, exceeds :data:`MAX_TREND_T`: the curve's shape is wrong
   over the range the drive used.
+* **a step in the slip offset**: the blocks' slip offsets (their conditional means, which the
+  model integrates out) split at the point that separates them most, with a t-value above
+  :data:`MAX_STEP_T` (the blocks' spread read from their successive differences, robustly, so
+  that the step itself does not widen it) and a size above :data:`MIN_STEP_SLIP`: a tyre changed, a radius jumped (puncture, pressure
+  loss), or a wheel-speed sensor was swapped within the drive. The blocks absorb slow drift,
+  not a jump of many times their spread.
 * **curve shape at the edge of the measured tyres**: the Magic Formula shape or curvature more
   than :data:`MAX_SHAPE_PRIOR_SDS` prior sds from the measured tyres' mean.
 
@@ -36,6 +42,13 @@ MAX_VARIANCE_INFLATION = 4.0
 MAX_OUTSIDE_90 = 0.2
 MAX_TREND_T = 4.0
 MAX_SHAPE_PRIOR_SDS = 2.5
+MAX_STEP_T = 8.0
+# Each side of a step needs this many blocks.
+MIN_STEP_BLOCKS = 3
+# A step in the slip offset smaller than this is a drift, not a change of tyre or radius [-]: 0.1 %
+# of rolling radius, about a 0.3 bar pressure loss or a millimetre of tread; tyres warming over a
+# drive move it by a few 1e-5 on the package's simulated drives.
+MIN_STEP_SLIP = 1e-3
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,6 +67,8 @@ class Adequacy:
         Share of slip windows outside the 90 % predictive band [-].
     trend_t : float
         t-value of the residuals' slope against the window force, deflated by √inflation [-].
+    step_t : float
+        Largest t-value of a step in the blocks' slip offsets [-].
     """
 
     adequate: bool
@@ -61,6 +76,7 @@ class Adequacy:
     variance_inflation: float
     outside_90: float
     trend_t: float
+    step_t: float
 
     def as_dict(self) -> dict:
         return {**dataclasses.asdict(self), "reasons": list(self.reasons)}
@@ -73,6 +89,7 @@ def assess_adequacy(
     n_drives: int,
     *,
     shape_prior_sds: dict[str, float],
+    block_offsets: tuple[np.ndarray, ...] = (),
 ) -> Adequacy:
     """Run the checks of the module docstring on one fit's slip windows.
 
@@ -88,11 +105,27 @@ def assess_adequacy(
         Number of drives.
     shape_prior_sds : dict of str to float
         Posterior mean of each curve-shape parameter in prior sds from the prior mean [-].
+    block_offsets : tuple of ndarray
+        Per drive, its blocks' slip offsets in time order [-].
     """
     z, rho = np.asarray(z, float), np.asarray(rho, float)
+    finite = np.isfinite(z) & np.isfinite(rho)
+    if not finite.all():
+        return Adequacy(
+            adequate=False,
+            reasons=(f"{int((~finite).sum())} slip windows with non-finite residuals",),
+            variance_inflation=float("nan"),
+            outside_90=float("nan"),
+            trend_t=float("nan"),
+            step_t=float("nan"),
+        )
     reasons = []
     inflation = max(
-        (variance_inflation(z[drive_index == d]) for d in range(n_drives) if (drive_index == d).any()),
+        (
+            variance_inflation(z[drive_index == d])
+            for d in range(n_drives)
+            if (drive_index == d).any()
+        ),
         default=1.0,
     )
     if inflation > MAX_VARIANCE_INFLATION:
@@ -119,6 +152,12 @@ def assess_adequacy(
             f"slip residuals trend with the force (t = {trend_t:.1f}, |t| > {MAX_TREND_T:g}): the "
             "curve's shape does not fit the range of force the drive used"
         )
+    step_t, step_size = max((offset_step(b) for b in block_offsets), default=(0.0, 0.0))
+    if step_t > MAX_STEP_T and step_size > MIN_STEP_SLIP:
+        reasons.append(
+            f"the slip offset steps by {step_size:.4f} within the drive (t = {step_t:.1f}): a "
+            "tyre, a rolling radius or a wheel-speed sensor changed"
+        )
     for name, sds in shape_prior_sds.items():
         if abs(sds) > MAX_SHAPE_PRIOR_SDS:
             reasons.append(
@@ -131,7 +170,32 @@ def assess_adequacy(
         variance_inflation=float(inflation),
         outside_90=outside,
         trend_t=trend_t,
+        step_t=step_t,
     )
 
 
-__all__ = ["Adequacy", "assess_adequacy"]
+def offset_step(offsets: np.ndarray) -> tuple[float, float]:
+    """The most significant single step in a sequence of block offsets: (t-value, size [-]).
+
+    For each split with :data:`MIN_STEP_BLOCKS` blocks or more on each side, the difference of
+    the two sides' means over its standard error; the blocks' sd is 1.4826·MAD of successive
+    differences / √2, which one step barely moves. (0, 0) for too short a sequence.
+    """
+    b = np.asarray(offsets, float)
+    b = b[np.isfinite(b)]
+    n = b.size
+    if n < 2 * MIN_STEP_BLOCKS:
+        return 0.0, 0.0
+    diffs = np.diff(b)
+    scale = 1.4826 * np.median(np.abs(diffs - np.median(diffs))) / np.sqrt(2.0)
+    if not scale > 0:
+        return 0.0, 0.0
+    k = np.arange(MIN_STEP_BLOCKS, n - MIN_STEP_BLOCKS + 1)
+    cumulative = np.cumsum(b)
+    step = (cumulative[-1] - cumulative[k - 1]) / (n - k) - cumulative[k - 1] / k
+    t = np.abs(step) / (scale * np.sqrt(1.0 / k + 1.0 / (n - k)))
+    best = int(np.argmax(t))
+    return float(t[best]), float(abs(step[best]))
+
+
+__all__ = ["Adequacy", "assess_adequacy", "offset_step"]

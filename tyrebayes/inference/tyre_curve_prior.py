@@ -23,9 +23,7 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from .._resources import models_dir
-
-CURVE_SET_CLASSES = ("car", "suv")
+from .._tyre_curve_sets import distinct_passenger_sets
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,23 +45,6 @@ class CurveShapePrior:
     curvature_log_mean: float
     curvature_log_sd: float
     n_sets: int
-
-
-def load_tyre_curve_sets() -> pd.DataFrame:
-    """The shipped database of longitudinal Magic Formula sets (one row per set, with source)."""
-    return pd.read_csv(models_dir() / "tyre_curves" / "mf_longitudinal_sets.csv")
-
-
-def distinct_passenger_sets(table: pd.DataFrame | None = None) -> pd.DataFrame:
-    """Car and SUV rows with distinct (C, E_traction), to two decimals.
-
-    The same tyre recurs under several names (the TNO 205/60R15 set in many example files, with
-    coefficients that differ in the fourth digit); each shape counts once.
-    """
-    table = load_tyre_curve_sets() if table is None else table
-    cars = table[table["class"].isin(CURVE_SET_CLASSES)]
-    key = cars[["C", "E_traction"]].round(2)
-    return cars.loc[~key.duplicated()].reset_index(drop=True)
 
 
 def curve_shape_prior(table: pd.DataFrame | None = None) -> CurveShapePrior:

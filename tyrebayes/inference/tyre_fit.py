@@ -192,6 +192,7 @@ def _tyre_fit(
     """The result both fitting paths return."""
     slip_window = np.asarray(obs.mask & ~obs.at_limit)
     rho = np.asarray(obs.rho)[slip_window]
+    rho = rho[np.isfinite(rho)]
     force_range = float(np.quantile(np.abs(rho), 0.9)) if rho.size else 0.0
     return TyreFit(
         idata=idata,
@@ -214,7 +215,8 @@ def _secant_stiffness(samples: dict, kind: str, force: float) -> np.ndarray:
     mu = np.asarray(samples["mu_max"])[:, 0]
     force = np.minimum(force, 0.999 * mu)
     slip = np.asarray(curve_slip(kind, force, samples["c_x"], mu, samples))
-    return force / slip
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return force / slip
 
 
 def _adequacy(obs: TyreObservations, samples: dict, kind: str, priors: TyrePriors) -> Adequacy:
@@ -237,12 +239,21 @@ def _adequacy(obs: TyreObservations, samples: dict, kind: str, priors: TyrePrior
             )
             / priors.curve_curvature_log_sd,
         }
+    drives = np.asarray(obs.drive_index)[slip_window]
+    blocks = np.asarray(obs.block_index)[slip_window]
+    offsets = np.asarray(lik.block_offset)[slip_window]
+    # Blocks are numbered in time order within each drive (stack_drives).
+    per_drive = []
+    for d in range(obs.n_drives):
+        _, first = np.unique(blocks[drives == d], return_index=True)
+        per_drive.append(offsets[drives == d][first])
     return assess_adequacy(
         z,
         np.asarray(obs.rho)[slip_window],
-        np.asarray(obs.drive_index)[slip_window],
+        drives,
         obs.n_drives,
         shape_prior_sds=shape_sds,
+        block_offsets=tuple(per_drive),
     )
 
 

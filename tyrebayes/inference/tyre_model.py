@@ -277,17 +277,13 @@ def tyre_model(
             dist.LogNormal(priors.curve_curvature_log_mean, priors.curve_curvature_log_sd),
         )
         curve["curve_shape_c"] = numpyro.deterministic("curve_shape_c", 1.0 + shape_excess)
-        curve["curve_curvature_e"] = numpyro.deterministic(
-            "curve_curvature_e", 1.0 - curvature_gap
-        )
+        curve["curve_curvature_e"] = numpyro.deterministic("curve_curvature_e", 1.0 - curvature_gap)
     if kind == "shaped":
         bend = numpyro.sample(
             "curve_bend",
             dist.LogNormal(jnp.log(priors.curve_bend_median), priors.curve_bend_log_sd),
         )
-        curve["curve_shape"] = numpyro.deterministic(
-            "curve_shape", priors.curve_shape_min + bend
-        )
+        curve["curve_shape"] = numpyro.deterministic("curve_shape", priors.curve_shape_min + bend)
     rho_noise_scale = numpyro.sample(
         "rho_noise_scale", dist.LogNormal(0.0, priors.force_noise_log_sd)
     )
@@ -437,9 +433,9 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     headroom = (mu_window - jnp.abs(rho_hat)) / jnp.sqrt(rho_var + (0.02 * mu_window) ** 2)
     below_peak = jnp.where(obs.mask & ~obs.at_limit, jax.scipy.special.log_ndtr(headroom), 0.0)
     slip_loc = slip + params["slip_offset"][d]
-    precision = jnp.where(
-        obs.mask & ~obs.at_limit, obs.slip_weight / slip_scale**2, 0.0
-    ).astype(slip_loc.dtype)
+    precision = jnp.where(obs.mask & ~obs.at_limit, obs.slip_weight / slip_scale**2, 0.0).astype(
+        slip_loc.dtype
+    )
     correction, offset = block_offsets(
         jnp.where(precision > 0, obs.slip - slip_loc, 0.0),
         precision,

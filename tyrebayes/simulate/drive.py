@@ -55,7 +55,7 @@ from .profiles import LONG_LABELS, DriveProfile, ProfileOptions, make_profile
 from .sensors import SensorModel, SensorTruth, draw_sensor_truth, measure, sample_times
 from .truth import DriveTruth
 from .tyre_curves import brush_inverse_np, peak_slip, tyre_force, tyre_slip
-from .tyre_spec import SURFACES, TYRE_MODELS, TyreSpec
+from .tyre_spec import SURFACES, TYRE_MODELS, TyreSpec, draw_database_curve
 
 _ABS = LONG_LABELS.index("abs")
 #: Engine-braking force available on the driven axle, as a share of the weight.
@@ -329,7 +329,7 @@ def simulate_drive(
     surface: str = "dry",
     ambient_c: float | int = 20.0,
     profile: ProfileOptions | None = None,
-    tyre_model: str = "brush",
+    tyre_model: str = "magic_formula",
     sensor: SensorModel | None = None,
     thermal: ThermalParams | None = None,
     initial_tyre_temp_c: float | int | None = None,
@@ -346,7 +346,9 @@ def simulate_drive(
     vehicle : Vehicle or str
         The car (preset names: ``compact_fwd``, ``suv_rav4``).
     tyre : TyreSpec or str
-        The true tyre, or a type name (``winter``, ``all_season``, ``summer``).
+        The true tyre, or a type name (``winter``, ``all_season``, ``summer``): a typical tyre of
+        that type whose Magic Formula shape is drawn from the shipped database of measured
+        tyres (:func:`~tyrebayes.simulate.tyre_spec.draw_database_curve`).
     duration_s : float
         Duration [s].
     sample_rate_hz : float
@@ -358,7 +360,8 @@ def simulate_drive(
     profile : ProfileOptions, optional
         The driver (speeds, events: hard braking, ABS, corners, lane changes, grade).
     tyre_model : str
-        ``"brush"`` or ``"magic_formula"`` truth (see :mod:`tyrebayes.simulate.tyre_curves`).
+        ``"magic_formula"`` (default: real tyres' curves) or ``"brush"`` truth (see
+        :mod:`tyrebayes.simulate.tyre_curves`).
     sensor : SensorModel, optional
         Noise, quantisation, offsets, dropouts (defaults resemble the real RAV4 log).
     thermal : ThermalParams, optional
@@ -383,6 +386,7 @@ def simulate_drive(
     ValueError
         On an unknown surface, tyre model, vehicle or tyre, or invalid durations/rates.
     """
+    tyre_given_by_type = isinstance(tyre, str)
     vehicle_name, vehicle, tyre, sensor, opts = _resolve_inputs(
         vehicle, tyre, surface, tyre_model, sensor, profile
     )
@@ -402,7 +406,13 @@ def simulate_drive(
         float(ambient_c),
     )
     seq = seed_sequence(key_or_seed)
-    rng_profile, rng_offsets, rng_sensor, rng_abs = (np.random.default_rng(s) for s in seq.spawn(4))
+    rng_profile, rng_offsets, rng_sensor, rng_abs, rng_curve = (
+        np.random.default_rng(s) for s in seq.spawn(5)
+    )
+    if tyre_given_by_type:
+        # A tyre named by its type gets a curve shape drawn from the measured tyres' database
+        # (its own stream of the seed: the route and the sensors stay as they were).
+        tyre = eqx.tree_at(lambda t: t.magic_formula, tyre, draw_database_curve(rng_curve))
     mu = tyre.mu_on(surface)
     g = GRAVITY_MPS2
     thermal = thermal or ThermalParams(rolling_resistance=vehicle.rolling_resistance)

@@ -7,7 +7,8 @@ and the peak μ, so that the inference targets mean the same thing under either:
   by ``mu_slide_ratio``); inverse in closed form
   (:func:`tyrebayes.physics.tyre.brush_longitudinal_inverse`); both through NumPy twins.
 * ``"magic_formula"`` — a measured Magic Formula shape (PCX1, PEX1–3 and the load dependences
-  PKX2–3, PDX2 of :meth:`MagicFormulaLongitudinal.from_measured`) scaled so that its slope at the
+  PKX2–3, PDX2 of ``TyreSpec.magic_formula``: Pacejka's 205/60R15 by default, or a set drawn from
+  the shipped database with :func:`~tyrebayes.simulate.tyre_spec.draw_database_curve`) scaled so that its slope at the
   nominal load ``fz0_n`` is C_x and its peak there is μ. Real tyres fall after the peak, which the
   brush model cannot; inverse by safeguarded Newton.
 
@@ -26,7 +27,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics.tyre import MagicFormulaLongitudinal
 from .tyre_spec import TYRE_MODELS, TyreSpec
 
 #: Largest share of the peak a quasi-static (non-ABS) manoeuvre may ask of a tyre; beyond it the
@@ -67,7 +67,7 @@ def _check_model(model: str) -> None:
 
 def _mf_terms(fz, c_x, mu, spec: TyreSpec, fz0):
     """B, C, D(=μ_eff), E of the scaled Magic Formula at load fz."""
-    mf = MagicFormulaLongitudinal.from_measured(spec.magic_formula_shape)
+    mf = spec.magic_formula
     dfz = (np.asarray(fz, dtype=float) - fz0) / fz0
     mu_eff = mu * (1.0 + mf.pdx2 / mf.pdx1 * dfz)
     k = c_x * (1.0 + mf.pkx2 / mf.pkx1 * dfz) * np.exp(mf.pkx3 * dfz)

@@ -45,7 +45,7 @@ def simulate_tyre_set_drives(
     surfaces: str | Sequence[str] = ("dry", "wet", "snow"),
     ambient_c: float | int | Sequence[float] | None = None,
     sample_rate_hz: float | int = 100.0,
-    tyre_model: str = "brush",
+    tyre_model: str = "magic_formula",
     profile: ProfileOptions | Sequence[ProfileOptions] | None = None,
     sensor: SensorModel | None = None,
 ) -> list[tuple[pd.DataFrame, DriveTruth]]:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import equinox as eqx
 import numpy as np
 
+from .._tyre_curve_sets import distinct_passenger_sets
 from ..physics.thermal import StiffnessTemperature
 from ..physics.tyre import MagicFormulaLongitudinal
 
@@ -46,9 +47,10 @@ class TyreSpec(eqx.Module):
         Sliding-to-peak friction ratio of the brush truth in (0, 1] (1: flat after the peak).
     stiffness_temperature : StiffnessTemperature
         How C_x follows tyre temperature (C_x(T) from C_xr).
-    magic_formula_shape : str
-        Measured Magic Formula set whose shape (PCX1, PEX*, load dependence) the ``magic_formula``
-        truth uses, scaled to C_x and μ (static).
+    magic_formula : MagicFormulaLongitudinal
+        The Magic Formula set whose shape (PCX1, PEX*, load dependence) the ``magic_formula``
+        truth uses, scaled to C_x and μ: by default Pacejka's measured 205/60R15; one drawn from
+        the shipped database with :func:`draw_database_curve`.
     """
 
     c_xr: float
@@ -59,7 +61,9 @@ class TyreSpec(eqx.Module):
     c_y_per_rad: float = 20.0
     mu_slide_ratio: float = 1.0
     stiffness_temperature: StiffnessTemperature = StiffnessTemperature()
-    magic_formula_shape: str = eqx.field(static=True, default="pacejka_205_60R15")
+    magic_formula: MagicFormulaLongitudinal = MagicFormulaLongitudinal.from_measured(
+        "pacejka_205_60R15"
+    )
 
     def __check_init__(self):
         for name in ("c_xr", "mu_dry", "mu_wet", "mu_snow", "mu_ice", "c_y_per_rad"):
@@ -70,8 +74,6 @@ class TyreSpec(eqx.Module):
             raise ValueError(
                 f"TyreSpec.mu_slide_ratio: expected a value in (0, 1], got {self.mu_slide_ratio!r}"
             )
-        # Raises a ValueError naming the valid sets if the name is unknown.
-        MagicFormulaLongitudinal.from_measured(self.magic_formula_shape)
 
     def mu_on(self, surface: str) -> float:
         """μ_max on ``surface`` (``dry``, ``wet``, ``snow``, ``ice``)."""
@@ -94,3 +96,32 @@ class TyreSpec(eqx.Module):
         fields.update(c_xr=c if c_xr is None else float(c_xr), c_y_per_rad=c_y)
         fields.update(kwargs)
         return cls(**fields)
+
+
+def draw_database_curve(rng: np.random.Generator) -> MagicFormulaLongitudinal:
+    """One of the distinct car/SUV Magic Formula sets of the shipped database, at random.
+
+    Its shape C, traction-side curvature E and load dependences (PKX2-3, PDX2, PEX2-3) as the
+    source file gives them; the simulator scales slope and peak to the drive's C_x and μ
+    (:mod:`tyrebayes.simulate.tyre_curves`), so only the shape comes from the row.
+
+    Examples
+    --------
+    >>> mf = draw_database_curve(np.random.default_rng(0))
+    >>> 1.0 < mf.pcx1 < 2.0
+    True
+    """
+    sets = distinct_passenger_sets()
+    row = sets.iloc[int(rng.integers(len(sets)))]
+    return MagicFormulaLongitudinal(
+        fnomin_n=float(row["fnomin_n"]),
+        pkx1=float(row["Kx_over_Fz"]),
+        pdx1=float(row["mu_peak"]),
+        pcx1=float(row["C"]),
+        pex1=float(row["E_traction"]),
+        pkx2=float(row["PKX2"]),
+        pkx3=float(row["PKX3"]),
+        pdx2=float(row["PDX2"]),
+        pex2=float(row["PEX2"]),
+        pex3=float(row["PEX3"]),
+    )

@@ -229,7 +229,7 @@ def _vehicle_speed(
 
 
 def _slip_noise_probe(
-    slip_velocity: np.ndarray, force_velocity: np.ndarray, window: int
+    slip_velocity: np.ndarray, force_velocity: np.ndarray, pushing: np.ndarray, window: int
 ) -> np.ndarray:
     """The driven axle's slip velocity R·Ω − V_x less the part that follows the force.
 
@@ -238,17 +238,19 @@ def _slip_noise_probe(
     brisk acceleration changes). Here the part of it that the force explains linearly,
     b·ρV_x, is taken off first, with b (≈ 1/C_x) from a least-squares fit over the drive of the
     two signals high-passed like :func:`~tyrebayes.streams.noise.local_noise_sd` does; what is
-    left is sensor noise and what the linear fit misses.
+    left is sensor noise and what the linear fit misses. Only where the tyres push: under
+    braking the reference wheels brake too and the relation is another (NaN there; the local
+    noise is read from the pushing samples near).
     """
 
     def high_pass(x):
         return x - nan_moving_average(x, 5 * window)
 
     s, r = high_pass(slip_velocity), high_pass(force_velocity)
-    ok = np.isfinite(s) & np.isfinite(r)
+    ok = np.isfinite(s) & np.isfinite(r) & pushing
     denominator = float(np.sum(r[ok] ** 2))
     slope = float(np.sum(s[ok] * r[ok])) / denominator if denominator > 0 else 0.0
-    return slip_velocity - slope * np.where(np.isfinite(force_velocity), force_velocity, 0.0)
+    return np.where(pushing, slip_velocity - slope * force_velocity, np.nan)
 
 
 def _vx_noise_probe(wheel_vx: np.ndarray, drive: str) -> np.ndarray:
@@ -297,7 +299,8 @@ def _traction_acceleration(
     probe = smoothed_derivative(_vx_noise_probe(wheel_vx_raw, drive), dt, window)
     probe = probe - nan_moving_average(probe, span)
     derivative_sd = np.sqrt(nan_moving_average(probe**2, span))
-    imu_sd = local_noise_sd(ax_imu, window, span) * np.sqrt(window / lowpass)
+    # The IMU's error with the motion removed (a_x − dV_x/dt), through the low-pass.
+    imu_sd = local_noise_sd(ax_imu - dvx_dt, window, span) * np.sqrt(window / lowpass)
     return dvx_dt + grade_accel, np.hypot(derivative_sd, imu_sd)
 
 
@@ -553,13 +556,16 @@ def compute_features(
     fz_traction_driven = driven(np.column_stack(traction[3:5]))
     has_traction = valid & np.isfinite(ax_traction)
     rho_driven_traction = np.where(has_traction, fx_traction_driven / fz_traction_driven, np.nan)
-    slip_driven_noise = local_noise_sd(
-        _slip_noise_probe(slip_velocity_driven, rho_driven_traction * vx_safe, window), window, span
-    )
-    slip_driven_sd = slip_driven_noise / vx_safe
     rho_total_traction = np.where(
         has_traction, (traction[5] + traction[6]) / (traction[3] + traction[4]), np.nan
     )
+    pushing = rho_total_traction >= 0.0
+    slip_driven_noise = local_noise_sd(
+        _slip_noise_probe(slip_velocity_driven, rho_driven_traction * vx_safe, pushing, window),
+        window,
+        span,
+    )
+    slip_driven_sd = slip_driven_noise / vx_safe
     # Per-sample noise of the smoothed ax, scaled by the axle's share of m·ax. The offset's
     # uncertainty is common to the whole log and reported apart (nuisances.rho_offset_sd).
     ax_sd_local = local_noise_sd(data["ax"].to_numpy(dtype=float), window, span) / (
@@ -570,9 +576,11 @@ def compute_features(
     )
     share = np.clip(np.nan_to_num(share, nan=1.0), 0.0, 1.0)
     rho_driven_sd = vehicle.mass_kg * ax_sd_local * np.maximum(share, 0.5) / fz_driven
-    rho_driven_traction_sd = vehicle.mass_kg * np.where(
-        np.isfinite(ax_traction_sd), ax_traction_sd, ax_sd_local
-    ) / fz_traction_driven
+    rho_driven_traction_sd = (
+        vehicle.mass_kg
+        * np.where(np.isfinite(ax_traction_sd), ax_traction_sd, ax_sd_local)
+        / fz_traction_driven
+    )
     friction_power = np.abs(fx_driven * vx_safe * slip_driven)
 
     label = label_samples(

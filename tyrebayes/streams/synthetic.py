@@ -47,6 +47,8 @@ def synthetic_stream(
     drop_fraction: float = 0.0,
     brake_front_share: float = 0.7,
     speed_reference: bool = True,
+    accel_ripple_mps2: float = 0.0,
+    accel_ripple_hz: float = 0.7,
 ) -> tuple[pd.DataFrame, dict[str, np.ndarray | float]]:
     """A stream file's table and its truth.
 
@@ -78,6 +80,10 @@ def synthetic_stream(
         Front share of the braking force.
     speed_reference : bool
         Add a GNSS-like ``speed_reference`` column (0.05 m/s noise).
+    accel_ripple_mps2, accel_ripple_hz : float
+        Amplitude [m/s²] and frequency [Hz] of a fast sinusoidal change of acceleration on top
+        of the slow profile: real drivers change the force over 0.2-1 s, the scale at which the
+        pipeline measures noise.
 
     Returns
     -------
@@ -94,8 +100,12 @@ def synthetic_stream(
     ph = rng.uniform(0, 2 * np.pi, 6)
     w = 2 * np.pi * np.array([0.01, 0.05, 0.13])
     amp = np.array([6.0, 3.0, 1.0])
+    ripple_w = 2 * np.pi * accel_ripple_hz
     vx = 20.0 + sum(amp[k] * np.sin(w[k] * t + ph[k]) for k in range(3))
     ax_true = sum(amp[k] * w[k] * np.cos(w[k] * t + ph[k]) for k in range(3))
+    if accel_ripple_mps2:
+        vx = vx + accel_ripple_mps2 / ripple_w * np.sin(ripple_w * t)
+        ax_true = ax_true + accel_ripple_mps2 * np.cos(ripple_w * t)
     steer = 0.012 * np.sin(2 * np.pi * 0.07 * t + ph[3]) + 0.006 * np.sin(
         2 * np.pi * 0.17 * t + ph[4]
     )

@@ -1,0 +1,44 @@
+"""The curve-shape prior comes from the shipped database of measured tyres, not from a guess."""
+
+import numpy as np
+import pytest
+
+from tyrebayes._tyre_curve_sets import distinct_passenger_sets, load_tyre_curve_sets
+from tyrebayes.inference.tyre_curve_prior import curve_shape_prior
+from tyrebayes.inference.tyre_model import TyrePriors
+
+
+def test_database_ships_no_gpl_rows_and_keeps_sources():
+    table = load_tyre_curve_sets()
+    assert not table["licence"].str.contains("GPL").any()
+    for column in ("source_repo", "path", "commit", "licence"):
+        assert table[column].notna().all(), column
+
+
+def test_tyre_priors_match_the_derivation():
+    prior = curve_shape_prior()
+    assert prior.n_sets == len(distinct_passenger_sets()) == 9
+    defaults = TyrePriors()
+    # TyrePriors holds the derived numbers rounded to 3 decimals.
+    for field, value in (
+        ("curve_shape_excess_log_mean", prior.shape_excess_log_mean),
+        ("curve_shape_excess_log_sd", prior.shape_excess_log_sd),
+        ("curve_curvature_log_mean", prior.curvature_log_mean),
+        ("curve_curvature_log_sd", prior.curvature_log_sd),
+    ):
+        assert getattr(defaults, field) == pytest.approx(value, abs=1e-3), field
+
+
+def test_prior_covers_every_passenger_set():
+    """Each measured car/SUV shape lies within 2.5 prior sds (a tyre the prior rules out would
+    bias C_x for that tyre)."""
+    prior = curve_shape_prior()
+    sets = distinct_passenger_sets()
+    z_c = (np.log(sets["C"] - 1) - prior.shape_excess_log_mean) / prior.shape_excess_log_sd
+    z_e = (np.log(1 - sets["E_traction"]) - prior.curvature_log_mean) / prior.curvature_log_sd
+    assert np.all(np.abs(z_c) < 2.5) and np.all(np.abs(z_e) < 2.5)
+
+
+def test_too_few_sets_is_an_error():
+    with pytest.raises(ValueError, match="at least 3 car/SUV sets, got 2"):
+        curve_shape_prior(distinct_passenger_sets().iloc[:2])
