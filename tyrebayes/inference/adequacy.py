@@ -19,8 +19,9 @@ window, with these checks (each a reason when it fails):
 * **a step in the slip offset**: the blocks' slip offsets (their conditional means, which the
   model integrates out) split at the point that separates them most, with a t-value above
   :data:`MAX_STEP_T` (the blocks' spread read from their successive differences, robustly, so
-  that the step itself does not widen it) and a size above :data:`MIN_STEP_SLIP`: a tyre changed, a radius jumped (puncture, pressure
-  loss), or a wheel-speed sensor was swapped within the drive. The blocks absorb slow drift,
+  that the step itself does not widen it) and a size above :data:`MIN_STEP_SLIP`: a tyre
+  changed, a radius jumped (puncture, pressure loss), or a wheel-speed sensor was swapped
+  within the drive. The blocks absorb slow drift,
   not a jump of many times their spread.
 * **curve shape at the edge of the measured tyres**: the Magic Formula shape or curvature more
   than :data:`MAX_SHAPE_PRIOR_SDS` prior sds from the measured tyres' mean.

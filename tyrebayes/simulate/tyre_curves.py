@@ -8,9 +8,9 @@ and the peak μ, so that the inference targets mean the same thing under either:
   (:func:`tyrebayes.physics.tyre.brush_longitudinal_inverse`); both through NumPy twins.
 * ``"magic_formula"`` — a measured Magic Formula shape (PCX1, PEX1–3 and the load dependences
   PKX2–3, PDX2 of ``TyreSpec.magic_formula``: Pacejka's 205/60R15 by default, or a set drawn from
-  the shipped database with :func:`~tyrebayes.simulate.tyre_spec.draw_database_curve`) scaled so that its slope at the
-  nominal load ``fz0_n`` is C_x and its peak there is μ. Real tyres fall after the peak, which the
-  brush model cannot; inverse by safeguarded Newton.
+  the shipped database with :func:`~tyrebayes.simulate.tyre_spec.draw_database_curve`) scaled
+  so that its slope at the nominal load ``fz0_n`` is C_x and its peak there is μ. Real tyres
+  fall after the peak, which the brush model cannot; inverse by safeguarded Newton.
 
 Examples
 --------

@@ -516,7 +516,7 @@ def compute_features(
 
     speed_for_drag = np.where(np.isfinite(vx), np.maximum(vx, 0.0), 0.0)
     ax_f = np.nan_to_num(ax)
-    resistance, fx_front, fx_rear, fz_front, fz_rear, fxf_traction, fxr_traction = _force_balance(
+    resistance, fx_front, fx_rear, fz_front, fz_rear, *_ = _force_balance(
         vehicle,
         ax_f,
         np.nan_to_num(ay),
@@ -529,7 +529,6 @@ def compute_features(
     fz_axle = np.column_stack([fz_front, fz_rear])
     has_force = (valid & np.isfinite(ax))[:, None]
     fx_axle = np.where(has_force, fx_axle, np.nan)
-    fx_traction_axle = np.where(has_force, np.column_stack([fxf_traction, fxr_traction]), np.nan)
     rho_axle = fx_axle / fz_axle
 
     def driven(per_axle: np.ndarray) -> np.ndarray:
