@@ -1,0 +1,267 @@
+"""A vectorised reader of candump logs (``candump -L``, python-can's ``.log`` writer).
+
+Each line is ``(SECONDS.FRACTION) CHANNEL ID#DATA``, with ``ID`` of 3 (standard) or 8 (extended)
+hex digits, ``DATA`` an even number of hex digits, ``ID##F DATA`` for CAN FD (``F`` the flags
+digit), ``ID#R`` for a remote frame and ``2000xxxx#...`` (the CAN_ERR_FLAG bit) for an error
+frame; python-can appends `` R`` or `` T`` (received, transmitted). The file is read in blocks of
+whole lines; in each block the positions of the separators are found with NumPy for all lines at
+once, every line's structure and identifier are checked, and only the lines of the wanted
+identifiers have their timestamp, channel and payload parsed (a profile needs ~10 % of a bus).
+This reads an hour of a full bus (9 million frames) in seconds where a per-line Python reader
+takes minutes; see ``benchmarks/can_speed.py``.
+
+Examples
+--------
+>>> import tempfile, pathlib
+>>> path = pathlib.Path(tempfile.mkdtemp()) / "bus.log"
+>>> _ = path.write_text("(1.500000) can0 0AA#0102\\n(1.510000) can0 025#R\\n")
+>>> frames, counts = read_candump(path, ids={0xAA})
+>>> frames.time_s.tolist(), frames.data.tolist(), counts.remote_frames
+([1.5], [[1, 2]], 1)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection
+from pathlib import Path
+
+import numpy as np
+
+from ..._errors import BadInputError
+from .frames import CanFrames, FrameCounts, empty_frames
+
+_CAN_ERR_FLAG = 0x20000000
+_ID_MASK = 0x1FFFFFFF
+# 32 MiB blocks keep the per-line index arrays of one block near 100 MB.
+_BLOCK_BYTES = 1 << 25
+
+_HEX = np.full(256, 255, dtype=np.uint8)
+for _i, _c in enumerate(b"0123456789ABCDEF"):
+    _HEX[_c] = _i
+for _i, _c in enumerate(b"abcdef"):
+    _HEX[_c] = 10 + _i
+_DEC = np.full(256, 255, dtype=np.uint8)
+_DEC[np.frombuffer(b"0123456789", dtype=np.uint8)] = np.arange(10, dtype=np.uint8)
+
+
+def _first_at_or_after(positions: np.ndarray, at: np.ndarray, sentinel: int) -> np.ndarray:
+    """For each ``at``, the first of the sorted ``positions`` >= it (``sentinel`` if none)."""
+    k = np.searchsorted(positions, at)
+    padded = np.append(positions, sentinel)
+    return padded[k]
+
+
+def _digits(
+    buf: np.ndarray, pos: np.ndarray, width: int, table: np.ndarray, base: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Fixed-width numbers at ``pos`` in ``buf``: values (int64) and a mask of bad digits."""
+    d = table[buf[pos[:, None] + np.arange(width)]]
+    bad = np.any(d == 255, axis=1)
+    value = np.zeros(pos.size, dtype=np.int64)
+    for k in range(width):
+        value = value * base + d[:, k]
+    return value, bad
+
+
+class _Block:
+    """Parse one block of whole lines (``buf`` ends with a newline)."""
+
+    def __init__(self, buf: np.ndarray, first_line: int, name: str):
+        self.buf, self.first_line, self.name = buf, first_line, name
+
+    def fail(self, row: int, starts: np.ndarray, ends: np.ndarray, what: str) -> None:
+        text = bytes(self.buf[starts[row] : min(ends[row], starts[row] + 60)]).decode(
+            "ascii", "replace"
+        )
+        raise BadInputError(
+            f"CAN log {self.name}: line {self.first_line + int(self.lines[row]) + 1}: expected "
+            f"{what}, got {text!r}"
+        )
+
+    def parse(self, ids: np.ndarray | None, bus: bytes | None):
+        buf = self.buf
+        nl = np.flatnonzero(buf == 10)
+        starts = np.concatenate(([0], nl[:-1] + 1))
+        ends = nl - (buf[np.maximum(nl - 1, 0)] == 13)  # content end, without a \r
+        self.lines = np.flatnonzero(ends > starts)  # empty lines are skipped
+        self.n_lines = nl.size
+        starts, ends = starts[self.lines], ends[self.lines]
+        if starts.size == 0:
+            return None
+        size = buf.size
+        close = _first_at_or_after(np.flatnonzero(buf == 41), starts, size)  # ')'
+        hashes = np.flatnonzero(buf == 35)  # '#'
+        hash_at = _first_at_or_after(hashes, starts, size)
+        spaces = np.flatnonzero(buf == 32)
+        id_space = spaces[np.maximum(np.searchsorted(spaces, hash_at) - 1, 0)] if spaces.size else (
+            np.full(starts.size, -1)
+        )
+        id_len = hash_at - id_space - 1
+        ok = (
+            (buf[starts] == 40)
+            & (close < ends)
+            & (hash_at < ends)
+            & (id_space > close + 1)
+            & ((id_len == 3) | (id_len == 8))
+        )
+        ok[ok] &= buf[close[ok] + 1] == 32
+        if not ok.all():
+            self.fail(int(np.flatnonzero(~ok)[0]), starts, ends, "'(SECONDS) CHANNEL ID#DATA'")
+        can_id = np.zeros(starts.size, dtype=np.int64)
+        for width in (3, 8):
+            sel = np.flatnonzero(id_len == width)
+            if sel.size:
+                value, bad = _digits(buf, id_space[sel] + 1, width, _HEX, 16)
+                if bad.any():
+                    self.fail(int(sel[bad][0]), starts, ends, "a hex CAN identifier")
+                can_id[sel] = value
+        after = buf[np.minimum(hash_at + 1, size - 1)]
+        after = np.where(hash_at + 1 < ends, after, 0)
+        error = (id_len == 8) & ((can_id & _CAN_ERR_FLAG) != 0)
+        remote = ~error & ((after == 82) | (after == 114))  # 'R' / 'r'
+        data = ~error & ~remote
+        self.n_data = int(data.sum())
+        self.n_error = int(error.sum())
+        self.n_remote = int(remote.sum())
+        can_id &= _ID_MASK
+        keep = data if ids is None else data & np.isin(can_id, ids)
+        rows = np.flatnonzero(keep)
+        return self._kept(rows, starts, ends, close, hash_at, id_space, can_id, bus)
+
+    def _kept(self, rows, starts, ends, close, hash_at, id_space, can_id, bus):
+        buf = self.buf
+        s, e, c, h, sp = starts[rows], ends[rows], close[rows], hash_at[rows], id_space[rows]
+        # Channel names, compared as bytes (few distinct lengths).
+        chan_len = sp - c - 2
+        names = np.empty(rows.size, dtype=object)
+        for width in np.unique(chan_len):
+            sel = np.flatnonzero(chan_len == width)
+            raw = buf[c[sel, None] + 2 + np.arange(width)]
+            names[sel] = np.ascontiguousarray(raw).view(f"S{width}").ravel()
+        self.buses = {bytes(b) for b in set(names.tolist())}
+        on_bus = np.ones(rows.size, dtype=bool) if bus is None else names == bus
+        self.n_other = int((~on_bus).sum())
+        rows, s, e, c, h = rows[on_bus], s[on_bus], e[on_bus], c[on_bus], h[on_bus]
+        # Timestamp: "(" integer "." fraction ")".
+        dots = np.flatnonzero(buf == 46)
+        dot = _first_at_or_after(dots, s, buf.size)
+        int_len, frac_len = dot - s - 1, c - dot - 1
+        ok = (dot < c) & (int_len >= 1) & (int_len <= 12) & (frac_len >= 1) & (frac_len <= 9)
+        if not ok.all():
+            self.fail(int(rows[~ok][0]), *self._row_bounds(), "a timestamp '(SECONDS.FRACTION)'")
+        time_s = np.empty(rows.size)
+        for il, fl in {(int(a), int(b)) for a, b in zip(int_len, frac_len, strict=True)}:
+            sel = np.flatnonzero((int_len == il) & (frac_len == fl))
+            whole, bad_w = _digits(buf, s[sel] + 1, il, _DEC, 10)
+            frac, bad_f = _digits(buf, dot[sel] + 1, fl, _DEC, 10)
+            if (bad_w | bad_f).any():
+                self.fail(int(rows[sel][bad_w | bad_f][0]), *self._row_bounds(), "a timestamp")
+            time_s[sel] = whole + frac / 10.0**fl
+        # Payload: after "#" (or "##F" for CAN FD), up to an optional " R"/" T".
+        fd = buf[h + 1] == 35
+        d0 = h + 1 + 2 * fd
+        tail = (e - d0 >= 2) & (buf[np.maximum(e - 2, 0)] == 32)
+        tail &= np.isin(buf[np.maximum(e - 1, 0)], np.frombuffer(b"RTrt", dtype=np.uint8))
+        d1 = e - 2 * tail
+        n_hex = d1 - d0
+        ok = (n_hex >= 0) & (n_hex % 2 == 0) & (n_hex <= 128)
+        if not ok.all():
+            self.fail(int(rows[~ok][0]), *self._row_bounds(), "an even number of hex digits")
+        n_bytes = n_hex // 2
+        width = int(n_bytes.max()) if n_bytes.size else 8
+        data = np.zeros((rows.size, max(width, 1)), dtype=np.uint8)
+        for nb in np.unique(n_bytes):
+            if nb == 0:
+                continue
+            sel = np.flatnonzero(n_bytes == nb)
+            d = _HEX[buf[d0[sel, None] + np.arange(2 * nb)]]
+            bad = np.any(d == 255, axis=1)
+            if bad.any():
+                self.fail(int(rows[sel][bad][0]), *self._row_bounds(), "hex payload digits")
+            data[sel, :nb] = (d[:, 0::2] << 4) | d[:, 1::2]
+        return time_s, can_id[rows], data, n_bytes
+
+    def _row_bounds(self):
+        nl = np.flatnonzero(self.buf == 10)
+        starts = np.concatenate(([0], nl[:-1] + 1))[self.lines]
+        return starts, nl[self.lines]
+
+
+def read_candump(
+    path: str | Path, *, ids: Collection[int] | None = None, bus: str | None = None
+) -> tuple[CanFrames, FrameCounts]:
+    """Read a candump log with NumPy.
+
+    Parameters
+    ----------
+    path : path-like
+        A candump ``-L`` log (``.log``).
+    ids : collection of int, optional
+        Identifiers to keep (default: all).
+    bus : str, optional
+        Channel name to keep (e.g. ``can0``).
+
+    Returns
+    -------
+    (CanFrames, FrameCounts)
+        Frames of the wanted identifiers in file order, and the counts.
+
+    Raises
+    ------
+    BadInputError
+        A line that is not a candump frame (the line number and its text are named), or a last
+        line without its newline (a truncated file).
+    """
+    path = Path(path)
+    wanted = None if ids is None else np.asarray(sorted(ids), dtype=np.int64)
+    bus_bytes = None if bus is None else bus.encode()
+    parts: list[tuple] = []
+    n_data = n_error = n_remote = n_other = 0
+    buses: set[bytes] = set()
+    line = 0
+    carry = b""
+    with open(path, "rb") as fh:
+        while True:
+            chunk = fh.read(_BLOCK_BYTES)
+            if not chunk:
+                break
+            block = carry + chunk if carry else chunk
+            cut = block.rfind(b"\n")
+            if cut < 0:
+                carry = block
+                continue
+            carry = block[cut + 1 :]
+            parser = _Block(np.frombuffer(block, dtype=np.uint8, count=cut + 1), line, path.name)
+            kept = parser.parse(wanted, bus_bytes)
+            line += parser.n_lines
+            if kept is None:
+                continue
+            n_data += parser.n_data
+            n_error += parser.n_error
+            n_remote += parser.n_remote
+            n_other += parser.n_other
+            buses |= parser.buses
+            if kept[0].size:
+                parts.append(kept)
+    if carry.strip():
+        text = carry[:60].decode("ascii", "replace")
+        raise BadInputError(
+            f"CAN log {path.name}: line {line + 1}: expected a line ending in a newline, got "
+            f"{text!r} at the end of the file (truncated file?)"
+        )
+    names = tuple(sorted(b.decode("ascii", "replace") for b in buses))
+    if not parts:
+        return empty_frames(), FrameCounts(n_data, n_error, n_remote, 0, n_other, names)
+    width = max(p[2].shape[1] for p in parts)
+    data = np.zeros((sum(p[2].shape[0] for p in parts), width), dtype=np.uint8)
+    row = 0
+    for p in parts:
+        data[row : row + p[2].shape[0], : p[2].shape[1]] = p[2]
+        row += p[2].shape[0]
+    frames = CanFrames(
+        np.concatenate([p[0] for p in parts]),
+        np.concatenate([p[1] for p in parts]),
+        data,
+        np.concatenate([p[3] for p in parts]).astype(np.int64),
+    )
+    return frames, FrameCounts(n_data, n_error, n_remote, frames.time_s.size, n_other, names)
