@@ -93,8 +93,10 @@ class _Block:
         hashes = np.flatnonzero(buf == 35)  # '#'
         hash_at = _first_at_or_after(hashes, starts, size)
         spaces = np.flatnonzero(buf == 32)
-        id_space = spaces[np.maximum(np.searchsorted(spaces, hash_at) - 1, 0)] if spaces.size else (
-            np.full(starts.size, -1)
+        id_space = (
+            spaces[np.maximum(np.searchsorted(spaces, hash_at) - 1, 0)]
+            if spaces.size
+            else (np.full(starts.size, -1))
         )
         id_len = hash_at - id_space - 1
         ok = (

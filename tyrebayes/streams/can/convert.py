@@ -9,7 +9,6 @@ as :attr:`CanConversion.time_origin_s`.
 Examples
 --------
 >>> import tempfile, pathlib
->>> from tyrebayes.streams.can import load_profile
 >>> path = pathlib.Path(tempfile.mkdtemp()) / "bus.log"
 >>> _ = path.write_text("(5.000000) can0 0AA#417F417F417F417F\\n")  # 0x417F * 0.01 - 67.67 = 100
 >>> conv = read_can_log(path, "toyota_rav4_2017", check_complete=False)
@@ -88,9 +87,7 @@ def bind_profile(profile: CarProfile, db) -> dict[str, BoundMessage]:
             message = BoundMessage(msg.name, int(msg.frame_id), int(msg.length), {})
             bound[ch.message] = message
             msg_signals = {s.name: s for s in msg.signals}
-            message.signals.update(
-                {name: signal_layout(s) for name, s in msg_signals.items()}
-            )
+            message.signals.update({name: signal_layout(s) for name, s in msg_signals.items()})
         for name in ch.signals + ch.invalid:
             if name not in message.signals:
                 raise BadInputError(
@@ -246,9 +243,7 @@ def read_can_log(
     db = load_dbc(profile.dbc_path(dbc))
     bound = bind_profile(profile, db)
     bus = profile.bus if bus is None else bus
-    frames, counts = read_frames(
-        path, ids={m.frame_id for m in bound.values()}, bus=bus or None
-    )
+    frames, counts = read_frames(path, ids={m.frame_id for m in bound.values()}, bus=bus or None)
     if counts.kept == 0:
         raise _no_frames(path, counts, bound, bus)
     if not check_complete:

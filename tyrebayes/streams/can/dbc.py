@@ -88,9 +88,13 @@ class SignalLayout:
         """Physical values the bits can hold, lowest and highest [unit of the signal]."""
         if self.is_float:
             return -np.inf, np.inf
-        lo, hi = (-(2 ** (self.length - 1)), 2 ** (self.length - 1) - 1) if self.signed else (
-            0,
-            2**self.length - 1,
+        lo, hi = (
+            (-(2 ** (self.length - 1)), 2 ** (self.length - 1) - 1)
+            if self.signed
+            else (
+                0,
+                2**self.length - 1,
+            )
         )
         a, b = lo * self.scale + self.offset, hi * self.scale + self.offset
         return min(a, b), max(a, b)

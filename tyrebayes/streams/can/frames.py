@@ -20,6 +20,8 @@ Examples
 from __future__ import annotations
 
 import os
+import re
+import struct
 from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
@@ -103,6 +105,52 @@ def stack_payloads(payloads: list[bytes]) -> tuple[np.ndarray, np.ndarray]:
     return table.copy(), lengths
 
 
+# Lines an ASC file may hold besides frames: a timestamp first, or a header/trigger keyword.
+_ASC_LINE = re.compile(
+    r"\s*(?:\d+\.\d+(?:\s|$)|date\b|base\b|internal events|no internal events|"
+    r"begin triggerblock|end triggerblock|//)",
+    re.IGNORECASE,
+)
+# BLF file header: "LOGG", header size, ..., file size at field 10 (python-can's layout).
+_BLF_HEADER = struct.Struct("<4sLBBBBBBBBQQLL8H8H")
+
+
+def _check_asc(path: Path) -> None:
+    """Garbage lines and a missing end: python-can's ASC reader skips both silently."""
+    last = ""
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for number, line in enumerate(fh, start=1):
+            text = line.strip()
+            if not text:
+                continue
+            last = text
+            if not _ASC_LINE.match(text):
+                raise BadInputError(
+                    f"CAN log {path.name}: line {number}: expected an ASC frame or header line, "
+                    f"got {text[:60]!r}"
+                )
+    if not last.lower().startswith("end triggerblock"):
+        raise BadInputError(
+            f"CAN log {path.name}: expected 'End TriggerBlock' as the last line, got "
+            f"{last[:60]!r} (truncated file?)"
+        )
+
+
+def _check_blf(path: Path) -> None:
+    """A file shorter than its header says: python-can's BLF reader stops there silently."""
+    with open(path, "rb") as fh:
+        head = fh.read(_BLF_HEADER.size)
+    if len(head) < _BLF_HEADER.size or head[:4] != b"LOGG":
+        raise BadInputError(f"CAN log {path.name}: expected a BLF file header 'LOGG', got none")
+    declared = _BLF_HEADER.unpack(head)[10]
+    actual = path.stat().st_size
+    if declared and actual < declared:
+        raise BadInputError(
+            f"CAN log {path.name}: expected {declared} bytes (BLF header), got {actual} "
+            "(truncated file)"
+        )
+
+
 def _read_python_can(
     path: Path, ids: Collection[int] | None, bus: str | None
 ) -> tuple[CanFrames, FrameCounts]:
@@ -114,6 +162,10 @@ def _read_python_can(
     n_data = n_error = n_remote = n_other = 0
     buses: set[str] = set()
     wanted = None if ids is None else frozenset(ids)
+    if path.suffix.lower() == ".asc":
+        _check_asc(path)
+    elif path.suffix.lower() == ".blf":
+        _check_blf(path)
     try:
         reader = can.LogReader(str(path))
     except Exception as err:
@@ -130,7 +182,7 @@ def _read_python_can(
                 n_data += 1
                 if wanted is not None and msg.arbitration_id not in wanted:
                     continue
-                channel = str(msg.channel)
+                channel = "" if msg.channel is None else str(msg.channel)
                 buses.add(channel)
                 if bus is not None and channel != bus:
                     n_other += 1
