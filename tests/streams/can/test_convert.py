@@ -175,7 +175,9 @@ def test_no_profile_frames_at_all(profile, tmp_path):
 
 def test_a_dbc_without_the_profile_message(messages, profile, tmp_path):
     dbc = tmp_path / "other.dbc"
-    dbc.write_text('VERSION ""\n\nBU_:\n\nBO_ 951 OTHER: 8 XXX\n SG_ X : 7|8@0+ (1,0) [0|0] "" XXX\n')
+    dbc.write_text(
+        'VERSION ""\n\nBU_:\n\nBO_ 951 OTHER: 8 XXX\n SG_ X : 7|8@0+ (1,0) [0|0] "" XXX\n'
+    )
     path = write_can_log(messages, tmp_path / "drive.log")
     with pytest.raises(BadInputError, match="expects message 'WHEEL_SPEEDS' in the DBC"):
         read_can_log(path, profile, dbc=dbc)

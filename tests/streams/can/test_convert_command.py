@@ -127,3 +127,33 @@ def test_criticize_stream_takes_a_can_log(rav4, profile, db, tmp_path, capsys):
         answers.append(json.loads(stdout))
     assert answers[0] == answers[1]
     assert answers[0]["baseline"]["elpd"] is not None
+
+
+def test_fit_tyre_takes_a_can_log(rav4, profile, db, tmp_path, capsys, monkeypatch):
+    """fit-tyre --profile fits the windows of the decoded log (the fit itself is stubbed out)."""
+    import tyrebayes.inference.tyre_fit as tyre_fit
+    from tyrebayes import BadInputError
+    from tyrebayes.inference.tyre_data import observations_from_stream
+    from tyrebayes.simulate.can_log import stream_messages
+    from tyrebayes.streams import write_stream
+    from tyrebayes.streams.can import read_can_log
+    from tyrebayes.streams.synthetic import synthetic_stream
+
+    df, _ = synthetic_stream(rav4, duration_s=60.0, rate_hz=50.0, seed=6)
+    msgs = stream_messages(df, profile, db, wheel_radius_m=rav4.wheel_radius_m)
+    log = write_can_log(msgs, tmp_path / "drive.blf")
+    seen = []
+
+    def stub(obs, **kwargs):
+        seen.append(obs)
+        raise BadInputError("stub: fit skipped")
+
+    monkeypatch.setattr(tyre_fit, "fit_tyre", stub)
+    argv = [str(log), "--profile", "toyota_rav4_2017", "--vehicle", "suv_rav4", "--method", "fast"]
+    code, _, stderr = _run(capsys, ["fit-tyre", *argv, "--json"])
+    assert code == 2 and "stub: fit skipped" in stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["drive.blf"]  # temporary file removed
+    decoded = tmp_path / "decoded.parquet"
+    write_stream(read_can_log(log, profile).data, decoded)
+    expected = observations_from_stream(decoded, "suv_rav4")
+    np.testing.assert_array_equal(np.asarray(seen[0].slip), np.asarray(expected.slip))
