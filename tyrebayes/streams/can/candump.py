@@ -161,12 +161,12 @@ class _Block:
         rows, s, e, c, h = rows[on_bus], s[on_bus], e[on_bus], c[on_bus], h[on_bus]
         # Timestamp: "(" integer "." fraction ")".
         dot = c - 7  # candump writes microseconds: "(SECONDS.UUUUUU)"
-        if not np.all(buf[np.maximum(dot, 0)] == 46):
+        if not np.all((dot > s + 1) & (buf[np.maximum(dot, 0)] == 46)):
             dot = _first_at_or_after(np.flatnonzero(buf == 46), s, buf.size)
         int_len, frac_len = dot - s - 1, c - dot - 1
         ok = (dot < c) & (int_len >= 1) & (int_len <= 12) & (frac_len >= 1) & (frac_len <= 9)
         if not ok.all():
-            self.fail(int(rows[~ok][0]), *self._row_bounds(), "a timestamp '(SECONDS.FRACTION)'")
+            self.fail(int(rows[~ok][0]), starts, ends, "a timestamp '(SECONDS.FRACTION)'")
         time_s = np.empty(rows.size)
         key = int_len * 16 + frac_len
         for k in np.unique(key).tolist():
@@ -175,7 +175,7 @@ class _Block:
             whole, bad_w = _digits(buf, s[sel] + 1, il, _DEC, 10)
             frac, bad_f = _digits(buf, dot[sel] + 1, fl, _DEC, 10)
             if (bad_w | bad_f).any():
-                self.fail(int(rows[sel][bad_w | bad_f][0]), *self._row_bounds(), "a timestamp")
+                self.fail(int(rows[sel][bad_w | bad_f][0]), starts, ends, "a timestamp")
             time_s[sel] = whole + frac / 10.0**fl
         # Payload: after "#" (or "##F" for CAN FD), up to an optional " R"/" T".
         fd = buf[h + 1] == 35
@@ -186,7 +186,7 @@ class _Block:
         n_hex = d1 - d0
         ok = (n_hex >= 0) & (n_hex % 2 == 0) & (n_hex <= 128)
         if not ok.all():
-            self.fail(int(rows[~ok][0]), *self._row_bounds(), "an even number of hex digits")
+            self.fail(int(rows[~ok][0]), starts, ends, "an even number of hex digits")
         n_bytes = n_hex // 2
         width = int(n_bytes.max()) if n_bytes.size else 8
         data = np.zeros((rows.size, max(width, 1)), dtype=np.uint8)
@@ -197,14 +197,9 @@ class _Block:
             d = _HEX[buf[d0[sel, None] + np.arange(2 * nb)]]
             bad = np.any(d == 255, axis=1)
             if bad.any():
-                self.fail(int(rows[sel][bad][0]), *self._row_bounds(), "hex payload digits")
+                self.fail(int(rows[sel][bad][0]), starts, ends, "hex payload digits")
             data[sel, :nb] = (d[:, 0::2] << 4) | d[:, 1::2]
         return time_s, can_id[rows], data, n_bytes
-
-    def _row_bounds(self):
-        nl = np.flatnonzero(self.buf == 10)
-        starts = np.concatenate(([0], nl[:-1] + 1))[self.lines]
-        return starts, nl[self.lines]
 
 
 def read_candump(
