@@ -72,9 +72,7 @@ def bind_profile(profile: CarProfile, db) -> dict[str, BoundMessage]:
     """The profile's messages looked up in the DBC (names expected vs found on a mismatch)."""
     bound: dict[str, BoundMessage] = {}
     for ch in profile.channels:
-        if ch.message in bound:
-            message = bound[ch.message]
-        else:
+        if ch.message not in bound:
             try:
                 msg = db.get_message_by_name(ch.message)
             except KeyError:
@@ -84,12 +82,16 @@ def bind_profile(profile: CarProfile, db) -> dict[str, BoundMessage]:
                     f"{ch.message!r} in the DBC, got none of that name (DBC messages: "
                     f"{', '.join(names[:8])}{', ...' if len(names) > 8 else ''})"
                 ) from None
-            message = BoundMessage(msg.name, int(msg.frame_id), int(msg.length), {})
-            bound[ch.message] = message
-            msg_signals = {s.name: s for s in msg.signals}
-            message.signals.update({name: signal_layout(s) for name, s in msg_signals.items()})
+            layouts = {s.name: signal_layout(s) for s in msg.signals if not s.multiplexer_ids}
+            bound[ch.message] = BoundMessage(msg.name, int(msg.frame_id), int(msg.length), layouts)
+        message = bound[ch.message]
         for name in ch.signals + ch.invalid:
             if name not in message.signals:
+                multiplexed = [
+                    s for s in db.get_message_by_name(ch.message).signals if s.name == name
+                ]
+                if multiplexed:
+                    signal_layout(multiplexed[0])  # raises: multiplexed signals are refused
                 raise BadInputError(
                     f"profile {profile.name}: channel {ch.column} expects signal {name!r} in "
                     f"message {ch.message}, got signals {sorted(message.signals)}"
