@@ -181,3 +181,20 @@ def test_a_dbc_without_the_profile_message(messages, profile, tmp_path):
     path = write_can_log(messages, tmp_path / "drive.log")
     with pytest.raises(BadInputError, match="expects message 'WHEEL_SPEEDS' in the DBC"):
         read_can_log(path, profile, dbc=dbc)
+
+
+def test_multiplexed_signals_are_refused(messages, tmp_path):
+    dbc = tmp_path / "mux.dbc"
+    dbc.write_text(
+        'VERSION ""\n\nBU_: XXX\n\nBO_ 170 WHEEL_SPEEDS: 8 XXX\n'
+        ' SG_ MUX M : 0|8@1+ (1,0) [0|0] "" XXX\n'
+        ' SG_ WHEEL_SPEED_FL m1 : 8|16@1+ (0.01,0) [0|0] "km/h" XXX\n'
+    )
+    profile = tmp_path / "car.toml"
+    profile.write_text(
+        f'vehicle = "suv_rav4"\ndbc = "{dbc}"\n[channels.wheel_speed_fl]\n'
+        'message = "WHEEL_SPEEDS"\nsignals = ["WHEEL_SPEED_FL"]\nunit = "km/h"\n'
+    )
+    path = write_can_log(messages, tmp_path / "drive.log")
+    with pytest.raises(BadInputError, match="WHEEL_SPEED_FL: expected a plain signal"):
+        read_can_log(path, profile)
