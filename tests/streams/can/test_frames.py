@@ -48,3 +48,16 @@ def test_suffix_and_missing_file(tmp_path):
         read_frames(tmp_path / "bus.txt")
     with pytest.raises(BadInputError, match="expected a readable file"):
         read_frames(tmp_path / "missing.blf")
+
+
+def test_truncated_mf4_bus_log(messages, tmp_path, capsys):
+    from tyrebayes.cli import main
+
+    whole = write_can_log(messages, tmp_path / "whole.mf4").read_bytes()
+    cut = tmp_path / "cut.mf4"
+    cut.write_bytes(whole[: len(whole) // 2])
+    out = tmp_path / "out.parquet"
+    code = main(["convert", str(cut), "--profile", "toyota_rav4_2017", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and "cut.mf4: cannot open" in err and err.count("\n") == 1
+    assert not out.exists()

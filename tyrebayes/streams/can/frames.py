@@ -19,9 +19,11 @@ Examples
 
 from __future__ import annotations
 
+import gc
 import os
 import re
 import struct
+import sys
 from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
@@ -154,7 +156,6 @@ def _check_blf(path: Path) -> None:
 def _read_python_can(
     path: Path, ids: Collection[int] | None, bus: str | None
 ) -> tuple[CanFrames, FrameCounts]:
-    import can
 
     times: list[float] = []
     arb: list[int] = []
@@ -166,10 +167,7 @@ def _read_python_can(
         _check_asc(path)
     elif path.suffix.lower() == ".blf":
         _check_blf(path)
-    try:
-        reader = can.LogReader(str(path))
-    except Exception as err:
-        raise BadInputError(f"CAN log {path.name}: cannot open ({_first_line(err)})") from None
+    reader = _open_reader(path)
     try:
         with reader:
             for msg in reader:
@@ -206,6 +204,26 @@ def _read_python_can(
         np.asarray(times, dtype=np.float64), np.asarray(arb, dtype=np.int64), data, lengths
     )
     return frames, counts
+
+
+def _open_reader(path: Path):
+    """python-can's reader for the suffix, or BadInputError with the reason."""
+    import can
+
+    # asammdf's MDF4.__del__ raises on a half-opened (truncated) file; that would print a
+    # traceback under the one-line error, so it is silenced while the failed reader is freed.
+    hook = sys.unraisablehook
+    sys.unraisablehook = lambda unraisable: None
+    try:
+        try:
+            return can.LogReader(str(path))
+        except Exception as err:
+            reason = _first_line(err)
+            del err
+        gc.collect()
+    finally:
+        sys.unraisablehook = hook
+    raise BadInputError(f"CAN log {path.name}: cannot open ({reason})")
 
 
 def _first_line(err: BaseException) -> str:
