@@ -81,7 +81,10 @@ def test_fault_bit_marks_the_sample_invalid(drive, messages, profile, tmp_path):
             data = bytearray(msg.data)
             data[2] |= 0x80  # WHEEL_SPEED_FL_FAULT: start bit 23 = byte 2, bit 7
             msg = can.Message(
-                timestamp=msg.timestamp, arbitration_id=msg.arbitration_id, data=bytes(data)
+                timestamp=msg.timestamp,
+                arbitration_id=msg.arbitration_id,
+                data=bytes(data),
+                channel=msg.channel,
             )
             n_fault += 1
         faulty.append(msg)
@@ -121,6 +124,11 @@ def test_bus_filter(drive, profile, db, rav4, tmp_path):
     np.testing.assert_allclose(conv.data["wheel_speed_fl"], drive["wheel_speed_fl"], atol=step)
     with pytest.raises(BadInputError, match=r"on bus 'can7'.*\['can0', 'can1'\]"):
         read_can_log(path, profile, bus="can7")
+    # Without a bus the two copies would interleave: refused, naming the buses.
+    with pytest.raises(BadInputError, match=r"on one bus, got it on \['can0', 'can1'\]"):
+        read_can_log(path, profile, bus="")
+    conv_blf = read_can_log(write_can_log(on0 + on1, tmp_path / "two.blf"), profile, bus="1")
+    np.testing.assert_allclose(conv_blf.data["wheel_speed_fl"], other["wheel_speed_fl"], atol=step)
 
 
 def test_read_stream_dispatches_can_logs(messages, profile, tmp_path):
@@ -143,7 +151,7 @@ def test_profile_message_that_never_appears(messages, profile, tmp_path):
 
 def test_frames_of_another_length_mean_the_dbc_does_not_match(messages, profile, tmp_path):
     short = [
-        can.Message(timestamp=m.timestamp, arbitration_id=m.arbitration_id, data=m.data[:6])
+        can.Message(timestamp=m.timestamp, arbitration_id=0x24, data=m.data[:6], channel=m.channel)
         if m.arbitration_id == 0x24
         else m
         for m in messages
@@ -159,7 +167,9 @@ def test_signal_outside_its_dbc_range(messages, profile, tmp_path):
         if m.arbitration_id == 0x25 and len(bad) > 20:
             data = bytearray(m.data)
             data[4] = (data[4] & 0x0F) | 0x80  # STEER_FRACTION raw -8 = -0.8 deg < -0.7
-            m = can.Message(timestamp=m.timestamp, arbitration_id=0x25, data=bytes(data))
+            m = can.Message(
+                timestamp=m.timestamp, arbitration_id=0x25, data=bytes(data), channel=m.channel
+            )
         bad.append(m)
     path = write_can_log(bad, tmp_path / "range.log")
     with pytest.raises(BadInputError, match=r"STEER_FRACTION.*\[-0.7, 0.7\], got -0.8"):

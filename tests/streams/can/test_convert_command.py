@@ -64,7 +64,9 @@ def _bad_logs(messages, profile, tmp_path):
         if m.arbitration_id == 0x25 and k > 40:
             data = bytearray(m.data)
             data[4] = (data[4] & 0x0F) | 0x80  # STEER_FRACTION = -0.8 deg, DBC range ±0.7
-            m = can.Message(timestamp=m.timestamp, arbitration_id=0x25, data=bytes(data))
+            m = can.Message(
+                timestamp=m.timestamp, arbitration_id=0x25, data=bytes(data), channel=m.channel
+            )
         out_of_range.append(m)
     out_of_range = write_can_log(out_of_range, tmp_path / "range.log")
     return [

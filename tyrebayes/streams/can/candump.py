@@ -155,10 +155,16 @@ class _Block:
             sel = np.flatnonzero(chan_len == width)
             raw = buf[c[sel, None] + 2 + np.arange(width)]
             names[sel] = np.ascontiguousarray(raw).view(f"S{width}").ravel()
-        self.buses = {bytes(b) for b in set(names.tolist())}
+        self.buses = sorted({bytes(b) for b in set(names.tolist())})
+        if len(self.buses) == 1:
+            code = np.zeros(rows.size, dtype=np.int64)
+        else:
+            lookup = {b: i for i, b in enumerate(self.buses)}
+            code = np.fromiter((lookup[n] for n in names), dtype=np.int64, count=rows.size)
         on_bus = np.ones(rows.size, dtype=bool) if bus is None else names == bus
         self.n_other = int((~on_bus).sum())
         rows, s, e, c, h = rows[on_bus], s[on_bus], e[on_bus], c[on_bus], h[on_bus]
+        code = code[on_bus]
         # Timestamp: "(" integer "." fraction ")".
         dot = c - 7  # candump writes microseconds: "(SECONDS.UUUUUU)"
         if not np.all((dot > s + 1) & (buf[np.maximum(dot, 0)] == 46)):
@@ -199,7 +205,7 @@ class _Block:
             if bad.any():
                 self.fail(int(rows[sel][bad][0]), starts, ends, "hex payload digits")
             data[sel, :nb] = (d[:, 0::2] << 4) | d[:, 1::2]
-        return time_s, can_id[rows], data, n_bytes
+        return time_s, can_id[rows], data, n_bytes, code
 
 
 def read_candump(
@@ -255,18 +261,22 @@ def read_candump(
             n_error += parser.n_error
             n_remote += parser.n_remote
             n_other += parser.n_other
-            buses |= parser.buses
+            buses |= set(parser.buses)
             if kept[0].size:
-                parts.append(kept)
+                parts.append((*kept, parser.buses))
     if carry.strip():
         text = carry[:60].decode("ascii", "replace")
         raise BadInputError(
             f"CAN log {path.name}: line {line + 1}: expected a line ending in a newline, got "
             f"{text!r} at the end of the file (truncated file?)"
         )
-    names = tuple(sorted(b.decode("ascii", "replace") for b in buses))
+    order = sorted(buses)
+    names = tuple(b.decode("ascii", "replace") for b in order)
     if not parts:
         return empty_frames(), FrameCounts(n_data, n_error, n_remote, 0, n_other, names)
+    # Each block numbered its own buses: renumber them in the log's sorted list.
+    index = {b: i for i, b in enumerate(order)}
+    codes = [np.array([index[b] for b in p[5]], dtype=np.int64)[p[4]] for p in parts]
     width = max(p[2].shape[1] for p in parts)
     data = np.zeros((sum(p[2].shape[0] for p in parts), width), dtype=np.uint8)
     row = 0
@@ -278,5 +288,7 @@ def read_candump(
         np.concatenate([p[1] for p in parts]),
         data,
         np.concatenate([p[3] for p in parts]).astype(np.int64),
+        np.concatenate(codes),
+        names,
     )
     return frames, FrameCounts(n_data, n_error, n_remote, frames.time_s.size, n_other, names)

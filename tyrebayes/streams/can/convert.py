@@ -170,6 +170,14 @@ def decode_frames(
                 f"(0x{message.frame_id:X}), got none (the profile's messages present: "
                 f"{[f'0x{i:X}' for i in present]})"
             )
+        on = frames.bus[rows]
+        if on.size and on.min() != on.max():
+            buses = [frames.bus_names[i] for i in np.unique(on)]
+            raise BadInputError(
+                f"CAN log {log_name}: expected message {message.name} (0x{message.frame_id:X}) "
+                f"on one bus, got it on {buses} (a gateway mirrors it?): choose one with --bus "
+                "or the profile's bus"
+            )
         lengths = frames.length[rows]
         wrong = lengths != message.length
         if wrong.any():

@@ -52,12 +52,18 @@ class CanFrames:
         Payloads, zero-padded to the longest kept frame.
     length : ndarray of int64, shape (n,)
         Payload length of each frame [bytes].
+    bus : ndarray of int64, shape (n,)
+        Bus of each frame, an index into ``bus_names``.
+    bus_names : tuple of str
+        The buses, as the reader names them.
     """
 
     time_s: Float[np.ndarray, "n"]
     arbitration_id: Int[np.ndarray, "n"]
     data: UInt8[np.ndarray, "n width"]
     length: Int[np.ndarray, "n"]
+    bus: Int[np.ndarray, "n"]
+    bus_names: tuple[str, ...]
 
 
 @dataclass(frozen=True)
@@ -89,9 +95,8 @@ class FrameCounts:
 
 def empty_frames() -> CanFrames:
     """A frame table with no rows."""
-    return CanFrames(
-        np.zeros(0), np.zeros(0, np.int64), np.zeros((0, 8), np.uint8), np.zeros(0, np.int64)
-    )
+    none = np.zeros(0, np.int64)
+    return CanFrames(np.zeros(0), none, np.zeros((0, 8), np.uint8), none, none, ())
 
 
 def stack_payloads(payloads: list[bytes]) -> tuple[np.ndarray, np.ndarray]:
@@ -160,6 +165,7 @@ def _read_python_can(
     times: list[float] = []
     arb: list[int] = []
     payloads: list[bytes] = []
+    frame_bus: list[str] = []
     n_data = n_error = n_remote = n_other = 0
     buses: set[str] = set()
     wanted = None if ids is None else frozenset(ids)
@@ -188,6 +194,7 @@ def _read_python_can(
                 times.append(msg.timestamp)
                 arb.append(msg.arbitration_id)
                 payloads.append(bytes(msg.data))
+                frame_bus.append(channel)
     except BadInputError:
         raise
     except Exception as err:
@@ -196,12 +203,19 @@ def _read_python_can(
             f"CAN log {path.name}: cannot read past frame {n_data + n_error + n_remote} "
             f"(truncated or corrupt file? {_first_line(err)})"
         ) from None
-    counts = FrameCounts(n_data, n_error, n_remote, len(times), n_other, tuple(sorted(buses)))
+    names = tuple(sorted(buses))
+    counts = FrameCounts(n_data, n_error, n_remote, len(times), n_other, names)
     if not times:
         return empty_frames(), counts
     data, lengths = stack_payloads(payloads)
+    index = {name: i for i, name in enumerate(names)}
     frames = CanFrames(
-        np.asarray(times, dtype=np.float64), np.asarray(arb, dtype=np.int64), data, lengths
+        np.asarray(times, dtype=np.float64),
+        np.asarray(arb, dtype=np.int64),
+        data,
+        lengths,
+        np.fromiter((index[b] for b in frame_bus), dtype=np.int64, count=len(frame_bus)),
+        names,
     )
     return frames, counts
 
