@@ -63,8 +63,9 @@ def test_bus_filter_and_bus_names(tmp_path):
     assert counts.other_bus == 6
 
 
-def test_blocks_split_lines_anywhere(tmp_path, monkeypatch):
-    """Lines cut by the block boundary are carried to the next block."""
+@pytest.mark.parametrize("block", [97, 16])
+def test_blocks_split_lines_anywhere(tmp_path, monkeypatch, block):
+    """Lines cut by the block boundary are carried to the next block (16: lines longer)."""
     rng = np.random.default_rng(4)
     lines = [
         f"({1700000000 + k * 0.001:.6f}) can0 {rng.integers(0, 0x7FF):03X}#"
@@ -74,7 +75,7 @@ def test_blocks_split_lines_anywhere(tmp_path, monkeypatch):
     path = tmp_path / "many.log"
     path.write_text("\n".join(lines) + "\n")
     whole, counts = read_candump(path)
-    monkeypatch.setattr(candump, "_BLOCK_BYTES", 97)
+    monkeypatch.setattr(candump, "_BLOCK_BYTES", block)
     split, split_counts = read_candump(path)
     assert _ours(split) == _ours(whole) == _python_can(path)
     assert split_counts == counts

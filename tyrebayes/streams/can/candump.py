@@ -100,7 +100,8 @@ class _Block:
         ends = nl - (buf[np.maximum(nl - 1, 0)] == 13)  # content end, without a \r
         self.lines = np.flatnonzero(ends > starts)  # empty lines are skipped
         self.n_lines = nl.size
-        starts, ends = starts[self.lines], ends[self.lines]
+        if self.lines.size < nl.size:
+            starts, ends = starts[self.lines], ends[self.lines]
         if starts.size == 0:
             return None
         size = buf.size
@@ -120,7 +121,12 @@ class _Block:
         can_id = np.zeros(starts.size, dtype=np.int64)
         for width in (3, 8):
             sel = np.flatnonzero(id_len == width)
-            if sel.size:
+            if sel.size == starts.size:  # one identifier width in the block: no gathers
+                value, bad = _digits(buf, id_space + 1, width, _HEX, 16)
+                if bad.any():
+                    self.fail(int(np.flatnonzero(bad)[0]), starts, ends, "a hex CAN identifier")
+                can_id = value
+            elif sel.size:
                 value, bad = _digits(buf, id_space[sel] + 1, width, _HEX, 16)
                 if bad.any():
                     self.fail(int(sel[bad][0]), starts, ends, "a hex CAN identifier")
@@ -141,30 +147,41 @@ class _Block:
     def _kept(self, rows, starts, ends, hash_at, id_space, can_id, bus):
         buf = self.buf
         s, e, h, sp = starts[rows], ends[rows], hash_at[rows], id_space[rows]
-        # The ')' closing the timestamp: searched in a short window at the start of each line.
-        window = buf[np.minimum(s[:, None] + np.arange(_TIME_WINDOW), buf.size - 1)]
-        found = window == 41
-        c = s + np.argmax(found, axis=1)
-        ok = found.any(axis=1) & (c + 1 < sp) & (buf[np.minimum(c + 1, buf.size - 1)] == 32)
+        # The ')' closing the timestamp: where the first kept line has it (one timestamp width
+        # throughout a log), else searched in a short window at the start of each line.
+        c = s + _TIME_WINDOW
+        if s.size:
+            first = int(np.argmax(buf[s[0] : s[0] + _TIME_WINDOW] == 41))
+            c = s + first
+        if not np.all(buf[np.minimum(c, buf.size - 1)] == 41):
+            window = buf[np.minimum(s[:, None] + np.arange(_TIME_WINDOW), buf.size - 1)]
+            found = window == 41
+            c = np.where(found.any(axis=1), s + np.argmax(found, axis=1), s + _TIME_WINDOW)
+        ok = (c + 1 < sp) & (buf[np.minimum(c + 1, buf.size - 1)] == 32)
         if not ok.all():
             self.fail(int(rows[~ok][0]), starts, ends, "'(SECONDS) CHANNEL ID#DATA'")
-        # Channel names, compared as bytes (few distinct lengths).
+        # Channel names as fixed-width byte strings, one group per name length.
         chan_len = sp - c - 2
-        names = np.empty(rows.size, dtype=object)
-        for width in np.unique(chan_len):
+        names: list[bytes] = []
+        code = np.zeros(rows.size, dtype=np.int64)
+        on_bus = np.ones(rows.size, dtype=bool) if bus is None else np.zeros(rows.size, bool)
+        for width in np.unique(chan_len).tolist():
             sel = np.flatnonzero(chan_len == width)
             raw = buf[c[sel, None] + 2 + np.arange(width)]
-            names[sel] = np.ascontiguousarray(raw).view(f"S{width}").ravel()
-        self.buses = sorted({bytes(b) for b in set(names.tolist())})
-        if len(self.buses) == 1:
-            code = np.zeros(rows.size, dtype=np.int64)
-        else:
-            lookup = {b: i for i, b in enumerate(self.buses)}
-            code = np.fromiter((lookup[n] for n in names), dtype=np.int64, count=rows.size)
-        on_bus = np.ones(rows.size, dtype=bool) if bus is None else names == bus
+            group = np.ascontiguousarray(raw).view(f"S{width}").ravel()
+            if np.all(group == group[0]):  # the common case: one bus
+                uniq, inverse = group[:1], np.zeros(sel.size, dtype=np.int64)
+            else:
+                uniq, inverse = np.unique(group, return_inverse=True)
+            code[sel] = len(names) + inverse
+            names.extend(bytes(b) for b in uniq.tolist())
+            if bus is not None:
+                on_bus[sel] = group == bus
+        self.buses = names
         self.n_other = int((~on_bus).sum())
-        rows, s, e, c, h = rows[on_bus], s[on_bus], e[on_bus], c[on_bus], h[on_bus]
-        code = code[on_bus]
+        if bus is not None:
+            rows, s, e, c, h = rows[on_bus], s[on_bus], e[on_bus], c[on_bus], h[on_bus]
+            code = code[on_bus]
         # Timestamp: "(" integer "." fraction ")".
         dot = c - 7  # candump writes microseconds: "(SECONDS.UUUUUU)"
         if not np.all((dot > s + 1) & (buf[np.maximum(dot, 0)] == 46)):
@@ -240,30 +257,36 @@ def read_candump(
     n_data = n_error = n_remote = n_other = 0
     buses: set[bytes] = set()
     line = 0
-    carry = b""
+    block = bytearray(_BLOCK_BYTES)
+    held = 0  # bytes of an unfinished line carried to the front of the block
     with open(path, "rb") as fh:
         while True:
-            chunk = fh.read(_BLOCK_BYTES)
-            if not chunk:
+            if held == len(block):  # a line longer than the block: make room
+                block.extend(bytes(len(block)))
+            with memoryview(block) as view:
+                got = fh.readinto(view[held:])
+            if not got:
                 break
-            block = carry + chunk if carry else chunk
-            cut = block.rfind(b"\n")
+            total = held + got
+            cut = block.rfind(b"\n", 0, total)
             if cut < 0:
-                carry = block
+                held = total
                 continue
-            carry = block[cut + 1 :]
             parser = _Block(np.frombuffer(block, dtype=np.uint8, count=cut + 1), line, path.name)
             kept = parser.parse(wanted, bus_bytes)
             line += parser.n_lines
-            if kept is None:
-                continue
-            n_data += parser.n_data
-            n_error += parser.n_error
-            n_remote += parser.n_remote
-            n_other += parser.n_other
-            buses |= set(parser.buses)
-            if kept[0].size:
-                parts.append((*kept, parser.buses))
+            if kept is not None:
+                n_data += parser.n_data
+                n_error += parser.n_error
+                n_remote += parser.n_remote
+                n_other += parser.n_other
+                buses |= set(parser.buses)
+                if kept[0].size:
+                    parts.append((*kept, parser.buses))
+            del parser  # releases its view of the block before the block is reused
+            held = total - (cut + 1)
+            block[:held] = block[cut + 1 : total]
+    carry = bytes(block[:held])
     if carry.strip():
         text = carry[:60].decode("ascii", "replace")
         raise BadInputError(
