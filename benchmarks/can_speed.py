@@ -10,8 +10,11 @@ SPEED at 10 Hz: 250 frames/s) encoded by cantools from a simulated 10-minute dri
 over the hour, plus 2,250 frames/s of 45 other 8-byte DBC messages with random payloads at
 random phases. candump text is written with NumPy, BLF and ASC with python-can's writers.
 
-Each measurement runs in a fresh Python process pinned to one core (candump and the per-frame
-path: the fastest of three runs, as the machine is shared): the time covers
+Each measurement runs in a fresh, single-threaded Python process (its CPU time never exceeds its
+wall time: one core; not pinned, so that the scheduler can move it off a core another process
+holds), candump and the per-frame path the fastest of three runs as the machine is shared. The
+speed-up is judged on CPU time, which others' load on the shared machine does not inflate; wall
+times are reported beside it: the time covers
 ``read_can_log`` (read, decode) + ``validate_stream`` (one time base); the memory is the peak
 resident set of the process (``VmHWM``: ``resource.getrusage``'s ``ru_maxrss`` is kept too but
 Linux carries it over from the forking parent, which holds the synthesised bus) and that minus
@@ -57,7 +60,6 @@ REPEATS = 3  # candump and per-frame runs: the fastest of three; BLF and ASC: on
 
 _CHILD = r"""
 import json, os, resource, sys, time
-os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
 from tyrebayes.physics.vehicle import load_vehicle
 from tyrebayes.streams import validate_stream
 from tyrebayes.streams.can import read_can_log
@@ -85,7 +87,6 @@ print(json.dumps({
 
 _SLOW_CHILD = r"""
 import json, os, resource, sys, time
-os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
 import can, numpy as np
 from tyrebayes.streams.can import load_dbc, load_profile
 profile = load_profile(sys.argv[2])
@@ -320,6 +321,7 @@ def main() -> int:
             path.unlink()
     fast = [r for r in runs if r["format"] == "candump" and "NumPy" in r["reader"]]
     top = max(fast, key=lambda r: r["hours"])
+    speedup_cpu = (slow["cpu_s"] / slow["measured_hours"]) / (top["cpu_s"] / top["measured_hours"])
     summary = {
         "target_s_per_hour_candump": TARGET_S_PER_HOUR,
         "target_peak_mb": TARGET_MB,
@@ -335,19 +337,23 @@ def main() -> int:
         "candump_peak_over_baseline_mb": top["peak_over_baseline_mb"],
         "meets_time_target": top["s_per_hour"] <= TARGET_S_PER_HOUR,
         "meets_memory_target": top["peak_rss_mb"] <= TARGET_MB,
-        "speedup_vs_per_frame": slow["s_per_hour"] / top["s_per_hour"],
-        "meets_speedup_target": slow["s_per_hour"] / top["s_per_hour"] >= TARGET_SPEEDUP,
-        # CPU time is less disturbed by the other processes on a shared machine than wall time.
-        "speedup_vs_per_frame_cpu": (slow["cpu_s"] / slow["measured_hours"])
-        / (top["cpu_s"] / top["measured_hours"]),
+        "speedup_vs_per_frame_wall": slow["s_per_hour"] / top["s_per_hour"],
+        # CPU time is not inflated by the other processes on a shared machine; wall time is.
+        "speedup_vs_per_frame_cpu": speedup_cpu,
+        "meets_speedup_target": speedup_cpu >= TARGET_SPEEDUP,
         "s_per_hour_by_length": {str(r["hours"]): r["s_per_hour"] for r in fast},
+        # Linearity in CPU time: the wall time of one run also holds others' load.
+        "cpu_s_per_hour_by_length": {
+            str(r["hours"]): r["cpu_s"] / r["measured_hours"] for r in fast
+        },
+        "candump_cpu_s_per_hour": top["cpu_s"] / top["measured_hours"],
         "blf_s_per_hour": next(r["s_per_hour"] for r in runs if r["format"] == "blf"),
         "asc_s_per_hour": next(r["s_per_hour"] for r in runs if r["format"] == "asc"),
         "cpu_count": os.cpu_count(),
         "load_average_1min_at_start": load_at_start,
         "note": (
-            "shared 2-core machine (other agents running); each measurement in a fresh process "
-            "pinned to one core, candump and per-frame runs the fastest of 3, BLF and ASC one "
+            "shared 2-core machine (other agents running); each measurement in a fresh "
+            "single-threaded process, candump and per-frame runs the fastest of 3, BLF and ASC one "
             "run; total_s is wall clock after the imports, cpu_s "
             "the process CPU time; peak_rss_mb is the peak resident set of the whole process "
             "(VmHWM, imports included), peak_over_baseline_mb what the log and the pipeline "
