@@ -48,6 +48,8 @@ from .simulate.vehicle_truth import ThermalSpread as ThermalSpread
 from .simulate.vehicle_truth import VehicleSpread as VehicleSpread
 from .simulate.vehicle_truth import draw_true_thermal as draw_true_thermal
 from .simulate.vehicle_truth import draw_true_vehicle as draw_true_vehicle
+from .streams.can.convert import read_can_log as read_can_log
+from .streams.can.profile import load_profile as load_profile
 from .streams.features import StreamFeatures as StreamFeatures
 from .streams.features import compute_features as compute_features
 from .streams.io import read_stream as read_stream

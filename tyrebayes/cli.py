@@ -16,6 +16,7 @@ from ._errors import BadInputError
 # Order is the order shown in ``tyrebayes --help``.
 _COMMAND_MODULES = (
     "demo",
+    "convert",
     "inspect",
     "fit_tyre",
     "fleet",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -70,3 +71,46 @@ def atomic_path(path: str | os.PathLike) -> tuple[Path, Path]:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
     return tmp, path
+
+
+def add_can_arguments(parser) -> None:
+    """``--profile``, ``--dbc``, ``--bus``: read the input as a raw CAN log with a car profile."""
+    parser.add_argument(
+        "--profile",
+        default=None,
+        help="car profile name (e.g. toyota_rav4_2017) or TOML path: the input is a raw CAN log "
+        "(.log candump, .asc, .blf, .csv python-can, .mf4 bus logging) decoded with its DBC",
+    )
+    parser.add_argument(
+        "--dbc", default=None, help="with --profile: a DBC instead of the profile's"
+    )
+    parser.add_argument(
+        "--bus", default=None, help="with --profile: use frames of this bus only (e.g. can0, 0)"
+    )
+
+
+@contextlib.contextmanager
+def stream_file(args, vehicle: str | None = None):
+    """The stream file of a command: ``args.stream``, or a CAN log decoded into a temporary file.
+
+    With ``--profile`` the log is decoded (:func:`tyrebayes.streams.can.read_can_log`, wheel
+    speeds converted with ``vehicle``'s nominal radius) and written to a temporary Parquet file
+    that lives for the ``with`` block, so that commands that read stream files take CAN logs
+    unchanged.
+    """
+    if getattr(args, "profile", None) is None:
+        for name in ("dbc", "bus"):
+            if getattr(args, name, None) is not None:
+                raise BadInputError(f"--{name}: expected together with --profile, got it alone")
+        yield existing_file(args.stream)
+        return
+    from ..streams import write_stream
+    from ..streams.can import read_can_log
+
+    conversion = read_can_log(
+        existing_file(args.stream), args.profile, dbc=args.dbc, vehicle=vehicle, bus=args.bus
+    )
+    with tempfile.TemporaryDirectory(prefix="tyrebayes-can-") as tmp:
+        path = Path(tmp) / f"{Path(args.stream).stem}.parquet"
+        write_stream(conversion.data, path)
+        yield path

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import pandas as pd
 
 from .._errors import BadInputError
-from ._common import existing_file, print_json
+from ._common import add_can_arguments, existing_file, print_json, stream_file
 
 
 def register(subparsers) -> None:
@@ -42,8 +43,12 @@ def register(subparsers) -> None:
             "mismatch, temperature, time); leave-one-segment-out PSIS-LOO."
         ),
     )
-    s.add_argument("stream", help="stream file (CSV or Parquet) in the DESIGN.md contract")
+    s.add_argument(
+        "stream",
+        help="stream file (CSV or Parquet) in the DESIGN.md contract, or a CAN log with --profile",
+    )
     s.add_argument("--vehicle", required=True, help="vehicle name (e.g. suv_rav4) or TOML path")
+    add_can_arguments(s)
     s.add_argument("--window", type=float, default=None, help="segment length [s]")
     s.add_argument("--alpha", type=float, default=0.05, help="family-wise error of the scan")
     s.add_argument("--seed", type=int, default=0, help="seed of the posterior draws")
@@ -86,18 +91,19 @@ def _run_stream(args: argparse.Namespace) -> int:
     from ..criticism import criticize_stream
 
     _check_alpha(args.alpha, args.se_factor)
-    path = existing_file(args.stream)
     if args.window is not None and not args.window > 0:
         raise BadInputError(f"--window: expected a positive length in s, got {args.window}")
-    result = criticize_stream(
-        path,
-        args.vehicle,
-        window_s=args.window,
-        alpha=args.alpha,
-        seed=args.seed,
-        se_factor=args.se_factor,
-    )
-    _emit(result, args.json, f"{path.name}: rho_x = C_x (sigma_x - s0)", args.se_factor)
+    with stream_file(args, args.vehicle) as path:
+        result = criticize_stream(
+            path,
+            args.vehicle,
+            window_s=args.window,
+            alpha=args.alpha,
+            seed=args.seed,
+            se_factor=args.se_factor,
+        )
+    name = Path(args.stream).name
+    _emit(result, args.json, f"{name}: rho_x = C_x (sigma_x - s0)", args.se_factor)
     return 0
 
 

@@ -16,7 +16,7 @@ import sys
 from typing import Any
 
 from .._errors import BadInputError
-from ._common import atomic_path, existing_file, print_json
+from ._common import add_can_arguments, atomic_path, print_json, stream_file
 
 # tyrebayes.inference.tyre_model.MODEL_KINDS, default first; spelled out here because importing
 # the model would start JAX before run() gives it one device per core (a test checks they agree).
@@ -36,7 +36,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "status 3 when the fit did not converge."
         ),
     )
-    parser.add_argument("stream", help="stream file (.csv, .parquet, .mf4)")
+    parser.add_argument(
+        "stream", help="stream file (.csv, .parquet, .mf4), or a CAN log with --profile"
+    )
     parser.add_argument(
         "--vehicle", required=True, help="vehicle preset name (e.g. suv_rav4) or TOML path"
     )
@@ -71,6 +73,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=MODEL_CHOICES[0],
         help="mean model (default shaped: the brush model with a fitted shape exponent)",
     )
+    add_can_arguments(parser)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", help="write the fit as ArviZ InferenceData (netCDF)")
     parser.add_argument("--json", action="store_true", help="machine-readable output")
@@ -113,13 +116,14 @@ def run(args: argparse.Namespace) -> int:
 
     if args.out is not None and not args.out.endswith((".nc", ".netcdf")):
         raise BadInputError(f"--out: expected a .nc file name, got {args.out!r}")
-    obs = observations_from_stream(
-        existing_file(args.stream),
-        args.vehicle,
-        surface=args.surface,
-        temperature_c=args.temperature,
-        ambient_c=args.ambient,
-    )
+    with stream_file(args, args.vehicle) as path:
+        obs = observations_from_stream(
+            path,
+            args.vehicle,
+            surface=args.surface,
+            temperature_c=args.temperature,
+            ambient_c=args.ambient,
+        )
     fit = fit_tyre(obs, method=args.method, kind=args.model, seed=args.seed)
     summary = fit.summary()
     summary["n_abs_windows"] = obs.n_limit

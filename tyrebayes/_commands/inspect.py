@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from .._errors import BadInputError
-from ._common import existing_file, print_json
+from ._common import add_can_arguments, print_json, stream_file
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -23,7 +23,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "speed_reference column, the error of V_x against it."
         ),
     )
-    parser.add_argument("stream", help="stream file (.csv, .parquet, .mf4)")
+    parser.add_argument(
+        "stream", help="stream file (.csv, .parquet, .mf4), or a CAN log with --profile"
+    )
     parser.add_argument(
         "--vehicle", required=True, help="vehicle preset name (e.g. suv_rav4) or TOML path"
     )
@@ -34,6 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=(),
         help="rename source channels to contract names, e.g. WhlSpdFL=wheel_speed_fl",
     )
+    add_can_arguments(parser)
     parser.add_argument("--json", action="store_true", help="machine-readable output")
     parser.set_defaults(func=run)
 
@@ -48,7 +51,7 @@ def _channel_map(pairs: list[str] | tuple[str, ...]) -> dict[str, str]:
     return mapping
 
 
-def summarize_stream(path: str, vehicle_name: str, channel_map: dict[str, str]) -> dict[str, Any]:
+def summarize_stream(path, vehicle_name: str, channel_map: dict[str, str]) -> dict[str, Any]:
     """The ``inspect`` summary as a JSON-ready dict (raises BadInputError on bad input)."""
     from ..physics.vehicle import load_vehicle
     from ..streams import compute_features, read_stream, speed_error, validate_stream
@@ -57,7 +60,7 @@ def summarize_stream(path: str, vehicle_name: str, channel_map: dict[str, str]) 
         vehicle = load_vehicle(vehicle_name)
     except ValueError as err:
         raise BadInputError(str(err).splitlines()[0]) from None
-    stream = validate_stream(read_stream(existing_file(path), channel_map or None), vehicle)
+    stream = validate_stream(read_stream(path, channel_map or None), vehicle)
     features = compute_features(stream, vehicle)
     nuis = features.nuisances
     summary: dict[str, Any] = {
@@ -153,7 +156,9 @@ def _text(summary: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    summary = summarize_stream(args.stream, args.vehicle, _channel_map(args.channel_map))
+    with stream_file(args, args.vehicle) as path:
+        summary = summarize_stream(path, args.vehicle, _channel_map(args.channel_map))
+    summary["file"] = str(args.stream)
     if args.json:
         print_json(summary)
     else:

@@ -1,5 +1,8 @@
 """Sensor streams: file formats, validation, and the signal pipeline to tyre features."""
 
+from .can import CarProfile as CarProfile
+from .can import load_profile as load_profile
+from .can import read_can_log as read_can_log
 from .features import StreamFeatures as StreamFeatures
 from .features import compute_features as compute_features
 from .features import speed_error as speed_error

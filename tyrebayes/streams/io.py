@@ -113,17 +113,31 @@ def _read_mdf(path: Path, channel_map: Mapping[str, str] | None) -> pd.DataFrame
 
 
 def read_stream(
-    path: str | os.PathLike, channel_map: Mapping[str, str] | None = None
+    path: str | os.PathLike,
+    channel_map: Mapping[str, str] | None = None,
+    *,
+    profile=None,
+    dbc: str | os.PathLike | None = None,
+    vehicle=None,
 ) -> pd.DataFrame:
     """Read a stream file into a DataFrame with contract column names (not yet validated).
 
     Parameters
     ----------
     path : path-like
-        ``.csv``, ``.parquet``/``.pq`` or ``.mf4``/``.mdf``.
+        ``.csv``, ``.parquet``/``.pq`` or ``.mf4``/``.mdf``; with ``profile``, a raw CAN log
+        (candump ``.log``, ``.asc``, ``.blf``, python-can ``.csv``, MF4 bus logging ``.mf4``).
     channel_map : mapping, optional
         Source channel/column name -> contract name, e.g. ``{"WhlSpd_FL": "wheel_speed_fl"}``.
         Names not in the map are used as they are.
+    profile : CarProfile, str or path-like, optional
+        Car profile (name in ``models/profiles/`` or TOML path): read ``path`` as a CAN log and
+        decode it with the profile's DBC (:func:`tyrebayes.streams.can.read_can_log`).
+    dbc : path-like, optional
+        With ``profile``: a DBC to use instead of the profile's.
+    vehicle : Vehicle, str or path-like, optional
+        With ``profile``: the vehicle whose nominal wheel radius converts wheel speeds (default:
+        the profile's).
 
     Returns
     -------
@@ -136,6 +150,12 @@ def read_stream(
     BadInputError
         Missing file, unknown suffix, or a file that cannot be parsed.
     """
+    if profile is not None:
+        from .can import read_can_log
+
+        if channel_map:
+            raise BadInputError("read_stream: expected a channel_map or a profile, got both")
+        return read_can_log(path, profile, dbc=dbc, vehicle=vehicle).data
     path = Path(path)
     suffix = _suffix(path)
     if not path.is_file():
