@@ -10,6 +10,7 @@ from tyrebayes.inference.vmax import (
     fit_extended,
     lateral_draws,
     load_table_6_2,
+    pointwise_log_lik,
     power_table,
     psis_loo,
 )
@@ -47,9 +48,10 @@ def test_extended_fit_recovers_offset_and_loo() -> None:
     # synthetic: sim says 55 for all, truth is 75 -> offset ~ +20 within the 10 km/h interval
     lo = np.full(6, 70.0)
     m, s = np.full(6, 55.0), np.full(6, 2.0)
-    post = fit_extended(lo, m, s, seed=1, num_samples=400)
-    assert 13.0 < float(np.mean(post["delta_kmh"])) < 22.0
-    loo = psis_loo(post["log_lik"])
+    fit = fit_extended(lo, m, s, seed=1, num_samples=400)
+    assert fit.kind == "vmax" and fit.diagnostics.divergences == 0
+    assert 13.0 < float(np.mean(fit.draws("delta_kmh"))) < 22.0
+    loo = psis_loo(pointwise_log_lik(fit))
     assert np.isfinite(loo["elpd_loo"]) and loo["se"] >= 0.0
 
 

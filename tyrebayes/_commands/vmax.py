@@ -32,9 +32,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if not (args.c_x > 0 and 0 < args.mu < 3):
         raise BadInputError(f"expected --c-x > 0 and 0 < --mu < 3, got {args.c_x}, {args.mu}")
+    from .._domain import load_vehicle
     from ..inference.vmax import K_TYPE, MU_Y_RATIO
     from ..physics.lanechange import Tyres, critical_speed, iso3888_2_course
-    from ..physics.vehicle import load_vehicle
 
     try:
         vehicle = load_vehicle(args.vehicle)
