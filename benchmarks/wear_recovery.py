@@ -32,7 +32,7 @@ import numpy as np  # noqa: E402
 from tyrebayes._io import atomic_write_bytes  # noqa: E402
 from tyrebayes._io import to_jsonable as _to_jsonable  # noqa: E402
 from tyrebayes.inference.result import hdi  # noqa: E402
-from tyrebayes.inference.wear import build_wear_data, fit_wear  # noqa: E402
+from tyrebayes.inference.wear import WearSet, build_wear_data, fit_wear  # noqa: E402
 from tyrebayes.physics.wear import (  # noqa: E402
     Abrasability,  # noqa: E402
     DriveWork,
@@ -87,7 +87,7 @@ def fit_one(work, source, noise, km, key, warm, samp) -> dict:
         radius_noise=noise if source == "drift" else 3e-4,
     )
     data = build_wear_data(
-        [(sub, obs, "summer", (C_XR, C_XR_SD))],
+        [WearSet.from_c_xr(sub, obs, "summer", (C_XR, C_XR_SD))],
         use_depth=source == "depth",
         use_drift=source == "drift",
     )

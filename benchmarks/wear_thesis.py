@@ -48,6 +48,7 @@ from tyrebayes.inference.result import loo as psis_loo  # noqa: E402
 from tyrebayes.inference.summary import summarize  # noqa: E402
 from tyrebayes.inference.wear import (  # noqa: E402
     WearData,
+    WearSet,
     build_wear_data,
     fit_wear,
     predict_wear_volume,
@@ -240,7 +241,10 @@ def simulate_fleet(key, n_drives_train, n_drives_test, gamma_true, profile, geom
 def split_data(sets, geom) -> tuple[WearData, WearData]:
     """Training data (readings and drift up to the training end) and held-out readings."""
     full = build_wear_data(
-        [(s["work"], s["obs"], s["type"], (s["c_xr"], 0.05 * s["c_xr"])) for s in sets],
+        [
+            WearSet.from_c_xr(s["work"], s["obs"], s["type"], (s["c_xr"], 0.05 * s["c_xr"]))
+            for s in sets
+        ],
         geom=geom,
         type_names=("winter", "summer"),
     )

@@ -1,6 +1,9 @@
-"""Uncertainty-aware warnings: is a tyre set unsuitable for winter?
+"""Uncertainty-aware warnings: is a tyre set unsuitable for winter? Does it wear unexpectedly fast?
 
-The rule, for predictive draws of the set's snow friction mu_snow (from
+:func:`high_wear_warning` warns when the posterior probability that a set's wear rate exceeds a
+multiple of a reference rate is high (relative wear draws from :mod:`tyrebayes.inference.wear`).
+
+The winter rule, for predictive draws of the set's snow friction mu_snow (from
 :func:`tyrebayes.inference.fleet.predict_friction`):
 
 1. ``p = P(mu_snow < mu_min)``.

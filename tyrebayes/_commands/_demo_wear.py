@@ -22,7 +22,7 @@ import numpy as np
 
 from ..inference.result import loo as psis_loo
 from ..inference.summary import summarize
-from ..inference.wear import build_wear_data, fit_wear, predict_wear_volume
+from ..inference.wear import WearSet, build_wear_data, fit_wear, predict_wear_volume
 from ..physics.thermal import StiffnessTemperature, stiffness_at_temperature
 from ..physics.wear import Abrasability, thesis_reproduction
 from ..report.content import WearSection
@@ -99,7 +99,7 @@ def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSect
             km = float(np.sum(np.asarray(work.distance_km)))
             readings = np.linspace(0.0, km, 6 if quick else 8)
             obs = observe_wear(jax.random.fold_in(k, 99), work, readings, 0.1, 3e-4)
-            sets.append((work, obs, tyre_type, (c_set, 0.05 * c_set)))
+            sets.append(WearSet.from_c_xr(work, obs, tyre_type, (c_set, 0.05 * c_set)))
             truth_sets.append((name, tyre_type, c_set, gamma))
         tick(f"simulated {name} sets")
     data = build_wear_data(sets, type_names=("winter", "summer"))

@@ -17,8 +17,8 @@ The friction work comes from each drive's own data (speed, force, load, ambient 
 temperature through :mod:`tyrebayes.physics.thermal`), so the uncertainty of C_xr flows into gamma:
 wear constrains gamma / C_xr, the stiffness posterior splits it.
 
-Modules: :mod:`.data` (priors, :class:`WearData`, :func:`build_wear_data`), :mod:`.model`
-(:func:`wear_model`), :mod:`.fit` (:func:`fit_wear`: NUTS or MAP + Laplace, a
+Modules: :mod:`.data` (priors, :class:`WearSet`, :class:`WearData`, :func:`build_wear_data`),
+:mod:`.model` (:func:`wear_model`), :mod:`.fit` (:func:`fit_wear`: NUTS or MAP + Laplace, a
 :class:`~tyrebayes.inference.result.Fit` of kind "wear"), :mod:`.predict`
 (:func:`predict_wear_volume`, :func:`relative_wear_draws`). The warning rule on relative wear is
 a decision: :func:`tyrebayes.decisions.high_wear_warning`.
@@ -26,6 +26,7 @@ a decision: :func:`tyrebayes.decisions.high_wear_warning`.
 
 from .data import WearData as WearData
 from .data import WearPriors as WearPriors
+from .data import WearSet as WearSet
 from .data import build_wear_data as build_wear_data
 from .data import c_xr_lognormal as c_xr_lognormal
 from .fit import WEAR_METHODS as WEAR_METHODS

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 
+import equinox as eqx
 import numpy as np
 
 from ..._domain import TYRE_TYPES
@@ -80,24 +82,63 @@ def c_xr_lognormal(c_xr) -> tuple[float, float]:
     return float(logs.mean()), max(float(logs.std(ddof=1)), 1e-6)
 
 
+class WearSet(eqx.Module):
+    """One tyre set's wear inputs: its drives' friction work, its observations, its stiffness.
+
+    Attributes
+    ----------
+    work : DriveWork
+        Per drive and axle, the friction-work kernel binned by tyre temperature [J].
+    observations : WearObservations
+        Tread-depth readings [mm] and per-drive rolling-radius drift [-].
+    tyre_type : str
+        One of :data:`tyrebayes._domain.TYRE_TYPES` (or a name given in ``type_names``).
+    c_xr_log_mean, c_xr_log_sd : float
+        Log-normal summary of the set's compensated stiffness C_xr [-] (from the per-tyre
+        posterior): build with :meth:`from_c_xr`.
+    """
+
+    work: DriveWork
+    observations: WearObservations
+    tyre_type: str = eqx.field(static=True)
+    c_xr_log_mean: float
+    c_xr_log_sd: float
+
+    def __check_init__(self):
+        if not self.c_xr_log_sd > 0:
+            raise ValueError(f"c_xr_log_sd: expected > 0, got {self.c_xr_log_sd}")
+
+    @classmethod
+    def from_c_xr(
+        cls, work: DriveWork, observations: WearObservations, tyre_type: str, c_xr
+    ) -> WearSet:
+        """A set whose C_xr is posterior draws (array) or a ``(mean, sd)`` pair."""
+        log_mean, log_sd = c_xr_lognormal(c_xr)
+        return cls(work, observations, tyre_type, log_mean, log_sd)
+
+
 def build_wear_data(
-    sets: list[tuple[DriveWork, WearObservations, str, object]],
+    sets: Sequence[WearSet],
     use_depth: bool = True,
     use_drift: bool = True,
     geom: TreadGeometry | None = None,
     type_names: tuple[str, ...] | None = None,
 ) -> WearData:
-    """Collect tyre sets ``(drives, observations, tyre_type, c_xr)`` into :class:`WearData`.
+    """Collect tyre sets into :class:`WearData`, padded to equal drive counts.
 
-    ``c_xr`` is either posterior draws of the set's compensated stiffness or ``(mean, sd)``.
-    ``use_depth`` / ``use_drift`` select the observation sources (at least one).
+    ``use_depth`` / ``use_drift`` select the observation sources (at least one); ``type_names``
+    fixes the order of the type-level parameters (default: the package's order of the types
+    present).
     """
     if not (use_depth or use_drift):
         raise ValueError("build_wear_data: expected use_depth or use_drift, got neither")
     if not sets:
         raise ValueError("build_wear_data: expected at least one tyre set, got none")
     geom = TreadGeometry() if geom is None else geom
-    present = [s[2] for s in sets]
+    bad = [type(s).__name__ for s in sets if not isinstance(s, WearSet)]
+    if bad:
+        raise ValueError(f"build_wear_data: expected WearSet items, got {bad[0]}")
+    present = [s.tyre_type for s in sets]
     if type_names is None:
         type_names = tuple(t for t in TYRE_TYPES if t in present) + tuple(
             sorted({t for t in present if t not in TYRE_TYPES})
@@ -105,14 +146,15 @@ def build_wear_data(
     unknown = sorted(set(present) - set(type_names))
     if unknown:
         raise ValueError(f"build_wear_data: tyre_type not in {type_names}, got {unknown}")
-    n_drives = max(int(s[0].kernel_binned.shape[0]) for s in sets)
-    grid = np.asarray(sets[0][0].grid_c)
+    n_drives = max(int(s.work.kernel_binned.shape[0]) for s in sets)
+    grid = np.asarray(sets[0].work.grid_c)
     kernels = np.zeros((len(sets), n_drives, 2, grid.size))
     drift = np.zeros((len(sets), n_drives))
     mask = np.zeros((len(sets), n_drives), dtype=bool)
     d_set, d_drive, d_axle, d_val = [], [], [], []
     log_mean, log_sd = [], []
-    for i, (work, obs, _, c_xr) in enumerate(sets):
+    for i, wear_set in enumerate(sets):
+        work, obs = wear_set.work, wear_set.observations
         k = np.asarray(work.kernel_binned)
         kernels[i, : k.shape[0]] = k
         if use_drift:
@@ -125,9 +167,8 @@ def build_wear_data(
             d_drive.append(np.asarray(obs.depth_drive_index))
             d_axle.append(np.asarray(obs.depth_axle))
             d_val.append(np.asarray(obs.depth_mm))
-        m, s = c_xr_lognormal(c_xr)
-        log_mean.append(m)
-        log_sd.append(s)
+        log_mean.append(wear_set.c_xr_log_mean)
+        log_sd.append(wear_set.c_xr_log_sd)
     # keep only the temperature bins any drive reached: fewer flops per NUTS step
     used = np.nonzero(kernels.sum(axis=(0, 1, 2)) > 0)[0]
     lo, hi = (used.min(), used.max() + 1) if used.size else (0, grid.size)
