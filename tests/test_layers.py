@@ -42,10 +42,10 @@ def test_a_back_edge_breaks_the_contract(tmp_path, monkeypatch, capsys):
     (package / "__init__.py").write_text("")
     (package / "physics" / "tyre.py").write_text("from ..inference import fit\n")
     (package / "inference" / "fit.py").write_text("")
-    for name in ("simulate", "_resources"):
+    for name in ("simulate", "_resources", "internal", "_io", "_errors"):
         (package / name).mkdir(exist_ok=True)
         (package / name / "__init__.py").write_text("")
-    # cli is a module in the real package; here a package stands in for it.
+    # Modules of the real package (cli, _io, ...) stand here as packages.
     config = tmp_path / "pyproject.toml"
     config.write_text((ROOT / "pyproject.toml").read_text())
     monkeypatch.syspath_prepend(str(tmp_path))

@@ -70,7 +70,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="mean model (default shaped: the brush model with a fitted shape exponent)",
     )
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", help="write the fit as ArviZ InferenceData (netCDF)")
+    parser.add_argument("--out", help="write the fit (netCDF, read back with tyrebayes.load_fit)")
     parser.add_argument("--json", action="store_true", help="machine-readable output")
     parser.set_defaults(func=run)
 

@@ -60,7 +60,7 @@ def _expand_surfaces(samples: dict, data: FleetData, priors: FleetPriors, seed: 
     return samples
 
 
-# Posterior sites kept in the InferenceData, with their dims.
+# Posterior sites kept in the fit's ArviZ data, with their dims.
 _POSTERIOR_DIMS = {
     "a": ["surface", "tyre_type"],
     "b": ["surface", "tyre_type"],
