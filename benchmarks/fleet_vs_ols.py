@@ -20,25 +20,21 @@ import json
 import os
 import sys
 import time
-import warnings
 
 import numpyro
 
 numpyro.set_host_device_count(2)
 
-import arviz as az  # noqa: E402
 import matplotlib  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tyrebayes._commands._common import atomic_path, atomic_write_bytes  # noqa: E402
+from tyrebayes._domain import SURFACES, TYRE_TYPES  # noqa: E402
+from tyrebayes._io import atomic_path, atomic_write_bytes  # noqa: E402
 from tyrebayes.inference.fleet import (  # noqa: E402
-    SURFACES,
-    TYRE_TYPES,
     fit_fleet,
-    fleet_diagnostics,
     load_tyre_type_priors,
     measured_braking_bounds,
     predict_friction,
@@ -46,6 +42,7 @@ from tyrebayes.inference.fleet import (  # noqa: E402
     predictive_logpdf,
 )
 from tyrebayes.inference.ols import fit_ols, ols_interval, ols_logpdf, ols_loo_logpdf  # noqa: E402
+from tyrebayes.inference.result import loo as psis_loo  # noqa: E402
 from tyrebayes.simulate.fleet import simulate_fleet  # noqa: E402
 
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
@@ -66,14 +63,12 @@ def accuracy_setting(n_sets: int, reps: int, quick: bool) -> dict:
         train, _ = simulate_fleet(seed, n_sets)
         test, _ = simulate_fleet(seed + 500_000, N_TEST)
         t0 = time.perf_counter()
-        idata = _fit(train, n_sets, rep, quick)
+        fit = _fit(train, n_sets, rep, quick)
         fit_s = time.perf_counter() - t0
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            loo = az.loo(idata, var_name="mu", pointwise=True)
+        loo = psis_loo(fit.data, var_name="mu")
         k = np.asarray(loo.pareto_k)
-        hier_lp = predictive_logpdf(idata, test, seed=rep)
-        draws = predictive_draws(idata, test, seed=rep)
+        hier_lp = predictive_logpdf(fit, test, seed=rep)
+        draws = predictive_draws(fit, test, seed=rep)
         lo, hi = np.quantile(draws, [0.05, 0.95], axis=0)
         y = test["mu"].to_numpy()
         ols = fit_ols(train["c_xr"], train["mu"])
@@ -82,8 +77,8 @@ def accuracy_setting(n_sets: int, reps: int, quick: bool) -> dict:
             {
                 "rep": rep,
                 "fit_seconds": fit_s,
-                "converged": fleet_diagnostics(idata)["converged"],
-                "hier_loo_elpd_per_set": float(loo.elpd_loo) / n_sets,
+                "converged": fit.converged,
+                "hier_loo_elpd_per_set": float(loo.elpd) / n_sets,
                 "hier_loo_se_per_set": float(loo.se) / n_sets,
                 "hier_pareto_k_max": float(k.max()),
                 "hier_pareto_k_frac_gt_0.7": float(np.mean(k > 0.7)),
@@ -121,29 +116,29 @@ def timing(quick: bool) -> dict:
     times = []
     for key, table in enumerate((b, a) if not quick else (b,)):
         t0 = time.perf_counter()
-        idata = fit_fleet(table, key=key + 1)
+        fit = fit_fleet(table, key=key + 1)
         times.append(time.perf_counter() - t0)
     out["nuts_26_sets"] = {
         "settings": "2 chains x (500 warm-up + 500 draws), parallel chains on 2 host devices",
         "first_call_seconds_incl_compile": first,
         "after_compile_seconds": times,
-        "converged": fleet_diagnostics(idata)["converged"],
+        "converged": fit.converged,
         "target_seconds": 10.0,
     }
     big, _ = simulate_fleet(3, 10_000)
     t0 = time.perf_counter()
-    idata = fit_fleet(big, method="svi", key=0)
+    fit = fit_fleet(big, method="svi", key=0)
     first = time.perf_counter() - t0
     big2, _ = simulate_fleet(4, 10_000)
     t0 = time.perf_counter()
-    idata = fit_fleet(big2, method="svi", key=1)
+    fit = fit_fleet(big2, method="svi", key=1)
     second = time.perf_counter() - t0
-    post = idata.posterior
+    post = fit.posterior
     out["svi_10000_sets"] = {
         "settings": "AutoNormal, Adam 0.02, 3000 steps, 500 draws",
         "first_call_seconds_incl_compile": first,
         "second_call_seconds": second,
-        "converged": fleet_diagnostics(idata)["converged"],
+        "converged": fit.converged,
         "target_seconds": 60.0,
         "snow_a_posterior_mean": {
             t: float(post["a"].sel(surface="snow", tyre_type=t).mean()) for t in TYRE_TYPES
@@ -155,14 +150,14 @@ def timing(quick: bool) -> dict:
 
 def braking_comparison(quick: bool) -> tuple[list[dict], dict]:
     table, _ = simulate_fleet(7, 26, surface=SURFACES)
-    idata = fit_fleet(
+    fit = fit_fleet(
         table, key=0, num_warmup=300 if quick else 500, num_samples=300 if quick else 500
     )
     priors = load_tyre_type_priors()
     pred = {}
     for s in SURFACES:
         for i, t in enumerate(TYRE_TYPES):
-            draws = predict_friction(idata, float(priors.c_xr_ref[i]), 1.5, t, s, seed=0)
+            draws = predict_friction(fit, float(priors.c_xr_ref[i]), 1.5, t, s, seed=0)
             pred[(s, t)] = draws
     rows = []
     for _, r in measured_braking_bounds().iterrows():
@@ -185,7 +180,7 @@ def braking_comparison(quick: bool) -> tuple[list[dict], dict]:
             }
         )
     _plot_braking(pred, rows)
-    return rows, {"converged": fleet_diagnostics(idata)["converged"]}
+    return rows, {"converged": fit.converged}
 
 
 def _plot_braking(pred: dict, rows: list[dict]) -> None:

@@ -32,9 +32,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tyrebayes._commands._common import atomic_path, atomic_write_bytes  # noqa: E402
+from tyrebayes._domain import load_vehicle  # noqa: E402
+from tyrebayes._io import atomic_path, atomic_write_bytes  # noqa: E402
 from tyrebayes._resources import data_dir  # noqa: E402
-from tyrebayes.physics.vehicle import load_vehicle  # noqa: E402
 from tyrebayes.streams import (  # noqa: E402
     SEGMENT_KINDS,
     compute_features,

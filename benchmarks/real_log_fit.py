@@ -44,10 +44,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from tyrebayes._domain import load_vehicle  # noqa: E402
 from tyrebayes._resources import data_dir  # noqa: E402
 from tyrebayes.inference.tyre_data import observations_from_features, stack_drives  # noqa: E402
 from tyrebayes.inference.tyre_fit import fit_tyre  # noqa: E402
-from tyrebayes.physics.vehicle import load_vehicle  # noqa: E402
 from tyrebayes.streams import compute_features, read_stream, validate_stream  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results"
@@ -71,13 +71,13 @@ def main() -> None:
     summary = fit.summary()
 
     idata = fit.idata
-    slip = np.asarray(idata.observed_data["slip_obs"])
-    rho = np.asarray(idata.observed_data["rho_obs"])
-    at_limit = np.asarray(idata.constant_data["at_limit"])
+    slip = np.asarray(idata["observed_data"]["slip_obs"])
+    rho = np.asarray(idata["observed_data"]["rho_obs"])
+    at_limit = np.asarray(idata["constant_data"]["at_limit"])
     # The model regresses slip on force: its posterior predictive of slip_obs is conditional on
     # the measured ρ_x of each window (ρ_obs itself is predicted from the drive's force
     # population only, so binning it over slip would show a flat band that checks nothing).
-    pred = np.asarray(idata.posterior_predictive["slip_obs"]).reshape(-1, slip.size)
+    pred = np.asarray(idata["posterior_predictive"]["slip_obs"]).reshape(-1, slip.size)
     ok = ~at_limit
     edges = np.quantile(rho[ok], np.linspace(0, 1, 13))
     centres, bands, bin_resid = [], [], []
@@ -146,7 +146,7 @@ def main() -> None:
     }
     out = RESULTS / "real_log_fit.json"
     tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
-    from tyrebayes._commands._common import _to_jsonable
+    from tyrebayes._io import to_jsonable as _to_jsonable
 
     tmp.write_text(json.dumps(_to_jsonable(payload), indent=2) + "\n")
     os.replace(tmp, out)

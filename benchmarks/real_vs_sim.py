@@ -32,8 +32,9 @@ from scipy.signal import savgol_filter, welch
 
 jax.config.update("jax_enable_x64", True)
 
+from tyrebayes._domain import load_vehicle  # noqa: E402
 from tyrebayes._resources import data_dir  # noqa: E402
-from tyrebayes.physics.vehicle import GRAVITY_MPS2, load_vehicle  # noqa: E402
+from tyrebayes.physics.vehicle import GRAVITY_MPS2  # noqa: E402
 from tyrebayes.simulate.drive import simulate_drive  # noqa: E402
 from tyrebayes.simulate.profiles import profile_from_trace  # noqa: E402
 from tyrebayes.simulate.sensors import SensorModel  # noqa: E402

@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from tyrebayes._commands._common import atomic_write_bytes
-from tyrebayes.physics.vehicle import load_vehicle
+from tyrebayes._domain import load_vehicle
+from tyrebayes._io import atomic_write_bytes
 from tyrebayes.streams import write_stream
 from tyrebayes.streams.synthetic import synthetic_stream
 
@@ -36,7 +36,7 @@ TARGET_MB_PER_HOUR = 1024.0
 
 _CHILD = r"""
 import json, sys, time
-from tyrebayes.physics.vehicle import load_vehicle
+from tyrebayes._domain import load_vehicle
 from tyrebayes.streams import compute_features, read_stream, validate_stream
 
 def rss_mb(key):

@@ -47,6 +47,7 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
+from tyrebayes._domain import load_vehicle  # noqa: E402
 from tyrebayes.inference import tyre_fit  # noqa: E402
 from tyrebayes.inference.tyre_data import (  # noqa: E402
     _bucket_size,
@@ -54,7 +55,6 @@ from tyrebayes.inference.tyre_data import (  # noqa: E402
     stack_drives,
 )
 from tyrebayes.inference.tyre_fit import fit_tyre  # noqa: E402
-from tyrebayes.physics.vehicle import load_vehicle  # noqa: E402
 from tyrebayes.simulate.drive import simulate_drive  # noqa: E402
 from tyrebayes.simulate.profiles import ProfileOptions  # noqa: E402
 from tyrebayes.streams import compute_features, validate_stream  # noqa: E402

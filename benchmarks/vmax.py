@@ -21,7 +21,8 @@ import numpy as np
 
 jax.config.update("jax_enable_x64", True)
 
-from tyrebayes._commands._common import atomic_path, atomic_write_bytes  # noqa: E402
+from tyrebayes._domain import load_vehicle  # noqa: E402
+from tyrebayes._io import atomic_path, atomic_write_bytes  # noqa: E402
 from tyrebayes.inference import vmax as vm  # noqa: E402
 from tyrebayes.physics.lanechange import (  # noqa: E402
     Driver,
@@ -30,7 +31,6 @@ from tyrebayes.physics.lanechange import (  # noqa: E402
     critical_speed_sensitivity,
     iso3888_2_course,
 )
-from tyrebayes.physics.vehicle import load_vehicle  # noqa: E402
 
 OUT = os.path.join(os.path.dirname(__file__), "results")
 
@@ -108,8 +108,9 @@ def main() -> None:
         "se": float(np.sqrt(len(ll0) * ll0.var())),
         "pointwise": ll0.tolist(),
     }
-    post = vm.fit_extended(lo, m_pred, s_pred, seed=0, num_samples=1000)
-    loo = vm.psis_loo(post["log_lik"])
+    fit = vm.fit_extended(lo, m_pred, s_pred, seed=0, num_samples=1000)
+    post = {k: fit.draws(k) for k in ("delta_kmh", "adaptation", "sigma_driver_kmh")}
+    loo = vm.psis_loo(vm.pointwise_log_lik(fit))
     diff = np.array(loo["pointwise"]) - ll0
     res["extended"] = {
         "elpd_loo": loo["elpd_loo"],
@@ -121,7 +122,7 @@ def main() -> None:
             float(post["sigma_driver_kmh"].mean()),
             float(post["sigma_driver_kmh"].std()),
         ],
-        "divergences": int(post["diverging"].sum()),
+        "divergences": fit.diagnostics.divergences,
     }
     res["elpd_gain"] = {"diff": float(diff.sum()), "se": float(np.sqrt(len(diff) * diff.var()))}
 

@@ -26,15 +26,18 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
-import arviz as az  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tyrebayes._commands._common import _to_jsonable, atomic_write_bytes  # noqa: E402
-from tyrebayes.inference.wear import build_wear_data, fit_wear  # noqa: E402
-from tyrebayes.physics.wear import Abrasability  # noqa: E402
-from tyrebayes.simulate.wear import (  # noqa: E402
+from tyrebayes._io import atomic_write_bytes  # noqa: E402
+from tyrebayes._io import to_jsonable as _to_jsonable  # noqa: E402
+from tyrebayes.inference.result import hdi  # noqa: E402
+from tyrebayes.inference.wear import WearSet, build_wear_data, fit_wear  # noqa: E402
+from tyrebayes.physics.wear import (  # noqa: E402
+    Abrasability,  # noqa: E402
     DriveWork,
+)
+from tyrebayes.simulate.wear import (  # noqa: E402
     DutyProfile,
     observe_wear,
     seasonal_ambient,
@@ -84,7 +87,7 @@ def fit_one(work, source, noise, km, key, warm, samp) -> dict:
         radius_noise=noise if source == "drift" else 3e-4,
     )
     data = build_wear_data(
-        [(sub, obs, "summer", (C_XR, C_XR_SD))],
+        [WearSet.from_c_xr(sub, obs, "summer", (C_XR, C_XR_SD))],
         use_depth=source == "depth",
         use_drift=source == "drift",
     )
@@ -95,16 +98,16 @@ def fit_one(work, source, noise, km, key, warm, samp) -> dict:
         num_chains=1,
         seed=int(jax.random.randint(key, (), 0, 2**30)),
     )
-    g = fit.samples["gamma"][:, 0]
-    lo90, hi90 = az.hdi(g, hdi_prob=0.9)
-    lo50, hi50 = az.hdi(g, hdi_prob=0.5)
+    g = fit.draws("gamma")[:, 0]
+    lo90, hi90 = hdi(g, 0.9)
+    lo50, hi50 = hdi(g, 0.5)
     return {
         "rel_bias": float(g.mean() / GAMMA_TRUE - 1),
         "in50": bool(lo50 <= GAMMA_TRUE <= hi50),
         "in90": bool(lo90 <= GAMMA_TRUE <= hi90),
         "rel_halfwidth90": float((hi90 - lo90) / 2 / g.mean()),
         "within20": bool(lo90 >= 0.8 * GAMMA_TRUE and hi90 <= 1.2 * GAMMA_TRUE),
-        "divergences": fit.diagnostics["divergences"],
+        "divergences": fit.diagnostics.divergences,
     }
 
 

@@ -31,7 +31,7 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
-import arviz as az  # noqa: E402
+import arviz_stats as azs  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import matplotlib  # noqa: E402
 
@@ -41,11 +41,14 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from numpyro.infer import log_likelihood  # noqa: E402
 
-from tyrebayes._commands._common import _to_jsonable, atomic_path, atomic_write_bytes  # noqa: E402
+from tyrebayes._io import atomic_path, atomic_write_bytes  # noqa: E402
+from tyrebayes._io import to_jsonable as _to_jsonable  # noqa: E402
 from tyrebayes._resources import data_dir  # noqa: E402
+from tyrebayes.inference.result import loo as psis_loo  # noqa: E402
 from tyrebayes.inference.summary import summarize  # noqa: E402
 from tyrebayes.inference.wear import (  # noqa: E402
     WearData,
+    WearSet,
     build_wear_data,
     fit_wear,
     predict_wear_volume,
@@ -57,20 +60,20 @@ from tyrebayes.physics.thermal import (  # noqa: E402
     convective_conductance,
     rolling_loss_power,
 )
-from tyrebayes.physics.wear import (  # noqa: E402
+from tyrebayes.physics.wear import (  # noqa: E402  # noqa: E402
     Abrasability,
+    TreadGeometry,
     relative_wear_difference,
     simulate_constant_traction,
     steady_constant_traction,
+    volume_to_mass_g,
 )
 from tyrebayes.simulate.wear import (  # noqa: E402
     DutyProfile,
-    TreadGeometry,
     observe_wear,
     profile_kernel,
     seasonal_ambient,
     simulate_drives,
-    volume_to_mass_g,
 )
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -238,7 +241,10 @@ def simulate_fleet(key, n_drives_train, n_drives_test, gamma_true, profile, geom
 def split_data(sets, geom) -> tuple[WearData, WearData]:
     """Training data (readings and drift up to the training end) and held-out readings."""
     full = build_wear_data(
-        [(s["work"], s["obs"], s["type"], (s["c_xr"], 0.05 * s["c_xr"])) for s in sets],
+        [
+            WearSet.from_c_xr(s["work"], s["obs"], s["type"], (s["c_xr"], 0.05 * s["c_xr"]))
+            for s in sets
+        ],
         geom=geom,
         type_names=("winter", "summer"),
     )
@@ -275,8 +281,9 @@ def heldout_lpd(fit, data_test) -> np.ndarray:
         "log_gamma",
         "kappa",
     ]
-    post = {k: jnp.asarray(v) for k, v in fit.samples.items() if k in names}
-    ll = np.asarray(log_likelihood(wear_model, post, data_test, fit.extended)["depth"])
+    post = {k: jnp.asarray(fit.draws(k)) for k in names if k in fit.posterior.data_vars}
+    extended = fit.provenance.model == "extended"
+    ll = np.asarray(log_likelihood(wear_model, post, data_test, extended)["depth"])
     m = ll.max(axis=0)
     return m + np.log(np.mean(np.exp(ll - m), axis=0))
 
@@ -304,8 +311,8 @@ def extension_study(quick: bool, comp, thermal) -> dict:
     with warnings.catch_warnings():
         # high Pareto k is reported in the JSON (pareto_k_max), not printed
         warnings.simplefilter("ignore", UserWarning)
-        loo = {n: az.loo(f.idata, var_name="depth", pointwise=True) for n, f in fits.items()}
-        cmp = az.compare({n: f.idata for n, f in fits.items()}, var_name="depth")
+        loo = {n: psis_loo(f.data, var_name="depth") for n, f in fits.items()}
+        cmp = azs.compare({n: f.data for n, f in fits.items()}, var_name="depth")
     lpd = {n: heldout_lpd(f, data_test) for n, f in fits.items()}
     diff = lpd["extended"] - lpd["baseline"]
     heldout = {
@@ -317,9 +324,9 @@ def extension_study(quick: bool, comp, thermal) -> dict:
     }
     loo_out = {
         n: {
-            "elpd_loo": float(v.elpd_loo),
+            "elpd_loo": float(v.elpd),
             "se": float(v.se),
-            "p_loo": float(v.p_loo),
+            "p_loo": float(v.p),
             "pareto_k_max": float(np.max(v.pareto_k)),
             "n_pareto_k_above_0.7": int(np.sum(np.asarray(v.pareto_k) > 0.7)),
         }
@@ -334,8 +341,9 @@ def extension_study(quick: bool, comp, thermal) -> dict:
         for n in cmp.index
     }
     ext = fits["extended"]
-    kappa = {t: summarize(ext.samples["kappa"][:, i]) for i, t in enumerate(("winter", "summer"))}
-    p_order = float(np.mean(ext.samples["kappa"][:, 0] > ext.samples["kappa"][:, 1]))
+    k = ext.draws("kappa")
+    kappa = {t: summarize(k[:, i]) for i, t in enumerate(("winter", "summer"))}
+    p_order = float(np.mean(k[:, 0] > k[:, 1]))
     # type-level wear per 1000 km (new set of the type) vs ambient, both models
     ambients = (0.0, 15.0, 30.0) if quick else (-5.0, 5.0, 15.0, 25.0, 35.0)
     curves = {n: {t: [] for t in ("winter", "summer")} for n in fits}
@@ -477,7 +485,7 @@ def plot_extension(ext, path) -> None:
         ax.set_ylabel("g per 1000 km per car set")
         ax.set_title(f"{model}: wear vs ambient (bands: ADAC ranges)")
         ax.legend(fontsize=7)
-    k = ext["_fits"]["extended"].samples["kappa"]
+    k = ext["_fits"]["extended"].draws("kappa")
     axes[2].hist(k[:, 0], 40, alpha=0.6, label="winter kappa", color="tab:blue")
     axes[2].hist(k[:, 1], 40, alpha=0.6, label="summer kappa", color="tab:orange")
     for t, c in (("winter", "tab:blue"), ("summer", "tab:orange")):

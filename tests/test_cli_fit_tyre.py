@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -65,7 +66,8 @@ def test_fast_fit_of_a_simulated_drive(tmp_path, capsys):
     assert code == 0
     for key in ("c_x", "c_xr", "mu_max", "slip_offset", "force_gain"):
         assert set(payload[key]) == {"mean", "sd", "hdi_90"}
-    assert {"r_hat_max", "ess_min", "divergences", "converged"} <= set(payload["diagnostics"])
+    assert {"r_hat_max", "ess_bulk_min", "divergences", "converged"} <= set(payload["diagnostics"])
+    assert payload["converged"] is True and isinstance(payload["adequate"], bool)
     assert payload["mu_max_observed"] is True
     assert payload["n_samples_used"] > 100
     assert out.is_file() and not list(tmp_path.glob(".*tmp*"))
@@ -76,3 +78,31 @@ def test_model_choices_are_the_model_kinds():
     from tyrebayes.inference.tyre_model import DEFAULT_KIND, MODEL_KINDS
 
     assert set(MODEL_CHOICES) == set(MODEL_KINDS) and MODEL_CHOICES[0] == DEFAULT_KIND
+
+
+def test_fit_tyre_exits_3_when_the_fit_did_not_converge(tmp_path, capsys, monkeypatch):
+    """The command's contract for a failed fit: exit 3, the reason on stderr, the fit written."""
+    from tyrebayes._resources import data_dir
+    from tyrebayes.inference import tyre_fit
+    from tyrebayes.inference.result import load_fit
+    from tyrebayes.inference.tyre_data import stack_drives
+
+    from .inference.test_tyre_model import PAD, linear_region_windows
+
+    # A fit that did not converge (non-finite forces), of the shape the inference tests compile.
+    windows = linear_region_windows(3)
+    windows["rho"][:10] = np.inf
+    failed = tyre_fit.fit_tyre(stack_drives([windows], ["dry"], pad_to=PAD), method="fast")
+    assert not failed.converged
+    monkeypatch.setattr(tyre_fit, "fit_tyre", lambda *args, **kwargs: failed)
+    out = tmp_path / "fit.nc"
+    stream = data_dir() / "comma2k19_rav4_segment.csv"
+    argv = ["fit-tyre", str(stream), "--vehicle", "suv_rav4", "--method", "fast"]
+    code = main([*argv, "--json", "--out", str(out)])
+    captured = capsys.readouterr()
+    payload = json.loads(captured.out)
+    assert code == 3 and payload["converged"] is False
+    assert "did not converge" in captured.err and "non-finite" in captured.err
+    assert load_fit(out, kind="tyre").converged is False
+    code = main(argv)
+    assert code == 3 and "NOT CONVERGED" in capsys.readouterr().out

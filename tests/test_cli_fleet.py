@@ -5,6 +5,7 @@ import json
 import pytest
 
 from tyrebayes.cli import main
+from tyrebayes.inference.result import load_fit
 from tyrebayes.simulate.fleet import simulate_fleet
 
 
@@ -30,9 +31,9 @@ def fitted(tmp_path_factory):
                 str(out),
                 "--json",
                 "--samples",
-                "200",
+                "500",
                 "--warmup",
-                "200",
+                "500",
             ]
         )
     return d, out, code, json.loads(buf.getvalue())
@@ -51,10 +52,27 @@ def test_fit_fleet_writes_netcdf_atomically_and_reports(fitted):
     assert sorted(p.name for p in d.iterdir()) == ["fit.nc", "fleet.csv"]
     assert payload["out"] == str(out)
     assert payload["n_sets"] == 26 and payload["fitted_surfaces"] == ["snow"]
-    assert isinstance(payload["converged"], bool)
+    assert payload["converged"] is True and payload["diagnostics"]["converged"] is True
+    assert payload["adequate"] is True and payload["adequacy_reasons"] == []
+    assert payload["diagnostics"]["method"] == "nuts" and payload["diagnostics"]["n_chains"] == 2
     winter = payload["parameters"]["snow"]["winter"]["a"]
     assert set(winter) == {"mean", "sd", "hdi_90"}
     assert abs(winter["mean"] - 0.45) < 0.05
+
+
+def test_fit_fleet_exits_3_on_a_fit_that_did_not_converge(tmp_path, capsys):
+    table, _ = simulate_fleet(4, 26)
+    table.to_csv(tmp_path / "fleet.csv", index=False)
+    out = tmp_path / "short.nc"
+    argv = ["fit-fleet", str(tmp_path / "fleet.csv"), "--out", str(out), "--json"]
+    code, stdout, stderr = _run(capsys, [*argv, "--samples", "10", "--warmup", "10"])
+    payload = json.loads(stdout)
+    assert code == 3 and payload["converged"] is False
+    assert "did not converge" in stderr and "ESS" in stderr
+    # Still written, and marked as such in the file.
+    assert load_fit(out, kind="fleet").converged is False
+    code, stdout, _ = _run(capsys, ["fit-fleet", str(tmp_path / "fleet.csv"), "--samples", "10"])
+    assert code == 3 and "NOT CONVERGED" in stdout and "model adequate" in stdout
 
 
 def test_predict_json(fitted, capsys):

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tyrebayes.physics.vehicle import load_vehicle
+from tyrebayes._domain import load_vehicle
 from tyrebayes.simulate.drive import simulate_drive
 from tyrebayes.simulate.fleet import simulate_fleet
 from tyrebayes.streams import write_stream

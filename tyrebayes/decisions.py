@@ -1,6 +1,9 @@
-"""Uncertainty-aware warnings: is a tyre set unsuitable for winter?
+"""Uncertainty-aware warnings: is a tyre set unsuitable for winter? Does it wear unexpectedly fast?
 
-The rule, for predictive draws of the set's snow friction mu_snow (from
+:func:`high_wear_warning` warns when the posterior probability that a set's wear rate exceeds a
+multiple of a reference rate is high (relative wear draws from :mod:`tyrebayes.inference.wear`).
+
+The winter rule, for predictive draws of the set's snow friction mu_snow (from
 :func:`tyrebayes.inference.fleet.predict_friction`):
 
 1. ``p = P(mu_snow < mu_min)``.
@@ -35,8 +38,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from ._domain import load_braking_data, mean_deceleration_g
 from ._errors import BadInputError
-from ._resources import data_dir
 from .inference.summary import summarize
 
 #: Default minimum snow friction potential for a winter-suitable set (see module docstring).
@@ -47,7 +50,6 @@ DEFAULT_COST_FALSE_ALARM: float = 1.0
 #: How far the 90 % predictive interval may reach past mu_min on both sides before the verdict
 #: becomes "insufficient_evidence".
 DEFAULT_STRADDLE_TOL: float = 0.08
-_G = 9.81
 
 
 def derive_mu_min_snow(braking: pd.DataFrame | None = None) -> float:
@@ -70,19 +72,20 @@ def derive_mu_min_snow(braking: pd.DataFrame | None = None) -> float:
     >>> round(derive_mu_min_snow(), 2)
     0.26
     """
-    raw = pd.read_csv(data_dir() / "braking_by_tyre_type.csv") if braking is None else braking
+    raw = load_braking_data() if braking is None else braking
     snow = raw[raw["surface"] == "snow"]
     winter, summer = [], []
     for _, r in snow.iterrows():
-        v2 = (float(r["speed_from_kmh"]) / 3.6) ** 2
+        v = r["speed_from_kmh"]
         if r["tyre_type"] == "winter" and np.isfinite(r["distance_m"]):
-            winter.append(v2 / (2 * _G * r["distance_m"]))
+            winter.append(float(mean_deceleration_g(v, r["distance_m"])))
         elif r["tyre_type"] == "summer":
             if np.isfinite(r["distance_m"]):
-                summer.append(v2 / (2 * _G * r["distance_m"]))
+                summer.append(float(mean_deceleration_g(v, r["distance_m"])))
             elif "more than twice" in str(r["note"]):
                 same = snow[(snow["source"] == r["source"]) & (snow["tyre_type"] == "winter")]
-                summer.append(v2 / (2 * _G * 2 * float(same["distance_m"].iloc[0])))
+                d = 2 * float(same["distance_m"].iloc[0])
+                summer.append(float(mean_deceleration_g(v, d)))
     if not winter or not summer:
         raise BadInputError("braking data: expected winter and summer rows on snow, got too few")
     return 0.5 * (min(winter) + max(summer))
@@ -172,3 +175,20 @@ def winter_verdict(
         "n_draws": int(x.size),
         "reason": reason,
     }
+
+
+def high_wear_warning(
+    ratio_draws: np.ndarray, threshold: float = 1.25, decision_probability: float = 0.8
+) -> dict:
+    """Warn "unexpectedly high wear" when P(I_now / I_ref > threshold) >= decision_probability.
+
+    Returns ``{"warning": bool, "probability": p, "threshold": ..., "message": ...}``.
+    """
+    p = float(np.mean(np.asarray(ratio_draws) > threshold))
+    warn = p >= decision_probability
+    msg = (
+        f"unexpectedly high wear: P(wear rate > {threshold:.2f} x reference) = {p:.2f}"
+        if warn
+        else f"no wear warning: P(wear rate > {threshold:.2f} x reference) = {p:.2f}"
+    )
+    return {"warning": warn, "probability": p, "threshold": threshold, "message": msg}

@@ -1,18 +1,15 @@
 """Tests of the hierarchical fleet model (tyrebayes.inference.fleet)."""
 
-import json
-
 import numpy as np
 import pandas as pd
 import pytest
 
+from tyrebayes._domain import SURFACES, TYRE_TYPES
 from tyrebayes._errors import BadInputError
 from tyrebayes.inference.fleet import (
-    SURFACES,
-    TYRE_TYPES,
     fit_fleet,
+    fit_summary,
     fleet_data_from_table,
-    fleet_diagnostics,
     load_tyre_type_priors,
     measured_braking_bounds,
     predict_friction,
@@ -20,6 +17,7 @@ from tyrebayes.inference.fleet import (
     prior_predictive_check,
     type_probabilities,
 )
+from tyrebayes.inference.result import load_fit
 from tyrebayes.simulate.fleet import TYPE_FRICTION, simulate_fleet
 
 
@@ -29,8 +27,8 @@ def fit120():
     table, truth = simulate_fleet(
         11, 120, type_shares={"winter": 0.4, "all_season": 0.3, "summer": 0.3}
     )
-    idata = fit_fleet(table, key=3, num_warmup=300, num_samples=300, num_chains=2)
-    return table, truth, idata
+    fit = fit_fleet(table, key=3, num_warmup=500, num_samples=500, num_chains=2)
+    return table, truth, fit
 
 
 # --- priors -------------------------------------------------------------------------------------
@@ -127,19 +125,47 @@ def test_table_without_sd_or_surface_uses_defaults():
 
 
 def test_nuts_fit_converges_and_has_arviz_groups(fit120):
-    table, _, idata = fit120
-    diag = fleet_diagnostics(idata)
-    assert diag["converged"] and idata.attrs["converged"] == 1, diag
-    assert diag["divergences"] == 0
+    table, _, fit = fit120
+    diag = fit.diagnostics
+    assert fit.kind == "fleet" and diag.method == "nuts"
+    assert diag.converged and not diag.reasons, diag.as_dict()
+    assert diag.r_hat_max <= 1.02 and diag.ess_bulk_min >= 200 and diag.ess_tail_min >= 200
+    # The simulated fleet follows the model: its predictive check passes.
+    assert diag.adequate and diag.adequacy_reasons == ()
     for group in ("posterior", "observed_data", "log_likelihood", "posterior_predictive"):
-        assert group in idata.groups()
-    assert idata.log_likelihood["mu"].shape[-1] == len(table)
-    assert json.loads(idata.attrs["fitted_surfaces"]) == ["snow"]
+        assert group in fit.data.children
+    assert fit.data["log_likelihood"]["mu"].shape[-1] == len(table)
+    assert fit.attr("fitted_surfaces") == ["snow"]
+    assert fit.provenance.method == "nuts" and fit.provenance.model == "hierarchical"
+
+
+def test_saved_fleet_fit_loads_back_and_predicts_the_same(fit120, tmp_path):
+    _, _, fit = fit120
+    path = fit.save(tmp_path / "fleet.nc")
+    loaded = load_fit(path, kind="fleet")
+    assert loaded.kind == "fleet"
+    np.testing.assert_equal(loaded.diagnostics.as_dict(), fit.diagnostics.as_dict())
+    assert loaded.provenance == fit.provenance
+    np.testing.assert_array_equal(loaded.draws("a"), fit.draws("a"))
+    np.testing.assert_array_equal(
+        predict_friction(loaded, 30.0, 1.0, None, "snow", seed=4),
+        predict_friction(fit, 30.0, 1.0, None, "snow", seed=4),
+    )
+    assert fit_summary(loaded) == fit_summary(fit)
+    with pytest.raises(BadInputError, match="expected a tyre fit, got a fleet fit"):
+        load_fit(path, kind="tyre")
+
+
+def test_too_short_a_run_is_reported_not_converged():
+    table, _ = simulate_fleet(5, 26)
+    fit = fit_fleet(table, key=0, num_warmup=10, num_samples=10, num_chains=2)
+    assert not fit.converged
+    assert any("ESS" in r for r in fit.diagnostics.reasons), fit.diagnostics.reasons
 
 
 def test_recovers_type_level_snow_parameters(fit120):
-    _, truth, idata = fit120
-    post = idata.posterior
+    _, truth, fit = fit120
+    post = fit.posterior
     for t in TYRE_TYPES:
         a_true, b_true, s_true = TYPE_FRICTION["snow"][t]
         a = post["a"].sel(surface="snow", tyre_type=t).values.ravel()
@@ -159,67 +185,67 @@ def test_recovers_type_level_snow_parameters(fit120):
     assert np.allclose(med, [30.0, 40.0, 55.0], rtol=0.05), med
     # Latent C_xr: closer to the truth than the noisy measurement on average (shrinkage).
     c_post = post["c_xr_true"].mean(("chain", "draw")).values
-    c_obs = idata.constant_data["c_xr_obs"].values
-    order = np.argsort(np.array(post.tyre.values, dtype=str))
+    c_obs = fit.data["constant_data"]["c_xr_obs"].values
+    order = np.argsort(np.array(post["tyre"].values, dtype=str))
     c_true = truth["c_xr_true"][order]
     assert np.mean((c_post - c_true) ** 2) < np.mean((c_obs - c_true) ** 2)
 
 
 def test_predict_friction_known_and_unknown_type(fit120):
-    _, _, idata = fit120
-    winter = predict_friction(idata, 30.0, 1.0, "winter", "snow", seed=1)
-    summer = predict_friction(idata, 55.0, 1.0, "summer", "snow", seed=1)
+    _, _, fit = fit120
+    winter = predict_friction(fit, 30.0, 1.0, "winter", "snow", seed=1)
+    summer = predict_friction(fit, 55.0, 1.0, "summer", "snow", seed=1)
     assert abs(winter.mean() - 0.45) < 0.03 and abs(summer.mean() - 0.18) < 0.03
     # Predictive sd: residual scatter (~0.03) plus parameter uncertainty, so 0.025-0.06.
     assert 0.025 < winter.std() < 0.06
     # Unknown type with a summer-like stiffness: the mixture is dominated by summer.
-    w = type_probabilities(idata, 56.0, 1.0)
+    w = type_probabilities(fit, 56.0, 1.0)
     assert np.allclose(w.sum(axis=1), 1.0)
     assert w[:, 2].mean() > 0.9
-    unknown = predict_friction(idata, 56.0, 1.0, None, "snow", seed=1)
+    unknown = predict_friction(fit, 56.0, 1.0, None, "snow", seed=1)
     assert abs(unknown.mean() - summer.mean()) < 0.03
     # Between the types the mixture is wider than either type's own prediction.
-    mid = predict_friction(idata, 36.0, 2.0, None, "snow", seed=1)
+    mid = predict_friction(fit, 36.0, 2.0, None, "snow", seed=1)
     assert mid.std() > winter.std()
 
 
 def test_unfitted_surface_predicts_from_prior(fit120):
-    _, _, idata = fit120
+    _, _, fit = fit120
     p = load_tyre_type_priors()
-    dry = predict_friction(idata, 55.0, 1.0, "summer", "dry", seed=2)
+    dry = predict_friction(fit, 55.0, 1.0, "summer", "dry", seed=2)
     # Prior mean 1.15 (braking data), prior sd ~0.1 on a plus scatter: wide.
     assert abs(dry.mean() - p.mu[SURFACES.index("dry"), 2]) < 0.05
     assert dry.std() > 0.08
 
 
 def test_predictive_logpdf_prefers_truth_like_data(fit120):
-    _, _, idata = fit120
+    _, _, fit = fit120
     new, _ = simulate_fleet(99, 30)
-    lp = predictive_logpdf(idata, new)
+    lp = predictive_logpdf(fit, new)
     assert lp.shape == (30,) and np.all(np.isfinite(lp))
     shifted = new.assign(mu=new["mu"] + 0.15)
-    assert predictive_logpdf(idata, shifted).sum() < lp.sum() - 50
+    assert predictive_logpdf(fit, shifted).sum() < lp.sum() - 50
 
 
 def test_bad_prediction_inputs(fit120):
-    _, _, idata = fit120
+    _, _, fit = fit120
     with pytest.raises(BadInputError, match="surface"):
-        predict_friction(idata, 30.0, 1.0, "winter", "sand")
+        predict_friction(fit, 30.0, 1.0, "winter", "sand")
     with pytest.raises(BadInputError, match="tyre type"):
-        predict_friction(idata, 30.0, 1.0, "racing", "snow")
+        predict_friction(fit, 30.0, 1.0, "racing", "snow")
     with pytest.raises(BadInputError, match="c_xr"):
-        predict_friction(idata, -1.0, 1.0, "winter", "snow")
+        predict_friction(fit, -1.0, 1.0, "winter", "snow")
 
 
 @pytest.mark.slow
 def test_svi_recovers_type_level_parameters_on_large_multi_surface_fleet():
     table, _ = simulate_fleet(21, 3000, surface=("snow", "ice"))
-    idata = fit_fleet(table, method="svi", key=0, svi_steps=3000)
-    assert fleet_diagnostics(idata)["converged"]
+    fit = fit_fleet(table, method="svi", key=0, svi_steps=3000)
+    assert fit.converged and fit.diagnostics.optimiser_result == "successful"
     for s in ("snow", "ice"):
         for t in TYRE_TYPES:
             a_true, b_true, _ = TYPE_FRICTION[s][t]
-            a = idata.posterior["a"].sel(surface=s, tyre_type=t).values.mean()
-            b = idata.posterior["b"].sel(surface=s, tyre_type=t).values.mean()
+            a = fit.posterior["a"].sel(surface=s, tyre_type=t).values.mean()
+            b = fit.posterior["b"].sel(surface=s, tyre_type=t).values.mean()
             assert abs(a - a_true) < 0.01, (s, t, a, a_true)
             assert abs(b - b_true) < 0.04, (s, t, b, b_true)

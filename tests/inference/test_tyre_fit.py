@@ -45,7 +45,7 @@ def test_too_few_nuts_draws_is_not_converged():
 
 @pytest.fixture(scope="module")
 def simulated_drive():
-    from tyrebayes.physics.vehicle import load_vehicle
+    from tyrebayes._domain import load_vehicle
     from tyrebayes.simulate.drive import simulate_drive
     from tyrebayes.simulate.profiles import ProfileOptions
     from tyrebayes.streams import compute_features, validate_stream
@@ -97,7 +97,7 @@ def test_map_search_escapes_the_spurious_low_friction_mode():
     From the prior median alone the MAP search ended there (seed found by the one-hour recovery
     benchmark); the multi-start search must find the right mode.
     """
-    from tyrebayes.physics.vehicle import load_vehicle
+    from tyrebayes._domain import load_vehicle
     from tyrebayes.simulate.drive import simulate_drive
     from tyrebayes.simulate.profiles import ProfileOptions
     from tyrebayes.streams import compute_features, validate_stream
@@ -247,8 +247,8 @@ def test_the_warm_up_reveals_the_stiffness_temperature_sensitivity():
     temperature estimated from the stream the fit must find κ near the simulator's (0.00825 1/K
     for this summer tyre). Seeded; the tolerances are three posterior sds (κ was 0.0091 ± 0.0012).
     """
+    from tyrebayes._domain import load_vehicle
     from tyrebayes.physics.thermal import StiffnessTemperature, temperature_sensitivity
-    from tyrebayes.physics.vehicle import load_vehicle
     from tyrebayes.simulate.drive import simulate_drive
     from tyrebayes.streams import compute_features, features_tyre_temperature, validate_stream
 

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 from numpyro import handlers
 
+from tyrebayes.inference.result import load_fit
 from tyrebayes.inference.tyre_data import _inner_runs, stack_drives
-from tyrebayes.inference.tyre_fit import fit_tyre
+from tyrebayes.inference.tyre_fit import TyreFit, fit_tyre
 from tyrebayes.inference.tyre_model import TyrePriors, tyre_model
 from tyrebayes.physics.tyre import brush_longitudinal, brush_longitudinal_inverse
 
@@ -73,10 +74,20 @@ def test_mu_max_not_observed_without_hard_braking(linear_fit):
 
 def test_inference_data_groups(linear_fit):
     _, obs, fit = linear_fit
-    groups = set(fit.idata.groups())
+    groups = set(fit.idata.children)
     assert {"posterior", "observed_data", "log_likelihood", "posterior_predictive"} <= groups
-    assert fit.idata.observed_data["rho_obs"].shape == (obs.n_used,)
+    assert fit.idata["observed_data"]["rho_obs"].shape == (obs.n_used,)
     assert fit.n_samples_used == 900
+
+
+def test_saved_tyre_fit_loads_back_with_its_tyre_fields(linear_fit, tmp_path):
+    _, _, fit = linear_fit
+    assert fit.fit.kind == "tyre" and fit.fit.provenance.method == "fast"
+    loaded = load_fit(fit.save(tmp_path / "tyre.nc"), kind="tyre")
+    again = TyreFit.from_fit(loaded)
+    assert again.kind == fit.kind and again.surfaces == fit.surfaces
+    assert again.mu_observed == fit.mu_observed and again.n_samples_used == fit.n_samples_used
+    np.testing.assert_equal(again.summary(), fit.summary())
 
 
 def test_bad_kind_is_a_value_error():

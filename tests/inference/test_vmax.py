@@ -5,11 +5,13 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from tyrebayes.inference.result import load_fit
 from tyrebayes.inference.vmax import (
     censored_loglik,
     fit_extended,
     lateral_draws,
     load_table_6_2,
+    pointwise_log_lik,
     power_table,
     psis_loo,
 )
@@ -43,13 +45,17 @@ def test_lateral_draws_follow_relations() -> None:
     assert float(jnp.mean(mu)) == pytest.approx(0.9975, abs=0.005)
 
 
-def test_extended_fit_recovers_offset_and_loo() -> None:
+def test_extended_fit_recovers_offset_and_loo(tmp_path) -> None:
     # synthetic: sim says 55 for all, truth is 75 -> offset ~ +20 within the 10 km/h interval
     lo = np.full(6, 70.0)
     m, s = np.full(6, 55.0), np.full(6, 2.0)
-    post = fit_extended(lo, m, s, seed=1, num_samples=400)
-    assert 13.0 < float(np.mean(post["delta_kmh"])) < 22.0
-    loo = psis_loo(post["log_lik"])
+    fit = fit_extended(lo, m, s, seed=1, num_samples=400)
+    assert fit.kind == "vmax" and fit.diagnostics.divergences == 0
+    assert 13.0 < float(np.mean(fit.draws("delta_kmh"))) < 22.0
+    loo = psis_loo(pointwise_log_lik(fit))
+    loaded = load_fit(fit.save(tmp_path / "vmax.nc"), kind="vmax")
+    np.testing.assert_array_equal(pointwise_log_lik(loaded), pointwise_log_lik(fit))
+    assert loaded.provenance == fit.provenance and loaded.converged == fit.converged
     assert np.isfinite(loo["elpd_loo"]) and loo["se"] >= 0.0
 
 

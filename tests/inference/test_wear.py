@@ -7,12 +7,16 @@ import pytest
 from numpyro.handlers import condition, seed, trace
 from numpyro.infer.util import log_density
 
+from tyrebayes._errors import BadInputError
+from tyrebayes.decisions import high_wear_warning
+from tyrebayes.inference.result import load_fit
 from tyrebayes.inference.wear import (
     WearPriors,
+    WearSet,
     build_wear_data,
     c_xr_lognormal,
     fit_wear,
-    high_wear_warning,
+    gamma_summary,
     predict_wear_volume,
     relative_wear_draws,
     wear_model,
@@ -43,23 +47,44 @@ def simulated():
 @pytest.fixture(scope="module")
 def depth_fit(simulated):
     work, obs = simulated
-    data = build_wear_data([(work, obs, "summer", (35.0, 1.5))], use_drift=False)
+    data = build_wear_data([WearSet.from_c_xr(work, obs, "summer", (35.0, 1.5))], use_drift=False)
     return fit_wear(data, extended=False, num_warmup=120, num_samples=200, num_chains=1, seed=1)
 
 
 def test_gamma_recovered_from_tread_depth(depth_fit):
-    s = depth_fit.gamma_summary()[0]
+    s = gamma_summary(depth_fit)[0]
     lo, hi = s["hdi_90"]
     # one fixed-key data set: truth inside the 90 % interval, posterior mean within 15 %
     assert lo < GAMMA_TRUE < hi
     assert abs(s["mean"] / GAMMA_TRUE - 1) < 0.15
-    assert depth_fit.diagnostics["divergences"] == 0
-    assert "depth" in depth_fit.idata.log_likelihood
+    assert depth_fit.kind == "wear" and depth_fit.diagnostics.divergences == 0
+    assert "depth" in depth_fit.data["log_likelihood"]
+
+
+def test_saved_wear_fit_loads_back_and_predicts_the_same(depth_fit, tmp_path):
+    loaded = load_fit(depth_fit.save(tmp_path / "wear.nc"), kind="wear")
+    np.testing.assert_equal(loaded.diagnostics.as_dict(), depth_fit.diagnostics.as_dict())
+    assert loaded.provenance.model == "baseline"
+    k, grid = profile_kernel(jax.random.PRNGKey(5), 15.0, 1000.0, PROFILE, n_drives=2)
+    np.testing.assert_allclose(
+        predict_wear_volume(loaded, k, grid, set_index=0),
+        predict_wear_volume(depth_fit, k, grid, set_index=0),
+    )
+    with pytest.raises(BadInputError, match="expected a fleet fit, got a wear fit"):
+        load_fit(tmp_path / "wear.nc", kind="fleet")
+
+
+def test_too_short_a_run_is_reported_not_converged(simulated):
+    work, obs = simulated
+    data = build_wear_data([WearSet.from_c_xr(work, obs, "summer", (35.0, 1.5))], use_drift=False)
+    fit = fit_wear(data, num_warmup=10, num_samples=10, num_chains=2, seed=2)
+    assert not fit.converged
+    assert any("ESS" in r for r in fit.diagnostics.reasons), fit.diagnostics.reasons
 
 
 def test_extension_with_kappa_zero_reproduces_baseline_exactly(simulated):
     work, obs = simulated
-    data = build_wear_data([(work, obs, "winter", (35.0, 1.5))])
+    data = build_wear_data([WearSet.from_c_xr(work, obs, "winter", (35.0, 1.5))])
     params = {
         "mu_log_gamma": jnp.array([np.log(0.05)]),
         "log_c_xr": jnp.log(jnp.array([34.0])),
@@ -96,10 +121,18 @@ def test_c_xr_input_forms():
 
 def test_build_rejects_bad_input(simulated):
     work, obs = simulated
+    # A tuple is not a WearSet: the type check at test time (or the function itself) says so.
+    with pytest.raises((TypeError, ValueError), match="WearSet"):
+        build_wear_data([(work, obs, "summer", (35.0, 1.0))])
+    work, obs = simulated
     with pytest.raises(ValueError, match="use_depth or use_drift"):
-        build_wear_data([(work, obs, "summer", (35.0, 1.0))], use_depth=False, use_drift=False)
+        build_wear_data(
+            [WearSet.from_c_xr(work, obs, "summer", (35.0, 1.0))], use_depth=False, use_drift=False
+        )
     with pytest.raises(ValueError, match="tyre_type"):
-        build_wear_data([(work, obs, "slick", (35.0, 1.0))], type_names=("summer",))
+        build_wear_data(
+            [WearSet.from_c_xr(work, obs, "slick", (35.0, 1.0))], type_names=("summer",)
+        )
 
 
 def test_predictions_relative_wear_and_warning(depth_fit):

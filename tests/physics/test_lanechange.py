@@ -4,6 +4,7 @@ import jax
 import jax.numpy as jnp
 import pytest
 
+from tyrebayes._domain import load_vehicle
 from tyrebayes.physics.lanechange import (
     Tyres,
     critical_speed,
@@ -11,7 +12,6 @@ from tyrebayes.physics.lanechange import (
     iso3888_2_course,
     run_margin,
 )
-from tyrebayes.physics.vehicle import load_vehicle
 
 VEH = load_vehicle("compact_fwd")
 COURSE = iso3888_2_course(VEH.width_m)

@@ -5,13 +5,13 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from tyrebayes._domain import load_vehicle
 from tyrebayes._resources import models_dir
 from tyrebayes.physics.vehicle import (
     GRAVITY_MPS2,
     SingleTrackState,
     Vehicle,
     aero_drag,
-    load_vehicle,
     single_track_accelerations,
     single_track_derivatives,
     single_track_inverse,
@@ -100,24 +100,6 @@ def test_bad_vehicle_values_name_the_field(field, value):
     fields[field] = value
     with pytest.raises(ValueError, match=field):
         Vehicle(**fields)
-
-
-def test_toml_missing_key_is_named(tmp_path):
-    text = (models_dir() / "vehicles" / "compact_fwd.toml").read_text()
-    bad = tmp_path / "bad.toml"
-    bad.write_text("\n".join(line for line in text.splitlines() if not line.startswith("mass_kg")))
-    with pytest.raises(ValueError, match="mass_kg"):
-        load_vehicle(bad)
-
-
-def test_toml_bad_value_and_unknown_preset(tmp_path):
-    text = (models_dir() / "vehicles" / "compact_fwd.toml").read_text()
-    bad = tmp_path / "neg.toml"
-    bad.write_text(text.replace("mass_kg = 1600.0", "mass_kg = -3.0"))
-    with pytest.raises(ValueError, match="mass_kg.*-3.0"):
-        load_vehicle(bad)
-    with pytest.raises(ValueError, match="no_such_car"):
-        load_vehicle("no_such_car")
 
 
 # --- audit of issue 2: parameter batches, traced drive share, messages name field and value ---

@@ -1,14 +1,16 @@
-"""Report sections from hand-made InferenceData: offsets removed, curves at the posterior."""
+"""Report sections from hand-made fits: offsets removed, curves at the posterior."""
 
 from __future__ import annotations
 
-import arviz as az
+import arviz_base as azb
 import numpy as np
+import pytest
 
-from tyrebayes.report.sections import is_fleet_fit, is_tyre_fit, tyre_section
+from tyrebayes.inference.result import Fit, Provenance, diagnose
+from tyrebayes.report.sections import diagnostics_row, tyre_section
 
 
-def _idata(with_indices: bool) -> az.InferenceData:
+def _idata(with_indices: bool) -> Fit:
     rng = np.random.default_rng(1)
     n_draws, n_win = 200, 300
     drive = np.repeat([0, 1], n_win // 2)
@@ -22,24 +24,32 @@ def _idata(with_indices: bool) -> az.InferenceData:
         "slip_offset": np.broadcast_to(s0, (1, n_draws, 2)).copy(),
         "force_gain": np.broadcast_to(gain, (1, n_draws, 2)).copy(),
     }
-    kw = {
+    groups = {
         "posterior": posterior,
         "observed_data": {
             "slip_obs": true_slip + s0[drive],
             "rho_obs": 30.0 * true_slip * gain[drive],
         },
-        "dims": {"mu_max": ["surface"], "slip_offset": ["drive"], "force_gain": ["drive"]},
-        "coords": {"surface": ["dry"]},
     }
     if with_indices:
-        kw["constant_data"] = {"drive_index": drive, "surface_index": np.zeros(n_win, int)}
-    return az.from_dict(**kw)
+        groups["constant_data"] = {"drive_index": drive, "surface_index": np.zeros(n_win, int)}
+    data = azb.from_dict(
+        groups,
+        dims={"mu_max": ["surface"], "slip_offset": ["drive"], "force_gain": ["drive"]},
+        coords={"surface": ["dry"]},
+    )
+    diagnostics = diagnose(data, method="laplace", var_names=["c_xr"], optimiser_result="n/a")
+    return Fit(
+        data=data,
+        diagnostics=diagnostics,
+        kind="tyre",
+        provenance=Provenance(method="laplace", model="brush"),
+    )
 
 
 def test_tyre_section_removes_offsets_and_gains() -> None:
-    idata = _idata(with_indices=True)
-    assert is_tyre_fit(idata) and not is_fleet_fit(idata)
-    sec = tyre_section(idata, "t", tyre_type="winter")
+    fit = _idata(with_indices=True)
+    sec = tyre_section(fit, "t", tyre_type="winter")
     # offset and gain removed: the windows lie on rho = 30 sigma
     np.testing.assert_allclose(sec.rho, 30.0 * sec.slip, atol=1e-9)
     grid, lo, mid, hi = sec.curve["dry"]
@@ -52,6 +62,18 @@ def test_tyre_section_without_indices_uses_mean_offsets() -> None:
     sec = tyre_section(_idata(with_indices=False), "t")
     assert sec.slip.shape == sec.rho.shape == (300,)
     assert np.all(np.isfinite(sec.slip)) and sec.diagnostics["chains"] == 1
+    # The section shows the fit's own diagnostics (here: an optimiser that did not report).
+    np.testing.assert_equal(
+        sec.diagnostics, diagnostics_row(_idata(with_indices=False).diagnostics)
+    )
+    assert not sec.diagnostics["converged"] and "optimiser: n/a" in sec.diagnostics["reason"]
+
+
+def test_tyre_section_refuses_another_kind_of_fit() -> None:
+    fit = _idata(with_indices=True)
+    fleet = Fit(data=fit.data, diagnostics=fit.diagnostics, kind="fleet", provenance=fit.provenance)
+    with pytest.raises(ValueError, match="expected a tyre fit, got a fleet fit"):
+        tyre_section(fleet, "t")
 
 
 def test_shaped_curves_are_the_brush_at_shape_one_and_straighter_above():

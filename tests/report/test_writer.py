@@ -9,7 +9,8 @@ import numpy as np
 
 from tyrebayes.report import Report, write_report
 from tyrebayes.report.content import FleetSection, TyreSection, VmaxSection, WearSection
-from tyrebayes.report.tables import fmt, post
+from tyrebayes.report.sections_text import headline
+from tyrebayes.report.tables import diagnostics_table, fmt, post
 
 
 def _summary(mean: float, sd: float) -> dict:
@@ -146,3 +147,28 @@ def test_fmt_and_post() -> None:
     assert fmt(float("nan")) == "–" and fmt(None) == "–" and fmt(True) == "yes"
     assert fmt(0.123456) == "0.123" and fmt(3) == "3"
     assert post(_summary(1.0, 0.1)) == "1 ± 0.1 [0.836, 1.16]"
+
+
+def test_inadequate_and_unconverged_fits_are_marked(tmp_path) -> None:
+    report = _report()
+    report.diagnostics.append(
+        {
+            "fit": "fleet: winter",
+            "method": "nuts",
+            "chains": 2,
+            "converged": False,
+            "reason": "tail ESS 171 < 200",
+            "adequate": False,
+            "adequacy_reasons": ["mu: observed sd outside its posterior predictive (p = 0.001)"],
+        }
+    )
+    header, rows = diagnostics_table(report)
+    row = dict(zip(header, rows[-1], strict=True))
+    assert row["converged"] == "no" and row["adequate"] == "NO"
+    assert "tail ESS" in row["note"] and "observed sd" in row["note"]
+    assert dict(zip(header, rows[0], strict=True))["adequate"] == "yes"
+    lines = headline(report)
+    assert any("not: fleet: winter" in line for line in lines)
+    assert any(line.startswith("Model inadequate") and "fleet: winter" in line for line in lines)
+    write_report(report, tmp_path)
+    assert "Model inadequate" in (tmp_path / "report.md").read_text()

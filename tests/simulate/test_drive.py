@@ -7,6 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from tyrebayes._domain import load_vehicle
 from tyrebayes.physics.thermal import StiffnessTemperature, stiffness_at_temperature
 from tyrebayes.physics.tyre import (
     MagicFormulaLongitudinal,
@@ -17,7 +18,6 @@ from tyrebayes.physics.tyre import (
 from tyrebayes.physics.vehicle import (
     GRAVITY_MPS2,
     aero_drag,
-    load_vehicle,
     rolling_resistance_force,
     wheel_loads,
 )

@@ -20,7 +20,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tyrebayes.physics.vehicle import GRAVITY_MPS2, load_vehicle
+from tyrebayes._domain import load_vehicle
+from tyrebayes.physics.vehicle import GRAVITY_MPS2
 from tyrebayes.simulate.drive import simulate_drive
 from tyrebayes.simulate.drive_io import read_drive_truth, write_drive
 from tyrebayes.streams import read_stream, validate_stream

@@ -7,7 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from tyrebayes.physics.vehicle import GRAVITY_MPS2, load_vehicle
+from tyrebayes._domain import load_vehicle
+from tyrebayes.physics.vehicle import GRAVITY_MPS2
 from tyrebayes.simulate.drive import simulate_drive
 from tyrebayes.simulate.sensors import SensorModel, draw_sensor_truth, scale_noise
 from tyrebayes.simulate.vehicle_truth import VehicleSpread, draw_true_vehicle, force_gain

@@ -6,15 +6,17 @@ import numpy as np
 import pytest
 
 from tyrebayes.physics.thermal import StiffnessTemperature, stiffness_at_temperature
-from tyrebayes.physics.wear import Abrasability
-from tyrebayes.simulate.wear import (
-    DutyProfile,
+from tyrebayes.physics.wear import (
+    Abrasability,
     TreadGeometry,
     cumulative_depth_loss,
-    observe_wear,
-    simulate_drives,
     volume_to_depth_mm,
     volume_to_mass_g,
+)
+from tyrebayes.simulate.wear import (
+    DutyProfile,
+    observe_wear,
+    simulate_drives,
 )
 
 PROFILE = DutyProfile(drive_duration_s=900.0, dt_s=3.0)

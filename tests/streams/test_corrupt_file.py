@@ -25,7 +25,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from tyrebayes import BadInputError
-from tyrebayes.physics.vehicle import load_vehicle
+from tyrebayes._domain import load_vehicle
 from tyrebayes.streams import (
     StreamFeatures,
     compute_features,

@@ -7,8 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
+from tyrebayes._domain import load_vehicle
 from tyrebayes._resources import data_dir
-from tyrebayes.physics.vehicle import load_vehicle
 from tyrebayes.streams import (
     SEGMENT_KINDS,
     compute_features,

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from tyrebayes._commands.inspect import summarize_stream
+from tyrebayes._domain import load_vehicle
 from tyrebayes._resources import data_dir
 from tyrebayes.cli import main
-from tyrebayes.physics.vehicle import load_vehicle
 from tyrebayes.streams import write_stream
 from tyrebayes.streams.synthetic import synthetic_stream
 

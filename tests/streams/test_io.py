@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from tyrebayes import BadInputError
-from tyrebayes.physics.vehicle import load_vehicle
+from tyrebayes._domain import load_vehicle
 from tyrebayes.streams import read_stream, validate_stream, write_stream
 from tyrebayes.streams.synthetic import synthetic_stream
 

@@ -54,7 +54,7 @@ def test_simulated_drive_temperature_is_read_from_the_stream():
     """The simulator's tyres heat with other coefficients than the nominal ones the estimate
     uses (ThermalSpread); the estimate must follow the warm-up's shape: the model infers the
     stiffness' temperature sensitivity, so a scale error is absorbed, a wrong shape is not."""
-    from tyrebayes.physics.vehicle import load_vehicle
+    from tyrebayes._domain import load_vehicle
     from tyrebayes.simulate.drive import simulate_drive
     from tyrebayes.simulate.vehicle_truth import ThermalSpread, draw_true_thermal
     from tyrebayes.streams import compute_features, validate_stream

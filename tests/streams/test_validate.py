@@ -9,8 +9,8 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from tyrebayes import BadInputError
+from tyrebayes._domain import load_vehicle
 from tyrebayes._resources import data_dir
-from tyrebayes.physics.vehicle import load_vehicle
 from tyrebayes.streams import (
     REQUIRED_COLUMNS,
     compute_features,

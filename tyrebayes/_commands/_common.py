@@ -1,37 +1,20 @@
-"""Helpers shared by the CLI sub-commands: JSON output, atomic writes, input checks."""
+"""Helpers shared by the CLI sub-commands: JSON output, input checks, the exit status of a fit."""
 
 from __future__ import annotations
 
 import contextlib
 import json
-import math
-import os
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any
-
-import numpy as np
 
 from .._errors import BadInputError
+from .._io import atomic_path as atomic_path
+from .._io import atomic_write_bytes as atomic_write_bytes
+from .._io import to_jsonable as _to_jsonable
 
-
-def _to_jsonable(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {str(k): _to_jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_to_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray) or hasattr(value, "__array__"):
-        arr = np.asarray(value)
-        return _to_jsonable(arr.item() if arr.ndim == 0 else arr.tolist())
-    if isinstance(value, np.bool_ | bool):
-        return bool(value)
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, float | np.floating):
-        value = float(value)
-        return value if math.isfinite(value) else None
-    return value
+#: Exit status of a command whose fit did not converge (its result is still written and printed).
+EXIT_NOT_CONVERGED = 3
 
 
 def print_json(payload: dict) -> None:
@@ -48,29 +31,21 @@ def existing_file(path: str) -> Path:
     return p
 
 
-def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path`` and rename it into place."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def atomic_path(path: str | os.PathLike) -> tuple[Path, Path]:
-    """Return (temporary path, final path) for writers that need a file name (netCDF, PNG).
-
-    Write to the temporary path, then call ``os.replace(tmp, final)``.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
-    return tmp, path
+def diagnostics_text(diagnostics) -> str:
+    """Two lines for a human: convergence (R-hat, ESS, divergences) and model adequacy."""
+    d = diagnostics
+    first = (
+        f"method {d.method}: R-hat max {d.r_hat_max:.3f}, ESS min bulk {d.ess_bulk_min:.0f} / "
+        f"tail {d.ess_tail_min:.0f}, divergences {d.divergences}; "
+        + ("converged" if d.converged else f"NOT CONVERGED: {d.reason}")
+    )
+    second = (
+        "model adequate"
+        if d.adequate and not d.adequacy_reasons
+        else ("model adequate, but: " if d.adequate else "MODEL INADEQUATE: ")
+        + "; ".join(d.adequacy_reasons)
+    )
+    return f"{first}\n{second}"
 
 
 def add_can_arguments(parser) -> None:
@@ -114,3 +89,11 @@ def stream_file(args, vehicle: str | None = None):
         path = Path(tmp) / f"{Path(args.stream).stem}.parquet"
         write_stream(conversion.data, path)
         yield path
+
+
+def exit_status(fit, command: str) -> int:
+    """0 for a converged fit; :data:`EXIT_NOT_CONVERGED` (with the reason on stderr) otherwise."""
+    if fit.diagnostics.converged:
+        return 0
+    print(f"tyrebayes {command}: fit did not converge: {fit.diagnostics.reason}", file=sys.stderr)
+    return EXIT_NOT_CONVERGED

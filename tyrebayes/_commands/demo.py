@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 from .._errors import BadInputError
-from ._common import atomic_path, print_json
+from ._common import print_json
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -73,15 +73,6 @@ class _Steps:
         self.bar.close()
 
 
-def _save_idata(idata, path: Path) -> None:
-    tmp, final = atomic_path(path)
-    try:
-        idata.to_netcdf(str(tmp))
-        os.replace(tmp, final)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def _compilation_cache() -> None:
     """Keep compiled models between runs (the demo is compile-bound on a small machine).
 
@@ -114,12 +105,12 @@ def run(args: argparse.Namespace) -> int:
     jax.config.update("jax_enable_x64", True)
     _compilation_cache()
     from ..report import write_report
-    from ..report.pipeline import run_demo
+    from ._demo_report import run_demo
 
     t0, c0 = time.perf_counter(), time.process_time()
     report, fits = run_demo(out, quick=args.quick, seed=args.seed, step_factory=_Steps)
-    for name, idata in fits.items():
-        _save_idata(idata, out / "fits" / f"{name}.nc")
+    for name, fit in fits.items():
+        fit.save(out / "fits" / f"{name}.nc")
     t_write, c_write = time.perf_counter(), time.process_time()
     paths = write_report(report, out)
     report.timings["write report"] = {

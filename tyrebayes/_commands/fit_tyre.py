@@ -11,19 +11,23 @@ written, marked ``"converged": false``, so that it is never mistaken for a good 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
-import sys
 from typing import Any
 
+from .._domain import SURFACES
 from .._errors import BadInputError
-from ._common import add_can_arguments, atomic_path, print_json, stream_file
+from ._common import (
+    add_can_arguments,
+    diagnostics_text,
+    exit_status,
+    print_json,
+    stream_file,
+)
 
 # tyrebayes.inference.tyre_model.MODEL_KINDS, default first; spelled out here because importing
 # the model would start JAX before run() gives it one device per core (a test checks they agree).
 MODEL_CHOICES = ("magic", "shaped", "brush", "linear")
-
-#: Exit status of a fit that did not converge.
-EXIT_NOT_CONVERGED = 3
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -50,7 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--surface",
-        choices=("dry", "wet", "snow", "ice"),
+        choices=SURFACES,
         default="dry",
         help="road surface (sets the mu_max prior; default dry)",
     )
@@ -75,18 +79,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_can_arguments(parser)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", help="write the fit as ArviZ InferenceData (netCDF)")
+    parser.add_argument("--out", help="write the fit (netCDF, read back with tyrebayes.load_fit)")
     parser.add_argument("--json", action="store_true", help="machine-readable output")
     parser.set_defaults(func=run)
 
 
-def _text(summary: dict[str, Any]) -> str:
+def _text(summary: dict[str, Any], diagnostics) -> str:
     def line(name: str, key: str) -> str:
         s = summary[key]
         lo, hi = s["hdi_90"]
         return f"{name:12s} {s['mean']:.4g} ± {s['sd']:.2g}  (90% HDI {lo:.4g} … {hi:.4g})"
 
-    d = summary["diagnostics"]
     lines = [
         line("C_x", "c_x"),
         line("C_xr (20°C)", "c_xr"),
@@ -94,12 +97,10 @@ def _text(summary: dict[str, Any]) -> str:
         + ("" if summary["mu_max_observed"] else "  [not observed: prior only]"),
         line("slip offset", "slip_offset"),
         line("force gain", "force_gain"),
-        f"method {summary['method']}, {summary['n_samples_used']} windows "
-        f"({summary['n_abs_windows']} ABS); R-hat max {d['r_hat_max']}, ESS min {d['ess_min']}, "
-        f"divergences {d['divergences']}",
-        "converged" if d["converged"] else f"NOT CONVERGED: {d['reason']}",
+        f"{summary['n_samples_used']} windows ({summary['n_abs_windows']} ABS), "
+        f"model {summary['model']}",
     ]
-    return "\n".join(lines)
+    return "\n".join([*lines, diagnostics_text(diagnostics)])
 
 
 def run(args: argparse.Namespace) -> int:
@@ -111,6 +112,7 @@ def run(args: argparse.Namespace) -> int:
 
     # The slip signal is ~1e-3 and its noise ~1e-4: the MAP search and the Hessian need float64.
     jax.config.update("jax_enable_x64", True)
+    from ..inference.result import provenance
     from ..inference.tyre_data import observations_from_stream
     from ..inference.tyre_fit import fit_tyre
 
@@ -125,25 +127,25 @@ def run(args: argparse.Namespace) -> int:
             ambient_c=args.ambient,
         )
     fit = fit_tyre(obs, method=args.method, kind=args.model, seed=args.seed)
+    fit = dataclasses.replace(
+        fit,
+        provenance=provenance(
+            args.method,
+            args.model,
+            (args.stream,),
+            vehicle=str(args.vehicle),
+            surface=args.surface,
+            seed=args.seed,
+        ),
+    )
     summary = fit.summary()
     summary["n_abs_windows"] = obs.n_limit
     summary["vehicle"] = args.vehicle
     summary["surface"] = args.surface
     if args.out is not None:
-        tmp, final = atomic_path(args.out)
-        try:
-            fit.idata.to_netcdf(str(tmp))
-            os.replace(tmp, final)
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
-        summary["out"] = str(final)
+        summary["out"] = str(fit.save(args.out))
     if args.json:
         print_json(summary)
     else:
-        print(_text(summary))
-    if not summary["diagnostics"]["converged"]:
-        reason = summary["diagnostics"]["reason"]
-        print(f"tyrebayes fit-tyre: fit did not converge: {reason}", file=sys.stderr)
-        return EXIT_NOT_CONVERGED
-    return 0
+        print(_text(summary, fit.diagnostics))
+    return exit_status(fit, "fit-tyre")

@@ -1,26 +1,29 @@
 """Fleet commands: ``fit-fleet``, ``predict`` and ``warn``.
 
 ``tyrebayes fit-fleet TABLE --outcome mu [--out FLEET.nc] [--json]`` fits the hierarchical fleet
-model; ``tyrebayes predict FLEET.nc --c-xr V [--c-xr-sd SD] --type T [--json]`` gives the predictive
-friction of a new set; ``tyrebayes warn FLEET.nc --c-xr V [--c-xr-sd SD] --type T [--json]`` the
-winter-suitability verdict.
+model; it exits 3 when the fit did not converge (the fit is still written and printed, marked
+``"converged": false``). ``tyrebayes predict FLEET.nc --c-xr V [--c-xr-sd SD] --type T [--json]``
+gives the predictive friction of a new set; ``tyrebayes warn FLEET.nc ...`` with the same
+arguments the winter-suitability verdict.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 
+from .._domain import SURFACES, TYRE_TYPES
 from .._errors import BadInputError
-from ._common import atomic_path, existing_file, print_json
+from ._common import diagnostics_text, existing_file, exit_status, print_json
 
-_TYPES = ("winter", "all_season", "summer", "unknown")
-_SURFACES = ("snow", "ice", "wet", "dry")
+# The library (JAX, NumPyro, pandas) is imported inside the run functions: ``tyrebayes --help``
+# imports every command module to build its parser, and fit-tyre must set JAX's device count
+# before any module touches a device (_common.start_jax).
+
+_TYPES = (*TYRE_TYPES, "unknown")
 #: Friction levels of the ``p_below`` output: 0.3 (deep snow/ice), 0.45 (the thesis' low-friction
 #: region edge), 0.6 (wet asphalt).
 P_BELOW_LEVELS = (0.3, 0.45, 0.6)
@@ -58,7 +61,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         p.add_argument("--c-xr", type=float, required=True, help="stiffness C_xr of the set")
         p.add_argument("--c-xr-sd", type=float, default=0.0, help="its standard error")
         p.add_argument("--type", choices=_TYPES, required=True, dest="tyre_type")
-        p.add_argument("--surface", choices=_SURFACES, default="snow")
+        p.add_argument("--surface", choices=SURFACES, default="snow")
         p.add_argument("--seed", type=int, default=0)
         p.add_argument("--json", action="store_true", help="machine-readable output")
         if name == "warn":
@@ -85,53 +88,8 @@ def _read_table(path: str):
         raise BadInputError(f"fleet table {path}: expected CSV or Parquet, got {err}") from None
 
 
-def _load_fit(path: str):
-    import arviz as az
-
-    p = existing_file(path)
-    try:
-        idata = az.from_netcdf(p)
-    except (OSError, ValueError, KeyError) as err:
-        raise BadInputError(
-            f"fleet fit {path}: expected a netCDF from fit-fleet, got {err}"
-        ) from None
-    if "posterior" not in idata.groups() or "c_xr_ref" not in idata.attrs:
-        raise BadInputError(f"fleet fit {path}: expected a netCDF from fit-fleet, got another file")
-    return idata
-
-
-def fit_summary(idata) -> dict:
-    """JSON-ready summary of a fleet fit: diagnostics and a, b, sigma per fitted surface/type."""
-    from ..inference.fleet import fleet_diagnostics
-    from ..inference.summary import summarize
-
-    post = idata.posterior
-    fitted = json.loads(idata.attrs["fitted_surfaces"])
-    present = sorted(set(np.asarray(idata.constant_data["row_type"]).tolist()))
-    types = [str(post.tyre_type.values[i]) for i in present]
-    params = {
-        s: {
-            t: {
-                v: summarize(post[v].sel(surface=s, tyre_type=t).values)
-                for v in ("a", "b", "sigma")
-            }
-            for t in types
-        }
-        for s in fitted
-    }
-    return {
-        "converged": bool(idata.attrs["converged"]),
-        "diagnostics": fleet_diagnostics(idata),
-        "outcome": idata.attrs["outcome"],
-        "n_sets": int(post.sizes["tyre"]),
-        "n_rows": int(idata.observed_data.sizes["row"]),
-        "fitted_surfaces": fitted,
-        "parameters": params,
-    }
-
-
 def run_fit(args: argparse.Namespace) -> int:
-    from ..inference.fleet import fit_fleet
+    from ..inference.fleet import fit_fleet, fit_summary
 
     table = _read_table(args.table)
     if args.outcome not in table.columns:
@@ -143,7 +101,7 @@ def run_fit(args: argparse.Namespace) -> int:
     for name in ("samples", "warmup", "chains"):
         if getattr(args, name) < 1:
             raise BadInputError(f"--{name}: expected >= 1, got {getattr(args, name)}")
-    idata = fit_fleet(
+    fit = fit_fleet(
         table,
         outcome=args.outcome,
         method=method,
@@ -151,21 +109,16 @@ def run_fit(args: argparse.Namespace) -> int:
         num_warmup=args.warmup,
         num_samples=args.samples,
         num_chains=args.chains,
+        source=str(args.table),
     )
     out = Path(args.out) if args.out else Path(args.table).with_suffix(".fleet.nc")
-    tmp, final = atomic_path(out)
-    try:
-        idata.to_netcdf(str(tmp))
-        os.replace(tmp, final)
-    finally:
-        tmp.unlink(missing_ok=True)
-    summary = {"out": str(final), **fit_summary(idata)}
+    final = fit.save(out)
+    summary = {"out": str(final), **fit_summary(fit)}
     if args.json:
         print_json(summary)
     else:
-        diag = summary["diagnostics"]
         print(f"fleet fit ({method}) of {summary['n_sets']} sets -> {final}")
-        print(f"converged: {summary['converged']}  {json.dumps(diag)}")
+        print(diagnostics_text(fit.diagnostics))
         for s, per_type in summary["parameters"].items():
             for t, p in per_type.items():
                 a, b, sig = p["a"], p["b"], p["sigma"]
@@ -173,7 +126,7 @@ def run_fit(args: argparse.Namespace) -> int:
                     f"  {s:5s} {t:10s} mu@ref {a['mean']:.3f} [{a['hdi_90'][0]:.3f}, "
                     f"{a['hdi_90'][1]:.3f}]  slope {b['mean']:+.3f}  sigma {sig['mean']:.3f}"
                 )
-    return 0
+    return exit_status(fit, "fit-fleet")
 
 
 def _check_c_xr(args) -> str | None:
@@ -187,14 +140,13 @@ def _check_c_xr(args) -> str | None:
 def prediction(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
     """Predictive draws and the JSON of ``predict`` for parsed arguments."""
     from ..inference.fleet import predict_friction
+    from ..inference.result import load_fit
     from ..inference.summary import summarize
 
     tyre_type = _check_c_xr(args)
-    idata = _load_fit(args.fit)
-    draws = predict_friction(
-        idata, args.c_xr, args.c_xr_sd, tyre_type, args.surface, seed=args.seed
-    )
-    fitted = json.loads(idata.attrs["fitted_surfaces"])
+    fit = load_fit(args.fit, kind="fleet")
+    draws = predict_friction(fit, args.c_xr, args.c_xr_sd, tyre_type, args.surface, seed=args.seed)
+    fitted = fit.attr("fitted_surfaces")
     payload = {
         "mu": summarize(draws),
         "p_below": {f"{lvl:g}": float(np.mean(draws < lvl)) for lvl in P_BELOW_LEVELS},
@@ -203,7 +155,8 @@ def prediction(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
         "c_xr": args.c_xr,
         "c_xr_sd": args.c_xr_sd,
         "prior_only": args.surface not in fitted,
-        "fit_converged": bool(idata.attrs["converged"]),
+        "fit_converged": fit.converged,
+        "fit_adequate": fit.adequate,
     }
     return draws, payload
 
@@ -246,7 +199,15 @@ def run_warn(args: argparse.Namespace) -> int:
     verdict.update(
         {
             k: pred[k]
-            for k in ("surface", "tyre_type", "c_xr", "c_xr_sd", "prior_only", "fit_converged")
+            for k in (
+                "surface",
+                "tyre_type",
+                "c_xr",
+                "c_xr_sd",
+                "prior_only",
+                "fit_converged",
+                "fit_adequate",
+            )
         }
     )
     if args.json:

@@ -53,7 +53,7 @@ def _channel_map(pairs: list[str] | tuple[str, ...]) -> dict[str, str]:
 
 def summarize_stream(path, vehicle_name: str, channel_map: dict[str, str]) -> dict[str, Any]:
     """The ``inspect`` summary as a JSON-ready dict (raises BadInputError on bad input)."""
-    from ..physics.vehicle import load_vehicle
+    from .._domain import load_vehicle
     from ..streams import compute_features, read_stream, speed_error, validate_stream
 
     try:

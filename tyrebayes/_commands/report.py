@@ -13,10 +13,9 @@ import argparse
 import time
 from pathlib import Path
 
+from .._domain import TYRE_TYPES
 from .._errors import BadInputError
-from ._common import existing_file, print_json
-
-_TYPES = ("winter", "all_season", "summer")
+from ._common import print_json
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -30,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--out", default="report_out", help="output folder (default ./report_out)")
     p.add_argument(
         "--type",
-        choices=_TYPES,
+        choices=TYRE_TYPES,
         default=None,
         dest="tyre_type",
         help="tyre type of the per-tyre fits (enables warnings and V_max)",
@@ -42,24 +41,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _load(path: str):
-    import arviz as az
+    from ..inference.result import load_fit
 
-    from ..report.sections import is_fleet_fit, is_tyre_fit
-
-    p = existing_file(path)
-    try:
-        idata = az.from_netcdf(p)
-    except (OSError, ValueError, KeyError, TypeError) as err:
+    fit = load_fit(path)
+    if fit.kind not in ("tyre", "fleet"):
         raise BadInputError(
-            f"fit {path}: expected a netCDF from fit-tyre or fit-fleet, got {type(err).__name__}"
-        ) from None
-    if is_fleet_fit(idata):
-        return "fleet", idata
-    if is_tyre_fit(idata):
-        return "tyre", idata
-    raise BadInputError(
-        f"fit {path}: expected a netCDF from fit-tyre or fit-fleet, got groups {idata.groups()}"
-    )
+            f"fit {path}: expected a tyre or fleet fit (fit-tyre, fit-fleet), got a {fit.kind} fit"
+        )
+    return fit.kind, fit
 
 
 def run(args: argparse.Namespace) -> int:
@@ -72,11 +61,9 @@ def run(args: argparse.Namespace) -> int:
     if len(fleets) > 1:
         raise BadInputError(f"fits: expected at most one fleet fit, got {len(fleets)}")
 
-    import numpy as np
-
     from ..report import Report, write_report
     from ..report.sections import (
-        fleet_diagnostics_row,
+        diagnostics_row,
         fleet_section,
         tyre_section,
         vmax_section,
@@ -89,19 +76,14 @@ def run(args: argparse.Namespace) -> int:
         subtitle=f"{len(tyres)} tyre fit(s), {len(fleets)} fleet fit(s): "
         + ", ".join(Path(p).name for p, _, _ in loaded),
     )
-    for p, idata in tyres:
+    for p, fit in tyres:
         name = Path(p).stem
-        report.tyres.append(tyre_section(idata, name, tyre_type=args.tyre_type, source=str(p)))
-        report.diagnostics.append({"fit": f"tyre: {name}", **report.tyres[-1].diagnostics})
-        d = report.diagnostics[-1]
-        if "converged" not in d:
-            ok = (d["chains"] == 1 or d["r_hat_max"] <= 1.01) and d["divergences"] == 0
-            d["converged"] = bool(ok)
-            report.tyres[-1].diagnostics["converged"] = bool(ok)
+        report.tyres.append(tyre_section(fit, name, tyre_type=args.tyre_type, source=str(p)))
+        report.diagnostics.append(diagnostics_row(fit.diagnostics, f"tyre: {name}"))
     if fleets:
         p, fleet = fleets[0]
         report.fleet = fleet_section(fleet, seed=args.seed, source=str(p))
-        report.diagnostics.append(fleet_diagnostics_row(fleet, f"fleet: {Path(p).stem}"))
+        report.diagnostics.append(diagnostics_row(fleet.diagnostics, f"fleet: {Path(p).stem}"))
         if tyres and args.tyre_type:
             report.warnings = warning_rows(fleet, report.tyres, seed=args.seed)
     if tyres and args.tyre_type:
@@ -109,9 +91,9 @@ def run(args: argparse.Namespace) -> int:
             {
                 "tyre": t.name,
                 "tyre_type": args.tyre_type,
-                "c_xr": np.asarray(idata.posterior["c_xr"]).ravel(),
+                "c_xr": fit.draws("c_xr"),
             }
-            for t, (_, idata) in zip(report.tyres, tyres, strict=True)
+            for t, (_, fit) in zip(report.tyres, tyres, strict=True)
         ]
         report.vmax = vmax_section(args.vehicle, sets, seed=args.seed, extended=False)
     report.timings["build"] = {
@@ -126,6 +108,7 @@ def run(args: argparse.Namespace) -> int:
         "figures": [str(v) for k, v in paths.items() if k.startswith("figure:")],
         "tyre_fits": len(tyres),
         "fleet_fits": len(fleets),
+        "inadequate_fits": [d["fit"] for d in report.diagnostics if not d["adequate"]],
         "warnings": [
             {"subject": w["subject"], "verdict": w["verdict"], "probability": w["probability"]}
             for w in report.warnings

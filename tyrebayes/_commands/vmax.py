@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 
+from .._domain import TYRE_TYPES
 from .._errors import BadInputError
 from ._common import print_json
 
@@ -22,7 +23,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--vehicle", default="compact_fwd", help="vehicle name or JSON path")
     p.add_argument("--c-x", type=float, required=True, help="longitudinal stiffness C_x [-]")
     p.add_argument("--mu", type=float, required=True, help="longitudinal peak friction mu_x [-]")
-    p.add_argument("--type", default="all_season", choices=["winter", "all_season", "summer"])
+    p.add_argument("--type", default="all_season", choices=TYRE_TYPES)
     p.add_argument("--c-y", type=float, default=None, help="override cornering stiffness [1/rad]")
     p.add_argument("--exit-lane", default="thesis", choices=["thesis", "standard"])
     p.add_argument("--json", action="store_true", help="machine-readable output")
@@ -32,9 +33,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if not (args.c_x > 0 and 0 < args.mu < 3):
         raise BadInputError(f"expected --c-x > 0 and 0 < --mu < 3, got {args.c_x}, {args.mu}")
+    from .._domain import load_vehicle
     from ..inference.vmax import K_TYPE, MU_Y_RATIO
     from ..physics.lanechange import Tyres, critical_speed, iso3888_2_course
-    from ..physics.vehicle import load_vehicle
 
     try:
         vehicle = load_vehicle(args.vehicle)

@@ -16,9 +16,6 @@ import numpy as np
 from .._errors import BadInputError
 from ._common import print_json
 
-_T_LOW, _T_HIGH = 7.0, 40.0
-_TABLE_6_1 = {"speed_kmh": 100.0, "fz_n": 4865.0, "rho_x": 0.1}
-
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
@@ -49,46 +46,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     q.set_defaults(func=run_predict)
 
 
-def thesis_reproduction(c_soft: float = 29.0, c_stiff: float = 60.0) -> dict:
-    """Steady states of the thesis' closed loop (Fig. 4.2) for the four Table 6.1 cases."""
-    from ..physics.thermal import (
-        StiffnessTemperature,
-        ThermalParams,
-        convective_conductance,
-        rolling_loss_power,
-    )
-    from ..physics.wear import relative_wear_difference, steady_constant_traction
-
-    thermal, comp = ThermalParams(), StiffnessTemperature()
-    v = _TABLE_6_1["speed_kmh"] / 3.6
-    fz, rho = _TABLE_6_1["fz_n"], _TABLE_6_1["rho_x"]
-    cases, rel = {}, {}
-    for name, c_xr in (("soft", c_soft), ("stiff", c_stiff)):
-        rates = {}
-        for amb in (_T_LOW, _T_HIGH):
-            temp, c_x, w = steady_constant_traction(thermal, comp, c_xr, rho, fz, v, amb)
-            cases[f"{name}_{amb:g}C"] = {
-                "c_xr": c_xr,
-                "ambient_c": amb,
-                "tyre_temperature_c": float(temp),
-                "c_x": float(c_x),
-                "energy_rate_w": float(w),
-            }
-            rates[amb] = w
-        rel[name] = float(relative_wear_difference(rates[_T_LOW], rates[_T_HIGH]))
-    return {
-        "table_6_1": _TABLE_6_1,
-        "cases": cases,
-        "relative_wear_difference": rel,
-        "rolling_loss_w": float(rolling_loss_power(thermal, fz, v)),
-        "conductance_w_per_k": float(convective_conductance(thermal, v)),
-        "soft_wears_relatively_more_in_heat": rel["soft"] > rel["stiff"],
-    }
-
-
 def run_thesis(args: argparse.Namespace) -> int:
     if not (args.soft > 0 and args.stiff > 0):
         raise BadInputError(f"expected C_xr > 0, got soft={args.soft}, stiff={args.stiff}")
+    from ..physics.wear import thesis_reproduction
+
     out = thesis_reproduction(args.soft, args.stiff)
     if args.json:
         print_json(out)
@@ -120,7 +82,8 @@ def run_predict(args: argparse.Namespace) -> int:
 
     from ..inference.summary import summarize
     from ..physics.thermal import StiffnessTemperature, stiffness_at_temperature
-    from ..simulate.wear import DutyProfile, TreadGeometry, profile_kernel, volume_to_mass_g
+    from ..physics.wear import TreadGeometry, volume_to_mass_g
+    from ..simulate.wear import DutyProfile, profile_kernel
 
     profile = DutyProfile(mean_speed_mps=args.speed_kmh / 3.6, dt_s=4.0)
     kernel, grid = profile_kernel(

@@ -1,5 +1,17 @@
-"""tyrebayes.inference: NumPyro models and fitters, ArviZ output."""
+"""tyrebayes.inference: NumPyro models and fitters; every fit is a :class:`Fit` (``result``).
 
+:mod:`.result` holds the one result type, its diagnostics and the one policy; :mod:`.fleet` and
+:mod:`.wear` are packages (priors/data, model, fit, predict); the per-tyre model lives in the
+``tyre_*`` modules.
+"""
+
+from .result import POLICY as POLICY
+from .result import ConvergencePolicy as ConvergencePolicy
+from .result import Diagnostics as Diagnostics
+from .result import Fit as Fit
+from .result import Provenance as Provenance
+from .result import diagnose as diagnose
+from .result import load_fit as load_fit
 from .tyre_data import TyreObservations as TyreObservations
 from .tyre_data import observations_from_features as observations_from_features
 from .tyre_data import observations_from_stream as observations_from_stream

@@ -82,6 +82,11 @@ class Adequacy:
     def as_dict(self) -> dict:
         return {**dataclasses.asdict(self), "reasons": list(self.reasons)}
 
+    @classmethod
+    def from_dict(cls, d: dict) -> Adequacy:
+        """The inverse of :meth:`as_dict` (a saved fit's record)."""
+        return cls(**{**d, "reasons": tuple(d["reasons"])})
+
 
 def assess_adequacy(
     z: np.ndarray,

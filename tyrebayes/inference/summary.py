@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import arviz as az
+import arviz_stats as azs
 import numpy as np
 
 
@@ -35,5 +35,5 @@ def summarize(samples, hdi_prob: float = 0.9) -> dict:
     if x.size < 3 or np.ptp(x) == 0:
         lo = hi = float(x[0]) if np.ptp(x) == 0 else float("nan")
         return {"mean": float(x.mean()), "sd": float(x.std()), key: [lo, hi]}
-    lo, hi = az.hdi(x, hdi_prob=hdi_prob)
+    lo, hi = np.asarray(azs.hdi(x, prob=hdi_prob))
     return {"mean": float(x.mean()), "sd": float(x.std(ddof=1)), key: [float(lo), float(hi)]}

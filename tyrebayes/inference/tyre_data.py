@@ -583,7 +583,8 @@ def observations_from_stream(
     BadInputError
         Missing file, missing columns, unknown vehicle or too few usable windows.
     """
-    from ..physics.vehicle import Vehicle, load_vehicle
+    from .._domain import load_vehicle
+    from ..physics.vehicle import Vehicle
     from ..streams import compute_features, read_stream, validate_stream
     from ..streams.tyre_temperature import features_tyre_temperature
 

@@ -1,6 +1,6 @@
 """Fitting the per-tyre model: full NUTS or a fast MAP + Laplace path, one result type.
 
-Both return a :class:`TyreFit` whose ``idata`` is an ArviZ ``InferenceData`` with posterior,
+Both return a :class:`TyreFit` whose ``idata`` is ArviZ data (a ``DataTree``) with posterior,
 observed data, log-likelihood and posterior predictive groups, and whose ``diagnostics`` say
 whether the fit can be trusted. A fit that did not converge says so (``converged=False``); it is
 returned as data, never raised and never hidden.
@@ -10,16 +10,18 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import warnings
+import json
 from functools import partial
+from pathlib import Path
 
-import arviz as az
+import arviz_base as azb
 import jax
 import jax.numpy as jnp
 import numpy as np
 import numpyro
 import numpyro.distributions as dist
 import optimistix as optx
+import xarray as xr
 from jax.flatten_util import ravel_pytree
 from numpyro import handlers
 from numpyro.distributions import constraints
@@ -28,6 +30,7 @@ from numpyro.infer import MCMC, NUTS, init_to_median
 from numpyro.infer.util import constrain_fn, initialize_model, potential_energy
 
 from .adequacy import Adequacy, assess_adequacy
+from .result import Diagnostics, Fit, Provenance, diagnose
 from .summary import summarize
 from .tyre_data import TyreObservations
 from .tyre_model import (
@@ -51,51 +54,48 @@ MAX_PREDICTIVE_DRAWS = 200
 LAPLACE_DRAWS = 2000
 
 
-@dataclasses.dataclass(frozen=True)
-class FitDiagnostics:
-    """Convergence evidence of a fit.
+def FitDiagnostics(  # noqa: N802 -- the name the fast path and older callers construct
+    *,
+    method: str,
+    r_hat_max: float,
+    ess_min: float,
+    divergences: int,
+    optimiser_result: str,
+    converged: bool,
+    reason: str = "",
+) -> Diagnostics:
+    """A :class:`~tyrebayes.inference.result.Diagnostics` from a fitter that judged itself.
 
-    Attributes
-    ----------
-    method : str
-        ``"nuts"`` or ``"fast"``.
-    r_hat_max : float
-        Largest split R-hat over scalar parameters (NaN for the fast path).
-    ess_min : float
-        Smallest bulk effective sample size (the number of draws for the fast path).
-    divergences : int
-        Divergent NUTS transitions (0 for the fast path).
-    optimiser_result : str
-        Optimistix result of the MAP search (``"successful"`` or its failure); "n/a" for NUTS.
-    converged : bool
-        The fit can be trusted: NUTS with R-hat ≤ 1.01, ESS ≥ 100 per chain and no divergences;
-        fast path with a successful optimiser and a positive-definite Hessian at the mode.
-    reason : str
-        Why ``converged`` is False ("" otherwise).
+    The MAP + Laplace path decides convergence from its optimiser and Hessian (no chains to
+    compare); this builds the one diagnostics type from that verdict. NUTS fits are judged by
+    :func:`~tyrebayes.inference.result.diagnose` instead.
     """
-
-    method: str
-    r_hat_max: float
-    ess_min: float
-    divergences: int
-    optimiser_result: str
-    converged: bool
-    reason: str = ""
-
-    def as_dict(self) -> dict:
-        return dataclasses.asdict(self)
+    draws = float(ess_min)
+    return Diagnostics(
+        method=method,
+        n_chains=1,
+        n_draws=int(draws) if np.isfinite(draws) else 0,
+        r_hat_max=float(r_hat_max),
+        ess_bulk_min=draws,
+        ess_tail_min=draws,
+        divergences=int(divergences),
+        optimiser_result=optimiser_result,
+        converged=bool(converged),
+        reasons=tuple(r for r in reason.split("; ") if r),
+    )
 
 
 @dataclasses.dataclass(frozen=True)
 class TyreFit:
-    """Result of :func:`fit_tyre`.
+    """Result of :func:`fit_tyre`: a :class:`~tyrebayes.inference.result.Fit` of kind "tyre".
 
     Attributes
     ----------
-    idata : arviz.InferenceData
-        Posterior (``c_xr``, ``c_x``, ``mu_max``, ``slip_offset``, ...), observed data,
-        log-likelihood and posterior predictive.
-    diagnostics : FitDiagnostics
+    idata : xarray.DataTree
+        ArviZ data: posterior (``c_xr``, ``c_x``, ``mu_max``, ``slip_offset``, ...), observed
+        data, log-likelihood, posterior predictive, constant data (``at_limit``).
+    diagnostics : Diagnostics
+        Convergence under :data:`~tyrebayes.inference.result.POLICY` and model adequacy.
     mu_observed : dict[str, bool]
         Per surface: did the data reach the nonlinear region (posterior contraction of μ_max)?
     surfaces : tuple of str
@@ -107,18 +107,21 @@ class TyreFit:
         Per drive, the variance inflation of the slip errors by their correlation between
         windows; each window's slip counted 1/this in the fit (:mod:`.window_correlation`).
     adequacy : Adequacy
-        Whether the fitted model describes the drive (:mod:`.adequacy`); a converged fit can be
-        inadequate, and then its intervals are not to be trusted either.
+        Whether the fitted model describes the drive (:mod:`.adequacy`), with the statistics of
+        its checks; a converged fit can be inadequate, and then its intervals are not to be
+        trusted either. ``diagnostics.adequate`` carries its verdict and reasons.
     force_range : float
         The 90th percentile of |ρ_x| over the slip windows [-]: the range of force the drive used.
     secant_stiffness : ndarray
         Posterior draws of the secant slope ρ/σ of the fitted curve at ``force_range`` [-], on
         the first surface at the drives' mean tyre temperature: what the drive measures directly.
         C_x, the slope at zero, is that secant extrapolated through the curve's shape.
+    provenance : Provenance, optional
+        Method, model, inputs and settings (default: method and model only).
     """
 
-    idata: az.InferenceData
-    diagnostics: FitDiagnostics
+    idata: xr.DataTree
+    diagnostics: Diagnostics
     mu_observed: dict
     surfaces: tuple
     n_samples_used: int
@@ -127,10 +130,60 @@ class TyreFit:
     adequacy: Adequacy
     force_range: float
     secant_stiffness: np.ndarray
+    provenance: Provenance | None = None
+
+    @property
+    def converged(self) -> bool:
+        return bool(self.diagnostics.converged)
+
+    @property
+    def fit(self) -> Fit:
+        """This fit in the one result type; its ``data.attrs`` carry the tyre-specific fields."""
+        data = self.idata.copy()
+        data.attrs.update(
+            {
+                "mu_observed": json.dumps({s: bool(v) for s, v in self.mu_observed.items()}),
+                "surfaces": json.dumps(list(self.surfaces)),
+                "n_samples_used": int(self.n_samples_used),
+                "tyre_model": self.kind,
+                "slip_variance_inflation": json.dumps(
+                    [float(x) for x in self.slip_variance_inflation]
+                ),
+                "adequacy": json.dumps(self.adequacy.as_dict()),
+                "force_range": float(self.force_range),
+                "secant_stiffness": json.dumps([float(x) for x in self.secant_stiffness]),
+            }
+        )
+        prov = self.provenance or Provenance(method=self.diagnostics.method, model=self.kind)
+        return Fit(data=data, diagnostics=self.diagnostics, kind="tyre", provenance=prov)
+
+    @classmethod
+    def from_fit(cls, fit: Fit) -> TyreFit:
+        """The tyre fit a :class:`~tyrebayes.inference.result.Fit` of kind "tyre" holds."""
+        if fit.kind != "tyre":
+            raise ValueError(f"fit: expected a tyre fit, got a {fit.kind} fit")
+        attrs = fit.data.attrs
+        return cls(
+            idata=fit.data,
+            diagnostics=fit.diagnostics,
+            mu_observed=fit.attr("mu_observed"),
+            surfaces=tuple(fit.attr("surfaces")),
+            n_samples_used=int(attrs["n_samples_used"]),
+            kind=str(attrs["tyre_model"]),
+            slip_variance_inflation=tuple(fit.attr("slip_variance_inflation")),
+            adequacy=Adequacy.from_dict(fit.attr("adequacy")),
+            force_range=float(attrs["force_range"]),
+            secant_stiffness=np.asarray(fit.attr("secant_stiffness"), dtype=float),
+            provenance=fit.provenance,
+        )
+
+    def save(self, path) -> Path:
+        """Write the fit to netCDF (:meth:`tyrebayes.inference.result.Fit.save`)."""
+        return self.fit.save(path)
 
     def draws(self, name: str) -> np.ndarray:
         """Posterior draws of a variable, chains and draws flattened on the first axis."""
-        values = np.asarray(self.idata.posterior[name])
+        values = np.asarray(self.idata["posterior"][name])
         return values.reshape((-1,) + values.shape[2:])
 
     def summary(self) -> dict:
@@ -138,7 +191,8 @@ class TyreFit:
 
         ``mu_max``, ``slip_offset`` and ``force_gain`` (measured over true ρ_x: load share, IMU
         scale, body pitch) describe the first surface and drive; ``mu_max_by_surface`` lists
-        every surface.
+        every surface. ``diagnostics`` is :meth:`Diagnostics.as_dict`; ``adequate`` and
+        ``adequacy_reasons`` repeat its model-adequacy verdict at the top level.
         """
         mu = self.draws("mu_max")
         return {
@@ -152,22 +206,19 @@ class TyreFit:
                 s: {**summarize(mu[:, i]), "observed": bool(self.mu_observed[s])}
                 for i, s in enumerate(self.surfaces)
             },
-            "diagnostics": {
-                k: v
-                for k, v in self.diagnostics.as_dict().items()
-                if k in ("r_hat_max", "ess_min", "divergences", "converged", "reason")
-            },
+            "converged": self.converged,
+            "adequate": bool(self.diagnostics.adequate),
+            "adequacy_reasons": list(self.diagnostics.adequacy_reasons),
+            "diagnostics": self.diagnostics.as_dict(),
             "method": self.diagnostics.method,
             "model": self.kind,
             "n_samples_used": self.n_samples_used,
             "slip_variance_inflation": [float(x) for x in self.slip_variance_inflation],
-            "n_abs_windows": int(np.asarray(self.idata.constant_data["at_limit"]).sum()),
+            "n_abs_windows": int(np.asarray(self.idata["constant_data"]["at_limit"]).sum()),
             "noise_scales": {
                 "slip": float(np.mean(self.draws("slip_noise_scale"))),
                 "force": float(np.mean(self.draws("rho_noise_scale"))),
             },
-            "adequate": self.adequacy.adequate,
-            "adequacy_reasons": list(self.adequacy.reasons),
             "identified": {
                 "force_range": self.force_range,
                 "secant_stiffness": summarize(self.secant_stiffness),
@@ -194,15 +245,16 @@ def _tyre_fit(
     rho = np.asarray(obs.rho)[slip_window]
     rho = rho[np.isfinite(rho)]
     force_range = float(np.quantile(np.abs(rho), 0.9)) if rho.size else 0.0
+    adequacy = _adequacy(obs, samples, kind, priors)
     return TyreFit(
         idata=idata,
-        diagnostics=diagnostics,
+        diagnostics=diagnostics.with_adequacy(adequacy.reasons),
         mu_observed=_mu_observed(samples["mu_max"], priors, obs),
         surfaces=obs.surfaces,
         n_samples_used=obs.n_used,
         kind=kind,
         slip_variance_inflation=tuple(float(x) for x in inflation),
-        adequacy=_adequacy(obs, samples, kind, priors),
+        adequacy=adequacy,
         force_range=force_range,
         secant_stiffness=_secant_stiffness(samples, kind, force_range),
     )
@@ -338,8 +390,8 @@ def _predictive_core(kind: str, obs_key: tuple, n_draws: int):
 
 def _to_inference_data(
     samples: dict, n_chains: int, obs: TyreObservations, kind: str, key, sample_stats=None
-) -> az.InferenceData:
-    """Build InferenceData with posterior, log-likelihood, posterior predictive, observed data.
+) -> xr.DataTree:
+    """ArviZ data with posterior, log-likelihood, posterior predictive, observed and constant data.
 
     Log-likelihood and posterior predictive use at most :data:`MAX_PREDICTIVE_DRAWS` draws per
     fit (evenly thinned within each chain), stored as float32: per-window arrays of a long drive
@@ -378,37 +430,32 @@ def _to_inference_data(
     dims = {"slip_obs": ["window"], "rho_obs": ["window"], "mu_max": ["surface"]}
     coords = {"surface": list(obs.surfaces), "window": np.arange(used)}
     thin_coords = {**coords, "draw": keep}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        idata = az.from_dict(
-            posterior=posterior,
-            observed_data=_observed(obs),
-            sample_stats=sample_stats,
-            dims=dims,
-            coords=coords,
-        )
-        extra = az.from_dict(
-            log_likelihood=loglik, posterior_predictive=ppc, dims=dims, coords=thin_coords
-        )
-        idata.add_groups(
-            log_likelihood=extra.log_likelihood, posterior_predictive=extra.posterior_predictive
-        )
-        at_limit = np.asarray(obs.at_limit)[mask]
-        idata.constant_data = az.from_dict(
-            constant_data={"at_limit": at_limit}, dims={"at_limit": ["window"]}, coords=coords
-        ).constant_data
+    at_limit = np.asarray(obs.at_limit)[mask]
+    groups = {"posterior": posterior, "observed_data": _observed(obs)}
+    if sample_stats is not None:
+        groups["sample_stats"] = sample_stats
+    idata = azb.from_dict(groups, dims=dims, coords=coords)
+    # The thinned groups have their own draw coordinate, so they are built apart and attached.
+    extra = azb.from_dict(
+        {"log_likelihood": loglik, "posterior_predictive": ppc}, dims=dims, coords=thin_coords
+    )
+    constant = azb.from_dict(
+        {"constant_data": {"at_limit": at_limit}}, dims={"at_limit": ["window"]}, coords=coords
+    )
+    for name in ("log_likelihood", "posterior_predictive"):
+        idata[name] = extra[name]
+    idata["constant_data"] = constant["constant_data"]
     return idata
 
 
-def _scalar_diagnostics(idata: az.InferenceData) -> tuple[float, float]:
-    names = [v for v in idata.posterior.data_vars if v not in ("c_x",)]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        rhat = az.rhat(idata, var_names=names)
-        ess = az.ess(idata, var_names=names, method="bulk")
-    r_hat_max = float(max(np.nanmax(np.asarray(rhat[v])) for v in rhat.data_vars))
-    ess_min = float(min(np.nanmin(np.asarray(ess[v])) for v in ess.data_vars))
-    return r_hat_max, ess_min
+def _scalar_diagnostics(idata: xr.DataTree, method: str = "nuts") -> Diagnostics:
+    """:func:`~tyrebayes.inference.result.diagnose` over every parameter but C_x.
+
+    C_x is C_xr times a function of the temperature sensitivity: a deterministic function of
+    checked parameters.
+    """
+    names = [v for v in idata["posterior"].data_vars if v not in ("c_x",)]
+    return diagnose(idata, method=method, var_names=names)
 
 
 def fit_tyre_nuts(
@@ -433,8 +480,9 @@ def fit_tyre_nuts(
     matrix adapted in u corrects it where it does not. Chains start at overdispersed draws
     (2× the Laplace scale) so that R-hat can see chains that do not mix.
 
-    Convergence: R-hat ≤ 1.01, bulk ESS ≥ 100 per chain, no divergent transitions. Compiled once
-    per data shape (padded bucket, drives, surfaces) and sampler settings.
+    Convergence: :data:`tyrebayes.inference.result.POLICY` (R-hat, bulk and tail ESS,
+    divergences), judged by :func:`~tyrebayes.inference.result.diagnose`. Compiled once per data
+    shape (padded bucket, drives, surfaces) and sampler settings.
     """
     priors = TyrePriors() if priors is None else priors
     check_kind(kind)
@@ -453,24 +501,7 @@ def fit_tyre_nuts(
     idata = _to_inference_data(
         samples, num_chains, obs, kind, key_ppc, sample_stats={"diverging": diverging}
     )
-    r_hat_max, ess_min = _scalar_diagnostics(idata)
-    divergences = int(diverging.sum())
-    problems = []
-    if not r_hat_max <= 1.01:
-        problems.append(f"R-hat {r_hat_max:.3f} > 1.01")
-    if not ess_min >= 100 * num_chains:
-        problems.append(f"ESS {ess_min:.0f} < {100 * num_chains}")
-    if divergences:
-        problems.append(f"{divergences} divergent transitions")
-    diagnostics = FitDiagnostics(
-        method="nuts",
-        r_hat_max=r_hat_max,
-        ess_min=ess_min,
-        divergences=divergences,
-        optimiser_result="n/a",
-        converged=not problems,
-        reason="; ".join(problems),
-    )
+    diagnostics = _scalar_diagnostics(idata)
     return _tyre_fit(idata, diagnostics, samples, priors, obs, kind, inflation)
 
 
@@ -894,8 +925,40 @@ def fit_tyre_fast(
     return _tyre_fit(idata, diagnostics, samples, priors, obs, kind, inflation)
 
 
-def fit_tyre(obs: TyreObservations, method: str = "nuts", **kwargs) -> TyreFit:
+def fit_tyre(
+    obs: TyreObservations,
+    method: str = "nuts",
+    *,
+    priors: TyrePriors | None = None,
+    kind: str = DEFAULT_KIND,
+    seed: int = 0,
+    num_chains: int = 4,
+    num_warmup: int = 300,
+    num_samples: int = 1000,
+    progress_bar: bool = False,
+    num_draws: int = LAPLACE_DRAWS,
+    max_steps: int = 2000,
+) -> TyreFit:
     """Fit the per-tyre model with ``method="nuts"`` or ``"fast"`` (MAP + Laplace).
+
+    Parameters
+    ----------
+    obs : TyreObservations
+        Windowed observations (:func:`~tyrebayes.inference.tyre_data.stack_drives`).
+    method : {"nuts", "fast"}
+        Full NUTS (:func:`fit_tyre_nuts`) or MAP + Laplace (:func:`fit_tyre_fast`).
+    priors, kind, seed
+        Priors (default :class:`TyrePriors`), tyre-curve model, randomness: both methods.
+    num_chains, num_warmup, num_samples, progress_bar
+        NUTS settings (ignored by the fast path).
+    num_draws, max_steps
+        Fast-path settings: Laplace draws and BFGS steps (ignored by NUTS).
+
+    Returns
+    -------
+    TyreFit
+        Its ``diagnostics`` say whether it converged (the ``tyrebayes fit-tyre`` command exits 3
+        when not); ``.fit`` is the one result type, ``.save(path)`` writes it.
 
     Examples
     --------
@@ -903,7 +966,18 @@ def fit_tyre(obs: TyreObservations, method: str = "nuts", **kwargs) -> TyreFit:
     >>> fit.summary()["c_xr"]["mean"]  # doctest: +SKIP
     """
     if method == "nuts":
-        return fit_tyre_nuts(obs, **kwargs)
+        return fit_tyre_nuts(
+            obs,
+            priors=priors,
+            kind=kind,
+            num_chains=num_chains,
+            num_warmup=num_warmup,
+            num_samples=num_samples,
+            seed=seed,
+            progress_bar=progress_bar,
+        )
     if method == "fast":
-        return fit_tyre_fast(obs, **kwargs)
+        return fit_tyre_fast(
+            obs, priors=priors, kind=kind, num_draws=num_draws, seed=seed, max_steps=max_steps
+        )
     raise ValueError(f"fit method: expected 'nuts' or 'fast', got {method!r}")

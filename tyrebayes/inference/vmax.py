@@ -23,6 +23,7 @@ Models for the six measured sets:
 
 from __future__ import annotations
 
+import arviz_base as azb
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -32,7 +33,7 @@ import pandas as pd
 from jax.scipy.special import ndtr
 from jaxtyping import Array, Float
 
-from .._resources import data_dir
+from .._domain import load_lane_change_speeds
 from ..physics.lanechange import (
     DEFAULT_DRIVER,
     Course,
@@ -42,6 +43,7 @@ from ..physics.lanechange import (
     iso3888_2_course,
 )
 from ..physics.vehicle import Vehicle
+from .result import Fit, diagnose, loo, provenance
 
 K_TYPE = {"winter": 0.45, "all_season": 0.40, "summer": 0.35}
 MU_TYPE = {"winter": 0.95, "all_season": 1.00, "summer": 1.05}
@@ -52,8 +54,7 @@ REPEATABILITY_KMH = 2.0
 
 def load_table_6_2() -> pd.DataFrame:
     """The six ISO 3888-2 rows of the measured file (tyre, tyre_type, c_xr, v_max_kmh)."""
-    df = pd.read_csv(data_dir() / "critical_speed_lane_change.csv")
-    return df[df["source"] == "thesis Table 6.2"].reset_index(drop=True)
+    return load_lane_change_speeds("thesis Table 6.2")
 
 
 def lateral_draws(
@@ -112,8 +113,13 @@ def extended_model(
 
 def fit_extended(
     lo_kmh: np.ndarray, m: np.ndarray, s: np.ndarray, seed: int = 0, num_samples: int = 1000
-) -> dict[str, np.ndarray]:
-    """NUTS fit of :func:`extended_model`; returns draws incl. pointwise ``log_lik`` (draws × n)."""
+) -> Fit:
+    """NUTS fit of :func:`extended_model` (one chain, 500 warm-up steps).
+
+    Returns a :class:`~tyrebayes.inference.result.Fit` of kind ``"vmax"``: posterior
+    ``delta_kmh``, ``sigma_driver_kmh``, ``adaptation``; ``log_likelihood["v_max"]`` per measured
+    set (interval-censored); diagnostics under the package's policy (one chain: no R-hat).
+    """
     mcmc = numpyro.infer.MCMC(
         numpyro.infer.NUTS(extended_model),
         num_warmup=500,
@@ -127,24 +133,51 @@ def fit_extended(
         jnp.asarray(s),
         SPEED_STEP_KMH,
     )
-    out = {k: np.asarray(v) for k, v in mcmc.get_samples().items()}
-    out["diverging"] = np.asarray(mcmc.get_extra_fields()["diverging"])
-    return out
+    draws = {k: np.asarray(v) for k, v in mcmc.get_samples(group_by_chain=True).items()}
+    log_lik = draws.pop("log_lik")
+    data = azb.from_dict(
+        {
+            "posterior": draws,
+            "log_likelihood": {"v_max": log_lik},
+            "observed_data": {"v_max": np.asarray(lo_kmh, float)},
+            "constant_data": {"predicted_mean": np.asarray(m), "predicted_sd": np.asarray(s)},
+            "sample_stats": {
+                "diverging": np.asarray(mcmc.get_extra_fields(group_by_chain=True)["diverging"])
+            },
+        },
+        dims={
+            "v_max": ["measured_set"],
+            "predicted_mean": ["measured_set"],
+            "predicted_sd": ["measured_set"],
+        },
+    )
+    return Fit(
+        data=data,
+        diagnostics=diagnose(data, method="nuts"),
+        kind="vmax",
+        provenance=provenance("nuts", "extended", ("lane-change intervals in memory",), seed=seed),
+    )
+
+
+def pointwise_log_lik(fit: Fit) -> np.ndarray:
+    """The extended fit's log-likelihood per draw and measured set, (draws × n)."""
+    values = np.asarray(fit.data["log_likelihood"]["v_max"])
+    return values.reshape(-1, values.shape[-1])
 
 
 def psis_loo(log_lik: np.ndarray) -> dict[str, float]:
-    """PSIS-LOO elpd and its SE from a (draws × n) pointwise log-likelihood (arviz)."""
-    import arviz as az
-
-    idata = az.from_dict(
-        posterior={"x": np.zeros((1, log_lik.shape[0]))},
-        log_likelihood={"y": log_lik[None, :, :]},
+    """PSIS-LOO elpd and its SE from a (draws × n) pointwise log-likelihood (arviz-stats)."""
+    data = azb.from_dict(
+        {
+            "posterior": {"x": np.zeros((1, log_lik.shape[0]))},
+            "log_likelihood": {"y": log_lik[None, :, :]},
+        }
     )
-    res = az.loo(idata, pointwise=True)
+    res = loo(data)
     return {
-        "elpd_loo": float(res.elpd_loo),
+        "elpd_loo": float(res.elpd),
         "se": float(res.se),
-        "pointwise": np.asarray(res.loo_i).tolist(),
+        "pointwise": np.asarray(res.elpd_i).tolist(),
         "pareto_k_max": float(np.max(np.asarray(res.pareto_k))),
     }
 

@@ -30,7 +30,7 @@ margin at V_max (checked against finite differences of the bisection in ``benchm
 
 Examples
 --------
->>> from tyrebayes.physics.vehicle import load_vehicle
+>>> from tyrebayes._domain import load_vehicle
 >>> veh = load_vehicle("compact_fwd")
 >>> bool(run_margin(veh, Tyres(16.0, 0.95), 10.0, iso3888_2_course(veh.width_m)) > 0)
 True
@@ -274,7 +274,7 @@ def critical_speed(
 
     Examples
     --------
-    >>> from tyrebayes.physics.vehicle import load_vehicle
+    >>> from tyrebayes._domain import load_vehicle
     >>> cs = critical_speed(load_vehicle("compact_fwd"), Tyres(20.0, 1.0), tol_mps=1.0)
     >>> bool(cs.v_fail_mps - cs.v_max_mps <= 1.0)
     True

@@ -6,14 +6,12 @@ notation). Accelerations a_x, a_y are body-frame accelerations of the centre of 
 
 from __future__ import annotations
 
-import tomllib
-from pathlib import Path
+from collections.abc import Mapping
 
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._resources import models_dir
 from ..internal.validation import check_in_range, check_nonnegative, check_positive
 
 GRAVITY_MPS2 = 9.80665
@@ -134,44 +132,35 @@ class Vehicle(eqx.Module):
         return {"fwd": 1.0, "rwd": 0.0, "awd": self.front_drive_fraction}[self.drive]
 
 
-def load_vehicle(name_or_path: str | Path) -> Vehicle:
-    """Load a vehicle TOML: a preset name in ``models/vehicles/`` or a path.
+def vehicle_from_mapping(data: Mapping, source: str = "vehicle") -> Vehicle:
+    """A :class:`Vehicle` from the keys of a vehicle file (DESIGN.md contract), checked.
+
+    Reading the file is :func:`tyrebayes._domain.load_vehicle`'s job; this function only checks
+    the keys and values (physics reads no files).
 
     Raises
     ------
     ValueError
-        If the file does not exist, a required key is missing, a key is unknown, or a value is
-        invalid; the message names the key and the value.
+        If a required key is missing, a key is unknown, or a value is invalid; the message names
+        ``source``, the key and the value.
 
     Examples
     --------
-    >>> v = load_vehicle("compact_fwd")
-    >>> v.drive
+    >>> from tyrebayes._domain import load_vehicle
+    >>> load_vehicle("compact_fwd").drive
     'fwd'
     """
-    path = Path(name_or_path)
-    if not path.suffix:
-        path = models_dir() / "vehicles" / f"{name_or_path}.toml"
-    if not path.is_file():
-        presets = sorted(p.stem for p in (models_dir() / "vehicles").glob("*.toml"))
-        raise ValueError(
-            f"vehicle: expected a TOML file or one of {presets}, got {str(name_or_path)!r}"
-        )
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as err:
-        raise ValueError(f"vehicle file {path}: not valid TOML ({err})") from None
     missing = [k for k in _REQUIRED_KEYS if k not in data]
     if missing:
-        raise ValueError(f"vehicle file {path}: missing key {missing[0]!r}")
+        raise ValueError(f"{source}: missing key {missing[0]!r}")
     known = set(Vehicle.__dataclass_fields__)
     unknown = sorted(set(data) - known - {"name", "description"})
     if unknown:
-        raise ValueError(f"vehicle file {path}: unknown key {unknown[0]!r}")
+        raise ValueError(f"{source}: unknown key {unknown[0]!r}")
     fields = {k: v for k, v in data.items() if k in known}
     for key, value in fields.items():
         if key != "drive" and not isinstance(value, int | float):
-            raise ValueError(f"vehicle file {path}: {key} must be a number, got {value!r}")
+            raise ValueError(f"{source}: {key} must be a number, got {value!r}")
     fields = {k: (v if k == "drive" else float(v)) for k, v in fields.items()}
     return Vehicle(**fields)
 

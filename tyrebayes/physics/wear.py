@@ -22,6 +22,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ..internal.validation import check_in_range, check_positive
@@ -30,6 +31,7 @@ from .thermal import (
     StiffnessTemperature,
     ThermalParams,
     convective_conductance,
+    rolling_loss_power,
     steady_state_temperature,
     stiffness_at_temperature,
 )
@@ -308,3 +310,150 @@ def bin_by_temperature(
     w = jnp.asarray(weight, dtype=float)
     out = jnp.zeros(grid.shape[0]).at[lo].add(w * (1.0 - frac))
     return out.at[lo + 1].add(w * frac)
+
+
+# ---------------------------------------------------------------------------------------------
+# Wear data: the tread band, per-drive friction-work features and the observations of a set.
+# Types of the wear model's inputs (tyrebayes.inference.wear); simulate.wear makes them from a
+# known truth, a real fleet's logs and workshop readings would make them from measurements.
+
+#: Temperature grid of the binned friction-work features [°C] (1 K steps).
+TEMPERATURE_GRID_C = np.arange(-30.0, 100.0, 1.0)
+
+
+class TreadGeometry(eqx.Module):
+    """Geometry and material of the tread band, converting wear volume to depth, mass and radius.
+
+    Parameters
+    ----------
+    outer_radius_mm : float
+        Unloaded outer radius [mm] (205/55R16: 8 in rim radius 203 mm + 0.55 * 205 mm = 316 mm).
+    tread_width_mm : float
+        Width of the wearing tread band [mm].
+    void_fraction : float
+        Groove share of the tread surface [-] in [0, 0.9) (~0.3 for car tyres).
+    rubber_density_g_per_cm3 : float
+        Tread compound density [g/cm^3] (~1.1-1.2 for filled rubber).
+    new_depth_mm : float
+        Tread depth of a new tyre [mm] (8 mm typical; legal limit 1.6 mm).
+    radius_per_depth : float
+        Rolling-radius loss per mm of tread depth lost [-] (assumed 1).
+    """
+
+    outer_radius_mm: float = 316.0
+    tread_width_mm: float = 160.0
+    void_fraction: float = 0.3
+    rubber_density_g_per_cm3: float = 1.15
+    new_depth_mm: float = 8.0
+    radius_per_depth: float = 1.0
+
+    def __check_init__(self):
+        check_positive("TreadGeometry", "outer_radius_mm", self.outer_radius_mm)
+        check_positive("TreadGeometry", "tread_width_mm", self.tread_width_mm)
+        check_in_range("TreadGeometry", "void_fraction", self.void_fraction, 0.0, 0.9)
+        check_positive("TreadGeometry", "rubber_density_g_per_cm3", self.rubber_density_g_per_cm3)
+        check_positive("TreadGeometry", "new_depth_mm", self.new_depth_mm)
+        check_positive("TreadGeometry", "radius_per_depth", self.radius_per_depth)
+
+    @property
+    def wear_area_mm2(self) -> float:
+        """Rubber area over which the worn volume spreads, 2 pi R w (1 - void) [mm^2]."""
+        return 2 * np.pi * self.outer_radius_mm * self.tread_width_mm * (1 - self.void_fraction)
+
+
+def volume_to_depth_mm(volume_mm3: Float[ArrayLike, "..."], geom: TreadGeometry) -> Array:
+    """Tread depth lost [mm] for a worn volume [mm^3] of one tyre.
+
+    Examples
+    --------
+    >>> round(float(volume_to_depth_mm(20000.0, TreadGeometry())), 4)
+    0.09
+    """
+    return jnp.asarray(volume_mm3) / geom.wear_area_mm2
+
+
+def volume_to_mass_g(volume_mm3: Float[ArrayLike, "..."], geom: TreadGeometry) -> Array:
+    """Worn rubber mass [g] for a volume [mm^3] (1 cm^3 = 1000 mm^3)."""
+    return jnp.asarray(volume_mm3) * geom.rubber_density_g_per_cm3 / 1000.0
+
+
+class DriveWork(eqx.Module):
+    """Friction-work features and true wear of a set of drives (D drives, 2 axles, B bins).
+
+    ``kernel_binned[d, a, b]``: sum of rho^2 F_z V dt [J] of one wheel of axle a in drive d whose
+    tyre temperature was near ``grid_c[b]``; the friction work is this over C_x(grid_c[b]).
+    ``volume_mm3[d, a]``: the true worn volume of one wheel. ``tyre_temp_mean_c[d, a]``: the
+    work-weighted mean tyre temperature.
+    """
+
+    distance_km: Float[Array, "d"]
+    ambient_c: Float[Array, "d"]
+    kernel_binned: Float[Array, "d 2 b"]
+    grid_c: Float[Array, "b"]
+    volume_mm3: Float[Array, "d 2"]
+    tyre_temp_mean_c: Float[Array, "d 2"]
+
+
+class WearObservations(eqx.Module):
+    """Observations of one tyre set.
+
+    ``depth_drive_index[j]``: the number of drives completed when depth reading j was taken;
+    ``depth_axle[j]`` 0 front / 1 rear; ``depth_mm[j]`` the reading. ``radius_drift[d]``: relative
+    rolling-radius difference (front - rear) / R_0 estimated from drive d's wheel speeds (after it).
+    """
+
+    depth_drive_index: Array
+    depth_axle: Array
+    depth_mm: Float[Array, "m"]
+    radius_drift: Float[Array, "d"]
+    depth_noise_mm: float = eqx.field(static=True)
+    radius_noise: float = eqx.field(static=True)
+
+
+def cumulative_depth_loss(
+    volume_mm3: Float[ArrayLike, "d 2"], geom: TreadGeometry
+) -> Float[Array, "d1 2"]:
+    """Depth lost per axle after 0, 1, ..., D drives [mm] (first row zeros)."""
+    cum = jnp.cumsum(jnp.asarray(volume_mm3), axis=0)
+    return jnp.concatenate([jnp.zeros((1, 2)), volume_to_depth_mm(cum, geom)], axis=0)
+
+
+# ---------------------------------------------------------------------------------------------
+# The thesis' Table 6.1 simulation (Sec. 6.2), reproduced
+
+_T_LOW, _T_HIGH = 7.0, 40.0
+_TABLE_6_1 = {"speed_kmh": 100.0, "fz_n": 4865.0, "rho_x": 0.1}
+
+
+def thesis_reproduction(c_soft: float = 29.0, c_stiff: float = 60.0) -> dict:
+    """Steady states of the thesis' closed loop (Fig. 4.2) for the four Table 6.1 cases.
+
+    A soft (C_xr 29) and a stiff (C_xr 60) tyre at 100 km/h, F_z 4865 N, rho_x 0.1, ambient 7 and
+    40 °C: tyre temperature, C_x and energy rate of each case, and the relative wear difference
+    |I_40 - I_7| / max per tyre (thesis Sec. 6.2). Returns a JSON-ready dict.
+    """
+    thermal, comp = ThermalParams(), StiffnessTemperature()
+    v = _TABLE_6_1["speed_kmh"] / 3.6
+    fz, rho = _TABLE_6_1["fz_n"], _TABLE_6_1["rho_x"]
+    cases, rel = {}, {}
+    for name, c_xr in (("soft", c_soft), ("stiff", c_stiff)):
+        rates = {}
+        for amb in (_T_LOW, _T_HIGH):
+            temp, c_x, w = steady_constant_traction(thermal, comp, c_xr, rho, fz, v, amb)
+            cases[f"{name}_{amb:g}C"] = {
+                "c_xr": c_xr,
+                "ambient_c": amb,
+                "tyre_temperature_c": float(temp),
+                "c_x": float(c_x),
+                "energy_rate_w": float(w),
+            }
+            rates[amb] = w
+        rel[name] = float(relative_wear_difference(rates[_T_LOW], rates[_T_HIGH]))
+    return {
+        "table_6_1": _TABLE_6_1,
+        "cases": cases,
+        "relative_wear_difference": rel,
+        "rolling_loss_w": float(rolling_loss_power(thermal, fz, v)),
+        "conductance_w_per_k": float(convective_conductance(thermal, v)),
+        "soft_wears_relatively_more_in_heat": rel["soft"] > rel["stiff"],
+    }

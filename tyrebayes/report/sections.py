@@ -1,17 +1,30 @@
 """Builders: fits in, report sections (numbers and arrays) out.
 
 Each builder computes what its section states — posterior bands, OLS line and R², predictive
-V_max, verdicts — from ArviZ ``InferenceData`` (as written by ``fit-tyre --out`` and
-``fit-fleet --out``) or from the fit objects of the demo.
+V_max, verdicts — from :class:`~tyrebayes.inference.result.Fit` objects (made in memory, or
+loaded from what ``fit-tyre --out`` and ``fit-fleet --out`` write). Diagnostics are the fits' own
+(:func:`~tyrebayes.inference.result.diagnose`): the report computes none.
 """
 
 from __future__ import annotations
 
-import json
-
+import jax
+import jax.numpy as jnp
 import numpy as np
 
+from .. import decisions
+from .._domain import SURFACES, TYRE_TYPES, load_vehicle
+from ..inference import vmax as vm
+from ..inference.fleet import fit_summary, predict_friction
+from ..inference.ols import fit_ols, ols_interval
+from ..inference.result import Diagnostics, Fit
 from ..inference.summary import summarize
+from ..inference.tyre_model import stiffness_at_temperature
+from ..physics.tyre import (
+    brush_longitudinal,
+    magic_formula_inverse_and_slope,
+    shaped_longitudinal_inverse_and_slope,
+)
 from .content import FleetSection, TyreSection, VmaxSection
 
 #: Posterior draws used for the drawn curves and bands (a band needs a few hundred, not 4000).
@@ -22,8 +35,8 @@ GRID_POINTS = 60
 BAND = (0.05, 0.5, 0.95)
 
 
-def _flat(idata, name: str) -> np.ndarray:
-    v = np.asarray(idata.posterior[name])
+def _flat(data, name: str) -> np.ndarray:
+    v = np.asarray(data["posterior"][name])
     return v.reshape((-1,) + v.shape[2:])
 
 
@@ -35,11 +48,6 @@ def _shaped_curves(slip, c_x, mu, shape, curvature=None) -> np.ndarray:
     ``curvature`` the curve is the Magic Formula (shape C, curvature E), else the shaped family
     (exponent p).
     """
-    from ..physics.tyre import (
-        magic_formula_inverse_and_slope,
-        shaped_longitudinal_inverse_and_slope,
-    )
-
     c_x, mu, shape = (np.asarray(v, float)[:, None] for v in (c_x, mu, shape))
     rho = mu * np.linspace(-1.0, 1.0, 401)[None, :]
     if curvature is None:
@@ -54,76 +62,46 @@ def _thin(n: int, k: int = CURVE_DRAWS) -> np.ndarray:
     return np.linspace(0, n - 1, min(n, k)).astype(int)
 
 
-def is_tyre_fit(idata) -> bool:
-    """A per-tyre fit (``fit-tyre --out``): posterior c_xr and mu_max, observed slip and force."""
-    groups = idata.groups()
-    return (
-        "posterior" in groups
-        and "observed_data" in groups
-        and all(v in idata.posterior for v in ("c_xr", "c_x", "mu_max"))
-        and all(v in idata.observed_data for v in ("slip_obs", "rho_obs"))
-    )
-
-
-def is_fleet_fit(idata) -> bool:
-    """A fleet fit (``fit-fleet --out``): posterior a, b, sigma and the c_xr_ref attribute."""
-    return (
-        "posterior" in idata.groups()
-        and "c_xr_ref" in idata.attrs
-        and all(v in idata.posterior for v in ("a", "b", "sigma"))
-    )
-
-
-def tyre_diagnostics(idata) -> dict:
-    """R-hat, ESS and divergences of a per-tyre fit, computed from its draws."""
-    import warnings
-
-    import arviz as az
-
-    names = [
-        v for v in ("c_xr", "mu_max", "temp_sensitivity", "slip_offset") if v in idata.posterior
-    ]
-    n_chains = int(idata.posterior.sizes["chain"])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        ess = az.ess(idata, var_names=names, method="bulk")
-        rhat = az.rhat(idata, var_names=names) if n_chains > 1 else None
-    ess_min = float(min(np.nanmin(np.asarray(ess[v])) for v in names))
-    r_hat = (
-        float(max(np.nanmax(np.asarray(rhat[v])) for v in names))
-        if rhat is not None
-        else float("nan")
-    )
-    div = 0
-    if "sample_stats" in idata.groups() and "diverging" in idata.sample_stats:
-        div = int(np.asarray(idata.sample_stats["diverging"]).sum())
-    return {"chains": n_chains, "r_hat_max": r_hat, "ess_min": ess_min, "divergences": div}
+def diagnostics_row(diagnostics: Diagnostics, name: str | None = None) -> dict:
+    """A fit's diagnostics as the report lists them (one row form for every kind of fit)."""
+    d = diagnostics.as_dict()
+    row = {
+        "method": d["method"],
+        "chains": d["n_chains"],
+        "r_hat_max": d["r_hat_max"],
+        "ess_min": diagnostics.ess_min,
+        "divergences": d["divergences"],
+        "converged": d["converged"],
+        "reason": diagnostics.reason,
+        "adequate": d["adequate"],
+        "adequacy_reasons": d["adequacy_reasons"],
+    }
+    return row if name is None else {"fit": name, **row}
 
 
 def tyre_section(
-    idata,
+    fit: Fit,
     name: str,
     *,
     tyre_type: str | None = None,
-    diagnostics: dict | None = None,
     truth: dict | None = None,
     source: str = "",
 ) -> TyreSection:
-    """Force–slip data and posterior curve bands of one per-tyre fit.
+    """Force–slip data and posterior curve bands of one per-tyre fit (``fit.kind == "tyre"``).
 
     ``constant_data`` may hold ``drive_index``/``surface_index`` per window (the demo writes
     them); without them the data are corrected by the mean offset over drives and assigned to
     the first surface.
     """
-    from ..inference.tyre_model import stiffness_at_temperature
-    from ..physics.tyre import brush_longitudinal
-
-    post = idata.posterior
+    if fit.kind != "tyre":
+        raise ValueError(f"fit: expected a tyre fit, got a {fit.kind} fit")
+    idata = fit.data
+    post = idata["posterior"]
     surfaces = tuple(str(s) for s in np.atleast_1d(post["mu_max"].coords["surface"].values))
-    slip = np.asarray(idata.observed_data["slip_obs"], float)
-    rho = np.asarray(idata.observed_data["rho_obs"], float)
+    slip = np.asarray(idata["observed_data"]["slip_obs"], float)
+    rho = np.asarray(idata["observed_data"]["rho_obs"], float)
     n_win = slip.size
-    const = idata.constant_data if "constant_data" in idata.groups() else {}
+    const = idata["constant_data"] if "constant_data" in idata.children else {}
     at_limit = np.asarray(const["at_limit"], bool) if "at_limit" in const else np.zeros(n_win, bool)
     drive = np.asarray(const["drive_index"], int) if "drive_index" in const else None
     surf_idx = (
@@ -200,12 +178,7 @@ def tyre_section(
     }
     if "temp_sensitivity" in post:
         summary["temp_sensitivity"] = summarize(_flat(idata, "temp_sensitivity"))
-    diag = dict(tyre_diagnostics(idata))
-    if diagnostics:
-        diag.update(diagnostics)
-    if "method" not in diag:
-        nuts = "sample_stats" in idata.groups() and "diverging" in idata.sample_stats
-        diag["method"] = str(idata.attrs.get("method", "nuts" if nuts else "fast"))
+    diag = diagnostics_row(fit.diagnostics)
     return TyreSection(
         name=name,
         tyre_type=tyre_type,
@@ -223,7 +196,7 @@ def tyre_section(
 
 
 def fleet_section(
-    idata, *, surface: str | None = None, seed: int = 0, source: str = ""
+    fit: Fit, *, surface: str | None = None, seed: int = 0, source: str = ""
 ) -> FleetSection:
     """Friction vs 1/C_xr (thesis Fig. 6.2): data, hierarchical predictive bands, OLS line, R².
 
@@ -231,19 +204,15 @@ def fleet_section(
     stiffness over the type's observed range; OLS: the thesis' line fitted to all sets of the
     surface with its 90 % prediction interval.
     """
-    from .._commands.fleet import fit_summary
-    from ..inference.fleet import SURFACES, TYRE_TYPES, fleet_diagnostics, predict_friction
-    from ..inference.ols import fit_ols, ols_interval
-
-    fitted = json.loads(idata.attrs["fitted_surfaces"])
+    fitted = fit.attr("fitted_surfaces")
     surface = surface or ("snow" if "snow" in fitted else fitted[0])
-    outcome = str(idata.attrs.get("outcome", "mu"))
-    const = idata.constant_data
+    outcome = str(fit.data.attrs["outcome"])
+    const = fit.data["constant_data"]
     rows = np.asarray(const["row_surface"]) == SURFACES.index(surface)
     tyre = np.asarray(const["row_tyre"])[rows]
     c_xr = np.asarray(const["c_xr_obs"], float)[tyre]
     c_sd = np.asarray(const["c_xr_sd"], float)[tyre]
-    mu = np.asarray(idata.observed_data[outcome], float)[rows]
+    mu = np.asarray(fit.data["observed_data"][outcome], float)[rows]
     types = np.array([TYRE_TYPES[i] for i in np.asarray(const["row_type"])[rows]])
     bands = {}
     for t in TYRE_TYPES:
@@ -253,14 +222,14 @@ def fleet_section(
         lo, hi = float(c_xr[sel].min()), float(c_xr[sel].max())
         grid = np.linspace(lo * 0.92, hi * 1.08, 30)
         draws = np.stack(
-            [predict_friction(idata, float(c), 0.0, t, surface, seed=seed) for c in grid]
+            [predict_friction(fit, float(c), 0.0, t, surface, seed=seed) for c in grid]
         )
         q = np.quantile(draws, BAND, axis=1)
         bands[t] = (grid, q[0], q[1], q[2])
     ols = fit_ols(c_xr, mu)
     grid = np.linspace(float(c_xr.min()) * 0.92, float(c_xr.max()) * 1.08, GRID_POINTS)
     mid, lo, hi = ols_interval(ols, grid, 0.9)
-    summary = fit_summary(idata)
+    summary = fit_summary(fit)
     return FleetSection(
         surface=surface,
         outcome=outcome,
@@ -278,27 +247,10 @@ def fleet_section(
             "band": (grid, np.asarray(lo), np.asarray(mid), np.asarray(hi)),
         },
         parameters=summary["parameters"].get(surface, {}),
-        diagnostics=fleet_diagnostics(idata),
+        diagnostics=diagnostics_row(fit.diagnostics),
         n_sets=int(rows.sum()),
         source=source,
     )
-
-
-def fleet_diagnostics_row(idata, name: str) -> dict:
-    """A fleet fit's diagnostics in the report's row form."""
-    from ..inference.fleet import fleet_diagnostics
-
-    d = fleet_diagnostics(idata)
-    return {
-        "fit": name,
-        "method": d.get("method", str(idata.attrs.get("method", ""))),
-        "chains": int(idata.posterior.sizes["chain"]),
-        "r_hat_max": d.get("max_rhat", float("nan")),
-        "ess_min": d.get("min_ess_bulk", float("nan")),
-        "divergences": d.get("divergences", 0),
-        "converged": bool(d.get("converged", False)),
-        "reason": "",
-    }
 
 
 def vmax_section(
@@ -316,12 +268,6 @@ def vmax_section(
     (:func:`tyrebayes.inference.vmax.censored_loglik`); extended (driver offset, adaptation,
     noise): PSIS-LOO of :func:`~tyrebayes.inference.vmax.fit_extended`.
     """
-    import jax
-    import jax.numpy as jnp
-
-    from ..inference import vmax as vm
-    from ..physics.vehicle import load_vehicle
-
     vehicle = load_vehicle(vehicle_name)
     key = jax.random.PRNGKey(seed)
     rows = []
@@ -380,17 +326,18 @@ def vmax_section(
             np.polyfit([r["c_xr"] for r in measured], m, 1)[0]
         )
         if extended:
-            post = vm.fit_extended(lo, m, sd, seed=seed, num_samples=1000)
-            loo = vm.psis_loo(post["log_lik"])
+            ext = vm.fit_extended(lo, m, sd, seed=seed, num_samples=1000)
+            loo = vm.psis_loo(vm.pointwise_log_lik(ext))
             diff = np.asarray(loo["pointwise"]) - ll0
             comparison["extended"] = {
                 "elpd_loo": float(loo["elpd_loo"]),
                 "se": float(loo["se"]),
                 "pareto_k_max": float(loo["pareto_k_max"]),
-                "delta_kmh": summarize(post["delta_kmh"]),
-                "adaptation": summarize(post["adaptation"]),
-                "sigma_driver_kmh": summarize(post["sigma_driver_kmh"]),
-                "divergences": int(np.asarray(post.get("diverging", 0)).sum()),
+                "delta_kmh": summarize(ext.draws("delta_kmh")),
+                "adaptation": summarize(ext.draws("adaptation")),
+                "sigma_driver_kmh": summarize(ext.draws("sigma_driver_kmh")),
+                "divergences": ext.diagnostics.divergences,
+                "diagnostics": diagnostics_row(ext.diagnostics, "V_max extended"),
             }
             comparison["elpd_gain"] = {
                 "diff": float(diff.sum()),
@@ -399,16 +346,13 @@ def vmax_section(
     return VmaxSection(vehicle=vehicle_name, rows=rows, comparison=comparison)
 
 
-def warning_rows(fleet_idata, tyres: list[TyreSection], *, seed: int = 0) -> list[dict]:
+def warning_rows(fleet: Fit, tyres: list[TyreSection], *, seed: int = 0) -> list[dict]:
     """Winter-suitability verdict per tyre set of known type (snow, default μ_min and costs)."""
-    from .. import decisions
-    from ..inference.fleet import predict_friction
-
     out = []
     for k, t in enumerate(tyres):
         c = t.summary["c_xr"]
         draws = predict_friction(
-            fleet_idata, float(c["mean"]), float(c["sd"]), t.tyre_type, "snow", seed=seed + k
+            fleet, float(c["mean"]), float(c["sd"]), t.tyre_type, "snow", seed=seed + k
         )
         v = decisions.winter_verdict(draws)
         out.append(

@@ -42,9 +42,11 @@ SECTION_TEXT = {
         "straddles μ_min too widely to tell."
     ),
     "diagnostics": (
-        "Convergence evidence of every fit in this report. NUTS: split R-hat ≤ 1.01 and no "
-        "divergent transitions are required; the fast path (MAP + Laplace) has no R-hat and "
-        "reports its draw count as ESS."
+        "Convergence evidence of every fit in this report, judged by one policy: NUTS needs "
+        "rank-normalised split R-hat ≤ 1.02, bulk and tail ESS ≥ 100 per chain and at most one "
+        "divergent transition per thousand draws; the MAP + Laplace and SVI paths have no R-hat, "
+        "report their draw count as ESS and need a successful optimiser. 'adequate' is the "
+        "model's own posterior predictive check of its data; an inadequate fit is marked NO."
     ),
     "criticism": (
         "What the models do not know: every candidate covariate is scanned against the "
@@ -104,4 +106,10 @@ def headline(report: Report) -> list[str]:
             f"Diagnostics: {len(report.diagnostics) - len(bad)} of {len(report.diagnostics)} "
             "fits converged" + (f" (not: {', '.join(bad)})." if bad else ".")
         )
+        inadequate = [d["fit"] for d in report.diagnostics if not d.get("adequate", True)]
+        if inadequate:
+            out.append(
+                f"Model inadequate (the posterior predictive misses the data): "
+                f"{', '.join(inadequate)}."
+            )
     return out

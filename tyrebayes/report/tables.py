@@ -191,9 +191,20 @@ def warnings_table(report: Report) -> Table:
 
 
 def diagnostics_table(report: Report) -> Table:
-    header = ["fit", "method", "chains", "R-hat max", "ESS min", "divergences", "converged", "note"]
+    header = [
+        "fit",
+        "method",
+        "chains",
+        "R-hat max",
+        "ESS min",
+        "divergences",
+        "converged",
+        "adequate",
+        "note",
+    ]
     rows = []
     for d in report.diagnostics:
+        notes = [d.get("reason", "") or ""] + list(d.get("adequacy_reasons", ()))
         rows.append(
             [
                 d["fit"],
@@ -203,7 +214,8 @@ def diagnostics_table(report: Report) -> Table:
                 fmt(d.get("ess_min"), 4),
                 fmt(d.get("divergences")),
                 fmt(bool(d.get("converged"))),
-                d.get("reason", "") or "",
+                fmt(bool(d.get("adequate", True))) if d.get("adequate", True) else "NO",
+                "; ".join(n for n in notes if n),
             ]
         )
     return header, rows

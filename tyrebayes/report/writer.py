@@ -9,7 +9,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from .._commands._common import _to_jsonable, atomic_write_bytes
+from .._io import atomic_write_bytes
+from .._io import to_jsonable as _to_jsonable
 from . import figures as F
 from .content import Report
 from .html import render_html

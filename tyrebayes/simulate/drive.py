@@ -45,12 +45,13 @@ import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 
+from .._domain import load_vehicle
 from ..physics.thermal import (
     ThermalParams,
     simulate_tyre_temperature,
     temperature_sensitivity,
 )
-from ..physics.vehicle import AIR_DENSITY_KGPM3, GRAVITY_MPS2, Vehicle, load_vehicle
+from ..physics.vehicle import AIR_DENSITY_KGPM3, GRAVITY_MPS2, Vehicle
 from .profiles import LONG_LABELS, DriveProfile, ProfileOptions, make_profile
 from .sensors import SensorModel, SensorTruth, draw_sensor_truth, measure, sample_times
 from .truth import DriveTruth

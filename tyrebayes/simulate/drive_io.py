@@ -28,7 +28,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from .._commands._common import atomic_write_bytes
+from .._io import atomic_write_bytes
 from ..streams.io import write_stream
 from .truth import DriveTruth
 

@@ -53,8 +53,7 @@ import jax
 import numpy as np
 import pandas as pd
 
-TYRE_TYPES: tuple[str, ...] = ("winter", "all_season", "summer")
-SURFACES: tuple[str, ...] = ("snow", "ice", "wet", "dry")
+from .._domain import SURFACES, TYRE_TYPES
 
 #: Reference stiffness for centring: z = 100 / C_xr - 100 / C_XR_REF (z = 0 at C_xr = 40).
 C_XR_REF: float = 40.0

@@ -15,7 +15,8 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from ..physics.vehicle import Vehicle, load_vehicle
+from .._domain import load_vehicle
+from ..physics.vehicle import Vehicle
 from .drive import seed_sequence, simulate_drive
 from .profiles import ProfileOptions
 from .sensors import SensorModel, SensorTruth, draw_sensor_truth

@@ -15,7 +15,7 @@ where the vehicle file is exact.
 Examples
 --------
 >>> import numpy as np
->>> from tyrebayes.physics.vehicle import load_vehicle
+>>> from tyrebayes._domain import load_vehicle
 >>> nominal = load_vehicle("compact_fwd")
 >>> car = draw_true_vehicle(np.random.default_rng(0), nominal, VehicleSpread())
 >>> car.mass_kg == nominal.mass_kg, car.cog_to_front_axle_m != nominal.cog_to_front_axle_m
@@ -164,7 +164,7 @@ def force_gain(true_vehicle: Vehicle, vehicle: Vehicle, ax_gain: float = 1.0) ->
 
     Examples
     --------
-    >>> from tyrebayes.physics.vehicle import load_vehicle
+    >>> from tyrebayes._domain import load_vehicle
     >>> car = load_vehicle("compact_fwd")
     >>> force_gain(car, car, ax_gain=1.01)
     1.01

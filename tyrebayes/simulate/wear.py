@@ -34,75 +34,22 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
+from .._domain import load_vehicle
 from ..internal.validation import check_in_range, check_positive
 from ..physics.thermal import StiffnessTemperature, ThermalParams
-from ..physics.vehicle import Vehicle, aero_drag, axle_loads, load_vehicle, rolling_resistance_force
+from ..physics.vehicle import Vehicle, aero_drag, axle_loads, rolling_resistance_force
 from ..physics.wear import (
+    TEMPERATURE_GRID_C,
     Abrasability,
+    DriveWork,
+    TreadGeometry,
+    WearObservations,
     abrasability_at_temperature,
     bin_by_temperature,
+    cumulative_depth_loss,
     simulate_constant_traction,
     slip_work_kernel,
 )
-
-#: Temperature grid of the binned friction-work features [°C] (1 K steps).
-TEMPERATURE_GRID_C = np.arange(-30.0, 100.0, 1.0)
-
-
-class TreadGeometry(eqx.Module):
-    """Geometry and material of the tread band, converting wear volume to depth, mass and radius.
-
-    Parameters
-    ----------
-    outer_radius_mm : float
-        Unloaded outer radius [mm] (205/55R16: 8 in rim radius 203 mm + 0.55 * 205 mm = 316 mm).
-    tread_width_mm : float
-        Width of the wearing tread band [mm].
-    void_fraction : float
-        Groove share of the tread surface [-] in [0, 0.9) (~0.3 for car tyres).
-    rubber_density_g_per_cm3 : float
-        Tread compound density [g/cm^3] (~1.1-1.2 for filled rubber).
-    new_depth_mm : float
-        Tread depth of a new tyre [mm] (8 mm typical; legal limit 1.6 mm).
-    radius_per_depth : float
-        Rolling-radius loss per mm of tread depth lost [-] (assumed 1).
-    """
-
-    outer_radius_mm: float = 316.0
-    tread_width_mm: float = 160.0
-    void_fraction: float = 0.3
-    rubber_density_g_per_cm3: float = 1.15
-    new_depth_mm: float = 8.0
-    radius_per_depth: float = 1.0
-
-    def __check_init__(self):
-        check_positive("TreadGeometry", "outer_radius_mm", self.outer_radius_mm)
-        check_positive("TreadGeometry", "tread_width_mm", self.tread_width_mm)
-        check_in_range("TreadGeometry", "void_fraction", self.void_fraction, 0.0, 0.9)
-        check_positive("TreadGeometry", "rubber_density_g_per_cm3", self.rubber_density_g_per_cm3)
-        check_positive("TreadGeometry", "new_depth_mm", self.new_depth_mm)
-        check_positive("TreadGeometry", "radius_per_depth", self.radius_per_depth)
-
-    @property
-    def wear_area_mm2(self) -> float:
-        """Rubber area over which the worn volume spreads, 2 pi R w (1 - void) [mm^2]."""
-        return 2 * np.pi * self.outer_radius_mm * self.tread_width_mm * (1 - self.void_fraction)
-
-
-def volume_to_depth_mm(volume_mm3: Float[ArrayLike, "..."], geom: TreadGeometry) -> Array:
-    """Tread depth lost [mm] for a worn volume [mm^3] of one tyre.
-
-    Examples
-    --------
-    >>> round(float(volume_to_depth_mm(20000.0, TreadGeometry())), 4)
-    0.09
-    """
-    return jnp.asarray(volume_mm3) / geom.wear_area_mm2
-
-
-def volume_to_mass_g(volume_mm3: Float[ArrayLike, "..."], geom: TreadGeometry) -> Array:
-    """Worn rubber mass [g] for a volume [mm^3] (1 cm^3 = 1000 mm^3)."""
-    return jnp.asarray(volume_mm3) * geom.rubber_density_g_per_cm3 / 1000.0
 
 
 class DutyProfile(eqx.Module):
@@ -211,23 +158,6 @@ def simulate_drive_series(
     return DriveSeries(time, speed, rho, fz)
 
 
-class DriveWork(eqx.Module):
-    """Friction-work features and true wear of a set of drives (D drives, 2 axles, B bins).
-
-    ``kernel_binned[d, a, b]``: sum of rho^2 F_z V dt [J] of one wheel of axle a in drive d whose
-    tyre temperature was near ``grid_c[b]``; the friction work is this over C_x(grid_c[b]).
-    ``volume_mm3[d, a]``: the true worn volume of one wheel. ``tyre_temp_mean_c[d, a]``: the
-    work-weighted mean tyre temperature.
-    """
-
-    distance_km: Float[Array, "d"]
-    ambient_c: Float[Array, "d"]
-    kernel_binned: Float[Array, "d 2 b"]
-    grid_c: Float[Array, "b"]
-    volume_mm3: Float[Array, "d 2"]
-    tyre_temp_mean_c: Float[Array, "d 2"]
-
-
 def drive_work(
     series: DriveSeries,
     ambient_c: Float[ArrayLike, ""],
@@ -331,30 +261,6 @@ def seasonal_ambient(
     day = jnp.asarray(day_of_year, dtype=float)
     base = mean_c + amplitude_c * jnp.cos(2 * jnp.pi * (day - 200.0) / 365.0)
     return base + noise_c * jax.random.normal(key, day.shape)
-
-
-class WearObservations(eqx.Module):
-    """Observations of one tyre set.
-
-    ``depth_drive_index[j]``: the number of drives completed when depth reading j was taken;
-    ``depth_axle[j]`` 0 front / 1 rear; ``depth_mm[j]`` the reading. ``radius_drift[d]``: relative
-    rolling-radius difference (front - rear) / R_0 estimated from drive d's wheel speeds (after it).
-    """
-
-    depth_drive_index: Array
-    depth_axle: Array
-    depth_mm: Float[Array, "m"]
-    radius_drift: Float[Array, "d"]
-    depth_noise_mm: float = eqx.field(static=True)
-    radius_noise: float = eqx.field(static=True)
-
-
-def cumulative_depth_loss(
-    volume_mm3: Float[ArrayLike, "d 2"], geom: TreadGeometry
-) -> Float[Array, "d1 2"]:
-    """Depth lost per axle after 0, 1, ..., D drives [mm] (first row zeros)."""
-    cum = jnp.cumsum(jnp.asarray(volume_mm3), axis=0)
-    return jnp.concatenate([jnp.zeros((1, 2)), volume_to_depth_mm(cum, geom)], axis=0)
 
 
 def observe_wear(

@@ -25,7 +25,7 @@ Steps (thesis chapter 4.3):
 Examples
 --------
 >>> from tyrebayes._resources import data_dir
->>> from tyrebayes.physics.vehicle import load_vehicle
+>>> from tyrebayes._domain import load_vehicle
 >>> from tyrebayes.streams import read_stream, validate_stream
 >>> vehicle = load_vehicle("suv_rav4")
 >>> stream = validate_stream(read_stream(data_dir() / "comma2k19_rav4_segment.csv"), vehicle)

@@ -8,7 +8,7 @@ noise, road grade, dropped samples (negate ay, yaw_rate and az for a z-down IMU)
 
 Examples
 --------
->>> from tyrebayes.physics.vehicle import load_vehicle
+>>> from tyrebayes._domain import load_vehicle
 >>> df, truth = synthetic_stream(load_vehicle("compact_fwd"), duration_s=10.0, seed=0)
 >>> df.shape[0], round(float(truth["vx_mps"].mean()))
 (1000, 15)

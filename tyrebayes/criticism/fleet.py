@@ -15,10 +15,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from .._domain import TYRE_TYPES
 from .._errors import BadInputError
-from .criticism_scan import Candidate
+from .scan import Candidate
 
-TYRE_TYPES = ("winter", "all_season", "summer")
 RESERVED = ("tyre_id", "tyre_type", "c_xr", "c_xr_sd", "surface")
 #: Prior variances (units of sigma^2 on the standardised scale).
 PRIOR_VAR_INTERCEPT = 100.0

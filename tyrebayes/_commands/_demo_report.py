@@ -1,7 +1,9 @@
 """The demo's pipeline: simulate, run the streams, fit, predict, warn, criticise → :class:`Report`.
 
 Sizes (``quick`` / default) are set in :data:`SIZES`; every number the report states is computed
-here or in the builders it calls.
+here or in the builders it calls. A helper of the demo command, because it makes its data with
+:mod:`tyrebayes.simulate`, which the library never imports: the report's builders
+(:mod:`tyrebayes.report.sections`) get fits and data, this module makes them.
 """
 
 from __future__ import annotations
@@ -10,16 +12,36 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
+import xarray as xr
 
-from .content import Report
-from .sections import (
+from .._domain import TYRE_TYPES, load_vehicle
+from .._resources import data_dir
+from ..criticism import criticize_stream, criticize_table
+from ..inference.fleet import fit_fleet
+from ..inference.result import Fit
+from ..inference.tyre_data import _bucket_size, observations_from_features, stack_drives
+from ..inference.tyre_fit import fit_tyre
+from ..inference.vmax import load_table_6_2
+from ..report.content import Report
+from ..report.sections import (
     criticism_entry,
-    fleet_diagnostics_row,
+    diagnostics_row,
     fleet_section,
     tyre_section,
     vmax_section,
     warning_rows,
 )
+from ..simulate.drive_io import write_drive
+from ..simulate.fleet import (
+    AGE_REF_YEARS,
+    AGE_STIFFENING_PER_YEAR,
+    THESIS_AGED_TYRE_EFFECT,
+    simulate_fleet,
+)
+from ..simulate.tyre_set import simulate_tyre_set_drives
+from ..simulate.tyre_spec import TyreSpec
+from ..streams import compute_features, read_stream, validate_stream
+from ._demo_wear import wear_study
 
 
 @dataclasses.dataclass(frozen=True)
@@ -50,11 +72,8 @@ SIM_VEHICLE = "compact_fwd"
 
 def _demo_tyres(sizes: DemoSizes) -> list[tuple[str, str, object]]:
     """(name, type, TyreSpec) of the demo's sets, including the over-aged winter set."""
-    from ..simulate.fleet import AGE_REF_YEARS, AGE_STIFFENING_PER_YEAR, THESIS_AGED_TYRE_EFFECT
-    from ..simulate.tyre_spec import TyreSpec
-
     out = []
-    for t in ("winter", "all_season", "summer"):
+    for t in TYRE_TYPES:
         base = TyreSpec.from_type(t)
         for j in range(sizes.sets_per_type):
             spec = TyreSpec.from_type(t, c_xr=base.c_xr * (1.0 + 0.08 * j))
@@ -71,48 +90,24 @@ def _demo_tyres(sizes: DemoSizes) -> list[tuple[str, str, object]]:
     return out
 
 
-def _with_indices(idata, obs):
-    """Add per-window drive, surface and temperature to a tyre fit (for ``tyrebayes report``)."""
-    import arviz as az
-
+def _with_indices(fit, obs) -> Fit:
+    """A tyre fit with per-window drive, surface and temperature (for ``tyrebayes report``)."""
     mask = np.asarray(obs.mask)
-    extra = az.from_dict(
-        constant_data={
-            "drive_index": np.asarray(obs.drive_index)[mask],
-            "surface_index": np.asarray(obs.surface_index)[mask],
-            "temperature_c": np.asarray(obs.temperature_c)[mask],
-        },
-        dims={"drive_index": ["window"], "surface_index": ["window"], "temperature_c": ["window"]},
-        coords={"window": np.arange(int(mask.sum()))},
-    ).constant_data
-    if "constant_data" in idata.groups():
-        idata.constant_data = idata.constant_data.assign(extra)
-    else:
-        idata.add_groups(constant_data=extra)
-    return idata
-
-
-def _fit_diag(fit) -> dict:
-    d = fit.diagnostics.as_dict()
-    return {
-        k: d[k] for k in ("method", "r_hat_max", "ess_min", "divergences", "converged", "reason")
-    }
+    extra = xr.Dataset(
+        {
+            "drive_index": ("window", np.asarray(obs.drive_index)[mask]),
+            "surface_index": ("window", np.asarray(obs.surface_index)[mask]),
+            "temperature_c": ("window", np.asarray(obs.temperature_c)[mask]),
+        }
+    )
+    result = fit.fit
+    data = result.data.copy()
+    data["constant_data"] = xr.DataTree(data["constant_data"].to_dataset().assign(extra))
+    return Fit(data=data, diagnostics=result.diagnostics, kind="tyre", provenance=result.provenance)
 
 
 def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
-    """Run the demo; returns (Report, {name: InferenceData to save})."""
-    from .._resources import data_dir
-    from ..criticism import criticize_stream, criticize_table
-    from ..inference.fleet import fit_fleet
-    from ..inference.tyre_data import _bucket_size, observations_from_features, stack_drives
-    from ..inference.tyre_fit import fit_tyre
-    from ..inference.vmax import load_table_6_2
-    from ..physics.vehicle import load_vehicle
-    from ..simulate.drive_io import write_drive
-    from ..simulate.fleet import simulate_fleet
-    from ..simulate.tyre_set import simulate_tyre_set_drives
-    from ..streams import compute_features, read_stream, validate_stream
-    from .wear_study import wear_study
+    """Run the demo; returns (Report, {name: Fit to save})."""
 
     sizes = SIZES[bool(quick)]
     tyres = _demo_tyres(sizes)
@@ -166,14 +161,13 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
         obs = stack_drives(windows, surfaces, pad_to=pad)
         fit = fit_tyre(obs, method=method, seed=seed + i)
         key = f"tyre_{name.replace(' ', '_')}"
-        fits[key] = _with_indices(fit.idata, obs)
+        fits[key] = _with_indices(fit, obs)
         truth = {"c_xr": spec.c_xr, **{f"mu_{s}": spec.mu_on(s) for s in sorted(set(surfaces))}}
         report.tyres.append(
             tyre_section(
                 fits[key],
                 name,
                 tyre_type=tyre_type,
-                diagnostics=_fit_diag(fit),
                 truth=truth,
                 source=f"simulated, {len(windows)} drives",
             )
@@ -191,13 +185,12 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
         else {}
     )
     fit = fit_tyre(obs, method=sizes.real_method, seed=seed, **kw)
-    fits["tyre_rav4_real"] = _with_indices(fit.idata, obs)
+    fits["tyre_rav4_real"] = _with_indices(fit, obs)
     report.tyres.append(
         tyre_section(
             fits["tyre_rav4_real"],
             "RAV4 real segment",
             tyre_type=None,
-            diagnostics=_fit_diag(fit),
             source=f"shipped {REAL_SEGMENT}",
         )
     )
@@ -205,12 +198,12 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
 
     steps.start("fleet model")
     table, _truth = simulate_fleet(seed + 7, sizes.fleet_sets, surface="snow", effects=("age",))
-    fleet_idata = fit_fleet(
+    fleet = fit_fleet(
         table, key=seed, num_warmup=sizes.fleet_draws, num_samples=sizes.fleet_draws, num_chains=2
     )
-    fits["fleet"] = fleet_idata
+    fits["fleet"] = fleet
     report.fleet = fleet_section(
-        fleet_idata,
+        fleet,
         surface="snow",
         seed=seed,
         source=f"simulated winter test fleet, {sizes.fleet_sets} sets",
@@ -218,7 +211,7 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
     steps.done()
 
     steps.start("warnings")
-    report.warnings = warning_rows(fleet_idata, [t for t in report.tyres if t.tyre_type], seed=seed)
+    report.warnings = warning_rows(fleet, [t for t in report.tyres if t.tyre_type], seed=seed)
     steps.done()
 
     steps.start("V_max")
@@ -261,23 +254,12 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
     steps.close()
 
     report.diagnostics = [{"fit": f"tyre: {t.name}", **t.diagnostics} for t in report.tyres]
-    report.diagnostics.append(fleet_diagnostics_row(fleet_idata, "fleet model"))
+    report.diagnostics.append(diagnostics_row(fleet.diagnostics, "fleet model"))
     for m, d in report.wear.diagnostics.items():
-        report.diagnostics.append({"fit": f"wear {m}", "chains": 1, **d})
+        report.diagnostics.append({"fit": f"wear {m}", **d})
     ext = report.vmax.comparison.get("extended")
     if ext:
-        n_div = ext["divergences"]
-        report.diagnostics.append(
-            {
-                "fit": "V_max extended",
-                "method": "nuts",
-                "chains": 1,
-                "divergences": n_div,
-                "converged": n_div == 0,
-                "reason": (f"{n_div} divergent transition(s); " if n_div else "")
-                + "single chain: no R-hat",
-            }
-        )
+        report.diagnostics.append(ext["diagnostics"])
     report.timings = {
         k: {"wall_s": v, "cpu_s": steps.cpu.get(k, float("nan"))} for k, v in steps.timings.items()
     }

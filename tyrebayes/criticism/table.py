@@ -1,109 +1,13 @@
-"""Model criticism: find the effect the model does not know, extend the model, measure the gain.
-
-Three tools, used by ``tyrebayes criticize`` and ``tyrebayes criticize-stream``:
-
-* :func:`posterior_predictive_check` — test statistics of the data against their posterior
-  predictive distribution, with posterior predictive p-values.
-* :func:`criticize_table` — a fleet table (DESIGN.md contract) against the type-pooled regression
-  of the outcome on 1/C_xr: every other column is a candidate covariate; each is scanned against
-  the baseline's misfit (exact partial-F / likelihood-ratio test, Holm over candidates), then
-  confirmed by an extended model compared with the baseline by PSIS-LOO (ELPD gain > 2 SE, Pareto
-  k checked; units with k > 0.7 get the exact leave-one-out density). Each candidate comes with the
-  posterior of its effect in natural units.
-* :func:`criticize_stream` — the same for a sensor stream: the baseline linear-slip model
-  rho_x = C_x (sigma_x - s0) pooled over the drive, scanned per segment (leave-one-segment-out).
-
-The baselines are exact conjugate (Normal-Inverse-Gamma) Bayesian linear models: independent exact
-posterior draws, closed-form leave-one-out as a check — see
-:mod:`tyrebayes.internal.criticism_linear`.
-"""
+"""Criticism of a fleet table: candidate covariates against the type-pooled regression on 1/C_xr."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
-
 import numpy as np
 import pandas as pd
-from jaxtyping import Float
 
-from .internal.criticism_fleet import (
-    baseline_design,
-    candidates_from_table,
-    select_rows,
-    type_onehot,
-)
-from .internal.criticism_scan import (
-    DEFAULT_ALPHA,
-    ELPD_SE_FACTOR,
-    CandidateResult,
-    CriticismResult,
-    criticize_linear,
-)
-from .internal.criticism_stream import criticize_stream
-
-__all__ = [
-    "CandidateResult",
-    "CriticismResult",
-    "DEFAULT_ALPHA",
-    "ELPD_SE_FACTOR",
-    "criticize_stream",
-    "criticize_table",
-    "posterior_predictive_check",
-]
-
-
-def _skew(x: np.ndarray) -> np.ndarray | np.floating:
-    d = x - x.mean(axis=-1, keepdims=True)
-    return (d**3).mean(axis=-1) / np.maximum((d**2).mean(axis=-1), 1e-300) ** 1.5
-
-
-#: Default test statistics T(y) of :func:`posterior_predictive_check` (vectorised over draws).
-DEFAULT_STATISTICS: Mapping[str, Callable[[np.ndarray], np.ndarray]] = {
-    "mean": lambda y: y.mean(axis=-1),
-    "sd": lambda y: y.std(axis=-1),
-    "min": lambda y: y.min(axis=-1),
-    "max": lambda y: y.max(axis=-1),
-    "skewness": _skew,
-}
-
-
-def posterior_predictive_check(
-    y: Float[np.ndarray, " n"],
-    y_rep: Float[np.ndarray, "s n"],
-    statistics: Mapping[str, Callable[[np.ndarray], np.ndarray]] | None = None,
-) -> dict[str, dict[str, float]]:
-    """Posterior predictive p-values p = P(T(y_rep) >= T(y) | y) of test statistics.
-
-    Parameters
-    ----------
-    y : ndarray (n,)
-        Observed data.
-    y_rep : ndarray (draws, n)
-        Replicated data, one row per posterior draw.
-    statistics : mapping name -> function or None
-        Functions T taking an array (..., n) and reducing the last axis; default
-        :data:`DEFAULT_STATISTICS` (mean, sd, min, max, skewness).
-
-    Returns
-    -------
-    dict
-        ``{name: {"observed": T(y), "p_value": p}}``. A p-value near 0 or 1 (outside
-        [0.025, 0.975]) says the model does not reproduce that feature of the data.
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> out = posterior_predictive_check(rng.normal(size=50), rng.normal(size=(400, 50)))
-    >>> 0.0 < out["sd"]["p_value"] < 1.0
-    True
-    """
-    stats = DEFAULT_STATISTICS if statistics is None else statistics
-    out = {}
-    for name, fn in stats.items():
-        t_obs = float(fn(y))
-        t_rep = np.asarray(fn(y_rep), dtype=float)
-        out[name] = {"observed": t_obs, "p_value": float(np.mean(t_rep >= t_obs))}
-    return out
+from .fleet import baseline_design, candidates_from_table, select_rows, type_onehot
+from .ppc import posterior_predictive_check
+from .scan import DEFAULT_ALPHA, ELPD_SE_FACTOR, CriticismResult, criticize_linear
 
 
 def criticize_table(

@@ -29,7 +29,7 @@ from jaxtyping import Float, Int
 from scipy import stats
 
 from ..inference.summary import summarize
-from .criticism_linear import (
+from .linear import (
     LinearFit,
     LooResult,
     difference,

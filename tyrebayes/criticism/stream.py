@@ -23,8 +23,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._domain import load_vehicle
 from .._errors import BadInputError
-from .criticism_scan import (
+from ..inference.summary import summarize
+from ..physics.vehicle import Vehicle
+from ..streams import compute_features, read_stream, validate_stream
+from ..streams.validate import ValidatedStream
+from .linear import difference, fit_and_loo, loo_from_pointwise
+from .ppc import posterior_predictive_check
+from .scan import (
     CANDIDATE_PRIOR_VAR,
     ELPD_SE_FACTOR,
     Candidate,
@@ -40,10 +47,6 @@ MIN_SAMPLES_PER_SEGMENT = 4
 
 
 def _load(stream, vehicle, brake_front_share: float):
-    from ..physics.vehicle import Vehicle, load_vehicle
-    from ..streams import compute_features, read_stream, validate_stream
-    from ..streams.validate import ValidatedStream
-
     if not isinstance(vehicle, Vehicle):
         try:
             vehicle = load_vehicle(vehicle)
@@ -227,7 +230,6 @@ def criticize_stream(
     >>> result.baseline.pointwise.shape[0] >= 6
     True
     """
-    from ..inference.summary import summarize
 
     d = stream_design(
         stream, vehicle, window_s=window_s, thin_s=thin_s, brake_front_share=brake_front_share
@@ -271,8 +273,6 @@ def criticize_stream(
 
 def _extended_note(d: dict, found: list[str], base_loo, seed: int, n_draws: int) -> list[str]:
     """C_x, s0 and the ELPD gain of the model extended with every finding."""
-    from ..inference.summary import summarize
-    from .criticism_linear import difference, fit_and_loo, loo_from_pointwise
 
     cands = {c.name: c for c in d["candidates"]}
     cols = np.column_stack([cands[name].columns for name in found])
@@ -295,8 +295,6 @@ def _extended_note(d: dict, found: list[str], base_loo, seed: int, n_draws: int)
 
 def _stream_ppc(d: dict, fit, seed: int) -> dict:
     """PPC of the stream baseline: residual autocorrelation and between-segment spread."""
-    from ..criticism import posterior_predictive_check
-
     rng = np.random.default_rng(seed + 1)
     mu = fit.beta @ d["x0"].T
     y_rep = mu + fit.sigma[:, None] * rng.standard_normal(mu.shape)

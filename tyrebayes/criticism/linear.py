@@ -17,8 +17,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import arviz as az
 import numpy as np
+from arviz_stats.base.array import array_stats
 from jaxtyping import Float, Int
 from scipy import special, stats
 
@@ -181,9 +181,10 @@ def psis_loo_pointwise(
 ) -> tuple[Float[np.ndarray, " n"], Float[np.ndarray, " n"]]:
     """PSIS-LOO pointwise ELPD and Pareto k from a (draws, units) log-likelihood matrix.
 
-    Uses :func:`arviz.psislw` with relative efficiency 1 (exact independent draws).
+    Uses arviz-stats' ``psislw`` with relative efficiency 1 (exact independent draws); it takes
+    the log-likelihood and smooths the log-ratios -loglik.
     """
-    log_w, k = az.psislw(-loglik.T, reff=1.0)
+    log_w, k = array_stats.psislw(loglik.T, r_eff=1.0, axis=-1)
     elpd_i = special.logsumexp(log_w + loglik.T, axis=1)
     return elpd_i, np.asarray(k, dtype=float)
 

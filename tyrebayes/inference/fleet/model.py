@@ -1,0 +1,92 @@
+"""NumPyro model of a fleet: friction against inverse stiffness, pooled by tyre type.
+
+Per surface *s* and tyre type *t* an intercept ``a[s,t]`` (mu of a set at the type's reference
+stiffness), a slope ``b[s,t]`` against z = 100 / C_xr - 100 / c_xr_ref[t] and a residual scale
+``sigma[s,t]``; slopes and log-scales partially pooled over types, all non-centred. The stiffness
+C_xr of each set is a latent variable, observed with its standard error and drawn from a per-type
+log-normal population.
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax.numpy as jnp
+import numpy as np
+import numpyro
+import numpyro.distributions as dist
+from jaxtyping import Array, Float, Int
+
+from .data import FleetData
+
+#: Scale of the inverse stiffness: z is in units of 100 / C_xr.
+X_SCALE: float = 100.0
+
+
+def fleet_model(
+    priors: dict,
+    tyre_type: Int[Array, " n_tyres"],
+    c_obs: Float[Array, " n_tyres"],
+    c_sd: Float[Array, " n_tyres"],
+    row_tyre: Int[Array, " n_rows"],
+    row_surface: Int[Array, " n_rows"],
+    y: Float[Array, " n_rows"] | None = None,
+):
+    """NumPyro model of a fleet (module docstring).
+
+    ``priors`` from :func:`_prior_arrays`, restricted to the surfaces in the data
+    (``row_surface`` indexes that restricted list).
+    """
+    p = priors
+    n_s, n_t = p["mu"].shape
+    # Stiffness population per type. The within-type spread is never near zero (thesis Fig 6.1:
+    # winter sets span 25-35), so it gets a log-normal prior; a half-normal would let few sets
+    # of a type pull it to 0 and open a funnel with the centred latents below.
+    loc_raw = numpyro.sample("stiff_loc_raw", dist.Normal(0.0, 1.0).expand([n_t]).to_event(1))
+    stiff_loc = numpyro.deterministic(
+        "stiff_loc", jnp.log(p["c_xr_ref"]) + p["c_xr_ref_log_sd"] * loc_raw
+    )
+    stiff_scale = numpyro.sample(
+        "stiff_scale", dist.LogNormal(jnp.log(p["c_xr_log_sd"]), jnp.full(n_t, 0.5)).to_event(1)
+    )
+    # Centred latents: each set's C_xr is pinned by its own measurement, where centring samples
+    # better than non-centring.
+    with numpyro.plate("tyre", c_obs.shape[0]):
+        log_c = numpyro.sample(
+            "log_c_xr", dist.Normal(stiff_loc[tyre_type], stiff_scale[tyre_type])
+        )
+        c_xr = jnp.exp(log_c)
+        numpyro.sample("c_xr_obs", dist.Normal(c_xr, c_sd), obs=c_obs)
+
+    a_raw = numpyro.sample("a_raw", dist.Normal(0.0, 1.0).expand([n_s, n_t]).to_event(2))
+    a = numpyro.deterministic("a", p["mu"] + p["mu_sd"] * a_raw)
+    slope_raw = numpyro.sample("slope_raw", dist.Normal(0.0, 1.0).expand([n_s]).to_event(1))
+    slope = numpyro.deterministic("slope", p["slope"] + p["slope_sd"] * slope_raw)
+    tau_b = numpyro.sample("tau_slope", dist.HalfNormal(p["tau_slope"]).to_event(1))
+    b_raw = numpyro.sample("b_raw", dist.Normal(0.0, 1.0).expand([n_s, n_t]).to_event(2))
+    b = numpyro.deterministic("b", slope[:, None] + tau_b[:, None] * b_raw)
+    s0_raw = numpyro.sample("sigma0_raw", dist.Normal(0.0, 1.0).expand([n_s]).to_event(1))
+    log_s0 = jnp.log(p["sigma"]) + p["sigma_log_sd"] * s0_raw
+    numpyro.deterministic("sigma0", jnp.exp(log_s0))
+    tau_s = numpyro.sample("tau_sigma", dist.HalfNormal(p["tau_sigma"]).to_event(1))
+    s_raw = numpyro.sample("sigma_raw", dist.Normal(0.0, 1.0).expand([n_s, n_t]).to_event(2))
+    sigma = numpyro.deterministic("sigma", jnp.exp(log_s0[:, None] + tau_s[:, None] * s_raw))
+
+    row_type = tyre_type[row_tyre]
+    z = X_SCALE / c_xr[row_tyre] - X_SCALE / p["c_xr_ref"][row_type]
+    mean = a[row_surface, row_type] + b[row_surface, row_type] * z
+    with numpyro.plate("row", row_tyre.shape[0]):
+        numpyro.sample("y", dist.Normal(mean, sigma[row_surface, row_type]), obs=y)
+
+
+def row_mean_sigma(samples: dict, data: FleetData, c_ref: np.ndarray):
+    """Per draw and row: predictive mean and scale. Shapes (chain, draw, row)."""
+    a, b, sigma = samples["a"], samples["b"], samples["sigma"]
+    rt, rs = data.row_type, data.row_surface
+    c = samples["c_xr_true"][..., data.row_tyre]
+    z = X_SCALE / c - X_SCALE / c_ref[rt]
+    return a[..., rs, rt] + b[..., rs, rt] * z, sigma[..., rs, rt]
+
+
+def normal_logpdf(y, mean, sd):
+    return -0.5 * ((y - mean) / sd) ** 2 - np.log(sd) - 0.5 * math.log(2 * math.pi)
