@@ -48,7 +48,7 @@ from tyrebayes.inference.tyre_data import (  # noqa: E402
     stack_drives,
 )
 from tyrebayes.inference.tyre_fit import fit_tyre  # noqa: E402
-from tyrebayes.physics.vehicle import load_vehicle  # noqa: E402
+from tyrebayes._domain import load_vehicle  # noqa: E402
 from tyrebayes.streams import compute_features, read_stream, validate_stream  # noqa: E402
 from tyrebayes.streams.tyre_temperature import features_tyre_temperature  # noqa: E402
 
