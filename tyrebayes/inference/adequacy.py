@@ -16,13 +16,11 @@ window, with these checks (each a reason when it fails):
 * **residual trend against force**: a least-squares line of z on the window force with a slope
   whose t-value, deflated by √inflation, exceeds :data:`MAX_TREND_T`: the curve's shape is wrong
   over the range the drive used.
-* **a step in the slip offset**: the blocks' slip offsets (their conditional means, which the
-  model integrates out) split at the point that separates them most, with a t-value above
-  :data:`MAX_STEP_T` (the blocks' spread read from their successive differences, robustly, so
-  that the step itself does not widen it) and a size above :data:`MIN_STEP_SLIP`: a tyre
-  changed, a radius jumped (puncture, pressure loss), or a wheel-speed sensor was swapped
-  within the drive. The blocks absorb slow drift,
-  not a jump of many times their spread.
+* **a step in the slip offset**: the mean slip residual of each 5 s block, split at the point
+  that separates them most, with a t-value above :data:`MAX_STEP_T` (the blocks' spread read
+  from their successive differences, robustly, so that the step itself does not widen it) and a
+  size above :data:`MIN_STEP_SLIP`: a tyre changed, a radius jumped (puncture, pressure loss), or
+  a wheel-speed sensor was swapped within the drive; slow drift does not pass both.
 * **curve shape at the edge of the measured tyres**: the Magic Formula shape or curvature more
   than :data:`MAX_SHAPE_PRIOR_SDS` prior sds from the measured tyres' mean.
 
@@ -112,7 +110,7 @@ def assess_adequacy(
     shape_prior_sds : dict of str to float
         Posterior mean of each curve-shape parameter in prior sds from the prior mean [-].
     block_offsets : tuple of ndarray
-        Per drive, its blocks' slip offsets in time order [-].
+        Per drive, its blocks' mean slip residuals in time order [-].
     """
     z, rho = np.asarray(z, float), np.asarray(rho, float)
     finite = np.isfinite(z) & np.isfinite(rho)

@@ -1,0 +1,186 @@
+"""The result of a per-tyre fit: :class:`TyreFit` (wrapping the one :class:`~.result.Fit`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from .adequacy import Adequacy
+from .result import Diagnostics, Fit, Provenance
+from .summary import summarize
+
+
+def FitDiagnostics(  # noqa: N802 -- the name the fast path and older callers construct
+    *,
+    method: str,
+    r_hat_max: float,
+    ess_min: float,
+    divergences: int,
+    optimiser_result: str,
+    converged: bool,
+    reason: str = "",
+) -> Diagnostics:
+    """A :class:`~tyrebayes.inference.result.Diagnostics` from a fitter that judged itself.
+
+    The MAP + Laplace path decides convergence from its optimiser and Hessian (no chains to
+    compare); this builds the one diagnostics type from that verdict. NUTS fits are judged by
+    :func:`~tyrebayes.inference.result.diagnose` instead.
+    """
+    draws = float(ess_min)
+    return Diagnostics(
+        method=method,
+        n_chains=1,
+        n_draws=int(draws) if np.isfinite(draws) else 0,
+        r_hat_max=float(r_hat_max),
+        ess_bulk_min=draws,
+        ess_tail_min=draws,
+        divergences=int(divergences),
+        optimiser_result=optimiser_result,
+        converged=bool(converged),
+        reasons=tuple(r for r in reason.split("; ") if r),
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class TyreFit:
+    """Result of :func:`fit_tyre`: a :class:`~tyrebayes.inference.result.Fit` of kind "tyre".
+
+    Attributes
+    ----------
+    idata : xarray.DataTree
+        ArviZ data: posterior (``c_xr``, ``c_x``, ``mu_max``, ``slip_offset``, ...), observed
+        data, log-likelihood, posterior predictive, constant data (``at_limit``).
+    diagnostics : Diagnostics
+        Convergence under :data:`~tyrebayes.inference.result.POLICY` and model adequacy.
+    mu_observed : dict[str, bool]
+        Per surface: did the data reach the nonlinear region (posterior contraction of μ_max)?
+    surfaces : tuple of str
+    n_samples_used : int
+        Number of windows that entered the likelihood.
+    kind : str
+        ``"magic"``, ``"shaped"``, ``"brush"`` or ``"linear"``.
+    slip_variance_inflation : tuple of float
+        Per drive, the variance inflation of the slip errors by their correlation between
+        windows; each window's slip counted 1/this in the fit (:mod:`.window_correlation`).
+    adequacy : Adequacy
+        Whether the fitted model describes the drive (:mod:`.adequacy`), with the statistics of
+        its checks; a converged fit can be inadequate, and then its intervals are not to be
+        trusted either. ``diagnostics.adequate`` carries its verdict and reasons.
+    force_range : float
+        The 90th percentile of |ρ_x| over the slip windows [-]: the range of force the drive used.
+    secant_stiffness : ndarray
+        Posterior draws of the secant slope ρ/σ of the fitted curve at ``force_range`` [-], on
+        the first surface at the drives' mean tyre temperature: what the drive measures directly.
+        C_x, the slope at zero, is that secant extrapolated through the curve's shape.
+    provenance : Provenance, optional
+        Method, model, inputs and settings (default: method and model only).
+    """
+
+    idata: xr.DataTree
+    diagnostics: Diagnostics
+    mu_observed: dict
+    surfaces: tuple
+    n_samples_used: int
+    kind: str
+    slip_variance_inflation: tuple
+    adequacy: Adequacy
+    force_range: float
+    secant_stiffness: np.ndarray
+    provenance: Provenance | None = None
+
+    @property
+    def converged(self) -> bool:
+        return bool(self.diagnostics.converged)
+
+    @property
+    def fit(self) -> Fit:
+        """This fit in the one result type; its ``data.attrs`` carry the tyre-specific fields."""
+        data = self.idata.copy()
+        data.attrs.update(
+            {
+                "mu_observed": json.dumps({s: bool(v) for s, v in self.mu_observed.items()}),
+                "surfaces": json.dumps(list(self.surfaces)),
+                "n_samples_used": int(self.n_samples_used),
+                "tyre_model": self.kind,
+                "slip_variance_inflation": json.dumps(
+                    [float(x) for x in self.slip_variance_inflation]
+                ),
+                "adequacy": json.dumps(self.adequacy.as_dict()),
+                "force_range": float(self.force_range),
+                "secant_stiffness": json.dumps([float(x) for x in self.secant_stiffness]),
+            }
+        )
+        prov = self.provenance or Provenance(method=self.diagnostics.method, model=self.kind)
+        return Fit(data=data, diagnostics=self.diagnostics, kind="tyre", provenance=prov)
+
+    @classmethod
+    def from_fit(cls, fit: Fit) -> TyreFit:
+        """The tyre fit a :class:`~tyrebayes.inference.result.Fit` of kind "tyre" holds."""
+        if fit.kind != "tyre":
+            raise ValueError(f"fit: expected a tyre fit, got a {fit.kind} fit")
+        attrs = fit.data.attrs
+        return cls(
+            idata=fit.data,
+            diagnostics=fit.diagnostics,
+            mu_observed=fit.attr("mu_observed"),
+            surfaces=tuple(fit.attr("surfaces")),
+            n_samples_used=int(attrs["n_samples_used"]),
+            kind=str(attrs["tyre_model"]),
+            slip_variance_inflation=tuple(fit.attr("slip_variance_inflation")),
+            adequacy=Adequacy.from_dict(fit.attr("adequacy")),
+            force_range=float(attrs["force_range"]),
+            secant_stiffness=np.asarray(fit.attr("secant_stiffness"), dtype=float),
+            provenance=fit.provenance,
+        )
+
+    def save(self, path) -> Path:
+        """Write the fit to netCDF (:meth:`tyrebayes.inference.result.Fit.save`)."""
+        return self.fit.save(path)
+
+    def draws(self, name: str) -> np.ndarray:
+        """Posterior draws of a variable, chains and draws flattened on the first axis."""
+        values = np.asarray(self.idata["posterior"][name])
+        return values.reshape((-1,) + values.shape[2:])
+
+    def summary(self) -> dict:
+        """The ``fit-tyre --json`` object: c_x, c_xr, mu_max, slip_offset summaries and flags.
+
+        ``mu_max``, ``slip_offset`` and ``force_gain`` (measured over true ρ_x: load share, IMU
+        scale, body pitch) describe the first surface and drive; ``mu_max_by_surface`` lists
+        every surface. ``diagnostics`` is :meth:`Diagnostics.as_dict`; ``adequate`` and
+        ``adequacy_reasons`` repeat its model-adequacy verdict at the top level.
+        """
+        mu = self.draws("mu_max")
+        return {
+            "c_x": summarize(self.draws("c_x")),
+            "c_xr": summarize(self.draws("c_xr")),
+            "mu_max": summarize(mu[:, 0]),
+            "slip_offset": summarize(self.draws("slip_offset")[:, 0]),
+            "force_gain": summarize(self.draws("force_gain")[:, 0]),
+            "mu_max_observed": bool(self.mu_observed[self.surfaces[0]]),
+            "mu_max_by_surface": {
+                s: {**summarize(mu[:, i]), "observed": bool(self.mu_observed[s])}
+                for i, s in enumerate(self.surfaces)
+            },
+            "converged": self.converged,
+            "adequate": bool(self.diagnostics.adequate),
+            "adequacy_reasons": list(self.diagnostics.adequacy_reasons),
+            "diagnostics": self.diagnostics.as_dict(),
+            "method": self.diagnostics.method,
+            "model": self.kind,
+            "n_samples_used": self.n_samples_used,
+            "slip_variance_inflation": [float(x) for x in self.slip_variance_inflation],
+            "n_abs_windows": int(np.asarray(self.idata["constant_data"]["at_limit"]).sum()),
+            "noise_scales": {
+                "slip": float(np.mean(self.draws("slip_noise_scale"))),
+                "force": float(np.mean(self.draws("rho_noise_scale"))),
+            },
+            "identified": {
+                "force_range": self.force_range,
+                "secant_stiffness": summarize(self.secant_stiffness),
+            },
+        }
