@@ -91,6 +91,7 @@ def convert_log(args: argparse.Namespace) -> dict[str, Any]:
         },
         "resampled": stream.resampled,
         "notes": list(stream.notes),
+        "flags": list(stream.flags),
     }
 
 
@@ -108,6 +109,7 @@ def _text(summary: dict[str, Any]) -> str:
         f"NaN: {dropped or 'none'}",
     ]
     lines.extend(f"note: {note}" for note in summary["notes"])
+    lines.extend(f"flag: {flag}" for flag in summary["flags"])
     return "\n".join(lines)
 
 
