@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from tyrebayes._commands._common import atomic_write_bytes
-from tyrebayes.physics.vehicle import load_vehicle
+from tyrebayes._domain import load_vehicle
 from tyrebayes.simulate.can_log import stream_messages
 from tyrebayes.streams.can import load_dbc, load_profile
 from tyrebayes.streams.synthetic import synthetic_stream
@@ -60,7 +60,7 @@ REPEATS = 3  # candump and per-frame runs: the fastest of three; BLF and ASC: on
 
 _CHILD = r"""
 import json, os, resource, sys, time
-from tyrebayes.physics.vehicle import load_vehicle
+from tyrebayes._domain import load_vehicle
 from tyrebayes.streams import validate_stream
 from tyrebayes.streams.can import read_can_log
 

@@ -4,10 +4,10 @@ model cannot describe (issue: C_x that holds on tyres and cars the package did n
 import numpy as np
 import pytest
 
+from tyrebayes._domain import load_vehicle
 from tyrebayes.inference.tyre_data import observations_from_features, stack_drives
 from tyrebayes.inference.tyre_fit import fit_tyre
 from tyrebayes.physics.tyre import MagicFormulaLongitudinal
-from tyrebayes.physics.vehicle import load_vehicle
 from tyrebayes.simulate.drive import simulate_drive
 from tyrebayes.simulate.profiles import ProfileOptions
 from tyrebayes.simulate.tyre_spec import TyreSpec

@@ -41,7 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def convert_log(args: argparse.Namespace) -> dict[str, Any]:
     """Decode, validate and write; the summary as a JSON-ready dict."""
-    from ..physics.vehicle import load_vehicle
+    from .._domain import load_vehicle
     from ..streams import validate_stream, write_stream
     from ..streams.can import load_profile, read_can_log
     from ..streams.io import SUPPORTED_SUFFIXES

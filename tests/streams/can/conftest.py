@@ -5,7 +5,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from tyrebayes.physics.vehicle import load_vehicle
+from tyrebayes._domain import load_vehicle
 from tyrebayes.simulate.can_log import stream_messages
 from tyrebayes.streams.can import load_dbc, load_profile
 from tyrebayes.streams.synthetic import synthetic_stream

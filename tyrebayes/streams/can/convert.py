@@ -239,17 +239,16 @@ def read_can_log(
         DBC; no frames of the profile's messages (on the chosen bus); frames whose length differs
         from the DBC's; a signal outside its DBC range.
     """
-    from ...physics.vehicle import Vehicle, load_vehicle
+    from ..._domain import load_vehicle
     from ..io import _merge_time_bases
 
     path = Path(path)
     if not isinstance(profile, CarProfile):
         profile = load_profile(profile)
-    if not isinstance(vehicle, Vehicle):
-        try:
-            vehicle = load_vehicle(vehicle if vehicle is not None else profile.vehicle)
-        except ValueError as err:
-            raise BadInputError(str(err).splitlines()[0]) from None
+    try:
+        vehicle = load_vehicle(vehicle if vehicle is not None else profile.vehicle)
+    except ValueError as err:
+        raise BadInputError(str(err).splitlines()[0]) from None
     db = load_dbc(profile.dbc_path(dbc))
     bound = bind_profile(profile, db)
     bus = profile.bus if bus is None else bus
