@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -28,6 +29,75 @@ def existing_file(path: str) -> Path:
     p = Path(path)
     if not p.is_file():
         raise BadInputError(f"file not found: expected a readable file, got '{path}'")
+    return p
+
+
+def _nearest_existing(path: Path) -> Path:
+    """``path`` or its nearest ancestor that exists (the folder a writer would create under)."""
+    for candidate in (path, *path.parents):
+        if candidate.exists():
+            return candidate
+    return Path.cwd()
+
+
+def _check_creatable(option: str, path: Path) -> None:
+    """The folders up to ``path`` exist or can be made, and the nearest existing is writable."""
+    base = _nearest_existing(path.parent)
+    if not base.is_dir():
+        raise BadInputError(
+            f"{option}: expected a path under a folder, got '{path}' ('{base}' is a file)"
+        )
+    if not os.access(base, os.W_OK | os.X_OK):
+        raise BadInputError(
+            f"{option}: expected a writable folder for '{path}', got '{base}' (not writable)"
+        )
+
+
+def output_file(path: str, option: str = "--out", suffixes: tuple[str, ...] = ()) -> Path:
+    """Check an output file name before any work: a fit must not be lost to a bad ``--out``.
+
+    Parameters
+    ----------
+    path : str
+        The file the command will write (created or replaced atomically).
+    option : str
+        The option's name, for the message.
+    suffixes : tuple of str
+        Accepted suffixes (lower case, with the dot); empty accepts any.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    BadInputError
+        An existing folder at ``path``, a wrong suffix, a parent that is a file, or a folder that
+        is not writable.
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise BadInputError(f"{option}: expected a file name, got the existing folder '{path}'")
+    if suffixes and not p.name.lower().endswith(suffixes):
+        raise BadInputError(
+            f"{option}: expected a file name ending in {list(suffixes)}, got {path!r}"
+        )
+    _check_creatable(option, p)
+    return p
+
+
+def output_folder(path: str, option: str = "--out") -> Path:
+    """Check an output folder before any work (it may not exist yet; its parent is made).
+
+    Raises
+    ------
+    BadInputError
+        An existing file at ``path``, or no writable folder to create it in.
+    """
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise BadInputError(f"{option}: expected a folder, got the file '{path}'")
+    _check_creatable(option, p / "x")
     return p
 
 

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from .._errors import BadInputError
-from ._common import add_can_arguments, existing_file, print_json
+from ._common import add_can_arguments, existing_file, output_file, print_json
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -51,6 +51,7 @@ def convert_log(args: argparse.Namespace) -> dict[str, Any]:
             f"--out: expected a stream file name ending in {list(SUPPORTED_SUFFIXES)}, "
             f"got {args.out!r}"
         )
+    output_file(args.out)
     if args.profile is None:
         raise BadInputError("--profile: expected a car profile name or TOML path, got none")
     profile = load_profile(args.profile)

@@ -16,11 +16,11 @@ import os
 from typing import Any
 
 from .._domain import SURFACES
-from .._errors import BadInputError
 from ._common import (
     add_can_arguments,
     diagnostics_text,
     exit_status,
+    output_file,
     print_json,
     stream_file,
 )
@@ -104,6 +104,9 @@ def _text(summary: dict[str, Any], diagnostics) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.out is not None:
+        # Before JAX starts and the fit runs: a bad --out must not cost a fit.
+        output_file(args.out, suffixes=(".nc", ".netcdf"))
     import numpyro
 
     # One JAX device per core before JAX starts: NUTS then runs its chains side by side.
@@ -116,8 +119,6 @@ def run(args: argparse.Namespace) -> int:
     from ..inference.tyre_data import observations_from_stream
     from ..inference.tyre_fit import fit_tyre
 
-    if args.out is not None and not args.out.endswith((".nc", ".netcdf")):
-        raise BadInputError(f"--out: expected a .nc file name, got {args.out!r}")
     with stream_file(args, args.vehicle) as path:
         obs = observations_from_stream(
             path,

@@ -17,7 +17,7 @@ import numpy as np
 
 from .._domain import SURFACES, TYRE_TYPES
 from .._errors import BadInputError
-from ._common import diagnostics_text, existing_file, exit_status, print_json
+from ._common import diagnostics_text, existing_file, exit_status, output_file, print_json
 
 # The library (JAX, NumPyro, pandas) is imported inside the run functions: ``tyrebayes --help``
 # imports every command module to build its parser, and fit-tyre must set JAX's device count
@@ -91,6 +91,7 @@ def _read_table(path: str):
 def run_fit(args: argparse.Namespace) -> int:
     from ..inference.fleet import fit_fleet, fit_summary
 
+    out = output_file(args.out or str(Path(args.table).with_suffix(".fleet.nc")))
     table = _read_table(args.table)
     if args.outcome not in table.columns:
         raise BadInputError(
@@ -111,7 +112,6 @@ def run_fit(args: argparse.Namespace) -> int:
         num_chains=args.chains,
         source=str(args.table),
     )
-    out = Path(args.out) if args.out else Path(args.table).with_suffix(".fleet.nc")
     final = fit.save(out)
     summary = {"out": str(final), **fit_summary(fit)}
     if args.json:

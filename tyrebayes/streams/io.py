@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from .._errors import BadInputError
+from .._io import atomic_path
 from .schema import CHANNELS, OPTIONAL_COLUMNS, REQUIRED_COLUMNS
 
 _CSV = (".csv",)
@@ -209,10 +210,8 @@ def write_stream(df: pd.DataFrame, path: str | os.PathLike) -> None:
     path : path-like
         Target file; its suffix selects the format.
     """
-    path = Path(path)
-    suffix = _suffix(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{suffix}")
+    suffix = _suffix(Path(path))
+    tmp, path = atomic_path(path)  # sweeps what a killed writer of this file left behind
     try:
         if suffix in _CSV:
             df.to_csv(tmp, index=False, float_format="%.12g")

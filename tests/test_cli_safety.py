@@ -1,0 +1,173 @@
+"""The command line fails cleanly: argument errors, output paths, closed pipes, signals.
+
+Every case fails before any fit (a stub in place of the fitter proves it never ran) and ends
+with one line on stderr and exit 2, or, for a closed pipe, quietly.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+
+import pandas as pd
+import pytest
+
+import tyrebayes.inference.fleet
+from tyrebayes._commands import wear
+from tyrebayes.cli import main
+from tyrebayes.streams import write_stream
+
+
+def _one_line_error(capsys, argv) -> str:
+    code = main(argv)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert err.count("\n") == 1, err
+    return err
+
+
+@pytest.fixture
+def no_fleet_fit(monkeypatch):
+    def fail(*args, **kwargs):
+        raise AssertionError("the fit ran before the output path was checked")
+
+    monkeypatch.setattr(tyrebayes.inference.fleet, "fit_fleet", fail)
+
+
+@pytest.fixture
+def table(tmp_path):
+    path = tmp_path / "fleet.csv"
+    path.write_text("tyre_id,tyre_type,c_xr,mu\na,winter,40,0.3\n")
+    return str(path)
+
+
+# --- argparse errors ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["predict", "f.nc", "--c-xr", "40", "--type", "summr"], "invalid choice: 'summr'"),
+        (["predict", "f.nc", "--type", "winter"], "required: --c-xr"),
+        (["warn", "f.nc", "--c-xr", "forty", "--type", "winter"], "invalid float value"),
+        (["no-such-command"], "invalid choice: 'no-such-command'"),
+        ([], "required: command"),
+    ],
+)
+def test_argument_errors_are_one_line(capsys, argv, needle):
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    err = capsys.readouterr().err
+    assert info.value.code == 2
+    assert err.count("\n") == 1 and needle in err, err
+    assert err.startswith("tyrebayes")
+
+
+def test_help_is_still_whole(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["predict", "--help"])
+    assert info.value.code == 0
+    assert "--c-xr" in capsys.readouterr().out
+
+
+# --- output paths, checked before the work -----------------------------------------------------
+
+
+def test_fit_fleet_out_on_an_existing_folder(capsys, tmp_path, table, no_fleet_fit):
+    err = _one_line_error(capsys, ["fit-fleet", table, "--out", str(tmp_path)])
+    assert "--out: expected a file name, got the existing folder" in err
+
+
+def test_fit_fleet_default_out_is_checked_too(capsys, tmp_path, table, no_fleet_fit):
+    (tmp_path / "fleet.fleet.nc").mkdir()
+    err = _one_line_error(capsys, ["fit-fleet", table])
+    assert "fleet.fleet.nc" in err and "existing folder" in err
+
+
+def test_out_under_a_file(capsys, tmp_path, table, no_fleet_fit):
+    err = _one_line_error(capsys, ["fit-fleet", table, "--out", f"{table}/sub/fit.nc"])
+    assert "expected a path under a folder" in err and "is a file" in err
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into any folder")
+def test_out_in_an_unwritable_folder(capsys, tmp_path, table, no_fleet_fit):
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o500)
+    err = _one_line_error(capsys, ["fit-fleet", table, "--out", str(locked / "new" / "fit.nc")])
+    assert "not writable" in err
+
+
+def test_fit_tyre_checks_out_before_reading_the_stream(capsys, tmp_path):
+    # The stream does not exist either: the --out message proves the order.
+    argv = ["fit-tyre", str(tmp_path / "missing.csv"), "--vehicle", "compact_fwd"]
+    err = _one_line_error(capsys, [*argv, "--out", str(tmp_path)])
+    assert "fit-tyre: --out: expected a file name" in err
+    err = _one_line_error(capsys, [*argv, "--out", str(tmp_path / "fit.txt")])
+    assert "expected a file name ending in ['.nc', '.netcdf']" in err
+
+
+@pytest.mark.parametrize("command", ["report", "demo"])
+def test_folder_outputs(capsys, tmp_path, command):
+    afile = tmp_path / "a.txt"
+    afile.write_text("")
+    args = [command, "--out"] if command == "demo" else [command, "x.nc", "--out"]
+    assert "expected a folder, got the file" in _one_line_error(capsys, [*args, str(afile)])
+    err = _one_line_error(capsys, [*args, str(afile / "sub")])
+    assert "expected a path under a folder" in err
+
+
+def test_an_os_error_on_a_named_file_is_one_line(capsys, monkeypatch):
+    def disk_full(args):
+        raise OSError(28, "No space left on device", "/data/fit.nc")
+
+    monkeypatch.setattr(wear, "run_thesis", disk_full)
+    err = _one_line_error(capsys, ["wear-thesis"])
+    assert "'/data/fit.nc' (No space left on device)" in err
+
+
+def test_an_os_error_without_a_file_keeps_its_traceback(monkeypatch):
+    def bug(args):
+        raise OSError("something internal")
+
+    monkeypatch.setattr(wear, "run_thesis", bug)
+    with pytest.raises(OSError, match="something internal"):
+        main(["wear-thesis"])
+
+
+# --- closed pipes and signals ------------------------------------------------------------------
+
+
+def test_json_into_a_closed_pipe_is_quiet():
+    code = "import sys; from tyrebayes.cli import main; sys.exit(main())"
+    with subprocess.Popen(
+        [sys.executable, "-c", code, "wear-thesis", "--json"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    ) as proc:
+        proc.stdout.close()  # the reader is gone before the first write, as with `| head -0`
+        err = proc.stderr.read().decode()
+        assert proc.wait(timeout=120) == 1
+    assert err == ""
+
+
+def test_sigterm_while_writing_leaves_no_temporary_file(tmp_path, monkeypatch):
+    target = tmp_path / "out.csv"
+    real_to_csv = pd.DataFrame.to_csv
+
+    def write_then_terminate(self, path, **kwargs):
+        real_to_csv(self, path, **kwargs)  # half-way: the temporary file exists
+        assert list(tmp_path.glob(".out.csv.*.tmp*"))
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    monkeypatch.setattr(pd.DataFrame, "to_csv", write_then_terminate)
+    monkeypatch.setattr(
+        wear, "run_thesis", lambda args: write_stream(pd.DataFrame({"time": [0.0]}), target)
+    )
+    before = signal.getsignal(signal.SIGTERM)
+    with pytest.raises(SystemExit) as info:
+        main(["wear-thesis"])
+    assert info.value.code == 128 + signal.SIGTERM
+    assert list(tmp_path.iterdir()) == []
+    assert signal.getsignal(signal.SIGTERM) is before
