@@ -16,8 +16,11 @@ import pytest
 
 import tyrebayes.inference.fleet
 from tyrebayes._commands import wear
+from tyrebayes._domain import load_vehicle
+from tyrebayes._resources import models_dir
 from tyrebayes.cli import main
 from tyrebayes.streams import write_stream
+from tyrebayes.streams.synthetic import synthetic_stream
 
 
 def _one_line_error(capsys, argv) -> str:
@@ -134,6 +137,38 @@ def test_an_os_error_without_a_file_keeps_its_traceback(monkeypatch):
     monkeypatch.setattr(wear, "run_thesis", bug)
     with pytest.raises(OSError, match="something internal"):
         main(["wear-thesis"])
+
+
+# --- implausible arguments and vehicle files ---------------------------------------------------
+
+
+def test_warn_mu_min_is_checked_before_the_fit_is_read(capsys, tmp_path):
+    argv = ["warn", str(tmp_path / "missing.nc"), "--c-xr", "30", "--type", "winter"]
+    err = _one_line_error(capsys, [*argv, "--mu-min", "-5"])
+    assert "--mu-min: expected a friction coefficient in (0, 2), got -5" in err
+
+
+@pytest.mark.parametrize(("ambient", "needle"), [("500", "got 500\n"), ("293", "kelvin")])
+def test_predict_wear_ambient_outside_the_thermal_model(capsys, ambient, needle):
+    argv = ["predict-wear", "--gamma", "1e-4", "--c-xr", "40", "--ambient", ambient]
+    err = _one_line_error(capsys, argv)
+    assert "--ambient: expected an air temperature in [-40, 60] °C" in err and needle in err
+
+
+def test_fit_tyre_ambient_is_checked_before_the_stream(capsys, tmp_path):
+    argv = ["fit-tyre", str(tmp_path / "missing.csv"), "--vehicle", "compact_fwd"]
+    assert "--ambient" in _one_line_error(capsys, [*argv, "--ambient", "-80"])
+
+
+def test_a_1700_tonne_vehicle_is_rejected(capsys, tmp_path):
+    text = (models_dir() / "vehicles" / "compact_fwd.toml").read_text()
+    heavy = tmp_path / "heavy.toml"
+    heavy.write_text(text.replace("mass_kg = 1600.0", "mass_kg = 1.7e6"))
+    assert heavy.read_text() != text
+    stream = tmp_path / "drive.csv"
+    write_stream(synthetic_stream(load_vehicle("compact_fwd"), duration_s=5.0)[0], stream)
+    err = _one_line_error(capsys, ["inspect", str(stream), "--vehicle", str(heavy)])
+    assert "mass_kg: expected a road car's value in [300, 10000], got 1700000.0" in err
 
 
 # --- closed pipes and signals ------------------------------------------------------------------

@@ -101,6 +101,25 @@ def output_folder(path: str, option: str = "--out") -> Path:
     return p
 
 
+#: Ambient air temperatures the thermal model was built for [°C]: the range of recorded road
+#: weather outside deserts and polar winters. Beyond it the rolling-loss and convection terms are
+#: extrapolated (and a value like 293 is kelvin).
+AMBIENT_RANGE_C = (-40.0, 60.0)
+
+
+def check_ambient(value: float | None, option: str = "--ambient") -> None:
+    """Raise BadInputError for an ambient temperature outside :data:`AMBIENT_RANGE_C`."""
+    if value is None:
+        return
+    lo, hi = AMBIENT_RANGE_C
+    if not lo <= value <= hi:
+        hint = f" (kelvin? use {value - 273.15:.3g})" if 233.0 <= value <= 333.0 else ""
+        raise BadInputError(
+            f"{option}: expected an air temperature in [{lo:g}, {hi:g}] °C (the thermal model's "
+            f"range), got {value:g}{hint}"
+        )
+
+
 def diagnostics_text(diagnostics) -> str:
     """Two lines for a human: convergence (R-hat, ESS, divergences) and model adequacy."""
     d = diagnostics

@@ -18,6 +18,7 @@ from typing import Any
 from .._domain import SURFACES
 from ._common import (
     add_can_arguments,
+    check_ambient,
     diagnostics_text,
     exit_status,
     output_file,
@@ -107,6 +108,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         # Before JAX starts and the fit runs: a bad --out must not cost a fit.
         output_file(args.out, suffixes=(".nc", ".netcdf"))
+    check_ambient(args.ambient)
     import numpyro
 
     # One JAX device per core before JAX starts: NUTS then runs its chains side by side.

@@ -137,8 +137,32 @@ def _check_c_xr(args) -> str | None:
     return None if args.tyre_type == "unknown" else args.tyre_type
 
 
+def _informing_c_xr(fit, surface: str, tyre_type: str | None) -> tuple[np.ndarray, str]:
+    """Measured C_xr of the sets that inform a prediction, and those sets in words.
+
+    The sets with an outcome on ``surface`` (all sets for a surface without data), narrowed to
+    ``tyre_type`` when at least two of that type are among them: the slope is per type, so its
+    range is the type's; with fewer the slope leans on the other types (partial pooling).
+    """
+    const = fit.data["constant_data"]
+    c_xr = np.asarray(const["c_xr_obs"], float)
+    tyre_types = np.asarray(const["tyre_type_index"], int)
+    row_tyre = np.asarray(const["row_tyre"], int)
+    sets = np.unique(row_tyre[np.asarray(const["row_surface"]) == SURFACES.index(surface)])
+    where = f" on {surface}" if sets.size else ""
+    if not sets.size:
+        sets = np.arange(c_xr.size)
+    kind = ""
+    if tyre_type is not None:
+        same = sets[tyre_types[sets] == TYRE_TYPES.index(tyre_type)]
+        if same.size >= 2:
+            sets, kind = same, f"{tyre_type} "
+    return c_xr[sets], f"the fleet's {kind}sets{where}"
+
+
 def prediction(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
     """Predictive draws and the JSON of ``predict`` for parsed arguments."""
+    from .. import decisions
     from ..inference.fleet import predict_friction
     from ..inference.result import load_fit
     from ..inference.summary import summarize
@@ -147,6 +171,9 @@ def prediction(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
     fit = load_fit(args.fit, kind="fleet")
     draws = predict_friction(fit, args.c_xr, args.c_xr_sd, tyre_type, args.surface, seed=args.seed)
     fitted = fit.attr("fitted_surfaces")
+    extrapolation = decisions.stiffness_extrapolation(
+        args.c_xr, *_informing_c_xr(fit, args.surface, tyre_type)
+    )
     payload = {
         "mu": summarize(draws),
         "p_below": {f"{lvl:g}": float(np.mean(draws < lvl)) for lvl in P_BELOW_LEVELS},
@@ -155,6 +182,7 @@ def prediction(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
         "c_xr": args.c_xr,
         "c_xr_sd": args.c_xr_sd,
         "prior_only": args.surface not in fitted,
+        **extrapolation,
         "fit_converged": fit.converged,
         "fit_adequate": fit.adequate,
     }
@@ -174,12 +202,16 @@ def run_predict(args: argparse.Namespace) -> int:
         )
         for lvl, p in payload["p_below"].items():
             print(f"  P(mu < {lvl}) = {p:.3f}")
+        if payload["extrapolation"]:
+            print(f"note: {payload['extrapolation_note']}")
     return 0
 
 
 def run_warn(args: argparse.Namespace) -> int:
     from .. import decisions
 
+    if args.mu_min is not None:
+        decisions.check_mu_min(args.mu_min, "--mu-min")  # before the fit is loaded
     if args.mu_min is None and args.surface != "snow":
         raise BadInputError(
             f"--mu-min: expected a value for surface {args.surface!r} (a default exists only for "
@@ -205,6 +237,9 @@ def run_warn(args: argparse.Namespace) -> int:
                 "c_xr",
                 "c_xr_sd",
                 "prior_only",
+                "extrapolation",
+                "c_xr_range",
+                "extrapolation_note",
                 "fit_converged",
                 "fit_adequate",
             )
@@ -214,4 +249,6 @@ def run_warn(args: argparse.Namespace) -> int:
         print_json(verdict)
     else:
         print(f"{verdict['verdict']}: {verdict['reason']}")
+        if verdict["extrapolation"]:
+            print(f"note: {verdict['extrapolation_note']}")
     return 0
