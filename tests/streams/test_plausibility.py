@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tyrebayes import BadInputError
 from tyrebayes._domain import load_vehicle
@@ -154,3 +156,59 @@ def test_inspect_prints_flags(tmp_path, capsys):
     write_stream(_synthetic(rate_hz=10.0, duration_s=60.0), path)
     assert main(["inspect", str(path), "--vehicle", "compact_fwd"]) == 0
     assert "flag: sample rate 10 Hz" in capsys.readouterr().out
+
+
+# --- property: a corruption that changes the answer is an error or a flag ---------------------
+
+_FUZZ_BASE = _synthetic(duration_s=40.0)
+
+
+def _fuzz(df: pd.DataFrame, how: tuple) -> tuple[pd.DataFrame, str]:
+    """Apply one corruption; return the table and what must catch it: 'error' or 'flag'."""
+    df = df.copy()
+    kind = how[0]
+    if kind == "sign":
+        df[list(how[1])] = -df[list(how[1])]
+        return df, "error"
+    if kind == "time_scale":
+        df["time"] = df["time"] * how[1]
+        return df, "error"
+    if kind == "steer_deg":
+        # Gentle or straight drives keep degrees inside the rad range: the hard case.
+        df[["ay", "yaw_rate", "steering_wheel_angle"]] *= how[1]
+        df["steering_wheel_angle"] = np.degrees(df["steering_wheel_angle"])
+        return df, "error"
+    if kind == "gap":
+        start, length = how[1], how[2]
+        df.loc[df["time"] >= start, "time"] += length
+        return df, "flag" if length >= 10.0 else "none"
+    if kind == "nan_rows":
+        rows = np.random.default_rng(how[2]).random(len(df)) < how[1]
+        df.loc[rows, df.columns[1:]] = np.nan
+        return df, "flag" if how[1] >= 0.35 else "none"
+    step = how[1]  # decimate: a slower logger
+    return df.iloc[::step].reset_index(drop=True), "flag" if 50.0 / step < 20.0 else "none"
+
+
+fuzz_case = st.one_of(
+    st.tuples(st.just("sign"), st.sampled_from([("ax",), ("ay",), ("ax", "ay")])),
+    st.tuples(st.just("time_scale"), st.sampled_from([1000.0, 1e6])),
+    st.tuples(st.just("steer_deg"), st.sampled_from([1.0, 0.5, 0.2])),
+    st.tuples(st.just("gap"), st.floats(5.0, 30.0), st.sampled_from([2.0, 15.0, 600.0])),
+    st.tuples(st.just("nan_rows"), st.sampled_from([0.05, 0.4, 0.6]), st.integers(0, 9)),
+    st.tuples(st.just("decimate"), st.sampled_from([2, 3, 5])),
+)
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(fuzz_case)
+def test_fuzz_corruption_is_an_error_or_a_flag(how):
+    df, expect = _fuzz(_FUZZ_BASE, how)
+    try:
+        stream = validate_stream(df, COMPACT)
+    except BadInputError as err:
+        assert "\n" not in str(err)
+        assert expect == "error", f"{how}: unexpected error {err}"
+        return
+    assert expect != "error", f"{how}: accepted silently"
+    assert bool(stream.flags) == (expect == "flag"), f"{how}: flags {stream.flags}"
