@@ -177,6 +177,9 @@ def _bad_table(tmp_path, mutate):
         (lambda t: t.assign(c_xr=-t.c_xr), "positive stiffness"),
         (lambda t: t.groupby("tyre_type").head(1), "at least 2 rows"),
         (lambda t: t.drop(columns="mu"), "--outcome"),
+        (lambda t: t.assign(c_xr=t.c_xr.where(t.index != 3, 1e300)), "got 1e+300 in row 3"),
+        (lambda t: t.assign(mu=100 * t.mu), "(percent? divide by 100)"),
+        (lambda t: t.assign(mu=-t.mu), "mu: expected a friction coefficient in (0, 2), got -"),
     ],
 )
 def test_bad_tables_exit_2_with_one_line(tmp_path, capsys, mutate, message):
