@@ -139,6 +139,40 @@ def test_an_os_error_without_a_file_keeps_its_traceback(monkeypatch):
         main(["wear-thesis"])
 
 
+# --- input paths that are not what they seem ---------------------------------------------------
+
+
+def _inspect_error(capsys, path) -> str:
+    return _one_line_error(capsys, ["inspect", str(path), "--vehicle", "compact_fwd"])
+
+
+def test_a_folder_a_device_and_links_say_what_they_are(capsys, tmp_path):
+    assert "got the folder" in _inspect_error(capsys, tmp_path)
+    assert "not a regular file" in _inspect_error(capsys, "/dev/null")
+    loop = tmp_path / "loop.csv"
+    loop.symlink_to(loop)
+    assert "symbolic links" in _inspect_error(capsys, loop)
+    broken = tmp_path / "broken.csv"
+    broken.symlink_to(tmp_path / "gone.csv")
+    assert "broken link" in _inspect_error(capsys, broken)
+    assert "file not found" in _inspect_error(capsys, tmp_path / "gone.csv")
+
+
+def test_binary_files_named_csv_are_named_not_echoed(capsys, tmp_path):
+    df = synthetic_stream(load_vehicle("compact_fwd"), duration_s=5.0)[0]
+    parquet = tmp_path / "drive.csv"
+    df.to_parquet(parquet)
+    err = _inspect_error(capsys, parquet)
+    assert "expected CSV text, got a Parquet file (rename it to .parquet)" in err
+    junk = tmp_path / "junk.csv"
+    junk.write_bytes(bytes(range(256)) * 8)
+    assert "expected CSV text, got binary data" in _inspect_error(capsys, junk)
+    mangled = tmp_path / "mangled.csv"
+    mangled.write_bytes(b"time,a\n1,2\n" + bytes(range(1, 32)) + b"\xff\xfe,1,2,3\n")
+    err = _inspect_error(capsys, mangled)
+    assert "cannot parse" in err and err.rstrip("\n").isprintable()
+
+
 # --- implausible arguments and vehicle files ---------------------------------------------------
 
 

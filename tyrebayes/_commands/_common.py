@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import stat
 import sys
 import tempfile
 from pathlib import Path
@@ -25,10 +26,28 @@ def print_json(payload: dict) -> None:
 
 
 def existing_file(path: str) -> Path:
-    """Return ``path`` as a Path, or raise BadInputError if it is not a readable file."""
+    """Return ``path`` as a Path, or raise BadInputError if it is not a readable file.
+
+    The message says what the path is instead: a folder, a device or pipe, a broken link or a
+    link loop, a file without read permission, or nothing at all.
+    """
     p = Path(path)
-    if not p.is_file():
-        raise BadInputError(f"file not found: expected a readable file, got '{path}'")
+    try:
+        mode = p.stat().st_mode
+    except FileNotFoundError:
+        if p.is_symlink():
+            raise BadInputError(f"expected a readable file, got the broken link '{path}'") from None
+        raise BadInputError(f"file not found: expected a readable file, got '{path}'") from None
+    except OSError as err:  # ELOOP, ENAMETOOLONG, EACCES on a parent folder
+        raise BadInputError(f"expected a readable file, got '{path}' ({err.strerror})") from None
+    if stat.S_ISDIR(mode):
+        raise BadInputError(f"expected a readable file, got the folder '{path}'")
+    if not stat.S_ISREG(mode):
+        raise BadInputError(
+            f"expected a readable file, got '{path}', a device, pipe or socket (not a regular file)"
+        )
+    if not os.access(p, os.R_OK):
+        raise BadInputError(f"expected a readable file, got '{path}' (no read permission)")
     return p
 
 
