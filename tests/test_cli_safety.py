@@ -173,6 +173,15 @@ def test_binary_files_named_csv_are_named_not_echoed(capsys, tmp_path):
     assert "cannot parse" in err and err.rstrip("\n").isprintable()
 
 
+def test_a_table_given_as_a_fit_says_so(capsys, tmp_path, table):
+    err = _one_line_error(capsys, ["predict", table, "--c-xr", "30", "--type", "winter"])
+    assert "expected a fleet fit (netCDF from fit-fleet), got text (a CSV" in err
+    parquet = tmp_path / "fleet.parquet"
+    pd.read_csv(table).to_parquet(parquet)
+    err = _one_line_error(capsys, ["report", str(parquet), "--out", str(tmp_path / "r")])
+    assert "got a Parquet file" in err
+
+
 # --- implausible arguments and vehicle files ---------------------------------------------------
 
 

@@ -51,6 +51,30 @@ def existing_file(path: str) -> Path:
     return p
 
 
+# A saved fit is netCDF-4 (HDF5 inside); netCDF-3 files start with "CDF".
+_FIT_SIGNATURES = (b"\x89HDF\r\n\x1a\n", b"CDF\x01", b"CDF\x02")
+
+
+def fit_file(path: str, what: str = "a saved fit (netCDF from fit-tyre or fit-fleet)") -> Path:
+    """Check that ``path`` is a netCDF file before the fit reader opens it.
+
+    A stream or fleet table given where a fit belongs then says so, instead of the HDF5
+    library's "file signature not found".
+    """
+    p = existing_file(path)
+    with p.open("rb") as fh:
+        head = fh.read(512)
+    if head.startswith(_FIT_SIGNATURES):
+        return p
+    if head.startswith(b"PAR1"):
+        got = "a Parquet file (a stream or fleet table?)"
+    elif head and b"\x00" not in head:
+        got = "text (a CSV stream or fleet table?)"
+    else:
+        got = "another binary format" if head else "an empty file"
+    raise BadInputError(f"fit file {path}: expected {what}, got {got}")
+
+
 def _nearest_existing(path: Path) -> Path:
     """``path`` or its nearest ancestor that exists (the folder a writer would create under)."""
     for candidate in (path, *path.parents):

@@ -17,7 +17,14 @@ import numpy as np
 
 from .._domain import SURFACES, TYRE_TYPES
 from .._errors import BadInputError
-from ._common import diagnostics_text, existing_file, exit_status, output_file, print_json
+from ._common import (
+    diagnostics_text,
+    existing_file,
+    exit_status,
+    fit_file,
+    output_file,
+    print_json,
+)
 
 # The library (JAX, NumPyro, pandas) is imported inside the run functions: ``tyrebayes --help``
 # imports every command module to build its parser, and fit-tyre must set JAX's device count
@@ -216,7 +223,7 @@ def prediction(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
     from ..inference.summary import summarize
 
     tyre_type = _check_c_xr(args)
-    fit = load_fit(args.fit, kind="fleet")
+    fit = load_fit(fit_file(args.fit, "a fleet fit (netCDF from fit-fleet)"), kind="fleet")
     draws = predict_friction(fit, args.c_xr, args.c_xr_sd, tyre_type, args.surface, seed=args.seed)
     fitted = fit.attr("fitted_surfaces")
     extrapolation = decisions.stiffness_extrapolation(

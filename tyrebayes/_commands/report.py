@@ -15,7 +15,7 @@ from pathlib import Path
 
 from .._domain import TYRE_TYPES
 from .._errors import BadInputError
-from ._common import output_folder, print_json
+from ._common import fit_file, output_folder, print_json
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -43,7 +43,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _load(path: str):
     from ..inference.result import load_fit
 
-    fit = load_fit(path)
+    fit = load_fit(fit_file(path))
     if fit.kind not in ("tyre", "fleet"):
         raise BadInputError(
             f"fit {path}: expected a tyre or fleet fit (fit-tyre, fit-fleet), got a {fit.kind} fit"
