@@ -180,7 +180,7 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
     feats = compute_features(stream, rav4)
     obs = stack_drives([observations_from_features(feats)], ["dry"])
     kw = (
-        {"num_chains": 2, "num_warmup": 300, "num_samples": 300}
+        {"num_chains": 2, "num_warmup": 300, "num_samples": 500}
         if sizes.real_method == "nuts"
         else {}
     )
@@ -191,7 +191,13 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
             fits["tyre_rav4_real"],
             "RAV4 real segment",
             tyre_type=None,
-            source=f"shipped {REAL_SEGMENT}",
+            source=(
+                f"shipped {REAL_SEGMENT}; assumes the {REAL_VEHICLE} preset (FWD, nominal "
+                "wheel radius 0.35 m), dry asphalt, a tyre temperature of 20 °C (the log has "
+                "no temperature channel), the dashcam IMU's scale estimated against the wheel "
+                "speeds; "
+                "no ABS, so μ_max stays at its prior"
+            ),
         )
     )
     steps.done()

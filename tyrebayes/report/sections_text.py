@@ -62,6 +62,15 @@ def headline(report: Report) -> list[str]:
     if report.tyres:
         conv = sum(bool(t.diagnostics.get("converged", False)) for t in report.tyres)
         out.append(f"{len(report.tyres)} per-tyre posteriors ({conv} converged).")
+        # Real data has no truth to compare with: say what the fit gives and what it assumes.
+        for t in report.tyres:
+            if t.truth is None and t.source:
+                c = t.summary["c_x"]
+                lo, hi = c["hdi_90"]
+                out.append(
+                    f"{t.name}: C_x {c['mean']:.1f} ± {c['sd']:.1f} (90 % {lo:.1f}–{hi:.1f}); "
+                    f"{t.source}."
+                )
     f = report.fleet
     if f is not None:
         types = ", ".join(f"{t} {p['b']['mean']:+.3f}" for t, p in f.parameters.items())

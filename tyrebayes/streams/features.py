@@ -560,9 +560,20 @@ def compute_features(
     )
     pushing = rho_total_traction >= 0.0
     slip_driven_noise = local_noise_sd(
-        _slip_noise_probe(slip_velocity_driven, rho_driven_traction * vx_safe, pushing, window),
+        np.column_stack(
+            [
+                _slip_noise_probe(
+                    slip_velocity_driven, rho_driven_traction * vx_safe, pushing, window
+                ),
+                slip_velocity_driven,
+            ]
+        ),
         window,
         span,
+    )
+    # Where the tyres brake (no slip window there) the plain slip velocity's noise stands in.
+    slip_driven_noise = np.where(
+        np.isfinite(slip_driven_noise[:, 0]), slip_driven_noise[:, 0], slip_driven_noise[:, 1]
     )
     slip_driven_sd = slip_driven_noise / vx_safe
     # Per-sample noise of the smoothed ax, scaled by the axle's share of m·ax. The offset's
