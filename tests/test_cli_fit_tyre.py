@@ -106,3 +106,32 @@ def test_fit_tyre_exits_3_when_the_fit_did_not_converge(tmp_path, capsys, monkey
     assert load_fit(out, kind="tyre").converged is False
     code = main(argv)
     assert code == 3 and "NOT CONVERGED" in capsys.readouterr().out
+
+
+def _slow_stream(path):
+    from tyrebayes._domain import load_vehicle
+    from tyrebayes.streams import write_stream
+    from tyrebayes.streams.synthetic import synthetic_stream
+
+    df, _ = synthetic_stream(load_vehicle("compact_fwd"), duration_s=120.0, rate_hz=10.0, seed=1)
+    write_stream(df, path)
+    return path
+
+
+def test_stream_flags_are_read_for_the_fit(tmp_path):
+    from tyrebayes._commands.fit_tyre import _stream_flags
+
+    (flag,) = _stream_flags(_slow_stream(tmp_path / "slow.csv"), "compact_fwd")
+    assert flag.startswith("sample rate 10 Hz")
+
+
+@pytest.mark.slow
+def test_fit_carries_the_stream_flags(tmp_path, capsys):
+    from tyrebayes.inference.result import load_fit
+
+    path, out = _slow_stream(tmp_path / "slow.csv"), tmp_path / "fit.nc"
+    argv = ["fit-tyre", str(path), "--vehicle", "compact_fwd", "--method", "fast"]
+    assert main([*argv, "--json", "--out", str(out)]) == 0
+    (flag,) = json.loads(capsys.readouterr().out)["stream_flags"]
+    assert flag.startswith("sample rate 10 Hz")
+    assert "sample rate 10 Hz" in json.loads(load_fit(out).provenance.settings)["stream_flags"]

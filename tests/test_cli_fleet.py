@@ -96,6 +96,33 @@ def test_predict_json(fitted, capsys):
     assert code == 0 and json.loads(stdout)["prior_only"] is True
 
 
+def test_predict_flags_extrapolation_outside_the_fleets_stiffness(fitted, capsys):
+    _, out, _, _ = fitted
+
+    def predict(c_xr: str, tyre_type: str = "winter") -> dict:
+        argv = ["predict", str(out), "--c-xr", c_xr, "--type", tyre_type, "--json"]
+        code, stdout, _ = _run(capsys, argv)
+        assert code == 0
+        return json.loads(stdout)
+
+    inside = predict("28")
+    assert inside["extrapolation"] is False and inside["extrapolation_note"] is None
+    lo, hi = inside["c_xr_range"]  # the simulated fleet's winter sets
+    assert lo < 28 < hi < 45
+    far = predict("500")
+    assert far["extrapolation"] is True and far["c_xr_range"] == [lo, hi]
+    assert "winter sets on snow" in far["extrapolation_note"]
+    # 45 is a summer/all-season stiffness: inside the fleet, outside its winter sets.
+    assert predict("45")["extrapolation"] is True
+    assert predict("45", "unknown")["extrapolation"] is False
+    code, stdout, _ = _run(capsys, ["predict", str(out), "--c-xr", "500", "--type", "winter"])
+    assert code == 0 and "note: C_xr 500 is outside the range" in stdout
+    code, stdout, _ = _run(
+        capsys, ["warn", str(out), "--c-xr", "500", "--type", "winter", "--json"]
+    )
+    assert code == 0 and json.loads(stdout)["extrapolation"] is True
+
+
 @pytest.mark.parametrize(
     "args,verdict",
     [
@@ -150,6 +177,9 @@ def _bad_table(tmp_path, mutate):
         (lambda t: t.assign(c_xr=-t.c_xr), "positive stiffness"),
         (lambda t: t.groupby("tyre_type").head(1), "at least 2 rows"),
         (lambda t: t.drop(columns="mu"), "--outcome"),
+        (lambda t: t.assign(c_xr=t.c_xr.where(t.index != 3, 1e300)), "got 1e+300 in row 3"),
+        (lambda t: t.assign(mu=100 * t.mu), "(percent? divide by 100)"),
+        (lambda t: t.assign(mu=-t.mu), "mu: expected a friction coefficient in (0, 2), got -"),
     ],
 )
 def test_bad_tables_exit_2_with_one_line(tmp_path, capsys, mutate, message):

@@ -8,8 +8,10 @@ from tyrebayes._errors import BadInputError
 from tyrebayes._resources import data_dir
 from tyrebayes.decisions import (
     DEFAULT_MU_MIN_SNOW,
+    check_mu_min,
     cost_threshold,
     derive_mu_min_snow,
+    stiffness_extrapolation,
     winter_verdict,
 )
 
@@ -80,3 +82,27 @@ def test_insufficient_evidence_when_interval_straddles_widely():
 def test_bad_draws():
     with pytest.raises(BadInputError, match="at least 10"):
         winter_verdict(np.array([0.3, np.nan]))
+
+
+@pytest.mark.parametrize(
+    ("mu_min", "needle"),
+    [(-5.0, "got -5$"), (0.0, "got 0$"), (26.0, r"percent\? use 0.26"), (float("nan"), "nan")],
+)
+def test_mu_min_outside_any_tyres_friction_is_rejected(mu_min, needle):
+    with pytest.raises(BadInputError, match=needle):
+        winter_verdict(_normal(0.45, 0.03), mu_min=mu_min)
+    assert check_mu_min(1.2) == 1.2
+
+
+def test_stiffness_extrapolation():
+    fleet = [22.0, 30.0, 33.5]
+    assert stiffness_extrapolation(30.0, fleet) == {
+        "extrapolation": False,
+        "c_xr_range": [22.0, 33.5],
+        "extrapolation_note": None,
+    }
+    above, below = stiffness_extrapolation(67.0, fleet), stiffness_extrapolation(11.0, fleet)
+    assert above["extrapolation"] and "2x its maximum" in above["extrapolation_note"]
+    assert below["extrapolation"] and "2x below its minimum" in below["extrapolation_note"]
+    none = stiffness_extrapolation(30.0, [np.nan], "the fleet's summer sets")
+    assert none["extrapolation"] and none["c_xr_range"] is None

@@ -50,6 +50,75 @@ DEFAULT_COST_FALSE_ALARM: float = 1.0
 #: How far the 90 % predictive interval may reach past mu_min on both sides before the verdict
 #: becomes "insufficient_evidence".
 DEFAULT_STRADDLE_TOL: float = 0.08
+#: Friction coefficients a road tyre can have: above 0 (not even glare ice reaches it) and below
+#: 2 (racing slicks on a warm track reach ~1.8). Outside is a sign or unit mistake (percent).
+MU_RANGE: tuple[float, float] = (0.0, 2.0)
+
+
+def check_mu_min(mu_min: float, name: str = "mu_min") -> float:
+    """``mu_min`` as a float, or :class:`BadInputError` when no tyre could have that friction.
+
+    Examples
+    --------
+    >>> check_mu_min(0.3)
+    0.3
+    >>> try:
+    ...     check_mu_min(30.0, "--mu-min")
+    ... except BadInputError as err:
+    ...     print(err)
+    --mu-min: expected a friction coefficient in (0, 2), got 30 (percent? use 0.3)
+    """
+    value = float(mu_min)
+    lo, hi = MU_RANGE
+    if not lo < value < hi:
+        hint = f" (percent? use {value / 100:g})" if hi <= value <= 100 * hi else ""
+        raise BadInputError(
+            f"{name}: expected a friction coefficient in ({lo:g}, {hi:g}), got {value:g}{hint}"
+        )
+    return value
+
+
+def stiffness_extrapolation(c_xr: float, fleet_c_xr, what: str = "the fleet") -> dict:
+    """Whether a prediction at ``c_xr`` leaves the stiffness range the fleet fit saw.
+
+    The fleet model is linear in 1/C_xr, fitted on the sets' measured stiffnesses; outside their
+    range the line is extended, not measured, and a curvature or a regime change (a different
+    compound, a studded set) would not show in the interval.
+
+    Parameters
+    ----------
+    c_xr : float
+        Stiffness of the set predicted for.
+    fleet_c_xr : array_like
+        Measured C_xr of the fleet's sets that inform the prediction.
+    what : str
+        Those sets in words, for the note.
+
+    Returns
+    -------
+    dict
+        ``extrapolation`` (bool), ``c_xr_range`` ([min, max], or None without sets) and
+        ``extrapolation_note`` (a sentence, or None inside the range).
+
+    Examples
+    --------
+    >>> stiffness_extrapolation(500.0, [25.0, 40.0, 60.0])["extrapolation_note"]
+    'C_xr 500 is outside the range of the fleet [25, 60] (8.3x its maximum): extrapolation'
+    """
+    x = np.asarray(fleet_c_xr, float).ravel()
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        note = f"no measured C_xr in {what}: every C_xr is an extrapolation"
+        return {"extrapolation": True, "c_xr_range": None, "extrapolation_note": note}
+    lo, hi = float(x.min()), float(x.max())
+    if lo <= c_xr <= hi:
+        return {"extrapolation": False, "c_xr_range": [lo, hi], "extrapolation_note": None}
+    factor = f"{c_xr / hi:.2g}x its maximum" if c_xr > hi else f"{lo / c_xr:.2g}x below its minimum"
+    note = (
+        f"C_xr {c_xr:.3g} is outside the range of {what} [{lo:.3g}, {hi:.3g}] ({factor}): "
+        "extrapolation"
+    )
+    return {"extrapolation": True, "c_xr_range": [lo, hi], "extrapolation_note": note}
 
 
 def derive_mu_min_snow(braking: pd.DataFrame | None = None) -> float:
@@ -147,6 +216,7 @@ def winter_verdict(
         raise BadInputError(f"verdict: expected at least 10 finite draws, got {x.size}")
     if not straddle_tol >= 0:
         raise BadInputError(f"straddle_tol: expected >= 0, got {straddle_tol}")
+    mu_min = check_mu_min(mu_min)
     threshold = cost_threshold(cost_false_alarm, cost_miss)
     p = float(np.mean(x < mu_min))
     lo, hi = (float(q) for q in np.quantile(x, [0.05, 0.95]))

@@ -192,3 +192,21 @@ def test_toml_unknown_drive_names_field_and_value(tmp_path):
     assert bad.read_text() != text
     with pytest.raises(ValueError, match="drive.*'4wd'"):
         load_vehicle(bad)
+
+
+@pytest.mark.parametrize(
+    ("line", "replacement", "key"),
+    [
+        ("mass_kg = 1600.0", "mass_kg = 1.7e6", "mass_kg"),
+        ("mass_kg = 1600.0", "mass_kg = 1.6", "mass_kg"),  # tonnes
+        ("wheel_radius_m = 0.31", "wheel_radius_m = 310.0", "wheel_radius_m"),  # mm
+        ("steering_ratio = 15.5", "steering_ratio = 1.0", "steering_ratio"),
+    ],
+)
+def test_toml_outside_a_road_car_is_named(tmp_path, line, replacement, key):
+    text = (models_dir() / "vehicles" / "compact_fwd.toml").read_text()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace(line, replacement))
+    assert bad.read_text() != text
+    with pytest.raises(ValueError, match=rf"{key}: expected a road car's value in .*, got"):
+        load_vehicle(bad)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
+import stat
 import sys
 import tempfile
 from pathlib import Path
@@ -24,11 +26,141 @@ def print_json(payload: dict) -> None:
 
 
 def existing_file(path: str) -> Path:
-    """Return ``path`` as a Path, or raise BadInputError if it is not a readable file."""
+    """Return ``path`` as a Path, or raise BadInputError if it is not a readable file.
+
+    The message says what the path is instead: a folder, a device or pipe, a broken link or a
+    link loop, a file without read permission, or nothing at all.
+    """
     p = Path(path)
-    if not p.is_file():
-        raise BadInputError(f"file not found: expected a readable file, got '{path}'")
+    try:
+        mode = p.stat().st_mode
+    except FileNotFoundError:
+        if p.is_symlink():
+            raise BadInputError(f"expected a readable file, got the broken link '{path}'") from None
+        raise BadInputError(f"file not found: expected a readable file, got '{path}'") from None
+    except OSError as err:  # ELOOP, ENAMETOOLONG, EACCES on a parent folder
+        raise BadInputError(f"expected a readable file, got '{path}' ({err.strerror})") from None
+    if stat.S_ISDIR(mode):
+        raise BadInputError(f"expected a readable file, got the folder '{path}'")
+    if not stat.S_ISREG(mode):
+        raise BadInputError(
+            f"expected a readable file, got '{path}', a device, pipe or socket (not a regular file)"
+        )
+    if not os.access(p, os.R_OK):
+        raise BadInputError(f"expected a readable file, got '{path}' (no read permission)")
     return p
+
+
+# A saved fit is netCDF-4 (HDF5 inside); netCDF-3 files start with "CDF".
+_FIT_SIGNATURES = (b"\x89HDF\r\n\x1a\n", b"CDF\x01", b"CDF\x02")
+
+
+def fit_file(path: str, what: str = "a saved fit (netCDF from fit-tyre or fit-fleet)") -> Path:
+    """Check that ``path`` is a netCDF file before the fit reader opens it.
+
+    A stream or fleet table given where a fit belongs then says so, instead of the HDF5
+    library's "file signature not found".
+    """
+    p = existing_file(path)
+    with p.open("rb") as fh:
+        head = fh.read(512)
+    if head.startswith(_FIT_SIGNATURES):
+        return p
+    if head.startswith(b"PAR1"):
+        got = "a Parquet file (a stream or fleet table?)"
+    elif head and b"\x00" not in head:
+        got = "text (a CSV stream or fleet table?)"
+    else:
+        got = "another binary format" if head else "an empty file"
+    raise BadInputError(f"fit file {path}: expected {what}, got {got}")
+
+
+def _nearest_existing(path: Path) -> Path:
+    """``path`` or its nearest ancestor that exists (the folder a writer would create under)."""
+    for candidate in (path, *path.parents):
+        if candidate.exists():
+            return candidate
+    return Path.cwd()
+
+
+def _check_creatable(option: str, path: Path) -> None:
+    """The folders up to ``path`` exist or can be made, and the nearest existing is writable."""
+    base = _nearest_existing(path.parent)
+    if not base.is_dir():
+        raise BadInputError(
+            f"{option}: expected a path under a folder, got '{path}' ('{base}' is a file)"
+        )
+    if not os.access(base, os.W_OK | os.X_OK):
+        raise BadInputError(
+            f"{option}: expected a writable folder for '{path}', got '{base}' (not writable)"
+        )
+
+
+def output_file(path: str, option: str = "--out", suffixes: tuple[str, ...] = ()) -> Path:
+    """Check an output file name before any work: a fit must not be lost to a bad ``--out``.
+
+    Parameters
+    ----------
+    path : str
+        The file the command will write (created or replaced atomically).
+    option : str
+        The option's name, for the message.
+    suffixes : tuple of str
+        Accepted suffixes (lower case, with the dot); empty accepts any.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    BadInputError
+        An existing folder at ``path``, a wrong suffix, a parent that is a file, or a folder that
+        is not writable.
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise BadInputError(f"{option}: expected a file name, got the existing folder '{path}'")
+    if suffixes and not p.name.lower().endswith(suffixes):
+        raise BadInputError(
+            f"{option}: expected a file name ending in {list(suffixes)}, got {path!r}"
+        )
+    _check_creatable(option, p)
+    return p
+
+
+def output_folder(path: str, option: str = "--out") -> Path:
+    """Check an output folder before any work (it may not exist yet; its parent is made).
+
+    Raises
+    ------
+    BadInputError
+        An existing file at ``path``, or no writable folder to create it in.
+    """
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise BadInputError(f"{option}: expected a folder, got the file '{path}'")
+    _check_creatable(option, p / "x")
+    return p
+
+
+#: Ambient air temperatures the thermal model was built for [°C]: the range of recorded road
+#: weather outside deserts and polar winters. Beyond it the rolling-loss and convection terms are
+#: extrapolated (and a value like 293 is kelvin).
+AMBIENT_RANGE_C = (-40.0, 60.0)
+
+
+def check_ambient(value: float | None, option: str = "--ambient") -> None:
+    """Raise BadInputError for an ambient temperature outside :data:`AMBIENT_RANGE_C`."""
+    if value is None:
+        return
+    lo, hi = AMBIENT_RANGE_C
+    if not lo <= value <= hi:
+        hint = f" (kelvin? use {value - 273.15:.3g})" if 233.0 <= value <= 333.0 else ""
+        raise BadInputError(
+            f"{option}: expected an air temperature in [{lo:g}, {hi:g}] °C (the thermal model's "
+            f"range), got {value:g}{hint}"
+        )
 
 
 def diagnostics_text(diagnostics) -> str:

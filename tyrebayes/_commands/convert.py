@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from .._errors import BadInputError
-from ._common import add_can_arguments, existing_file, print_json
+from ._common import add_can_arguments, existing_file, output_file, print_json
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -51,6 +51,7 @@ def convert_log(args: argparse.Namespace) -> dict[str, Any]:
             f"--out: expected a stream file name ending in {list(SUPPORTED_SUFFIXES)}, "
             f"got {args.out!r}"
         )
+    output_file(args.out)
     if args.profile is None:
         raise BadInputError("--profile: expected a car profile name or TOML path, got none")
     profile = load_profile(args.profile)
@@ -91,6 +92,7 @@ def convert_log(args: argparse.Namespace) -> dict[str, Any]:
         },
         "resampled": stream.resampled,
         "notes": list(stream.notes),
+        "flags": list(stream.flags),
     }
 
 
@@ -108,6 +110,7 @@ def _text(summary: dict[str, Any]) -> str:
         f"NaN: {dropped or 'none'}",
     ]
     lines.extend(f"note: {note}" for note in summary["notes"])
+    lines.extend(f"flag: {flag}" for flag in summary["flags"])
     return "\n".join(lines)
 
 

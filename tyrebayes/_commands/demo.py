@@ -20,8 +20,7 @@ import sys
 import time
 from pathlib import Path
 
-from .._errors import BadInputError
-from ._common import print_json
+from ._common import output_folder, print_json
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -94,9 +93,7 @@ def _compilation_cache() -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise BadInputError(f"--out: expected a folder, got the file '{out}'")
+    out = output_folder(args.out)
     import numpyro
 
     numpyro.set_host_device_count(2)

@@ -17,7 +17,14 @@ import numpy as np
 
 from .._domain import SURFACES, TYRE_TYPES
 from .._errors import BadInputError
-from ._common import diagnostics_text, existing_file, exit_status, print_json
+from ._common import (
+    diagnostics_text,
+    existing_file,
+    exit_status,
+    fit_file,
+    output_file,
+    print_json,
+)
 
 # The library (JAX, NumPyro, pandas) is imported inside the run functions: ``tyrebayes --help``
 # imports every command module to build its parser, and fit-tyre must set JAX's device count
@@ -88,15 +95,64 @@ def _read_table(path: str):
         raise BadInputError(f"fleet table {path}: expected CSV or Parquet, got {err}") from None
 
 
+#: Stiffnesses a car tyre's C_xr can take: measured sets span 20-60 (thesis Table 6.2 and the
+#: tyre-curve database); outside [1, 1000] a value is a unit or export mistake, and NUTS would
+#: fail to initialise on it with a traceback instead of a reason.
+C_XR_RANGE = (1.0, 1000.0)
+
+
+def _check_plausible(table, outcome: str) -> None:
+    """One-line errors for fleet-table values no tyre can have (before a fit fails on them).
+
+    ``c_xr`` outside :data:`C_XR_RANGE`; an outcome named ``mu...`` (a friction coefficient)
+    outside (0, 2), with a hint when it looks like percent. Missing and non-numeric values are
+    the fleet model's own checks.
+    """
+    import pandas as pd
+
+    from ..decisions import MU_RANGE
+
+    def first_outside(column: str, inside) -> tuple[int, float] | None:
+        x = pd.to_numeric(table[column], errors="coerce").to_numpy(float)
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(np.isfinite(x) & ~inside(x))
+        return None if bad.size == 0 else (int(bad[0]), float(x[bad[0]]))
+
+    lo, hi = C_XR_RANGE
+    # Zero and negative stiffness (and a missing column) have the fleet model's own message.
+    found = (
+        first_outside("c_xr", lambda x: (x <= 0) | ((lo <= x) & (x <= hi)))
+        if "c_xr" in table.columns
+        else None
+    )
+    if found is not None:
+        raise BadInputError(
+            f"c_xr: expected a stiffness in [{lo:g}, {hi:g}] (car tyres 20-60), got "
+            f"{found[1]:g} in row {found[0]}"
+        )
+    if outcome.lower().startswith("mu") and outcome in table.columns:
+        mu_lo, mu_hi = MU_RANGE
+        found = first_outside(outcome, lambda x: (mu_lo < x) & (x < mu_hi))
+        if found is not None:
+            row, value = found
+            hint = " (percent? divide by 100)" if mu_hi <= value <= 100 * mu_hi else ""
+            raise BadInputError(
+                f"{outcome}: expected a friction coefficient in ({mu_lo:g}, {mu_hi:g}), got "
+                f"{value:g} in row {row}{hint}"
+            )
+
+
 def run_fit(args: argparse.Namespace) -> int:
     from ..inference.fleet import fit_fleet, fit_summary
 
+    out = output_file(args.out or str(Path(args.table).with_suffix(".fleet.nc")))
     table = _read_table(args.table)
     if args.outcome not in table.columns:
         raise BadInputError(
             f"--outcome: expected a column of the table, got {args.outcome!r} "
             f"(columns {list(table.columns)})"
         )
+    _check_plausible(table, args.outcome)
     method = args.method or ("nuts" if len(table) <= 2000 else "svi")
     for name in ("samples", "warmup", "chains"):
         if getattr(args, name) < 1:
@@ -111,7 +167,6 @@ def run_fit(args: argparse.Namespace) -> int:
         num_chains=args.chains,
         source=str(args.table),
     )
-    out = Path(args.out) if args.out else Path(args.table).with_suffix(".fleet.nc")
     final = fit.save(out)
     summary = {"out": str(final), **fit_summary(fit)}
     if args.json:
@@ -137,16 +192,43 @@ def _check_c_xr(args) -> str | None:
     return None if args.tyre_type == "unknown" else args.tyre_type
 
 
+def _informing_c_xr(fit, surface: str, tyre_type: str | None) -> tuple[np.ndarray, str]:
+    """Measured C_xr of the sets that inform a prediction, and those sets in words.
+
+    The sets with an outcome on ``surface`` (all sets for a surface without data), narrowed to
+    ``tyre_type`` when at least two of that type are among them: the slope is per type, so its
+    range is the type's; with fewer the slope leans on the other types (partial pooling).
+    """
+    const = fit.data["constant_data"]
+    c_xr = np.asarray(const["c_xr_obs"], float)
+    tyre_types = np.asarray(const["tyre_type_index"], int)
+    row_tyre = np.asarray(const["row_tyre"], int)
+    sets = np.unique(row_tyre[np.asarray(const["row_surface"]) == SURFACES.index(surface)])
+    where = f" on {surface}" if sets.size else ""
+    if not sets.size:
+        sets = np.arange(c_xr.size)
+    kind = ""
+    if tyre_type is not None:
+        same = sets[tyre_types[sets] == TYRE_TYPES.index(tyre_type)]
+        if same.size >= 2:
+            sets, kind = same, f"{tyre_type} "
+    return c_xr[sets], f"the fleet's {kind}sets{where}"
+
+
 def prediction(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
     """Predictive draws and the JSON of ``predict`` for parsed arguments."""
+    from .. import decisions
     from ..inference.fleet import predict_friction
     from ..inference.result import load_fit
     from ..inference.summary import summarize
 
     tyre_type = _check_c_xr(args)
-    fit = load_fit(args.fit, kind="fleet")
+    fit = load_fit(fit_file(args.fit, "a fleet fit (netCDF from fit-fleet)"), kind="fleet")
     draws = predict_friction(fit, args.c_xr, args.c_xr_sd, tyre_type, args.surface, seed=args.seed)
     fitted = fit.attr("fitted_surfaces")
+    extrapolation = decisions.stiffness_extrapolation(
+        args.c_xr, *_informing_c_xr(fit, args.surface, tyre_type)
+    )
     payload = {
         "mu": summarize(draws),
         "p_below": {f"{lvl:g}": float(np.mean(draws < lvl)) for lvl in P_BELOW_LEVELS},
@@ -155,6 +237,7 @@ def prediction(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
         "c_xr": args.c_xr,
         "c_xr_sd": args.c_xr_sd,
         "prior_only": args.surface not in fitted,
+        **extrapolation,
         "fit_converged": fit.converged,
         "fit_adequate": fit.adequate,
     }
@@ -174,12 +257,16 @@ def run_predict(args: argparse.Namespace) -> int:
         )
         for lvl, p in payload["p_below"].items():
             print(f"  P(mu < {lvl}) = {p:.3f}")
+        if payload["extrapolation"]:
+            print(f"note: {payload['extrapolation_note']}")
     return 0
 
 
 def run_warn(args: argparse.Namespace) -> int:
     from .. import decisions
 
+    if args.mu_min is not None:
+        decisions.check_mu_min(args.mu_min, "--mu-min")  # before the fit is loaded
     if args.mu_min is None and args.surface != "snow":
         raise BadInputError(
             f"--mu-min: expected a value for surface {args.surface!r} (a default exists only for "
@@ -205,6 +292,9 @@ def run_warn(args: argparse.Namespace) -> int:
                 "c_xr",
                 "c_xr_sd",
                 "prior_only",
+                "extrapolation",
+                "c_xr_range",
+                "extrapolation_note",
                 "fit_converged",
                 "fit_adequate",
             )
@@ -214,4 +304,6 @@ def run_warn(args: argparse.Namespace) -> int:
         print_json(verdict)
     else:
         print(f"{verdict['verdict']}: {verdict['reason']}")
+        if verdict["extrapolation"]:
+            print(f"note: {verdict['extrapolation_note']}")
     return 0

@@ -101,6 +101,7 @@ def summarize_stream(path, vehicle_name: str, channel_map: dict[str, str]) -> di
             "driven_axle": features.driven_axle,
         },
         "notes": list(stream.notes),
+        "flags": list(stream.flags),
     }
     if "speed_reference" in stream.data:
         summary["speed_error"] = speed_error(
@@ -152,6 +153,7 @@ def _text(summary: dict[str, Any]) -> str:
             f"rms after scale {e['rms_after_scale_mps']:.3f} m/s"
         )
     lines.extend(f"note: {note}" for note in summary["notes"])
+    lines.extend(f"flag: {flag}" for flag in summary["flags"])
     return "\n".join(lines)
 
 

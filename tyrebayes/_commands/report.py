@@ -15,7 +15,7 @@ from pathlib import Path
 
 from .._domain import TYRE_TYPES
 from .._errors import BadInputError
-from ._common import print_json
+from ._common import fit_file, output_folder, print_json
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -43,7 +43,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _load(path: str):
     from ..inference.result import load_fit
 
-    fit = load_fit(path)
+    fit = load_fit(fit_file(path))
     if fit.kind not in ("tyre", "fleet"):
         raise BadInputError(
             f"fit {path}: expected a tyre or fleet fit (fit-tyre, fit-fleet), got a {fit.kind} fit"
@@ -52,9 +52,7 @@ def _load(path: str):
 
 
 def run(args: argparse.Namespace) -> int:
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise BadInputError(f"--out: expected a folder, got the file '{out}'")
+    out = output_folder(args.out)
     loaded = [(path, *_load(path)) for path in args.fits]
     fleets = [(p, i) for p, kind, i in loaded if kind == "fleet"]
     tyres = [(p, i) for p, kind, i in loaded if kind == "tyre"]

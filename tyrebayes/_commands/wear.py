@@ -14,7 +14,7 @@ import argparse
 import numpy as np
 
 from .._errors import BadInputError
-from ._common import print_json
+from ._common import check_ambient, print_json
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -78,6 +78,7 @@ def run_predict(args: argparse.Namespace) -> int:
         raise BadInputError("--gamma-sd/--c-xr-sd: expected >= 0, got a negative value")
     if not -0.2 <= args.kappa <= 0.2:
         raise BadInputError(f"--kappa: expected a value in [-0.2, 0.2], got {args.kappa}")
+    check_ambient(args.ambient)
     import jax
 
     from ..inference.summary import summarize

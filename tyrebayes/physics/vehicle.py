@@ -34,6 +34,23 @@ _REQUIRED_KEYS = (
     "steering_ratio",
 )
 
+# What a road vehicle of the kind the package models (cars, SUVs, vans) can have; a vehicle file
+# outside these is a unit or typing mistake (1.7e6 kg, a radius in mm), not an unusual car. Mass:
+# a quadricycle with driver ~400 kg to a loaded 3.5 t van's 10 t upper bound of light trucks;
+# wheel radius: 13" city-car tyres (0.26 m) to light-truck tyres (0.45 m), with margin.
+_PLAUSIBLE = {
+    "mass_kg": (300.0, 10_000.0),
+    "wheelbase_m": (1.5, 6.0),
+    "cog_height_m": (0.2, 2.0),
+    "yaw_inertia_kgm2": (100.0, 100_000.0),
+    "track_width_m": (0.8, 2.6),
+    "wheel_radius_m": (0.15, 0.7),
+    "steering_ratio": (5.0, 30.0),
+    "drag_area_m2": (0.0, 10.0),
+    "rolling_resistance": (0.0, 0.05),
+    "width_m": (1.0, 3.0),
+}
+
 
 class Vehicle(eqx.Module):
     """Vehicle parameters in the DESIGN.md vehicle-file contract.
@@ -141,8 +158,9 @@ def vehicle_from_mapping(data: Mapping, source: str = "vehicle") -> Vehicle:
     Raises
     ------
     ValueError
-        If a required key is missing, a key is unknown, or a value is invalid; the message names
-        ``source``, the key and the value.
+        If a required key is missing, a key is unknown, or a value is invalid or outside what a
+        road car can have (e.g. a mass over 10 t); the message names ``source``, the key and the
+        value.
 
     Examples
     --------
@@ -162,6 +180,12 @@ def vehicle_from_mapping(data: Mapping, source: str = "vehicle") -> Vehicle:
         if key != "drive" and not isinstance(value, int | float):
             raise ValueError(f"{source}: {key} must be a number, got {value!r}")
     fields = {k: (v if k == "drive" else float(v)) for k, v in fields.items()}
+    for key, (lo, hi) in _PLAUSIBLE.items():
+        if key in fields and not lo <= fields[key] <= hi:
+            raise ValueError(
+                f"{source}: {key}: expected a road car's value in [{lo:g}, {hi:g}], got "
+                f"{fields[key]}"
+            )
     return Vehicle(**fields)
 
 

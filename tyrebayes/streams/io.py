@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from .._errors import BadInputError
+from .._io import atomic_path
 from .schema import CHANNELS, OPTIONAL_COLUMNS, REQUIRED_COLUMNS
 
 _CSV = (".csv",)
@@ -45,18 +46,44 @@ def _suffix(path: Path) -> str:
     return suffix
 
 
+# First bytes of the binary formats a stream file may really be, whatever its name says.
+_MAGIC = {
+    b"PAR1": "a Parquet file (rename it to .parquet)",
+    b"MDF ": "an MDF4 file (rename it to .mf4)",
+    b"PK\x03\x04": "a zip archive (unpack it)",
+}
+
+
+def _printable(text: str, limit: int = 80) -> str:
+    """One line of ``text`` fit for a terminal: control and undecodable bytes as '?', truncated."""
+    line = "".join(c if c.isprintable() and c != "\ufffd" else "?" for c in text)
+    return line if len(line) <= limit else line[: limit - 3] + "..."
+
+
+def _sniff_csv(path: Path) -> None:
+    """A file named .csv that holds a binary format: say which, instead of parsing junk."""
+    with path.open("rb") as fh:
+        head = fh.read(4096)
+    for magic, what in _MAGIC.items():
+        if head.startswith(magic):
+            raise BadInputError(f"stream file {path.name}: expected CSV text, got {what}")
+    if b"\x00" in head:
+        raise BadInputError(f"stream file {path.name}: expected CSV text, got binary data")
+
+
 def _read_table(path: Path, suffix: str) -> pd.DataFrame:
+    if suffix in _CSV:
+        _sniff_csv(path)
     try:
         if suffix in _CSV:
             # The pyarrow engine parses in parallel and is ~5x faster than the C engine.
             return pd.read_csv(path, engine="pyarrow")
         return pd.read_parquet(path)
-    except (ValueError, OSError, pd.errors.ParserError) as err:
+    except Exception as err:  # pandas' and pyarrow's own (ParserError, ArrowInvalid, OSError)
         first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-        raise BadInputError(f"stream file {path.name}: cannot parse ({first})") from None
-    except Exception as err:  # pyarrow raises its own ArrowInvalid etc.
-        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-        raise BadInputError(f"stream file {path.name}: cannot parse ({first})") from None
+        raise BadInputError(
+            f"stream file {path.name}: cannot parse ({_printable(first)})"
+        ) from None
 
 
 def _merge_time_bases(columns: dict[str, tuple[np.ndarray, np.ndarray]]) -> pd.DataFrame:
@@ -209,10 +236,8 @@ def write_stream(df: pd.DataFrame, path: str | os.PathLike) -> None:
     path : path-like
         Target file; its suffix selects the format.
     """
-    path = Path(path)
-    suffix = _suffix(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{suffix}")
+    suffix = _suffix(Path(path))
+    tmp, path = atomic_path(path)  # sweeps what a killed writer of this file left behind
     try:
         if suffix in _CSV:
             df.to_csv(tmp, index=False, float_format="%.12g")

@@ -5,8 +5,11 @@ Every problem that would make the pipeline's answer wrong raises
 missing required columns, text in numeric columns, missing/duplicated/decreasing time, too few
 samples, all-NaN or constant (stuck) channels, values outside the physical range of the unit, and
 unit mistakes caught by plausibility (wheel speeds in km/h, m/s or rpm instead of rad/s, steering
-in degrees instead of rad). Dropped samples (NaN) and gaps are not errors: short gaps are bridged
-by linear interpolation and flagged, long gaps stay NaN.
+in degrees instead of rad), and contradictions between channels that stay inside every range
+(``ax`` against the wheel speeds' dV_x/dt, time stamps in milliseconds, steering against yaw rate;
+:mod:`tyrebayes.streams.plausibility`). Dropped samples (NaN) and gaps are not errors: short gaps
+are bridged by linear interpolation and flagged, long gaps stay NaN; a low sample rate, long gaps
+and many dropped samples are recorded in :attr:`ValidatedStream.flags`.
 
 Examples
 --------
@@ -32,6 +35,13 @@ from .._errors import BadInputError
 from ..physics.vehicle import Vehicle
 from .filters import nan_moving_average, smoothed_derivative, window_samples
 from .noise import quantisation_step, white_noise_sd
+from .plausibility import (
+    check_ax_sign,
+    check_steering_scale,
+    check_time_base,
+    dropped_fraction,
+    sampling_flags,
+)
 from .schema import CHANNELS, MIN_SAMPLES, OPTIONAL_COLUMNS, REQUIRED_COLUMNS, WHEEL_COLUMNS
 
 # Defaults when no vehicle is given: a mid-size car.
@@ -72,6 +82,10 @@ class ValidatedStream:
         True if the file's time stamps were irregular or multi-rate and were interpolated.
     notes : tuple of str
         Conversions and decisions made (IMU frame flip, dropped empty optional channels).
+    flags : tuple of str
+        Judgements on the data that make answers from it less certain than they look (sample
+        rate below 20 Hz, gaps of 10 s or more, a required channel with over 20 % of its samples
+        dropped); one line each, shown by ``inspect``.
     """
 
     data: pd.DataFrame
@@ -84,6 +98,7 @@ class ValidatedStream:
     gaps: tuple[tuple[float, float], ...]
     resampled: bool
     notes: tuple[str, ...] = field(default=())
+    flags: tuple[str, ...] = field(default=())
 
     @property
     def duration_s(self) -> float:
@@ -398,6 +413,13 @@ def _lateral_check(speed: np.ndarray, yaw_rate: np.ndarray, ay: np.ndarray, rate
             f"ay vs speed x yaw_rate: expected the same scale, got ay {ratio:.3g} x speed x "
             "yaw_rate (ay in g, or yaw_rate in deg/s?)"
         )
+    if corr < 0:
+        # Both follow the same ISO 8855 convention (left positive): a z-down IMU is turned
+        # before this check, so a negative correlation is one sign flipped against the other.
+        raise BadInputError(
+            f"ay vs speed x yaw_rate: expected the same sign (ISO 8855, left positive), got "
+            f"correlation {corr:.2f} (IMU mounted backwards, or ay or yaw_rate sign flipped?)"
+        )
 
 
 def _wheel_consistency_check(wheel: np.ndarray, speed_scale: float) -> None:
@@ -474,8 +496,12 @@ def _unit_checks(data: dict[str, np.ndarray], vehicle: Vehicle | None, rate_hz: 
     if "speed_reference" in view:
         _speed_scale_check(speed, view["speed_reference"], radius)
     _imu_scale_check(speed, view["ax"], 1.0 / rate, rate)
+    check_ax_sign(speed, view["ax"], rate)
     _lateral_check(speed, view["yaw_rate"], view["ay"], rate)
     _steering_check(view["steering_wheel_angle"], view["yaw_rate"], speed, wheelbase, ratio, rate)
+    check_steering_scale(
+        view["steering_wheel_angle"], view["yaw_rate"], speed, wheelbase, ratio, rate
+    )
 
 
 def validate_stream(
@@ -526,7 +552,11 @@ def validate_stream(
             f"got {min(wheel_counts)}"
         )
     wheel_dt = float(np.median([_median_interval(t[np.isfinite(cols[c])]) for c in WHEEL_COLUMNS]))
+    radius = vehicle.wheel_radius_m if vehicle is not None else _DEFAULT_RADIUS_M
+    # One wheel: in a file with each wheel on its own instants a median of four has no rows.
+    check_time_base(t, radius * cols["wheel_speed_fl"], cols["ax"], wheel_dt)
     _fix_imu_frame(cols, notes)
+    dropped = {name: dropped_fraction(t[np.isfinite(cols[name])]) for name in REQUIRED_COLUMNS[1:]}
 
     nan_fraction = {
         name: float(np.mean(~np.isfinite(x))) for name, x in cols.items() if name != "time"
@@ -566,6 +596,7 @@ def validate_stream(
     _unit_checks(data, vehicle, rate_hz)
     missing = ~np.all(np.isfinite(np.column_stack([data[c] for c in WHEEL_COLUMNS])), axis=1)
     gaps = _runs(grid, missing)
+    flags = sampling_flags(rate_hz, gaps, dropped)
     return ValidatedStream(
         data=out,
         sample_rate_hz=float(rate_hz),
@@ -577,6 +608,7 @@ def validate_stream(
         gaps=gaps,
         resampled=resampled,
         notes=tuple(notes),
+        flags=tuple(flags),
     )
 
 

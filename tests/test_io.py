@@ -1,0 +1,61 @@
+"""Atomic writers (tyrebayes._io): recognisable temporary names, swept after a killed writer."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+
+import pandas as pd
+
+from tyrebayes._io import atomic_path, atomic_write_bytes, sweep_stale_temporaries
+from tyrebayes.streams import write_stream
+
+
+def _dead_pid() -> int:
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+def test_temporary_names_are_recognisable(tmp_path):
+    tmp, final = atomic_path(tmp_path / "fit.nc")
+    assert tmp.name == f".fit.nc.{os.getpid()}.tmp.nc" and final == tmp_path / "fit.nc"
+
+
+def test_a_killed_writers_file_is_swept_by_the_next_write(tmp_path):
+    dead = _dead_pid()
+    stale = tmp_path / f".fit.nc.{dead}.tmp.nc"
+    mine = tmp_path / f".fit.nc.{os.getpid()}.tmp.nc"  # this process may be writing it
+    other_target = tmp_path / f".fit2.nc.{dead}.tmp.nc"
+    old_live = tmp_path / f".fit.nc.{os.getppid()}.tmpabc"
+    for p in (stale, mine, other_target, old_live):
+        p.write_bytes(b"half a file")
+    two_days_ago = time.time() - 2 * 24 * 3600
+    os.utime(old_live, (two_days_ago, two_days_ago))  # a live PID, but a reused one by now
+
+    atomic_write_bytes(tmp_path / "fit.nc", b"whole")
+
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        ["fit.nc", mine.name, other_target.name]
+    )
+    assert (tmp_path / "fit.nc").read_bytes() == b"whole"
+
+
+def test_a_live_writers_file_is_kept(tmp_path):
+    live = tmp_path / f".fit.nc.{os.getppid()}.tmp.nc"
+    live.write_bytes(b"being written")
+    assert sweep_stale_temporaries(tmp_path / "fit.nc") == []
+    assert live.exists()
+
+
+def test_stream_writer_sweeps_too(tmp_path):
+    stale = tmp_path / f".drive.csv.{_dead_pid()}.tmp.csv"
+    stale.write_text("time\n0.0\n")
+    write_stream(pd.DataFrame({"time": [0.0, 0.01]}), tmp_path / "drive.csv")
+    assert [p.name for p in tmp_path.iterdir()] == ["drive.csv"]
+
+
+def test_sweeping_a_missing_folder_is_a_no_op(tmp_path):
+    assert sweep_stale_temporaries(tmp_path / "nope" / "fit.nc") == []
