@@ -279,9 +279,9 @@ def _window_sd(values: np.ndarray, valid: np.ndarray, window: int) -> np.ndarray
 # slip is σ_driven − σ_free: read as traction it puts a kink at zero force. The total force is
 # known to about ±0.01 (drag area ±20 % and rolling resistance ±30 % against the vehicle file:
 # ±0.002-0.004 of ρ at 20 m/s; the road grade the features take from the IMU over 10 s and the
-# IMU offset: ±0.005-0.01), so windows within two of those of zero may be braking. Windows from
-# an independent generator measured near zero force had slips 1.6e-4 above the truth, on
-# average, against 0.5e-4 or less above 0.05.
+# IMU offset: ±0.005-0.01), so windows within two of those of zero may be braking. On drives from
+# an independent generator the windows near zero force had measured slips well above the truth,
+# those above 0.05 hardly.
 PUSHING_MARGIN = 0.02
 
 # An ABS window's force is within a few percent of the event's (the controller holds the tyres

@@ -48,8 +48,8 @@ Slow errors shared by neighbouring windows — a rolling radius drifting with ty
 IMU bias that wanders, road grade the features did not remove — are the blocks' offsets b_k,
 integrated out in closed form (:func:`block_offsets`): the slope then comes from how slip and
 force vary within blocks. On drives from an independent generator (``benchmarks/
-external_drives.py``) such slow force errors reached 0.03 of ρ_x and, read as slip, flattened
-the slip-on-force relation by several percent.
+external_drives.py``) the IMU-based force erred by 0.011-0.047 of ρ_x per drive, largely
+slowly, and read as slip such errors flatten the slip-on-force relation.
 
 Nearby windows' slip errors are correlated (the features' smoothing spills across windows), so
 each window's slip log-likelihood counts with the weight ``obs.slip_weight``, its drive's share
@@ -160,10 +160,11 @@ class TyrePriors(eqx.Module):
         the features did not remove: 0.01-0.03 of ρ_x, 2e-4-6e-4 of slip at C_x = 50); a median
         of 3e-4 puts 90 % between 6e-5 and 1.6e-3; 0 leaves the blocks out. On the 16 external
         drives the blocks took C_x from +2.4 % (90 % coverage 14 of 16, 10 drives flagged for
-        correlated slip errors) to +1.4 % (15 of 16, 2 flagged); on one 20-minute drive of the
-        package's own simulator whose slip errors drift (variance inflation 7.2, seed 1005) they
-        gave +12.7 % against +3.1 % without: within 5 s that drive's slip and force do not
-        follow the curve, and why has not been found.
+        correlated slip errors) to +1.4 % (15 of 16, 2 flagged); on the
+        package's own simulator they did not help (``benchmarks/results/block_offsets.json``,
+        6 twenty-minute drives with ABS: C_x RMSE 6.1 % with them, 3.8 % without; one drive
+        whose slip errors drift, variance inflation 6.9, +12.7 % against +3.0 %): within 5 s
+        that drive's slip and force do not follow the curve, and why has not been found.
     """
 
     c_xr_median: float = 35.0

@@ -280,7 +280,7 @@ def _traction_acceleration(
 
     The IMU's a_x carries coloured noise and vibration over 0.2-1 s, the scale of real changes of
     acceleration, so that neither a high-pass nor the smoothing tells them apart; on drives from
-    an independent generator its error at the smoothing scale was 0.01-0.05 of ρ_x, as large as
+    an independent generator its window error was 0.011-0.047 of ρ_x, as large as
     the window's stated noise and, in the slip-on-force regression, an attenuation of the slope.
     Where V_x comes from free-rolling wheels (FWD, RWD) their dV_x/dt measures the same
     acceleration with the wheel speeds' far smaller noise (about 0.01 m/s² at 0.2 s), and only
