@@ -2,7 +2,8 @@
 
 import numpy as np
 
-from tyrebayes.inference.tyre_data import _below_run_peak, stack_drives, wheel_oscillation
+from tyrebayes.inference.tyre_data import stack_drives
+from tyrebayes.streams.abs_detection import _below_run_peak, wheel_oscillation
 
 
 def test_stacked_abs_windows_get_no_score():

@@ -10,10 +10,11 @@ import pytest
 from numpyro import handlers
 
 from tyrebayes.inference.result import load_fit
-from tyrebayes.inference.tyre_data import _inner_runs, stack_drives
+from tyrebayes.inference.tyre_data import stack_drives
 from tyrebayes.inference.tyre_fit import TyreFit, fit_tyre
 from tyrebayes.inference.tyre_model import TyrePriors, tyre_model
 from tyrebayes.physics.tyre import brush_longitudinal, brush_longitudinal_inverse
+from tyrebayes.streams.abs_detection import _inner_runs
 
 C_X_TRUE = 40.0
 SLIP_OFFSET_TRUE = 0.002
