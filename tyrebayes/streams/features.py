@@ -234,13 +234,14 @@ def _slip_noise_probe(
     """The driven axle's slip velocity R·Ω − V_x less the part that follows the force.
 
     The slip velocity σV_x moves with the force over 0.2-1 s, the scale at which its noise is
-    measured, so taken as it is its real changes count as noise (3-4× the noise on drives with
-    brisk acceleration changes). Here the part of it that the force explains linearly,
-    b·ρV_x, is taken off first, with b (≈ 1/C_x) from a least-squares fit over the drive of the
-    two signals high-passed like :func:`~tyrebayes.streams.noise.local_noise_sd` does; what is
-    left is sensor noise and what the linear fit misses. Only where the tyres push: under
-    braking the reference wheels brake too and the relation is another (NaN there; the local
-    noise is read from the pushing samples near).
+    measured, so taken as it is its real changes count as noise (several times the noise on
+    drives with brisk acceleration changes: a test with a noise-free 0.7 Hz ripple). Here the
+    part of it that the force explains linearly, b·ρV_x, is taken off first, with b (≈ 1/C_x)
+    from a least-squares fit over the drive of the two signals high-passed like
+    :func:`~tyrebayes.streams.noise.local_noise_sd` does; what is left is sensor noise and what
+    the linear fit misses. Only where the tyres push: under braking the reference wheels brake
+    too and the relation is another (NaN there; the caller takes the plain slip velocity's
+    noise where no pushing sample is near).
     """
 
     def high_pass(x):
@@ -283,7 +284,7 @@ def _traction_acceleration(
     an independent generator its window error was 0.011-0.047 of ρ_x, as large as
     the window's stated noise and, in the slip-on-force regression, an attenuation of the slope.
     Where V_x comes from free-rolling wheels (FWD, RWD) their dV_x/dt measures the same
-    acceleration with the wheel speeds' far smaller noise (about 0.01 m/s² at 0.2 s), and only
+    acceleration with the wheel speeds' far smaller noise, and only
     what it lacks, g·sin(grade) (with the IMU offset left after correction), comes from the IMU,
     low-passed over :data:`GRADE_LOWPASS_S`: a complementary filter. For AWD cars no wheel rolls
     freely and the IMU is used as it is.
