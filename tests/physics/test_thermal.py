@@ -16,6 +16,7 @@ from tyrebayes.physics.thermal import (
     simulate_tyre_temperature,
     steady_state_temperature,
     stiffness_at_temperature,
+    stiffness_with_sensitivity,
     temperature_sensitivity,
 )
 
@@ -154,6 +155,22 @@ def test_compensation_identity_at_reference_temperature():
     c = jnp.array([25.0, 40.0, 60.0])
     np.testing.assert_allclose(stiffness_at_temperature(c, 20.0, comp), c, rtol=1e-15)
     np.testing.assert_allclose(compensate_stiffness(c, 20.0, comp), c, rtol=1e-12)
+
+
+def test_compound_law_is_the_exponential_law_at_its_own_sensitivity():
+    # stiffness_at_temperature is the fixed-kappa law (the tyre fit's) with kappa = beta(C_xr)
+    comp = StiffnessTemperature(stiffness_exponent=0.7)
+    c_xr = jnp.array([22.0, 40.0, 61.0])
+    temp = jnp.array([-5.0, 35.0, 70.0])
+    kappa = temperature_sensitivity(c_xr, comp)
+    np.testing.assert_allclose(
+        stiffness_at_temperature(c_xr, temp, comp),
+        stiffness_with_sensitivity(c_xr, temp, kappa),
+        rtol=1e-14,
+    )
+    # d ln C_x / dT = -kappa
+    slope = jax.grad(lambda t: jnp.log(stiffness_with_sensitivity(40.0, t, 0.008)))(31.0)
+    np.testing.assert_allclose(slope, -0.008, rtol=1e-12)
 
 
 def test_inverse_of_forward_is_identity():

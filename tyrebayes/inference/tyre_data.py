@@ -19,6 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
+from .._domain import SURFACES
 from .._errors import BadInputError
 from ..streams.abs_detection import (
     _below_run_peak,
@@ -27,8 +28,6 @@ from ..streams.abs_detection import (
     window_means,
 )
 from .force_density import force_density_score
-
-SURFACES = ("dry", "wet", "snow", "ice")
 
 # Length of the blocks whose slips share an offset in the model [s]: slow slip and force errors
 # (tyre radius drifting with temperature, IMU bias instability, road grade the features did not

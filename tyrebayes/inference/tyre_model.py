@@ -73,14 +73,15 @@ import jax.numpy as jnp
 import numpyro
 import numpyro.distributions as dist
 
+from .._domain import SURFACES
+from ..physics.thermal import stiffness_with_sensitivity
 from ..physics.tyre import (
     brush_longitudinal_inverse_and_slope,
     magic_formula_inverse_and_slope,
     shaped_longitudinal_inverse_and_slope,
 )
-from .tyre_data import SURFACES, TyreObservations
+from .tyre_data import TyreObservations
 
-REFERENCE_TEMPERATURE_C = 20.0
 
 # Prior medians of μ_max per surface: dry asphalt ~1.0, wet ~0.75, packed snow ~0.35, ice ~0.12
 # (ranges of the measured braking data in tyrebayes/data/braking_by_tyre_type.csv, which give
@@ -194,11 +195,6 @@ class TyrePriors(eqx.Module):
     def mu_log_sd(self, surfaces: tuple[str, ...]) -> jax.Array:
         """Log-scale prior sd of μ_max on each surface (module table ``_MU_LOG_SD``)."""
         return jnp.array([_MU_LOG_SD[s] for s in surfaces])
-
-
-def stiffness_at_temperature(c_xr, temp_sensitivity, temperature_c):
-    """C_x(T) = C_xr exp(−κ (T − 20 °C)): the compensation model of thesis ch. 3.3.1, inferable."""
-    return c_xr * jnp.exp(-temp_sensitivity * (temperature_c - REFERENCE_TEMPERATURE_C))
 
 
 MODEL_KINDS = ("magic", "shaped", "brush", "linear")
@@ -326,7 +322,7 @@ def tyre_model(
 
     weights = obs.mask.astype(obs.temperature_c.dtype)
     mean_temperature = jnp.sum(weights * obs.temperature_c) / jnp.maximum(jnp.sum(weights), 1.0)
-    numpyro.deterministic("c_x", stiffness_at_temperature(c_xr, kappa, mean_temperature))
+    numpyro.deterministic("c_x", stiffness_with_sensitivity(c_xr, mean_temperature, kappa))
 
     params = dict(
         c_xr=c_xr,
@@ -435,7 +431,7 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     noise2 = rho_noise**2
     rho_hat = (obs.rho + noise2 * obs.rho_score) / gain
     rho_var = noise2 / gain**2 * jnp.clip(1.0 + noise2 * obs.rho_score_slope, 0.05, 1.0)
-    c_x = stiffness_at_temperature(params["c_xr"], params["temp_sensitivity"], obs.temperature_c)
+    c_x = stiffness_with_sensitivity(params["c_xr"], obs.temperature_c, params["temp_sensitivity"])
     mu_window = params["mu_max"][obs.surface_index]
     slip, slip_slope = _slip_and_slope(kind, rho_hat, c_x, mu_window, params)
     slip_scale = jnp.sqrt((params["slip_noise_scale"] * obs.slip_sd) ** 2 + slip_slope**2 * rho_var)
@@ -483,7 +479,6 @@ __all__ = [
     "TyrePriors",
     "WindowLikelihood",
     "block_offsets",
-    "stiffness_at_temperature",
     "tyre_model",
     "window_likelihood",
 ]

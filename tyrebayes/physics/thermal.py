@@ -286,6 +286,42 @@ def temperature_sensitivity(c_xr: Batch, comp: StiffnessTemperature) -> Float[Ar
     return comp.sensitivity_per_k * ratio ** jnp.asarray(comp.stiffness_exponent)
 
 
+def stiffness_with_sensitivity(
+    c_xr: Batch,
+    temp_c: Batch,
+    sensitivity_per_k: Batch,
+    reference_temperature_c: Batch = REFERENCE_TEMPERATURE_C,
+) -> Float[Array, "..."]:
+    """C_x(T) = C_xr exp(-kappa (T - T_ref)) for a given sensitivity kappa (thesis Sec. 3.3.1).
+
+    The compensation law itself; :func:`stiffness_at_temperature` feeds it the compound-dependent
+    kappa of a :class:`StiffnessTemperature`, the tyre fit an inferred one.
+
+    Parameters
+    ----------
+    c_xr : array_like
+        Compensated longitudinal stiffness C_xr [-].
+    temp_c : array_like
+        Tyre temperature [°C].
+    sensitivity_per_k : array_like
+        Relative stiffness loss per kelvin, kappa [1/K].
+    reference_temperature_c : array_like
+        T_ref [°C], default 20.
+
+    Returns
+    -------
+    Array
+        C_x(T) [-].
+
+    Examples
+    --------
+    >>> round(float(stiffness_with_sensitivity(40.0, 30.0, 0.01)), 4)
+    36.1935
+    """
+    delta = jnp.asarray(temp_c) - reference_temperature_c
+    return jnp.asarray(c_xr, dtype=float) * jnp.exp(-jnp.asarray(sensitivity_per_k) * delta)
+
+
 def stiffness_at_temperature(
     c_xr: Batch, temp_c: Batch, comp: StiffnessTemperature
 ) -> Float[Array, "..."]:
@@ -310,8 +346,9 @@ def stiffness_at_temperature(
     29.0
     """
     c_xr = jnp.asarray(c_xr, dtype=float)
-    delta = jnp.asarray(temp_c) - comp.reference_temperature_c
-    return c_xr * jnp.exp(-temperature_sensitivity(c_xr, comp) * delta)
+    return stiffness_with_sensitivity(
+        c_xr, temp_c, temperature_sensitivity(c_xr, comp), comp.reference_temperature_c
+    )
 
 
 def compensation_is_invertible(

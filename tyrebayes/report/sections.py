@@ -19,7 +19,7 @@ from ..inference.fleet import fit_summary, predict_friction
 from ..inference.ols import fit_ols, ols_interval
 from ..inference.result import Diagnostics, Fit
 from ..inference.summary import summarize
-from ..inference.tyre_model import stiffness_at_temperature
+from ..physics.thermal import stiffness_with_sensitivity
 from ..physics.tyre import (
     brush_longitudinal,
     magic_formula_inverse_and_slope,
@@ -140,7 +140,7 @@ def tyre_section(
         if temps is not None and "temp_sensitivity" in post and (surf_idx == i).any():
             t_s = float(temps[surf_idx == i].mean())
             kappa = _flat(idata, "temp_sensitivity")
-            c_s = np.asarray(stiffness_at_temperature(c_xr, kappa, t_s))
+            c_s = np.asarray(stiffness_with_sensitivity(c_xr, t_s, kappa))
         pts = slip_c[sel] if sel.any() else slip_c[use]
         lo = min(float(np.quantile(pts, 0.005)), -0.002) if pts.size else -0.01
         hi = max(float(np.quantile(pts, 0.995)), 0.004) if pts.size else 0.02

@@ -45,7 +45,7 @@ import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 
-from .._domain import load_vehicle
+from .._domain import SURFACES, load_vehicle
 from ..physics.thermal import (
     ThermalParams,
     simulate_tyre_temperature,
@@ -56,7 +56,7 @@ from .profiles import LONG_LABELS, DriveProfile, ProfileOptions, make_profile
 from .sensors import SensorModel, SensorTruth, draw_sensor_truth, measure, sample_times
 from .truth import DriveTruth
 from .tyre_curves import brush_inverse_np, peak_slip, tyre_force, tyre_slip
-from .tyre_spec import SURFACES, TYRE_MODELS, TyreSpec, draw_database_curve
+from .tyre_spec import TYRE_MODELS, TyreSpec, draw_database_curve
 
 _ABS = LONG_LABELS.index("abs")
 #: Engine-braking force available on the driven axle, as a share of the weight.

@@ -14,11 +14,10 @@ from __future__ import annotations
 import equinox as eqx
 import numpy as np
 
+from .._domain import SURFACES
 from .._tyre_curve_sets import distinct_passenger_sets
 from ..physics.thermal import StiffnessTemperature
 from ..physics.tyre import MagicFormulaLongitudinal
-
-SURFACES: tuple[str, ...] = ("dry", "wet", "snow", "ice")
 
 #: Typical tyres per type: (C_xr, C_y [1/rad], μ on dry, wet, snow, ice). μ sits ~5-10 % above the
 #: mean ABS decelerations of ``tyrebayes/data/braking_by_tyre_type.csv`` (snow: winter 0.34-0.45 g,
