@@ -23,9 +23,17 @@ TYRE_TYPES: tuple[str, ...] = ("winter", "all_season", "summer")
 SURFACES: tuple[str, ...] = ("snow", "ice", "wet", "dry")
 #: Standard gravity [m/s²] (the physics' value; decelerations "in g" are in units of it).
 GRAVITY = GRAVITY_MPS2
+#: Friction coefficients a road tyre can have: above 0 (not even glare ice reaches it) and below
+#: 2 (racing slicks on a warm track reach ~1.8). Outside is a sign or unit mistake (percent).
+MU_RANGE: tuple[float, float] = (0.0, 2.0)
+#: Stiffnesses a car tyre's C_xr can take: measured sets span 20-60 (thesis Table 6.2 and the
+#: tyre-curve database); outside [1, 1000] a value is a unit or export mistake.
+C_XR_RANGE: tuple[float, float] = (1.0, 1000.0)
 
 __all__ = [
+    "C_XR_RANGE",
     "GRAVITY",
+    "MU_RANGE",
     "SURFACES",
     "TYRE_TYPES",
     "load_braking_data",

@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ._domain import load_braking_data, mean_deceleration_g
+from ._domain import MU_RANGE, load_braking_data, mean_deceleration_g
 from ._errors import BadInputError
 from .inference.summary import summarize
 
@@ -50,9 +50,6 @@ DEFAULT_COST_FALSE_ALARM: float = 1.0
 #: How far the 90 % predictive interval may reach past mu_min on both sides before the verdict
 #: becomes "insufficient_evidence".
 DEFAULT_STRADDLE_TOL: float = 0.08
-#: Friction coefficients a road tyre can have: above 0 (not even glare ice reaches it) and below
-#: 2 (racing slicks on a warm track reach ~1.8). Outside is a sign or unit mistake (percent).
-MU_RANGE: tuple[float, float] = (0.0, 2.0)
 
 
 def check_mu_min(mu_min: float, name: str = "mu_min") -> float:

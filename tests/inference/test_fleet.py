@@ -86,6 +86,21 @@ def test_negative_stiffness_rejected():
         fleet_data_from_table(table)
 
 
+def test_implausible_stiffness_and_percent_friction_rejected_by_the_library():
+    # the range checks live with the table's other checks, so every caller (command, fleet run)
+    # gets them, not only fit-fleet
+    table = _table()
+    table.loc[4, "c_xr"] = 3500.0  # a unit slip (N/unit slip instead of normalised)
+    with pytest.raises(BadInputError, match=r"c_xr: expected a stiffness in \[1, 1000\].*3500"):
+        fleet_data_from_table(table)
+    table = _table()
+    table["mu"] = table["mu"] * 100.0
+    with pytest.raises(BadInputError, match=r"mu: expected a friction coefficient.*percent"):
+        fleet_data_from_table(table)
+    # without an outcome (prediction tables) only the stiffness is checked
+    fleet_data_from_table(table.drop(columns="mu"), require_outcome=False)
+
+
 def test_one_row_per_type_rejected():
     table = pd.DataFrame(
         {

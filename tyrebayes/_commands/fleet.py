@@ -95,53 +95,6 @@ def _read_table(path: str):
         raise BadInputError(f"fleet table {path}: expected CSV or Parquet, got {err}") from None
 
 
-#: Stiffnesses a car tyre's C_xr can take: measured sets span 20-60 (thesis Table 6.2 and the
-#: tyre-curve database); outside [1, 1000] a value is a unit or export mistake, and NUTS would
-#: fail to initialise on it with a traceback instead of a reason.
-C_XR_RANGE = (1.0, 1000.0)
-
-
-def _check_plausible(table, outcome: str) -> None:
-    """One-line errors for fleet-table values no tyre can have (before a fit fails on them).
-
-    ``c_xr`` outside :data:`C_XR_RANGE`; an outcome named ``mu...`` (a friction coefficient)
-    outside (0, 2), with a hint when it looks like percent. Missing and non-numeric values are
-    the fleet model's own checks.
-    """
-    import pandas as pd
-
-    from ..decisions import MU_RANGE
-
-    def first_outside(column: str, inside) -> tuple[int, float] | None:
-        x = pd.to_numeric(table[column], errors="coerce").to_numpy(float)
-        with np.errstate(invalid="ignore"):
-            bad = np.flatnonzero(np.isfinite(x) & ~inside(x))
-        return None if bad.size == 0 else (int(bad[0]), float(x[bad[0]]))
-
-    lo, hi = C_XR_RANGE
-    # Zero and negative stiffness (and a missing column) have the fleet model's own message.
-    found = (
-        first_outside("c_xr", lambda x: (x <= 0) | ((lo <= x) & (x <= hi)))
-        if "c_xr" in table.columns
-        else None
-    )
-    if found is not None:
-        raise BadInputError(
-            f"c_xr: expected a stiffness in [{lo:g}, {hi:g}] (car tyres 20-60), got "
-            f"{found[1]:g} in row {found[0]}"
-        )
-    if outcome.lower().startswith("mu") and outcome in table.columns:
-        mu_lo, mu_hi = MU_RANGE
-        found = first_outside(outcome, lambda x: (mu_lo < x) & (x < mu_hi))
-        if found is not None:
-            row, value = found
-            hint = " (percent? divide by 100)" if mu_hi <= value <= 100 * mu_hi else ""
-            raise BadInputError(
-                f"{outcome}: expected a friction coefficient in ({mu_lo:g}, {mu_hi:g}), got "
-                f"{value:g} in row {row}{hint}"
-            )
-
-
 def run_fit(args: argparse.Namespace) -> int:
     from ..inference.fleet import fit_fleet, fit_summary
 
@@ -152,7 +105,6 @@ def run_fit(args: argparse.Namespace) -> int:
             f"--outcome: expected a column of the table, got {args.outcome!r} "
             f"(columns {list(table.columns)})"
         )
-    _check_plausible(table, args.outcome)
     method = args.method or ("nuts" if len(table) <= 2000 else "svi")
     for name in ("samples", "warmup", "chains"):
         if getattr(args, name) < 1:

@@ -82,7 +82,6 @@ from ..physics.tyre import (
 )
 from .tyre_data import TyreObservations
 
-
 # Prior medians of μ_max per surface: dry asphalt ~1.0, wet ~0.75, packed snow ~0.35, ice ~0.12
 # (ranges of the measured braking data in tyrebayes/data/braking_by_tyre_type.csv, which give
 # lower bounds 0.8-1.1 dry, 0.6-0.8 wet, 0.3-0.45 snow, 0.1-0.15 ice from mean deceleration).

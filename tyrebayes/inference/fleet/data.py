@@ -6,7 +6,7 @@ import equinox as eqx
 import numpy as np
 import pandas as pd
 
-from ..._domain import SURFACES, TYRE_TYPES
+from ..._domain import C_XR_RANGE, MU_RANGE, SURFACES, TYRE_TYPES
 from ..._errors import BadInputError
 from .priors import load_tyre_type_priors
 
@@ -48,7 +48,10 @@ def fleet_data_from_table(
     Raises :class:`tyrebayes.BadInputError` (one line, expected vs got) for a missing column, an
     unknown tyre type or surface, a non-positive or missing stiffness, a non-finite outcome, a
     tyre set whose rows disagree on its stiffness, or fewer than two rows of a type on a surface.
-    Without a ``surface`` column every row is on snow (the thesis' setting).
+    Values no tyre can have fail here too, before a fit fails on them: ``c_xr`` outside
+    :data:`~tyrebayes._domain.C_XR_RANGE`, an outcome named ``mu...`` outside
+    :data:`~tyrebayes._domain.MU_RANGE` (with a hint when it looks like percent). Without a
+    ``surface`` column every row is on snow (the thesis' setting).
     """
     if default_c_xr_sd is None:
         default_c_xr_sd = load_tyre_type_priors().default_c_xr_sd
@@ -60,6 +63,7 @@ def fleet_data_from_table(
         )
     if len(table) == 0:
         raise BadInputError("fleet table: expected at least one row, got none")
+    _check_plausible(table, outcome if require_outcome else None)
     types = table["tyre_type"].astype(str).str.strip()
     unknown = sorted(set(types) - set(TYRE_TYPES))
     if unknown:
@@ -136,3 +140,35 @@ def fleet_data_from_table(
         y=y,
         outcome=outcome,
     )
+
+
+def _first_outside(table: pd.DataFrame, column: str, inside) -> tuple[int, float] | None:
+    """(row, value) of the first finite value of ``column`` that is not ``inside``, or None."""
+    x = pd.to_numeric(table[column], errors="coerce").to_numpy(float)
+    with np.errstate(invalid="ignore"):
+        bad = np.flatnonzero(np.isfinite(x) & ~inside(x))
+    return None if bad.size == 0 else (int(bad[0]), float(x[bad[0]]))
+
+
+def _check_plausible(table: pd.DataFrame, outcome: str | None) -> None:
+    """One-line errors for stiffness or friction values no tyre can have (a unit mistake).
+
+    Missing, non-numeric, zero and negative values keep the table checks' own messages.
+    """
+    lo, hi = C_XR_RANGE
+    found = _first_outside(table, "c_xr", lambda x: (x <= 0) | ((lo <= x) & (x <= hi)))
+    if found is not None:
+        raise BadInputError(
+            f"c_xr: expected a stiffness in [{lo:g}, {hi:g}] (car tyres 20-60), got "
+            f"{found[1]:g} in row {found[0]}"
+        )
+    if outcome is not None and outcome.lower().startswith("mu"):
+        mu_lo, mu_hi = MU_RANGE
+        found = _first_outside(table, outcome, lambda x: (mu_lo < x) & (x < mu_hi))
+        if found is not None:
+            row, value = found
+            hint = " (percent? divide by 100)" if mu_hi <= value <= 100 * mu_hi else ""
+            raise BadInputError(
+                f"{outcome}: expected a friction coefficient in ({mu_lo:g}, {mu_hi:g}), got "
+                f"{value:g} in row {row}{hint}"
+            )
