@@ -50,7 +50,6 @@ from .inference.tyre_data import observations_from_features as observations_from
 from .inference.tyre_data import observations_from_stream as observations_from_stream
 from .inference.tyre_data import stack_drives as stack_drives
 from .inference.tyre_data import windowed_observations as windowed_observations
-from .inference.tyre_fit import FitDiagnostics as FitDiagnostics
 from .inference.tyre_fit import TyreFit as TyreFit
 from .inference.tyre_fit import fit_tyre as fit_tyre
 from .inference.tyre_model import TyrePriors as TyrePriors

@@ -38,7 +38,7 @@ from .tyre_predictive import (
     _scalar_diagnostics,
     _to_inference_data,
 )
-from .tyre_result import FitDiagnostics, TyreFit
+from .tyre_result import TyreFit
 from .window_correlation import slip_weights
 
 # μ_max counts as observed on a surface only where the drive reached the limit (ABS windows) and
@@ -226,23 +226,13 @@ def fit_tyre_fast(
     _, result, min_eig, _, draws = core(flat0, obs, key_draw)
     optimiser_ok = bool(result == optx.RESULTS.successful)
     positive_definite = bool(float(min_eig) > 0)
-    problems = []
-    if not optimiser_ok:
-        problems.append(f"optimiser: {optx.RESULTS[result]}")
-    if not positive_definite:
-        problems.append("Hessian at the mode is not positive definite")
     samples = {k: np.asarray(v) for k, v in draws.items()}
-    if not all(np.all(np.isfinite(v)) for v in samples.values()):
-        problems.append("non-finite draws")
     idata = _to_inference_data(samples, 1, obs, kind, key_ppc)
-    diagnostics = FitDiagnostics(
-        method="fast",
-        r_hat_max=float("nan"),
-        ess_min=float(num_draws),
-        divergences=0,
+    diagnostics = _scalar_diagnostics(
+        idata,
+        "fast",
         optimiser_result="successful" if optimiser_ok else str(optx.RESULTS[result]),
-        converged=not problems,
-        reason="; ".join(problems),
+        problems=() if positive_definite else ("Hessian at the mode is not positive definite",),
     )
     return _tyre_fit(idata, diagnostics, samples, priors, obs, kind, inflation)
 

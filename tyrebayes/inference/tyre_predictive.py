@@ -146,14 +146,23 @@ def _to_inference_data(
     return idata
 
 
-def _scalar_diagnostics(idata: xr.DataTree, method: str = "nuts") -> Diagnostics:
+def _scalar_diagnostics(
+    idata: xr.DataTree,
+    method: str = "nuts",
+    *,
+    optimiser_result: str = "n/a",
+    problems: tuple[str, ...] = (),
+) -> Diagnostics:
     """:func:`~tyrebayes.inference.result.diagnose` over every parameter but C_x.
 
     C_x is C_xr times a function of the temperature sensitivity: a deterministic function of
-    checked parameters.
+    checked parameters. ``optimiser_result`` and ``problems`` are the MAP + Laplace path's own
+    verdict (passed on to ``diagnose``).
     """
     names = [v for v in idata["posterior"].data_vars if v not in ("c_x",)]
-    return diagnose(idata, method=method, var_names=names)
+    return diagnose(
+        idata, method=method, var_names=names, optimiser_result=optimiser_result, problems=problems
+    )
 
 
 def _single_precision(obs: TyreObservations) -> TyreObservations:

@@ -14,37 +14,6 @@ from .result import Diagnostics, Fit, Provenance
 from .summary import summarize
 
 
-def FitDiagnostics(  # noqa: N802 -- the name the fast path and older callers construct
-    *,
-    method: str,
-    r_hat_max: float,
-    ess_min: float,
-    divergences: int,
-    optimiser_result: str,
-    converged: bool,
-    reason: str = "",
-) -> Diagnostics:
-    """A :class:`~tyrebayes.inference.result.Diagnostics` from a fitter that judged itself.
-
-    The MAP + Laplace path decides convergence from its optimiser and Hessian (no chains to
-    compare); this builds the one diagnostics type from that verdict. NUTS fits are judged by
-    :func:`~tyrebayes.inference.result.diagnose` instead.
-    """
-    draws = float(ess_min)
-    return Diagnostics(
-        method=method,
-        n_chains=1,
-        n_draws=int(draws) if np.isfinite(draws) else 0,
-        r_hat_max=float(r_hat_max),
-        ess_bulk_min=draws,
-        ess_tail_min=draws,
-        divergences=int(divergences),
-        optimiser_result=optimiser_result,
-        converged=bool(converged),
-        reasons=tuple(r for r in reason.split("; ") if r),
-    )
-
-
 @dataclasses.dataclass(frozen=True)
 class TyreFit:
     """Result of :func:`fit_tyre`: a :class:`~tyrebayes.inference.result.Fit` of kind "tyre".
