@@ -37,9 +37,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "fit-tyre",
         help="posterior of C_x, C_xr and mu_max of one tyre set from a stream",
         description=(
-            "Fit the per-tyre errors-in-variables tyre-curve model (brush family) to a stream "
-            "file and print the posterior of C_x, C_xr (20 °C), mu_max and the slip offset. Exit "
-            "status 3 when the fit did not converge."
+            "Fit the per-tyre errors-in-variables tyre-curve model (Magic Formula by default) "
+            "to a stream file and print the posterior of C_x, C_xr (20 °C), mu_max and the slip "
+            "offset. Exit status 3 when the fit did not converge."
         ),
     )
     parser.add_argument(
@@ -77,7 +77,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--model",
         choices=MODEL_CHOICES,
         default=MODEL_CHOICES[0],
-        help="mean model (default shaped: the brush model with a fitted shape exponent)",
+        help=(
+            "mean model (default magic: the Magic Formula with its shape and curvature drawn "
+            "from the measured tyres; shaped: the brush with a fitted exponent; brush; linear)"
+        ),
     )
     add_can_arguments(parser)
     parser.add_argument("--seed", type=int, default=0)
