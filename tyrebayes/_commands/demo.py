@@ -15,11 +15,10 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
-from pathlib import Path
 
+from ..internal.jax_cache import enable_compilation_cache
 from ._common import output_folder, print_json
 
 
@@ -72,26 +71,6 @@ class _Steps:
         self.bar.close()
 
 
-def _compilation_cache() -> None:
-    """Keep compiled models between runs (the demo is compile-bound on a small machine).
-
-    ``$TYREBAYES_JAX_CACHE`` (default ``$XDG_CACHE_HOME/tyrebayes/jax`` or
-    ``~/.cache/tyrebayes/jax``); set it to an empty string to switch the cache off.
-    """
-    import jax
-
-    default = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "tyrebayes" / "jax"
-    path = os.environ.get("TYREBAYES_JAX_CACHE", str(default))
-    if not path:
-        return
-    try:
-        Path(path).mkdir(parents=True, exist_ok=True)
-    except OSError:
-        return  # a read-only home: run without the cache
-    jax.config.update("jax_compilation_cache_dir", path)
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
-
-
 def run(args: argparse.Namespace) -> int:
     out = output_folder(args.out)
     import numpyro
@@ -100,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     import jax
 
     jax.config.update("jax_enable_x64", True)
-    _compilation_cache()
+    enable_compilation_cache()  # the demo is compile-bound on a small machine
     from ..report import write_report
     from ._demo_report import run_demo
 

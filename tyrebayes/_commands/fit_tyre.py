@@ -17,6 +17,7 @@ from typing import Any
 
 from .._domain import SURFACES
 from .._errors import BadInputError
+from ..internal.jax_cache import enable_compilation_cache
 from ._common import (
     add_can_arguments,
     check_ambient,
@@ -138,6 +139,7 @@ def run(args: argparse.Namespace) -> int:
 
     # The slip signal is ~1e-3 and its noise ~1e-4: the MAP search and the Hessian need float64.
     jax.config.update("jax_enable_x64", True)
+    enable_compilation_cache()
     from ..inference.result import provenance
     from ..inference.tyre_data import observations_from_stream
     from ..inference.tyre_fit import fit_tyre

@@ -1,0 +1,43 @@
+"""Tests of the shared JAX compilation cache switch (tyrebayes.internal.jax_cache)."""
+
+import jax
+import pytest
+
+from tyrebayes.internal.jax_cache import default_cache_dir, enable_compilation_cache
+
+
+@pytest.fixture
+def restore_cache_config():
+    before = (
+        jax.config.jax_compilation_cache_dir,
+        jax.config.jax_persistent_cache_min_compile_time_secs,
+    )
+    yield
+    jax.config.update("jax_compilation_cache_dir", before[0])
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", before[1])
+
+
+def test_environment_chooses_the_folder_and_empty_switches_it_off(monkeypatch, tmp_path):
+    monkeypatch.setenv("TYREBAYES_JAX_CACHE", str(tmp_path / "c"))
+    assert default_cache_dir() == str(tmp_path / "c")
+    monkeypatch.delenv("TYREBAYES_JAX_CACHE")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert default_cache_dir() == str(tmp_path / "tyrebayes" / "jax")
+    monkeypatch.setenv("TYREBAYES_JAX_CACHE", "")
+    assert enable_compilation_cache() == ""
+
+
+def test_enabling_points_jax_at_a_created_folder(tmp_path, restore_cache_config):
+    folder = tmp_path / "nested" / "cache"
+    assert enable_compilation_cache(str(folder)) == str(folder)
+    assert folder.is_dir()
+    assert jax.config.jax_compilation_cache_dir == str(folder)
+    assert jax.config.jax_persistent_cache_min_compile_time_secs == 0.0
+
+
+def test_a_folder_that_cannot_be_made_runs_without_cache(tmp_path, restore_cache_config):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    before = jax.config.jax_compilation_cache_dir
+    assert enable_compilation_cache(str(blocker / "cache")) == ""
+    assert jax.config.jax_compilation_cache_dir == before

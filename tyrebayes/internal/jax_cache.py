@@ -1,0 +1,41 @@
+"""JAX's persistent compilation cache on disk, shared by every command and worker of a machine.
+
+Compiling a tyre model for one data shape costs tens of seconds and about 1 GB of memory above
+the fit itself (``benchmarks/results/fit_memory.json``, cold against warm); with the cache a
+second process of the same shape loads the compiled program instead.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+
+def default_cache_dir() -> str:
+    """The cache folder: ``$TYREBAYES_JAX_CACHE``, else ``$XDG_CACHE_HOME/tyrebayes/jax``.
+
+    Without ``$XDG_CACHE_HOME``, ``~/.cache/tyrebayes/jax``. An empty ``$TYREBAYES_JAX_CACHE``
+    switches the cache off (returned as "").
+    """
+    default = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "tyrebayes" / "jax"
+    return os.environ.get("TYREBAYES_JAX_CACHE", str(default))
+
+
+def enable_compilation_cache(path: str | None = None) -> str:
+    """Point JAX's persistent compilation cache at ``path`` (default :func:`default_cache_dir`).
+
+    Every compiled program is kept, however quick its compilation. Returns the folder in use, or
+    "" when the cache is off or the folder cannot be made (a read-only home: run without it).
+    """
+    import jax
+
+    path = default_cache_dir() if path is None else path
+    if not path:
+        return ""
+    try:
+        Path(path).mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return ""
+    jax.config.update("jax_compilation_cache_dir", path)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+    return path
