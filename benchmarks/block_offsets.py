@@ -23,8 +23,8 @@ import numpy as np  # noqa: E402
 from tyre_recovery import SETTINGS, simulated_observations  # noqa: E402
 
 from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes.inference.tyre_fit import fit_tyre  # noqa: E402
-from tyrebayes.inference.tyre_model import TyrePriors  # noqa: E402
+from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
+from tyrebayes.inference.tyre.model import TyrePriors  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "block_offsets.json"
 

@@ -43,12 +43,12 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes.inference.tyre_data import (  # noqa: E402
+from tyrebayes.inference.tyre.data import (  # noqa: E402
     BLOCK_S,
     observations_from_features,
     stack_drives,
 )
-from tyrebayes.inference.tyre_fit import fit_tyre  # noqa: E402
+from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
 from tyrebayes.streams import compute_features, read_stream, validate_stream  # noqa: E402
 from tyrebayes.streams.tyre_temperature import features_tyre_temperature  # noqa: E402
 

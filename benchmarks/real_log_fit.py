@@ -46,8 +46,8 @@ import numpy as np  # noqa: E402
 
 from tyrebayes._domain import load_vehicle  # noqa: E402
 from tyrebayes._resources import data_dir  # noqa: E402
-from tyrebayes.inference.tyre_data import observations_from_features, stack_drives  # noqa: E402
-from tyrebayes.inference.tyre_fit import fit_tyre  # noqa: E402
+from tyrebayes.inference.tyre.data import observations_from_features, stack_drives  # noqa: E402
+from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
 from tyrebayes.streams import compute_features, read_stream, validate_stream  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results"

@@ -67,8 +67,8 @@ import numpy as np  # noqa: E402
 
 from tyrebayes._domain import load_vehicle  # noqa: E402
 from tyrebayes._errors import BadInputError  # noqa: E402
-from tyrebayes.inference.tyre_data import observations_from_features, stack_drives  # noqa: E402
-from tyrebayes.inference.tyre_fit import fit_tyre  # noqa: E402
+from tyrebayes.inference.tyre.data import observations_from_features, stack_drives  # noqa: E402
+from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
 from tyrebayes.simulate.drive import simulate_drive  # noqa: E402
 from tyrebayes.simulate.profiles import ProfileOptions  # noqa: E402
 from tyrebayes.simulate.sensors import SensorModel, scale_noise  # noqa: E402

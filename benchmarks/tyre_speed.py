@@ -48,13 +48,13 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes.inference import tyre_fit  # noqa: E402
-from tyrebayes.inference.tyre_data import (  # noqa: E402
+from tyrebayes.inference.tyre import fit as tyre_fit  # noqa: E402
+from tyrebayes.inference.tyre.data import (  # noqa: E402
     _bucket_size,
     observations_from_features,
     stack_drives,
 )
-from tyrebayes.inference.tyre_fit import fit_tyre  # noqa: E402
+from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
 from tyrebayes.simulate.drive import simulate_drive  # noqa: E402
 from tyrebayes.simulate.profiles import ProfileOptions  # noqa: E402
 from tyrebayes.streams import compute_features, validate_stream  # noqa: E402
@@ -188,7 +188,7 @@ def main() -> None:
     _, t_third = timed_fit(obs_a, method="fast", seed=2)
     # Breakdown: the compiled MAP + Hessian + Laplace draws alone (the rest of fit_tyre is the
     # log-likelihood / posterior predictive and the InferenceData assembly).
-    from tyrebayes.inference.tyre_model import DEFAULT_KIND, TyrePriors
+    from tyrebayes.inference.tyre.model import DEFAULT_KIND, TyrePriors
 
     # The same cache entry as the fits above (default model, draws and steps).
     core, flat0 = tyre_fit._laplace_core(

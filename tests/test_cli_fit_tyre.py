@@ -75,7 +75,7 @@ def test_fast_fit_of_a_simulated_drive(tmp_path, capsys):
 
 def test_model_choices_are_the_model_kinds():
     from tyrebayes._commands.fit_tyre import MODEL_CHOICES
-    from tyrebayes.inference.tyre_model import DEFAULT_KIND, MODEL_KINDS
+    from tyrebayes.inference.tyre.model import DEFAULT_KIND, MODEL_KINDS
 
     assert set(MODEL_CHOICES) == set(MODEL_KINDS) and MODEL_CHOICES[0] == DEFAULT_KIND
 
@@ -83,11 +83,11 @@ def test_model_choices_are_the_model_kinds():
 def test_fit_tyre_exits_3_when_the_fit_did_not_converge(tmp_path, capsys, monkeypatch):
     """The command's contract for a failed fit: exit 3, the reason on stderr, the fit written."""
     from tyrebayes._resources import data_dir
-    from tyrebayes.inference import tyre_fit
     from tyrebayes.inference.result import load_fit
-    from tyrebayes.inference.tyre_data import stack_drives
+    from tyrebayes.inference.tyre import fit as tyre_fit
+    from tyrebayes.inference.tyre.data import stack_drives
 
-    from .inference.test_tyre_model import PAD, linear_region_windows
+    from .inference.tyre.test_model import PAD, linear_region_windows
 
     # A fit that did not converge (non-finite forces), of the shape the inference tests compile.
     windows = linear_region_windows(3)

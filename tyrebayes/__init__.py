@@ -45,14 +45,14 @@ from .inference.result import Fit as Fit
 from .inference.result import Provenance as Provenance
 from .inference.result import diagnose as diagnose
 from .inference.result import load_fit as load_fit
-from .inference.tyre_data import TyreObservations as TyreObservations
-from .inference.tyre_data import observations_from_features as observations_from_features
-from .inference.tyre_data import observations_from_stream as observations_from_stream
-from .inference.tyre_data import stack_drives as stack_drives
-from .inference.tyre_data import windowed_observations as windowed_observations
-from .inference.tyre_fit import TyreFit as TyreFit
-from .inference.tyre_fit import fit_tyre as fit_tyre
-from .inference.tyre_model import TyrePriors as TyrePriors
+from .inference.tyre.data import TyreObservations as TyreObservations
+from .inference.tyre.data import observations_from_features as observations_from_features
+from .inference.tyre.data import observations_from_stream as observations_from_stream
+from .inference.tyre.data import stack_drives as stack_drives
+from .inference.tyre.data import windowed_observations as windowed_observations
+from .inference.tyre.fit import TyreFit as TyreFit
+from .inference.tyre.fit import fit_tyre as fit_tyre
+from .inference.tyre.model import TyrePriors as TyrePriors
 from .inference.wear import build_wear_data as build_wear_data
 from .inference.wear import fit_wear as fit_wear
 

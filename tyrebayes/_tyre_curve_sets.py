@@ -2,7 +2,7 @@
 
 One row per distinct coefficient set found in public ``.tir`` tyre property files, each with its
 source repository, path, commit and licence (``models/tyre_curves/README.md``). Read by the
-per-tyre model's shape prior (:mod:`tyrebayes.inference.tyre_curve_prior`) and by the simulator,
+per-tyre model's shape prior (:mod:`tyrebayes.inference.tyre.curve_prior`) and by the simulator,
 which draws its tyres' curves from it (:func:`tyrebayes.simulate.tyre_spec.draw_database_curve`).
 """
 

@@ -19,8 +19,8 @@ from .._resources import data_dir
 from ..criticism import criticize_stream, criticize_table
 from ..inference.fleet import fit_fleet
 from ..inference.result import Fit
-from ..inference.tyre_data import _bucket_size, observations_from_features, stack_drives
-from ..inference.tyre_fit import fit_tyre
+from ..inference.tyre.data import _bucket_size, observations_from_features, stack_drives
+from ..inference.tyre.fit import fit_tyre
 from ..inference.vmax import load_table_6_2
 from ..report.content import Report
 from ..report.sections import (

@@ -1,6 +1,6 @@
 """``tyrebayes fit-tyre STREAM --vehicle VEHICLE [--method nuts|fast] [--out FIT.nc] [--json]``.
 
-Fits the per-tyre model (:mod:`tyrebayes.inference.tyre_model`) to one stream and prints the
+Fits the per-tyre model (:mod:`tyrebayes.inference.tyre.model`) to one stream and prints the
 posterior of C_x, C_xr, μ_max and the slip offset.
 
 Exit status: 0 on a converged fit; 2 on bad input (one line on stderr); 3 when the fit did not
@@ -28,7 +28,7 @@ from ._common import (
     stream_file,
 )
 
-# tyrebayes.inference.tyre_model.MODEL_KINDS, default first; spelled out here because importing
+# tyrebayes.inference.tyre.model.MODEL_KINDS, default first; spelled out here because importing
 # the model would start JAX before run() gives it one device per core (a test checks they agree).
 MODEL_CHOICES = ("magic", "shaped", "brush", "linear")
 
@@ -141,8 +141,8 @@ def run(args: argparse.Namespace) -> int:
     jax.config.update("jax_enable_x64", True)
     enable_compilation_cache()
     from ..inference.result import provenance
-    from ..inference.tyre_data import observations_from_stream
-    from ..inference.tyre_fit import fit_tyre
+    from ..inference.tyre.data import observations_from_stream
+    from ..inference.tyre.fit import fit_tyre
 
     with stream_file(args, args.vehicle) as path:
         stream_flags = _stream_flags(path, args.vehicle)

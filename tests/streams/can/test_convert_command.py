@@ -133,9 +133,9 @@ def test_criticize_stream_takes_a_can_log(rav4, profile, db, tmp_path, capsys):
 
 def test_fit_tyre_takes_a_can_log(rav4, profile, db, tmp_path, capsys, monkeypatch):
     """fit-tyre --profile fits the windows of the decoded log (the fit itself is stubbed out)."""
-    import tyrebayes.inference.tyre_fit as tyre_fit
+    import tyrebayes.inference.tyre.fit as tyre_fit
     from tyrebayes import BadInputError
-    from tyrebayes.inference.tyre_data import observations_from_stream
+    from tyrebayes.inference.tyre.data import observations_from_stream
     from tyrebayes.simulate.can_log import stream_messages
     from tyrebayes.streams import write_stream
     from tyrebayes.streams.can import read_can_log

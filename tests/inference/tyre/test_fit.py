@@ -4,10 +4,10 @@ import numpy as np
 import numpyro.distributions as dist
 import pytest
 
-from tyrebayes.inference.tyre_data import observations_from_features, stack_drives
-from tyrebayes.inference.tyre_fit import fit_tyre
+from tyrebayes.inference.tyre.data import observations_from_features, stack_drives
+from tyrebayes.inference.tyre.fit import fit_tyre
 
-from .test_tyre_model import PAD, linear_region_windows
+from .test_model import PAD, linear_region_windows
 
 
 def test_non_finite_data_is_not_converged():
@@ -126,8 +126,8 @@ def test_block_hessian_equals_the_dense_hessian_over_several_drives():
     from jax.flatten_util import ravel_pytree
     from numpyro.infer.util import initialize_model, potential_energy
 
-    from tyrebayes.inference.tyre_laplace import _block_hessian
-    from tyrebayes.inference.tyre_model import tyre_model
+    from tyrebayes.inference.tyre.laplace import _block_hessian
+    from tyrebayes.inference.tyre.model import tyre_model
 
     drives = [linear_region_windows(seed, n=40) for seed in range(3)]
     obs = stack_drives(drives, ["dry", "wet", "dry"])
@@ -149,13 +149,13 @@ def test_block_hessian_equals_the_dense_hessian_over_several_drives():
 
 def test_chains_run_side_by_side_in_equal_groups():
     # conftest gives JAX two CPU devices.
-    from tyrebayes.inference.tyre_nuts import _chains_per_run
+    from tyrebayes.inference.tyre.nuts import _chains_per_run
 
     assert [_chains_per_run(n) for n in (1, 2, 3, 4)] == [1, 2, 1, 2]
 
 
 def test_coarse_search_windows_keep_padding_at_the_end():
-    from tyrebayes.inference.tyre_laplace import _every_nth_window
+    from tyrebayes.inference.tyre.laplace import _every_nth_window
 
     obs = stack_drives([linear_region_windows(4, n=100)], ["dry"], pad_to=128)
     coarse = _every_nth_window(obs, 4)
@@ -169,8 +169,8 @@ def test_predictive_core_matches_the_model_log_likelihood():
     import jax
     from numpyro.infer import Predictive, log_likelihood
 
-    from tyrebayes.inference.tyre_model import DEFAULT_KIND, tyre_model, window_likelihood
-    from tyrebayes.inference.tyre_predictive import _predictive_core
+    from tyrebayes.inference.tyre.model import DEFAULT_KIND, tyre_model, window_likelihood
+    from tyrebayes.inference.tyre.predictive import _predictive_core
 
     windows = linear_region_windows(5, n=200)
     windows["at_limit"] = np.zeros(200, dtype=bool)
@@ -212,7 +212,7 @@ def test_predictive_core_matches_the_model_log_likelihood():
 
 
 def test_search_reads_a_bounded_number_of_windows():
-    from tyrebayes.inference.tyre_laplace import SEARCH_WINDOWS, _search_stride
+    from tyrebayes.inference.tyre.laplace import SEARCH_WINDOWS, _search_stride
 
     for size in (512, 4096, 9216, 90112, 1 << 20):
         searched = -(-size // _search_stride(size))
@@ -223,9 +223,9 @@ def test_search_starts_each_drive_at_its_own_slip_offset():
     """Per-drive nuisances start from each drive's data, not at the prior median."""
     from jax.flatten_util import ravel_pytree
 
-    from tyrebayes.inference.tyre_laplace import _model_layout, _start
-    from tyrebayes.inference.tyre_model import TyrePriors
-    from tyrebayes.inference.tyre_predictive import _priors_key
+    from tyrebayes.inference.tyre.laplace import _model_layout, _start
+    from tyrebayes.inference.tyre.model import TyrePriors
+    from tyrebayes.inference.tyre.predictive import _priors_key
 
     first, second = linear_region_windows(6), linear_region_windows(7)
     second["slip"] = second["slip"] + 0.003

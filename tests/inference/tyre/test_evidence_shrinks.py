@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from tyrebayes._domain import load_vehicle
-from tyrebayes.inference.tyre_data import observations_from_features, stack_drives
-from tyrebayes.inference.tyre_fit import fit_tyre
+from tyrebayes.inference.tyre.data import observations_from_features, stack_drives
+from tyrebayes.inference.tyre.fit import fit_tyre
 from tyrebayes.simulate.drive import simulate_drive
 from tyrebayes.streams import compute_features, validate_stream
 

@@ -1,7 +1,7 @@
 """The per-tyre model: errors in variables against OLS attenuation, μ_max not observed.
 
 Synthetic window observations (no simulator) keep these fast; one compiled fast-path shape
-(1024 windows, one dry drive) is shared with ``test_tyre_fit.py`` through the fit cache.
+(1024 windows, one dry drive) is shared with ``test_fit.py`` through the fit cache.
 """
 
 import jax
@@ -10,9 +10,9 @@ import pytest
 from numpyro import handlers
 
 from tyrebayes.inference.result import load_fit
-from tyrebayes.inference.tyre_data import stack_drives
-from tyrebayes.inference.tyre_fit import TyreFit, fit_tyre
-from tyrebayes.inference.tyre_model import TyrePriors, tyre_model
+from tyrebayes.inference.tyre.data import stack_drives
+from tyrebayes.inference.tyre.fit import TyreFit, fit_tyre
+from tyrebayes.inference.tyre.model import TyrePriors, tyre_model
 from tyrebayes.physics.tyre import brush_longitudinal, brush_longitudinal_inverse
 from tyrebayes.streams.abs_detection import _inner_runs
 

@@ -27,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 from jaxtyping import Float
 
-from .._errors import BadInputError
+from ..._errors import BadInputError
 
 N_COMPONENTS = 8
 # EM is stopped after this many steps: on 20 simulated one-hour drives 5 reached it, and running

@@ -31,7 +31,7 @@ exactly: given ρ_obs, ρ_true has mean ρ̂ and variance v, and
 
 ρ̂ and v come from Tweedie's formula, ρ̂ = (ρ_obs + η² s(ρ_obs))/g and
 v = η²(1 + η² s′(ρ_obs))/g² with η = λ_ρ sρ and s the score of the density of the drive's
-measured forces (:func:`tyrebayes.inference.force_density.force_density_score`, a deconvolved
+measured forces (:func:`tyrebayes.inference.tyre.force_density.force_density_score`, a deconvolved
 mixture): it holds whatever the distribution of the true forces. A Gaussian population of true
 forces (the previous model) shrinks the dense cruising cluster too little and the tail of hard
 accelerations too much; the brush curve read that as curvature: C_x +20 % and μ_max at half the
@@ -54,7 +54,7 @@ slowly, and read as slip such errors flatten the slip-on-force relation.
 Nearby windows' slip errors are correlated (the features' smoothing spills across windows), so
 each window's slip log-likelihood counts with the weight ``obs.slip_weight``, its drive's share
 of independent information, which the fits estimate from a first fit's residuals
-(:mod:`tyrebayes.inference.window_correlation`). C_x(T) follows the tyre temperature of each
+(:mod:`tyrebayes.inference.tyre.window_correlation`). C_x(T) follows the tyre temperature of each
 window, which the pipeline estimates from the drive's speed and loads
 (:mod:`tyrebayes.streams.tyre_temperature`); so κ is inferred from the drive's warm-up.
 
@@ -73,14 +73,14 @@ import jax.numpy as jnp
 import numpyro
 import numpyro.distributions as dist
 
-from .._domain import SURFACES
-from ..physics.thermal import stiffness_with_sensitivity
-from ..physics.tyre import (
+from ..._domain import SURFACES
+from ...physics.thermal import stiffness_with_sensitivity
+from ...physics.tyre import (
     brush_longitudinal_inverse_and_slope,
     magic_formula_inverse_and_slope,
     shaped_longitudinal_inverse_and_slope,
 )
-from .tyre_data import TyreObservations
+from .data import TyreObservations
 
 # Prior medians of μ_max per surface: dry asphalt ~1.0, wet ~0.75, packed snow ~0.35, ice ~0.12
 # (ranges of the measured braking data in tyrebayes/data/braking_by_tyre_type.csv, which give
@@ -144,7 +144,7 @@ class TyrePriors(eqx.Module):
         Normal prior of log(C − 1), C the Magic Formula shape factor of the default ``"magic"``
         curve; and ``curve_curvature_log_mean``, ``curve_curvature_log_sd`` that of log(1 − E),
         E its curvature factor. The spread of the 9 distinct car/SUV sets of the shipped tyre
-        database (:func:`~tyrebayes.inference.tyre_curve_prior.curve_shape_prior`, sds widened by
+        database (:func:`~tyrebayes.inference.tyre.curve_prior.curve_shape_prior`, sds widened by
         √(1 + 1/9)): C 1.32-1.84 and E −4.1-0.63 among them, 90 % prior intervals C 1.33-1.87
         and E −2.3-0.72. At 30 % of the peak these tyres' secant slope is 0.97-1.02 of the slope
         at zero (the brush's 0.89), so a drive that stays there carries that range into C_x.
@@ -153,7 +153,7 @@ class TyrePriors(eqx.Module):
         the stream states the noise it measured).
     slip_drift_median, slip_drift_log_sd : float
         Log-normal prior of τ, the sd of the slip offset each block of
-        :data:`~tyrebayes.inference.tyre_data.BLOCK_S` seconds adds to its drive's offset [-].
+        :data:`~tyrebayes.inference.tyre.data.BLOCK_S` seconds adds to its drive's offset [-].
         Slow slip errors come from rolling radii that drift with tyre temperature and pressure
         (0.05-0.1 % of radius over minutes: 5e-4-1e-3 of slip) and from slow force errors that
         the slip regression reads as slip (an IMU bias wandering by 0.1-0.2 m/s², road grade

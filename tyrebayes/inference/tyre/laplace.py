@@ -21,8 +21,8 @@ from numpyro.distributions.transforms import biject_to
 from numpyro.infer import init_to_median
 from numpyro.infer.util import constrain_fn, initialize_model, potential_energy
 
-from .tyre_data import TyreObservations
-from .tyre_model import (
+from .data import TyreObservations
+from .model import (
     TyrePriors,
     tyre_model,
 )

@@ -23,7 +23,7 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from .._tyre_curve_sets import distinct_passenger_sets
+from ..._tyre_curve_sets import distinct_passenger_sets
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""The result of a per-tyre fit: :class:`TyreFit` (wrapping the one :class:`~.result.Fit`)."""
+"""The result of a per-tyre fit: :class:`TyreFit`, wrapping the one result type (``result.Fit``)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..result import Diagnostics, Fit, Provenance
+from ..summary import summarize
 from .adequacy import Adequacy
-from .result import Diagnostics, Fit, Provenance
-from .summary import summarize
 
 
 @dataclasses.dataclass(frozen=True)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from tyrebayes._errors import BadInputError
-from tyrebayes.inference.force_density import deconvolve_forces, force_density_score
+from tyrebayes.inference.tyre.force_density import deconvolve_forces, force_density_score
 
 
 def test_gaussian_forces_deconvolve_to_their_own_spread():
@@ -61,7 +61,7 @@ def test_score_rejects_non_finite_forces_and_zero_noise():
 
 
 def test_em_that_runs_out_of_steps_says_so(monkeypatch):
-    import tyrebayes.inference.force_density as force_density
+    import tyrebayes.inference.tyre.force_density as force_density
 
     rng = np.random.default_rng(2)
     rho = np.concatenate([rng.normal(0.02, 0.01, 3000), rng.exponential(0.1, 1000)])

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from tyrebayes._tyre_curve_sets import distinct_passenger_sets, load_tyre_curve_sets
-from tyrebayes.inference.tyre_curve_prior import curve_shape_prior
-from tyrebayes.inference.tyre_model import TyrePriors
+from tyrebayes.inference.tyre.curve_prior import curve_shape_prior
+from tyrebayes.inference.tyre.model import TyrePriors
 
 
 def test_database_ships_no_gpl_rows_and_keeps_sources():

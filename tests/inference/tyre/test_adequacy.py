@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tyrebayes.inference.adequacy import MAX_STEP_T, assess_adequacy, offset_step
+from tyrebayes.inference.tyre.adequacy import MAX_STEP_T, assess_adequacy, offset_step
 
 
 def _clean(seed=0, n=2000):

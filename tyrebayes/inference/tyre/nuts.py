@@ -15,8 +15,8 @@ from numpyro.distributions import constraints
 from numpyro.infer import MCMC, NUTS
 from numpyro.infer.util import constrain_fn, potential_energy
 
-from .tyre_laplace import _model_layout
-from .tyre_predictive import _single_precision
+from .laplace import _model_layout
+from .predictive import _single_precision
 
 
 def _whitened_model(obs, mode, scale, *, model, unravel):

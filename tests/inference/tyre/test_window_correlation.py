@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tyrebayes.inference.window_correlation import (
+from tyrebayes.inference.tyre.window_correlation import (
     MAX_INFLATION,
     slip_weights,
     variance_inflation,

@@ -11,9 +11,9 @@ import numpy as np
 import numpyro.distributions as dist
 import xarray as xr
 
-from .result import Diagnostics, diagnose
-from .tyre_data import TyreObservations
-from .tyre_model import (
+from ..result import Diagnostics, diagnose
+from .data import TyreObservations
+from .model import (
     TyrePriors,
     window_likelihood,
 )

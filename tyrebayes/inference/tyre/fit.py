@@ -20,25 +20,25 @@ import numpy as np
 import optimistix as optx
 
 from .adequacy import Adequacy, assess_adequacy
-from .tyre_data import TyreObservations
-from .tyre_laplace import (
+from .data import TyreObservations
+from .laplace import (
     _laplace_core,
 )
-from .tyre_model import (
+from .model import (
     DEFAULT_KIND,
     TyrePriors,
     check_kind,
     curve_slip,
     window_likelihood,
 )
-from .tyre_nuts import _nuts_runner
-from .tyre_predictive import (
+from .nuts import _nuts_runner
+from .predictive import (
     _obs_key,
     _priors_key,
     _scalar_diagnostics,
     _to_inference_data,
 )
-from .tyre_result import TyreFit
+from .result import TyreFit
 from .window_correlation import slip_weights
 
 # μ_max counts as observed on a surface only where the drive reached the limit (ABS windows) and
@@ -256,7 +256,7 @@ def fit_tyre(
     Parameters
     ----------
     obs : TyreObservations
-        Windowed observations (:func:`~tyrebayes.inference.tyre_data.stack_drives`).
+        Windowed observations (:func:`~tyrebayes.inference.tyre.data.stack_drives`).
     method : {"nuts", "fast"}
         Full NUTS (:func:`fit_tyre_nuts`) or MAP + Laplace (:func:`fit_tyre_fast`).
     priors, kind, seed

@@ -4,7 +4,7 @@ Why windows: a one-hour 100 Hz drive has 360,000 samples, each with slip noise o
 as the slip itself. Averaging over ~0.25 s keeps the slow true slip (it follows the driver's
 pedal) while dividing the white sensor noise variance by the window length, and it reduces the
 data the sampler touches by the same factor. The remaining noise in *both* slip and force is
-handled by the errors-in-variables likelihood of :mod:`tyrebayes.inference.tyre_model`.
+handled by the errors-in-variables likelihood of :mod:`tyrebayes.inference.tyre.model`.
 
 Arrays are padded to a fixed bucket size with a mask so that new data of the same bucket reuse
 the compiled model.
@@ -19,9 +19,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
-from .._domain import SURFACES
-from .._errors import BadInputError
-from ..streams.abs_detection import (
+from ..._domain import SURFACES
+from ..._errors import BadInputError
+from ...streams.abs_detection import (
     _below_run_peak,
     _inner_runs,
     wheel_oscillation,
@@ -290,7 +290,7 @@ def observations_from_features(
         As :func:`windowed_observations`, plus ``at_limit`` (bool per window) and ``rho_score``,
         ``rho_score_slope`` (:func:`force_density_score` over all the drive's windows, 0 for ABS).
     """
-    from ..streams.segments import BRAKING, FREE_ROLLING, TRACTION
+    from ...streams.segments import BRAKING, FREE_ROLLING, TRACTION
 
     # Samples are not selected on their own force: a sample whose noise takes the total force
     # below zero would drop out, so the windows kept near zero force would average only the
@@ -510,10 +510,10 @@ def observations_from_stream(
     BadInputError
         Missing file, missing columns, unknown vehicle or too few usable windows.
     """
-    from .._domain import load_vehicle
-    from ..physics.vehicle import Vehicle
-    from ..streams import compute_features, read_stream, validate_stream
-    from ..streams.tyre_temperature import features_tyre_temperature
+    from ..._domain import load_vehicle
+    from ...physics.vehicle import Vehicle
+    from ...streams import compute_features, read_stream, validate_stream
+    from ...streams.tyre_temperature import features_tyre_temperature
 
     if not isinstance(vehicle, Vehicle):
         try:

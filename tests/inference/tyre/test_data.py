@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from tyrebayes.inference.tyre_data import stack_drives
+from tyrebayes.inference.tyre.data import stack_drives
 from tyrebayes.streams.abs_detection import _below_run_peak, wheel_oscillation
 
 
