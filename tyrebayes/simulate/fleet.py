@@ -40,6 +40,10 @@ Hidden effects (``effects=``) and the meaning of ``effect_size`` (natural units)
 ``"pressure"``
     Mu drops by ``effect_size`` per bar above :data:`PRESSURE_REF_BAR` (smaller contact patch);
     stiffness unchanged. Default 0.08 per bar.
+``"tread"``
+    Mu rises by ``effect_size`` per mm of ``tread_depth_mm`` above :data:`TREAD_REF_MM` (deeper
+    tread packs and bites more snow); stiffness unchanged. Default 0.012 per mm (the weak effect of
+    issue 25).
 
 On dry and wet roads the hidden effects act at a quarter of their size (the thesis' effect is a
 winter phenomenon); they never act on the covariates' distribution, only on mu and stiffness.
@@ -68,11 +72,13 @@ AGE_STIFFENING_PER_YEAR: float = 0.06
 AGE_REF_YEARS: float = 3.0
 LOAD_INDEX_REF: float = 91.0
 PRESSURE_REF_BAR: float = 2.4
+TREAD_REF_MM: float = 6.0
 #: Default effect sizes (natural units, see module docstring).
 DEFAULT_EFFECT_SIZES: Mapping[str, float] = {
     "age": THESIS_AGED_TYRE_EFFECT,
     "load": 0.04,
     "pressure": 0.08,
+    "tread": 0.012,
 }
 HIDDEN_EFFECTS: tuple[str, ...] = tuple(DEFAULT_EFFECT_SIZES)
 # Relative strength of the hidden effects on high-friction surfaces.
@@ -202,10 +208,11 @@ def simulate_fleet(
     surface : str or sequence of str
         ``"snow"``, ``"ice"``, ``"wet"``, ``"dry"`` or several (one row per set and surface).
     effects : sequence of str
-        Hidden effects to switch on: ``"age"``, ``"load"``, ``"pressure"`` (module docstring).
+        Hidden effects to switch on: ``"age"``, ``"load"``, ``"pressure"``, ``"tread"`` (module
+        docstring).
     effect_size : float, mapping or None
         Size of each hidden effect in its natural unit (mu per year / per 10 load-index points /
-        per bar). ``None`` uses :data:`DEFAULT_EFFECT_SIZES` (age: :data:`THESIS_AGED_TYRE_EFFECT`).
+        per bar / per mm). ``None`` uses :data:`DEFAULT_EFFECT_SIZES` (age: :data:`THESIS_AGED_TYRE_EFFECT`).
     n_decoys : int
         Number of pure-noise numeric columns ``decoy_1`` ... (no effect on anything).
     c_xr_sd : float
@@ -268,6 +275,8 @@ def simulate_fleet(
         mu_shift -= sizes["load"] * (load_index - LOAD_INDEX_REF) / 10.0
     if "pressure" in sizes:
         mu_shift -= sizes["pressure"] * (pressure - PRESSURE_REF_BAR)
+    if "tread" in sizes:
+        mu_shift += sizes["tread"] * (tread - TREAD_REF_MM)
     c_true = c_true * np.maximum(1.0 + stiffening, 0.5)
     z_true = inverse_stiffness(c_true) - inverse_stiffness(median)
 
@@ -310,7 +319,12 @@ def simulate_fleet(
         },
         "c_xr_true": c_true,
         "effects": sizes,
-        "effect_columns": {"age": "age_years", "load": "load_index", "pressure": "pressure_bar"},
+        "effect_columns": {
+            "age": "age_years",
+            "load": "load_index",
+            "pressure": "pressure_bar",
+            "tread": "tread_depth_mm",
+        },
         "decoys": [f"decoy_{j + 1}" for j in range(n_decoys)],
         "c_xr_ref": C_XR_REF,
         "x_scale": X_SCALE,
