@@ -48,12 +48,19 @@ def stratified_permutations(
     return out
 
 
-def _orthonormal(x: Float[np.ndarray, "n k"]) -> Float[np.ndarray, "n r"]:
-    """Orthonormal basis of the column space (rank-revealing: dependent columns dropped)."""
+def _orthonormal(
+    x: Float[np.ndarray, "n k"], scale: float | None = None
+) -> Float[np.ndarray, "n r"]:
+    """Orthonormal basis of the column space (rank-revealing: dependent columns dropped).
+
+    ``scale``: the norm the columns had before a projection; directions that the projection
+    reduced to rounding error relative to it carry no rank.
+    """
     if x.shape[1] == 0:
         return x
     u, s, _ = np.linalg.svd(x, full_matrices=False)
-    keep = s > s.max() * max(x.shape) * np.finfo(float).eps
+    ref = s.max() if scale is None else max(scale, s.max())
+    keep = s > ref * 1e-10
     return u[:, keep]
 
 
@@ -96,7 +103,7 @@ def permutation_pvalue(
     q0 = _orthonormal(x0)
     r0 = y - q0 @ (q0.T @ y)
     xj = extra - q0 @ (q0.T @ extra)
-    qj = _orthonormal(xj)
+    qj = _orthonormal(xj, scale=float(np.linalg.norm(extra, 2)))
     total = float(r0 @ r0)
     if qj.shape[1] == 0 or total <= 0.0:
         return 1.0, 0.0

@@ -6,8 +6,8 @@ import numpy as np
 import pandas as pd
 
 from .fleet import baseline_design, candidates_from_table, select_rows, type_onehot
-from .ppc import posterior_predictive_check
 from .permutation import DEFAULT_PERMUTATIONS
+from .ppc import posterior_predictive_check
 from .scan import DEFAULT_ALPHA, ELPD_SE_FACTOR, CriticismResult, criticize_linear
 
 

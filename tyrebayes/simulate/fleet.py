@@ -212,7 +212,8 @@ def simulate_fleet(
         docstring).
     effect_size : float, mapping or None
         Size of each hidden effect in its natural unit (mu per year / per 10 load-index points /
-        per bar / per mm). ``None`` uses :data:`DEFAULT_EFFECT_SIZES` (age: :data:`THESIS_AGED_TYRE_EFFECT`).
+        per bar / per mm). ``None`` uses :data:`DEFAULT_EFFECT_SIZES` (age:
+        :data:`THESIS_AGED_TYRE_EFFECT`).
     n_decoys : int
         Number of pure-noise numeric columns ``decoy_1`` ... (no effect on anything).
     c_xr_sd : float
