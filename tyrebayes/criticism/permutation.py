@@ -64,13 +64,13 @@ def _orthonormal(
     return u[:, keep]
 
 
-def permutation_pvalue(
+def permutation_pvalues(
     y: Float[np.ndarray, " n"],
     x0: Float[np.ndarray, "n p"],
-    extra: Float[np.ndarray, "n q"],
+    extras: list[Float[np.ndarray, "n q"]],
     permutations: Int[np.ndarray, "b n"],
-) -> tuple[float, float]:
-    """Freedman-Lane permutation p-value of adding ``extra`` to the baseline ``x0``.
+) -> list[tuple[float, float]]:
+    """Freedman-Lane permutation p-values of adding each of ``extras`` to the baseline ``x0``.
 
     Parameters
     ----------
@@ -78,17 +78,16 @@ def permutation_pvalue(
         Outcome.
     x0 : ndarray (n, p)
         Baseline design.
-    extra : ndarray (n, q)
-        The candidate's columns (finite).
+    extras : list of ndarray (n, q)
+        Each candidate's columns (finite), all on the same rows.
     permutations : ndarray (B, n)
-        Row indices of the permutations (:func:`stratified_permutations`).
+        Row indices of the permutations (:func:`stratified_permutations`), shared by all.
 
     Returns
     -------
-    p_value : float
-        (1 + #{T(y*) >= T(y)}) / (B + 1); 1 when the candidate adds no rank.
-    explained : float
-        T(y): share of the baseline's residual sum of squares the candidate explains.
+    list of (p_value, explained)
+        Per candidate: (1 + #{T(y*) >= T(y)}) / (B + 1), 1 when the candidate adds no rank; and
+        T(y), the share of the baseline's residual sum of squares the candidate explains.
 
     Examples
     --------
@@ -96,26 +95,38 @@ def permutation_pvalue(
     >>> x = rng.normal(size=40)
     >>> y = 0.6 * x + rng.normal(size=40)
     >>> perms = stratified_permutations(np.zeros(40, int), 999, rng)
-    >>> p, share = permutation_pvalue(y, np.ones((40, 1)), x[:, None], perms)
+    >>> [(p, share)] = permutation_pvalues(y, np.ones((40, 1)), [x[:, None]], perms)
     >>> bool(p < 0.01)
     True
     """
     q0 = _orthonormal(x0)
     r0 = y - q0 @ (q0.T @ y)
-    xj = extra - q0 @ (q0.T @ extra)
-    qj = _orthonormal(xj, scale=float(np.linalg.norm(extra, 2)))
     total = float(r0 @ r0)
-    if qj.shape[1] == 0 or total <= 0.0:
-        return 1.0, 0.0
-    # Observed statistic (identity permutation) and B permuted ones.
-    t_obs = float(np.sum((qj.T @ r0) ** 2)) / total
-    pr = r0[permutations]  # (B, n)
-    num = np.sum((pr @ qj) ** 2, axis=1)
-    den = total - np.sum((pr @ q0) ** 2, axis=1)
-    t_perm = num / np.maximum(den, 1e-300)
-    # A tolerance so that ties in floating point count as ties (discrete candidates).
-    exceed = int(np.sum(t_perm >= t_obs * (1.0 - 1e-10)))
-    return (1.0 + exceed) / (1.0 + permutations.shape[0]), t_obs
+    pr = r0[permutations]  # (B, n): every permuted residual vector at once
+    den = np.maximum(total - np.sum((pr @ q0) ** 2, axis=1), 1e-300)
+    out = []
+    for extra in extras:
+        xj = extra - q0 @ (q0.T @ extra)
+        qj = _orthonormal(xj, scale=float(np.linalg.norm(extra, 2)))
+        if qj.shape[1] == 0 or total <= 0.0:
+            out.append((1.0, 0.0))
+            continue
+        t_obs = float(np.sum((qj.T @ r0) ** 2)) / total
+        t_perm = np.sum((pr @ qj) ** 2, axis=1) / den
+        # A tolerance so that ties in floating point count as ties (discrete candidates).
+        exceed = int(np.sum(t_perm >= t_obs * (1.0 - 1e-10)))
+        out.append(((1.0 + exceed) / (1.0 + permutations.shape[0]), t_obs))
+    return out
+
+
+def permutation_pvalue(
+    y: Float[np.ndarray, " n"],
+    x0: Float[np.ndarray, "n p"],
+    extra: Float[np.ndarray, "n q"],
+    permutations: Int[np.ndarray, "b n"],
+) -> tuple[float, float]:
+    """:func:`permutation_pvalues` of one candidate: ``(p_value, explained)``."""
+    return permutation_pvalues(y, x0, [extra], permutations)[0]
 
 
 def unit_means(

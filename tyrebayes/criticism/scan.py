@@ -44,6 +44,7 @@ from .linear import (
 from .permutation import (
     DEFAULT_PERMUTATIONS,
     permutation_pvalue,
+    permutation_pvalues,
     stratified_permutations,
     unit_means,
 )
@@ -419,7 +420,19 @@ def criticize_linear(
         )
 
     # 1-2. Calibrated scan of every candidate against the baseline, BH over candidates.
-    scans = [scan(x0, cand.columns, finite_rows(cand)) for cand in candidates]
+    # Candidates without missing values share one batch of permutations.
+    complete = [np.all(np.isfinite(c.columns)) for c in candidates]
+    if units is None and any(complete):
+        perms = permutations_for(("rows", n, all_rows.tobytes()), strata)
+        batch = iter(
+            permutation_pvalues(
+                y, x0, [c.columns for c, ok in zip(candidates, complete, strict=True) if ok], perms
+            )
+        )
+    scans = [
+        next(batch) if ok and units is None else scan(x0, cand.columns, finite_rows(cand))
+        for cand, ok in zip(candidates, complete, strict=True)
+    ]
     p_values = np.array([s[0] for s in scans])
     q_values = benjamini_hochberg(p_values) if scans else np.zeros(0)
     p_ll = np.array([_loglik_scan(base_loo.pointwise, cand, units) for cand in candidates])

@@ -196,6 +196,7 @@ def simulate_fleet(
     n_decoys: int = 2,
     c_xr_sd: float = 1.5,
     type_shares: Mapping[str, float] | None = None,
+    noise: str = "gaussian",
 ) -> tuple[pd.DataFrame, dict]:
     """Simulate a fleet table with known type-level truth.
 
@@ -220,6 +221,9 @@ def simulate_fleet(
         Typical standard error of the stiffness estimate (per-row values vary by +-30 %).
     type_shares : mapping or None
         Share of each tyre type; default :data:`DEFAULT_TYPE_SHARES`.
+    noise : {"gaussian", "student_t3"}
+        Distribution of the friction residuals: Gaussian, or Student-t with 3 degrees of freedom
+        scaled to the same sd (heavier tails: the departure a criticism must not call a finding).
 
     Returns
     -------
@@ -240,6 +244,8 @@ def simulate_fleet(
         raise ValueError(f"n_sets: expected >= 1, got {n_sets}")
     if c_xr_sd < 0:
         raise ValueError(f"c_xr_sd: expected >= 0, got {c_xr_sd}")
+    if noise not in ("gaussian", "student_t3"):
+        raise ValueError(f"noise: expected 'gaussian' or 'student_t3', got {noise!r}")
     surfaces = (surface,) if isinstance(surface, str) else tuple(surface)
     bad = [s for s in surfaces if s not in SURFACES]
     if bad or not surfaces:
@@ -290,7 +296,12 @@ def simulate_fleet(
         b = np.array([TYPE_FRICTION[s][t][1] for t in types])
         sig = np.array([TYPE_FRICTION[s][t][2] for t in types])
         share = 1.0 if s in ("snow", "ice") else _HIGH_FRICTION_EFFECT_SHARE
-        mu = a + b * z_true + share * mu_shift + sig * rng.normal(size=n)
+        eps = (
+            rng.normal(size=n)
+            if noise == "gaussian"
+            else rng.standard_t(3.0, size=n) / np.sqrt(3.0)  # var of t_3 is 3
+        )
+        mu = a + b * z_true + share * mu_shift + sig * eps
         frame = pd.DataFrame(
             {
                 "tyre_id": [f"T{i:05d}" for i in range(n)],
