@@ -259,13 +259,34 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--permutations", type=int, default=999)
     parser.add_argument("--real-log", action="store_true", help="only add the real RAV4 log")
     parser.add_argument("--fits", type=int, default=0, help="only add N fleet fit files")
+    parser.add_argument(
+        "--more-null",
+        type=int,
+        default=0,
+        help="only add N more null fleets per 26-set null setting (new seeds)",
+    )
     args = parser.parse_args(argv)
-    if args.fits or args.real_log:
-        payload = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
+    if args.fits or args.real_log or args.more_null:
+        added = {}
+        if args.more_null:
+            added["null_26_sets_more_replicates"] = [
+                run_setting(
+                    setting,
+                    args.more_null,
+                    5_000_000 + 10_000 * k,
+                    n_draws=args.draws,
+                    n_perm=args.permutations,
+                )
+                for k, setting in enumerate(_settings())
+                if setting["n_sets"] == 26 and setting["effect"] is None
+            ]
         if args.real_log:
-            payload["real_rav4"] = real_log()
+            added["real_rav4"] = real_log()
         if args.fits:
-            payload["fleet_fit_files"] = fleet_fits(args.fits)
+            added["fleet_fit_files"] = fleet_fits(args.fits)
+        # Read only now: the main run may have rewritten the file meanwhile.
+        payload = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
+        payload.update(added)
         atomic_write_bytes(RESULTS, json.dumps(payload, indent=2).encode())
         print(f"saved {RESULTS}")
         return 0

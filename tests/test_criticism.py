@@ -148,9 +148,7 @@ def test_null_fleets_rarely_give_findings_and_scan_is_calibrated():
     p_values = []
     for seed in range(40):
         table, _ = simulate_fleet(100 + seed, 26, n_decoys=4)
-        result = criticize_table(
-            table, "mu", n_draws=1000, n_permutations=199, report_all=False
-        )
+        result = criticize_table(table, "mu", n_draws=1000, n_permutations=199, report_all=False)
         assert len(result.candidates) == 8  # age, tread, pressure, load + 4 decoys
         with_findings += bool(result.found)
         p_values += [c.p_value for c in result.candidates]

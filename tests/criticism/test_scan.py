@@ -26,8 +26,10 @@ def test_finds_a_strong_planted_effect_with_its_size():
     assert result.found == ["tread_depth_mm"]
     tread = _candidate(result, "tread_depth_mm")
     assert tread.p_value == 1.0 / 1000.0  # no permutation reaches it
-    assert tread.q_value <= 0.05 < min(
-        c.q_value for c in result.candidates if c.covariate != "tread_depth_mm"
+    assert (
+        tread.q_value
+        <= 0.05
+        < min(c.q_value for c in result.candidates if c.covariate != "tread_depth_mm")
     )
     lo, hi = tread.effect["hdi_90"]
     assert lo <= 0.03 <= hi
