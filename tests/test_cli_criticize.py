@@ -13,7 +13,6 @@ from tyrebayes._resources import data_dir
 from tyrebayes.cli import main
 from tyrebayes.simulate.fleet import THESIS_AGED_TYRE_EFFECT, simulate_fleet
 
-
 CANDIDATE_KEYS = {
     "covariate",
     "level",
@@ -149,7 +148,7 @@ def test_criticize_fleet_fit_file_end_to_end(fleet_fit_file, capsys):
 
 
 def test_criticize_fleet_fit_file_bad_input(fleet_fit_file, capsys):
-    fit, table = fleet_fit_file / "fit.nc", fleet_fit_file / "fleet.csv"
+    fit = fleet_fit_file / "fit.nc"
     assert main(["criticize", str(fit)]) == 2
     assert "expected --table" in capsys.readouterr().err
     other, _ = simulate_fleet(8, 26)

@@ -18,7 +18,6 @@ from tyrebayes.criticism import criticize_tyre_fit
 from tyrebayes.inference import fit_tyre
 from tyrebayes.inference.tyre_data import observations_from_features, stack_drives
 
-
 pytestmark = pytest.mark.slow
 
 
