@@ -47,6 +47,7 @@ from tyrebayes.criticism import criticize_table
 from tyrebayes.simulate.fleet import THESIS_AGED_TYRE_EFFECT, simulate_fleet
 
 RESULTS = Path(__file__).resolve().parent / "results" / "discovery.json"
+MORE_NULL = RESULTS.with_name("discovery_more_null.json")
 MACHINE = "shared 2-core CPU machine, other helpers' jobs running at the same time"
 # Truth of the effect in the reported unit (outcome per unit of the effect's column).
 _TRUE_COEF = {"age": lambda s: -s, "tread": lambda s: s}
@@ -263,23 +264,34 @@ def main(argv: list[str] | None = None) -> int:
         "--more-null",
         type=int,
         default=0,
-        help="only add N more null fleets per 26-set null setting (new seeds)",
+        help="only: N more null fleets per 26-set null setting (new seeds), to "
+        "discovery_more_null.json",
     )
     args = parser.parse_args(argv)
-    if args.fits or args.real_log or args.more_null:
+    if args.more_null:
+        rows = [
+            run_setting(
+                setting,
+                args.more_null,
+                5_000_000 + 10_000 * k,
+                n_draws=args.draws,
+                n_perm=args.permutations,
+            )
+            for k, setting in enumerate(_settings())
+            if setting["n_sets"] == 26 and setting["effect"] is None
+        ]
+        for r in rows:
+            print(f"{r['n_decoys']} decoys, {r['noise']}: FDR {r['fdr']}", flush=True)
+        payload = {
+            "what": "more null fleets (new seeds) for the 26-set null settings of discovery.json",
+            "machine": MACHINE,
+            "settings": rows,
+        }
+        atomic_write_bytes(MORE_NULL, json.dumps(payload, indent=2).encode())
+        print(f"saved {MORE_NULL}")
+        return 0
+    if args.fits or args.real_log:
         added = {}
-        if args.more_null:
-            added["null_26_sets_more_replicates"] = [
-                run_setting(
-                    setting,
-                    args.more_null,
-                    5_000_000 + 10_000 * k,
-                    n_draws=args.draws,
-                    n_perm=args.permutations,
-                )
-                for k, setting in enumerate(_settings())
-                if setting["n_sets"] == 26 and setting["effect"] is None
-            ]
         if args.real_log:
             added["real_rav4"] = real_log()
         if args.fits:

@@ -7,9 +7,10 @@ A candidate covariate is a *finding* when three things hold, in this order:
    baseline's residuals within strata, :mod:`.permutation`): a p-value calibrated without
    assuming Gaussian noise.
 2. **False-discovery-rate control.** Benjamini-Hochberg over all candidates: the candidate's
-   q-value must be at most ``alpha`` (default 0.05), so that on average at most 5 % of the
-   reported findings are false (and, on a table where nothing is there, at most 5 % of tables
-   report anything).
+   q-value must be at most ``alpha`` (default 0.05), so that on average about 5 % of the
+   reported findings are false at most (on a table where nothing is there: about 5 % of tables
+   report anything). "About": the Freedman-Lane permutation p-values are calibrated
+   approximately, not exactly, when the baseline has many coefficients for its rows.
 3. **Predictive confirmation.** The extended model (baseline + the candidate) must predict
    better than the baseline: its PSIS-LOO ELPD gain must be positive (and exceed ``se_factor``
    standard errors, default 0). A finding with a negative gain cannot happen.
