@@ -90,6 +90,7 @@ def test_criticize_26_rows_within_30_s_as_a_command(aged_fleet_csv):
     [
         (["criticize", "no/such/file.csv", "--outcome", "mu"], "file not found"),
         (["criticize", "{fleet}"], "expected --outcome"),
+        (["criticize", "{fleet}", "--outcome", "mu", "--table", "{fleet}"], "--table"),
         (["criticize", "{fleet}", "--outcome", "mu", "--permutations", "10"], "--permutations"),
         (["criticize", "{fleet}", "--outcome", "grip"], "expected a column 'grip'"),
         (["criticize", "{fleet}", "--outcome", "mu", "--alpha", "2"], "--alpha"),

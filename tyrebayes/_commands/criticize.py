@@ -129,6 +129,10 @@ def _run_table(args: argparse.Namespace) -> int:
                 f"fit file {path}: expected a fleet or tyre fit, got a {fit.kind} fit"
             )
     else:
+        if args.table is not None:
+            raise BadInputError(
+                f"--table: expected only with a fleet fit file, got the table '{path.name}'"
+            )
         if args.outcome is None:
             raise BadInputError("fleet table: expected --outcome COLUMN (e.g. --outcome mu)")
         result = criticize_table(
