@@ -79,8 +79,12 @@ from .decisions import high_wear_warning as high_wear_warning
 from .decisions import winter_verdict as winter_verdict
 
 # 5. criticise
+from .criticism import CandidateResult as CandidateResult
+from .criticism import CriticismResult as CriticismResult
+from .criticism import criticize_fleet_fit as criticize_fleet_fit
 from .criticism import criticize_stream as criticize_stream
 from .criticism import criticize_table as criticize_table
+from .criticism import criticize_tyre_fit as criticize_tyre_fit
 from .criticism import posterior_predictive_check as posterior_predictive_check
 
 # 6. report

@@ -100,8 +100,24 @@ def test_decoys_do_nothing():
 
 def test_bad_arguments():
     with pytest.raises(ValueError, match="effects"):
-        simulate_fleet(0, 10, effects=("tread",))
+        simulate_fleet(0, 10, effects=("colour",))
+    with pytest.raises(ValueError, match="noise"):
+        simulate_fleet(0, 10, noise="cauchy")
     with pytest.raises(ValueError, match="surface"):
         simulate_fleet(0, 10, surface="gravel")
     with pytest.raises(ValueError, match="n_sets"):
         simulate_fleet(0, 0)
+
+
+def test_tread_effect_and_heavy_tailed_noise_change_only_mu():
+    """The tread effect adds effect_size per mm around 6 mm; Student-t(3) noise keeps the sd."""
+    base, _ = simulate_fleet(3, 400)
+    tread, truth = simulate_fleet(3, 400, effects=("tread",), effect_size=0.05)
+    assert truth["effect_columns"]["tread"] == "tread_depth_mm"
+    shift = tread["mu"] - base["mu"]
+    expected = 0.05 * (base["tread_depth_mm"] - 6.0)
+    inside = (base["mu"] > 0.03) & (tread["mu"] > 0.03)  # away from the clip at 0.02
+    assert np.allclose(shift[inside], expected[inside], atol=0.0051 * 0.05 + 1e-9)
+    assert (tread["c_xr"] == base["c_xr"]).all()
+    heavy, _ = simulate_fleet(3, 400, noise="student_t3")
+    assert (heavy["c_xr"] == base["c_xr"]).all() and not (heavy["mu"] == base["mu"]).all()

@@ -209,13 +209,14 @@ def criticize_stream(
     brake_front_share : float
         Front share of the braking force assumed by the feature pipeline [-].
     alpha : float
-        Family-wise error rate of the scan (Holm over candidates).
+        False-discovery rate of the rule (Benjamini-Hochberg over candidates).
     seed : int
-        Seed of the posterior draws.
+        Seed of the permutations and posterior draws.
     n_draws : int
         Exact posterior draws per model.
     se_factor : float
-        A finding's ELPD gain must exceed ``se_factor`` standard errors (default 2).
+        A finding's ELPD gain must exceed ``se_factor`` standard errors (default 0); it must be
+        positive in any case.
 
     Returns
     -------
@@ -268,6 +269,7 @@ def criticize_stream(
         found=found,
         ppc=ppc,
         notes=header + extended_note + d["notes"] + notes,
+        alpha=alpha,
     )
 
 

@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 
 from .fleet import baseline_design, candidates_from_table, select_rows, type_onehot
+from .permutation import DEFAULT_PERMUTATIONS
 from .ppc import posterior_predictive_check
 from .scan import DEFAULT_ALPHA, ELPD_SE_FACTOR, CriticismResult, criticize_linear
 
@@ -18,6 +19,7 @@ def criticize_table(
     alpha: float = DEFAULT_ALPHA,
     seed: int = 0,
     n_draws: int = 2000,
+    n_permutations: int = DEFAULT_PERMUTATIONS,
     report_all: bool = True,
     se_factor: float = ELPD_SE_FACTOR,
 ) -> CriticismResult:
@@ -33,25 +35,28 @@ def criticize_table(
     surface : str or None
         Surface to criticise when the table holds several.
     alpha : float
-        Family-wise error rate of the scan (Holm over candidates).
+        False-discovery rate of the rule (Benjamini-Hochberg over candidates).
     seed : int
-        Seed of the posterior draws (results are deterministic given it).
+        Seed of the permutations and posterior draws (results are deterministic given it).
     n_draws : int
         Exact posterior draws per model.
+    n_permutations : int
+        Permutations of the baseline's residuals (within tyre types) behind each p-value.
     report_all : bool
         Fit every candidate's extended model (default). ``False`` fits only those that pass the
         scan (others get NaN ELPD and effect) and skips the predictive checks; the findings are
         the same, large fleets faster.
     se_factor : float
-        A finding's ELPD gain must exceed ``se_factor`` standard errors (default 2).
+        A finding's ELPD gain must exceed ``se_factor`` standard errors (default 0); it must be
+        positive in any case.
 
     Returns
     -------
     CriticismResult
-        Baseline ELPD, candidates sorted by evidence (ELPD gain over the baseline with its SE and
-        the effect's posterior in outcome units per covariate unit), ``found`` (covariates that
-        pass Holm at ``alpha`` and gain more than ``se_factor`` SE), posterior predictive checks,
-        notes.
+        Baseline ELPD, candidates sorted by evidence (permutation p-value, BH q-value, ELPD gain
+        over the baseline with its SE, the effect's posterior in outcome units per covariate
+        unit), ``found`` (the rule of :mod:`tyrebayes.criticism.scan`), posterior predictive
+        checks, notes.
 
     Raises
     ------
@@ -78,6 +83,7 @@ def criticize_table(
         alpha=alpha,
         seed=seed,
         n_draws=n_draws,
+        n_permutations=n_permutations,
         report_all=report_all,
         se_factor=se_factor,
     )
@@ -87,7 +93,8 @@ def criticize_table(
     notes = [
         "baseline: conjugate Normal-Inverse-Gamma regression of the outcome on 100/C_xr, "
         "intercept per tyre type, slope partially pooled by type (fixed hyper-variance), "
-        "shared residual sd; C_xr taken as exact",
+        "shared residual sd; C_xr taken as exact (criticise a fit file to check the "
+        "hierarchical model itself: tyrebayes.criticism.criticize_fleet_fit)",
         *notes,
     ]
     return CriticismResult(
@@ -96,6 +103,8 @@ def criticize_table(
         found=found,
         ppc=ppc,
         notes=notes,
+        alpha=alpha,
+        n_permutations=n_permutations,
     )
 
 

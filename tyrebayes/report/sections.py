@@ -379,7 +379,7 @@ def criticism_entry(title: str, result) -> dict:
     cands = [
         {
             "covariate": c.covariate + (f" ({c.level})" if c.level else ""),
-            "p_holm": float(c.p_holm),
+            "q_value": float(c.q_value),
             "elpd_gain": float(c.elpd_gain),
             "se": float(c.se),
             "effect": c.effect,

@@ -50,8 +50,9 @@ SECTION_TEXT = {
     ),
     "criticism": (
         "What the models do not know: every candidate covariate is scanned against the "
-        "baseline's residuals (Holm-adjusted p) and confirmed only if an extended model gains "
-        "more than 2 SE of PSIS-LOO ELPD."
+        "baseline's residuals with a permutation test (Benjamini-Hochberg q-value, false-discovery "
+        "rate 5 %) and is a finding only if the extended model also predicts better (PSIS-LOO "
+        "ELPD gain > 0)."
     ),
 }
 

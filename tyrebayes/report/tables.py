@@ -222,14 +222,14 @@ def diagnostics_table(report: Report) -> Table:
 
 
 def criticism_table(entry: dict, top: int = 6) -> Table:
-    header = ["candidate", "Holm p", "ELPD gain", "SE", "effect [90 % HDI]", "found"]
+    header = ["candidate", "BH q", "ELPD gain", "SE", "effect [90 % HDI]", "found"]
     rows = []
     for c in entry["candidates"][:top]:
         e = c["effect"]
         rows.append(
             [
                 c["covariate"],
-                fmt(c["p_holm"], 2),
+                fmt(c["q_value"], 2),
                 fmt(c["elpd_gain"]),
                 fmt(c["se"]),
                 post(e) if e and "hdi_90" in e else "–",

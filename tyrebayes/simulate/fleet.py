@@ -40,6 +40,10 @@ Hidden effects (``effects=``) and the meaning of ``effect_size`` (natural units)
 ``"pressure"``
     Mu drops by ``effect_size`` per bar above :data:`PRESSURE_REF_BAR` (smaller contact patch);
     stiffness unchanged. Default 0.08 per bar.
+``"tread"``
+    Mu rises by ``effect_size`` per mm of ``tread_depth_mm`` above :data:`TREAD_REF_MM` (deeper
+    tread packs and bites more snow); stiffness unchanged. Default 0.012 per mm (the weak effect of
+    issue 25).
 
 On dry and wet roads the hidden effects act at a quarter of their size (the thesis' effect is a
 winter phenomenon); they never act on the covariates' distribution, only on mu and stiffness.
@@ -68,11 +72,13 @@ AGE_STIFFENING_PER_YEAR: float = 0.06
 AGE_REF_YEARS: float = 3.0
 LOAD_INDEX_REF: float = 91.0
 PRESSURE_REF_BAR: float = 2.4
+TREAD_REF_MM: float = 6.0
 #: Default effect sizes (natural units, see module docstring).
 DEFAULT_EFFECT_SIZES: Mapping[str, float] = {
     "age": THESIS_AGED_TYRE_EFFECT,
     "load": 0.04,
     "pressure": 0.08,
+    "tread": 0.012,
 }
 HIDDEN_EFFECTS: tuple[str, ...] = tuple(DEFAULT_EFFECT_SIZES)
 # Relative strength of the hidden effects on high-friction surfaces.
@@ -190,6 +196,7 @@ def simulate_fleet(
     n_decoys: int = 2,
     c_xr_sd: float = 1.5,
     type_shares: Mapping[str, float] | None = None,
+    noise: str = "gaussian",
 ) -> tuple[pd.DataFrame, dict]:
     """Simulate a fleet table with known type-level truth.
 
@@ -202,16 +209,21 @@ def simulate_fleet(
     surface : str or sequence of str
         ``"snow"``, ``"ice"``, ``"wet"``, ``"dry"`` or several (one row per set and surface).
     effects : sequence of str
-        Hidden effects to switch on: ``"age"``, ``"load"``, ``"pressure"`` (module docstring).
+        Hidden effects to switch on: ``"age"``, ``"load"``, ``"pressure"``, ``"tread"`` (module
+        docstring).
     effect_size : float, mapping or None
         Size of each hidden effect in its natural unit (mu per year / per 10 load-index points /
-        per bar). ``None`` uses :data:`DEFAULT_EFFECT_SIZES` (age: :data:`THESIS_AGED_TYRE_EFFECT`).
+        per bar / per mm). ``None`` uses :data:`DEFAULT_EFFECT_SIZES` (age:
+        :data:`THESIS_AGED_TYRE_EFFECT`).
     n_decoys : int
         Number of pure-noise numeric columns ``decoy_1`` ... (no effect on anything).
     c_xr_sd : float
         Typical standard error of the stiffness estimate (per-row values vary by +-30 %).
     type_shares : mapping or None
         Share of each tyre type; default :data:`DEFAULT_TYPE_SHARES`.
+    noise : {"gaussian", "student_t3"}
+        Distribution of the friction residuals: Gaussian, or Student-t with 3 degrees of freedom
+        scaled to the same sd (heavier tails: the departure a criticism must not call a finding).
 
     Returns
     -------
@@ -232,6 +244,8 @@ def simulate_fleet(
         raise ValueError(f"n_sets: expected >= 1, got {n_sets}")
     if c_xr_sd < 0:
         raise ValueError(f"c_xr_sd: expected >= 0, got {c_xr_sd}")
+    if noise not in ("gaussian", "student_t3"):
+        raise ValueError(f"noise: expected 'gaussian' or 'student_t3', got {noise!r}")
     surfaces = (surface,) if isinstance(surface, str) else tuple(surface)
     bad = [s for s in surfaces if s not in SURFACES]
     if bad or not surfaces:
@@ -268,6 +282,8 @@ def simulate_fleet(
         mu_shift -= sizes["load"] * (load_index - LOAD_INDEX_REF) / 10.0
     if "pressure" in sizes:
         mu_shift -= sizes["pressure"] * (pressure - PRESSURE_REF_BAR)
+    if "tread" in sizes:
+        mu_shift += sizes["tread"] * (tread - TREAD_REF_MM)
     c_true = c_true * np.maximum(1.0 + stiffening, 0.5)
     z_true = inverse_stiffness(c_true) - inverse_stiffness(median)
 
@@ -280,7 +296,12 @@ def simulate_fleet(
         b = np.array([TYPE_FRICTION[s][t][1] for t in types])
         sig = np.array([TYPE_FRICTION[s][t][2] for t in types])
         share = 1.0 if s in ("snow", "ice") else _HIGH_FRICTION_EFFECT_SHARE
-        mu = a + b * z_true + share * mu_shift + sig * rng.normal(size=n)
+        eps = (
+            rng.normal(size=n)
+            if noise == "gaussian"
+            else rng.standard_t(3.0, size=n) / np.sqrt(3.0)  # var of t_3 is 3
+        )
+        mu = a + b * z_true + share * mu_shift + sig * eps
         frame = pd.DataFrame(
             {
                 "tyre_id": [f"T{i:05d}" for i in range(n)],
@@ -310,7 +331,12 @@ def simulate_fleet(
         },
         "c_xr_true": c_true,
         "effects": sizes,
-        "effect_columns": {"age": "age_years", "load": "load_index", "pressure": "pressure_bar"},
+        "effect_columns": {
+            "age": "age_years",
+            "load": "load_index",
+            "pressure": "pressure_bar",
+            "tread": "tread_depth_mm",
+        },
         "decoys": [f"decoy_{j + 1}" for j in range(n_decoys)],
         "c_xr_ref": C_XR_REF,
         "x_scale": X_SCALE,

@@ -137,8 +137,18 @@ def _to_inference_data(
     extra = azb.from_dict(
         {"log_likelihood": loglik, "posterior_predictive": ppc}, dims=dims, coords=thin_coords
     )
+    # Per-window conditions, so that criticism can scan a saved fit's residuals against them.
+    window_data = {
+        "at_limit": at_limit,
+        "temperature_c": np.asarray(obs.temperature_c, dtype=float)[mask],
+        "drive_index": np.asarray(obs.drive_index)[mask],
+        "block_index": np.asarray(obs.block_index)[mask],
+        "surface_index": np.asarray(obs.surface_index)[mask],
+    }
     constant = azb.from_dict(
-        {"constant_data": {"at_limit": at_limit}}, dims={"at_limit": ["window"]}, coords=coords
+        {"constant_data": window_data},
+        dims={name: ["window"] for name in window_data},
+        coords=coords,
     )
     for name in ("log_likelihood", "posterior_predictive"):
         idata[name] = extra[name]
