@@ -177,7 +177,7 @@ def real_log() -> dict:
     from tyrebayes._resources import data_dir
     from tyrebayes.criticism import criticize_stream, criticize_tyre_fit
     from tyrebayes.inference import fit_tyre
-    from tyrebayes.inference.tyre_data import observations_from_stream
+    from tyrebayes.inference.tyre.data import observations_from_stream
 
     path = data_dir() / "comma2k19_rav4_segment.csv"
     out = {}

@@ -16,14 +16,14 @@ import xarray as xr
 from tyrebayes.cli import main
 from tyrebayes.criticism import criticize_tyre_fit
 from tyrebayes.inference import fit_tyre
-from tyrebayes.inference.tyre_data import observations_from_features, stack_drives
+from tyrebayes.inference.tyre.data import observations_from_features, stack_drives
 
 pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
 def tyre_fit_file(tmp_path_factory):
-    """The 5-minute drive of tests/inference/test_tyre_fit.py (same shape: no new compilation),
+    """The 5-minute drive of tests/inference/tyre/test_fit.py (same shape: no new compilation),
     fitted on the fast path and saved."""
     from tyrebayes._domain import load_vehicle
     from tyrebayes.simulate.drive import simulate_drive

@@ -31,7 +31,7 @@ import numpy as np
 
 from .._errors import BadInputError
 from ..inference.result import Fit
-from ..inference.tyre_data import BLOCK_S
+from ..inference.tyre.data import BLOCK_S
 from .fleet_fit import _as_fit
 from .linear import loo_from_pointwise, psis_loo_pointwise
 from .permutation import DEFAULT_PERMUTATIONS
@@ -114,7 +114,7 @@ def criticize_tyre_fit(
 
     Examples
     --------
-    >>> from tyrebayes.inference.tyre_data import observations_from_stream  # doctest: +SKIP
+    >>> from tyrebayes.inference.tyre.data import observations_from_stream  # doctest: +SKIP
     >>> from tyrebayes.inference import fit_tyre  # doctest: +SKIP
     >>> from tyrebayes._resources import data_dir  # doctest: +SKIP
     >>> obs = observations_from_stream(data_dir() / "comma2k19_rav4_segment.csv", "suv_rav4")
