@@ -12,6 +12,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .parameters import parameter_names
+from .windows import STEP_S
 
 # Random-walk sd of each coordinate of θ per √second. Slow change only: abrupt change is the
 # change detector's. C_xr and μ_max: tread wear, inflation pressure and a road surface that
@@ -32,13 +33,13 @@ DRIFT_PER_SQRT_S = {
 # The C_xr step the change detector is designed for: a tyre swap or a pressure loss moves C_xr by
 # 20 % or more (the issue's test case; winter against summer tyres differ by more).
 CHANGE_LOG_SHIFT = math.log(1.2)
-# One false alarm per 100 hours at one step per 5 s block at most: 72,000 steps. A one-sided
+# One false alarm per 100 hours at one step per STEP_S (30 s) at most: 12,000 steps. A one-sided
 # CUSUM of exact log-likelihood ratios has an average run length to false alarm of at least
 # e^h steps (Wald's inequality; Siegmund 1985, ch. II.6); two sides at least e^h/2. So
-# h = log(2 · 72,000) = 11.9, when the likelihood is right (benchmarks/online_change.py
+# h = log(2 · 12,000) = 10.1, when the likelihood is right (benchmarks/online_change.py
 # measures the rate on windows drawn from it).
 FALSE_ALARMS_PER_HOUR = 0.01
-MAX_STEPS_PER_HOUR = 3600.0 / 5.0
+MAX_STEPS_PER_HOUR = 3600.0 / STEP_S
 CHANGE_THRESHOLD = math.log(2.0 * MAX_STEPS_PER_HOUR / FALSE_ALARMS_PER_HOUR)
 
 
@@ -82,7 +83,7 @@ class OnlineConfig(eqx.Module):
     """
 
     drift_sd_per_sqrt_s: Float[Array, "p"]
-    newton_steps: int = eqx.field(static=True, default=3)
+    newton_steps: int = eqx.field(static=True, default=2)
     change_log_shift: float = CHANGE_LOG_SHIFT
     change_threshold: float = CHANGE_THRESHOLD
     change_gate_log_sd: float = 0.06

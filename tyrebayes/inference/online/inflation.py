@@ -11,6 +11,7 @@ estimate outweighs as blocks accrue.
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float
 
@@ -48,32 +49,28 @@ def inflation_in_use(
 def accrue_residuals(
     sums: InflationSums, z: Float[Array, "w"], used: Bool[Array, "w"]
 ) -> InflationSums:
-    """Add one step's standardised slip residuals (in time order; ``used`` marks slip windows).
-
-    A step holds fewer windows than a batch-means block, so it completes at most one block.
-    """
-    if z.shape[0] >= BLOCK_WINDOWS:
-        raise ValueError(
-            f"inflation: expected fewer than {BLOCK_WINDOWS} windows per step, got {z.shape[0]}"
-        )
+    """Add one step's standardised slip residuals (in time order; ``used`` marks slip windows)."""
+    k = BLOCK_WINDOWS
     weight = used.astype(z.dtype)
     z = jnp.where(used, z, 0.0)
-    position = sums.partial_count + jnp.cumsum(weight) - weight  # 0-based within the open block
-    first = position < BLOCK_WINDOWS
-    sum_first = jnp.sum(jnp.where(first, z, 0.0))
-    sum_next = jnp.sum(jnp.where(first, 0.0, z))
+    # Position of each used window counted from the start of the open batch-means block.
+    position = sums.partial_count + jnp.cumsum(weight) - weight
+    segment = jnp.floor(position / k).astype(jnp.int32)
+    n_segments = z.shape[0] // k + 2  # static: blocks a step can touch
+    segment_sums = jax.ops.segment_sum(z, segment, num_segments=n_segments)
+    segment_sums = segment_sums.at[0].add(sums.partial_sum)
     count = sums.partial_count + jnp.sum(weight)
-    closes = count >= BLOCK_WINDOWS
-    closed = sums.partial_sum + sum_first
+    n_closed = jnp.floor(count / k)
+    closed = jnp.arange(n_segments) < n_closed
     return InflationSums(
         sum_z=sums.sum_z + jnp.sum(z),
         sum_z2=sums.sum_z2 + jnp.sum(z**2),
         n_z=sums.n_z + jnp.sum(weight),
-        partial_sum=jnp.where(closes, sum_next, closed),
-        partial_count=jnp.where(closes, count - BLOCK_WINDOWS, count),
-        sum_block=sums.sum_block + jnp.where(closes, closed, 0.0),
-        sum_block2=sums.sum_block2 + jnp.where(closes, closed**2, 0.0),
-        n_blocks=sums.n_blocks + closes.astype(z.dtype),
+        partial_sum=segment_sums[n_closed.astype(jnp.int32)],
+        partial_count=count - k * n_closed,
+        sum_block=sums.sum_block + jnp.sum(jnp.where(closed, segment_sums, 0.0)),
+        sum_block2=sums.sum_block2 + jnp.sum(jnp.where(closed, segment_sums**2, 0.0)),
+        n_blocks=sums.n_blocks + n_closed,
     )
 
 
