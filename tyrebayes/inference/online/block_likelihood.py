@@ -35,7 +35,10 @@ def block_log_likelihood(
     )
     limit_term = jnp.where(limit_window, norm.logpdf(block.rho, lik.rho_loc, lik.rho_scale), 0.0)
     return (
-        jnp.sum(slip_term) + jnp.sum(limit_term) + jnp.sum(lik.below_peak) + lik.block_log_correction
+        jnp.sum(slip_term)
+        + jnp.sum(limit_term)
+        + jnp.sum(lik.below_peak)
+        + lik.block_log_correction
     )
 
 

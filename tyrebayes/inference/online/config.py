@@ -69,7 +69,7 @@ class OnlineConfig(eqx.Module):
         ... and this many windows with |ρ_x| ≥ ``excitation_force`` (a slope needs forces
         away from zero: 120 windows, 30 s).
     excitation_force : float
-        Force of an exciting window [-]: 0.05, beyond the noise of the force (±0.01, PUSHING_MARGIN).
+        Force of an exciting window [-]: 0.05, beyond the force noise (±0.01, PUSHING_MARGIN).
     initial_inflation : float
         Slip-error variance inflation assumed until :data:`~..window_correlation.MIN_BLOCKS`
         batch-means blocks have estimated it (2.0: the package's own simulated drive gave

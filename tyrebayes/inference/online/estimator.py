@@ -170,9 +170,7 @@ class OnlineEstimator(eqx.Module):
         )
         a = c_x_direction(state.mean.shape[0], mean_temperature, idx, state.mean.dtype)
         c_x = log_normal_summary(a @ state.mean, jnp.sqrt(a @ state.cov @ a))
-        ready, reason = readiness(
-            c_x, state.n_slip_windows, state.n_excited_windows, self.config
-        )
+        ready, reason = readiness(c_x, state.n_slip_windows, state.n_excited_windows, self.config)
         mu_i = idx["log_mu_max"]
         mu_contraction = 1.0 - sd[mu_i] / jnp.sqrt(self.prior.cov[mu_i, mu_i])
         mu_observed = (state.n_limit_windows > 0) & (
@@ -200,9 +198,7 @@ class OnlineEstimator(eqx.Module):
             ),
         )
 
-    def run(
-        self, state: FilterState, blocks: WindowBlocks
-    ) -> tuple[FilterState, OnlineSummary]:
+    def run(self, state: FilterState, blocks: WindowBlocks) -> tuple[FilterState, OnlineSummary]:
         """Scan :meth:`update` over blocks (leading axis); returns the last state and every step's
         summary (a trajectory)."""
 

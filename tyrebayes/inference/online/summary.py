@@ -126,7 +126,11 @@ def readiness(c_x: LogNormalSummary, n_slip, n_excited, config) -> tuple:
 
 def _value(s: LogNormalSummary, i) -> dict:
     lo, hi = float(np.asarray(s.low)[i]), float(np.asarray(s.high)[i])
-    return {"mean": float(np.asarray(s.mean)[i]), "sd": float(np.asarray(s.sd)[i]), "hdi_90": [lo, hi]}
+    return {
+        "mean": float(np.asarray(s.mean)[i]),
+        "sd": float(np.asarray(s.sd)[i]),
+        "hdi_90": [lo, hi],
+    }
 
 
 def summary_record(summary: OnlineSummary, i=()) -> dict:

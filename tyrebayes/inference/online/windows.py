@@ -195,4 +195,31 @@ def window_blocks(
     )
 
 
-__all__ = ["STEP_S", "WindowBlocks", "window_blocks"]
+def pad_steps(blocks: WindowBlocks, n_steps: int) -> WindowBlocks:
+    """``blocks`` followed by empty steps up to ``n_steps`` (at the last step's time).
+
+    An empty step changes nothing (no windows, no time elapsed), so streams of different length
+    padded to one number of steps share one compiled filter, and cars of different length can
+    be vmapped together.
+    """
+    n = blocks.n_blocks
+    if n_steps < n:
+        raise ValueError(f"pad_steps: expected n_steps ≥ {n}, got {n_steps}")
+    extra = n_steps - n
+
+    def pad(x, fill):
+        tail = jnp.full((extra, *x.shape[1:]), fill, dtype=x.dtype)
+        return jnp.concatenate([x, tail])
+
+    fields = {name: pad(getattr(blocks, name), fill) for name, fill in _WINDOW_FIELDS.items()}
+    return WindowBlocks(
+        **fields,
+        at_limit=pad(blocks.at_limit, False),
+        block_index=pad(blocks.block_index, 0),
+        mask=pad(blocks.mask, False),
+        time_s=pad(blocks.time_s, blocks.time_s[-1]),
+        surface=blocks.surface,
+    )
+
+
+__all__ = ["STEP_S", "WindowBlocks", "pad_steps", "window_blocks"]
