@@ -23,7 +23,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 # Step lengths tried per Newton iteration (the best is taken; 0 keeps the point).
-_STEP_LENGTHS = (1.0, 0.5, 0.2, 0.05, 0.0)
+_STEP_LENGTHS = (1.0, 0.5, 0.2, 0.05, 0.01, 0.0)
 # Relative eigenvalue floor of a covariance's inverse (a predicted covariance is positive
 # definite; the floor only keeps round-off from making it otherwise).
 _EIGEN_FLOOR = 1e-12
@@ -39,19 +39,27 @@ def _floored_inverse(matrix: Float[Array, "p p"]) -> Float[Array, "p p"]:
     return (vectors * inverse_values[None, :]) @ vectors.T
 
 
-def _information(curvature: Float[Array, "p p"]) -> Float[Array, "p p"]:
-    """The block's curvature −∇²ℓ with its negative eigenvalues set to 0.
+def _information(
+    curvature: Float[Array, "p p"], absolute: bool = False
+) -> Float[Array, "p p"]:
+    """The block's curvature −∇²ℓ with its negative eigenvalues set to 0 (or made positive).
 
     Far from the mode (the first blocks from a wide prior) −∇²ℓ is indefinite: the noise scales'
     and the curve's directions bend the wrong way there. A direction the block bends the other
     way is read as no information in it, never as negative precision, so the Newton matrix stays
     at least the prior's precision and the covariance never grows by an update.
+
+    ``absolute`` keeps those eigenvalues' magnitudes instead (saddle-free Newton, Dauphin et al.
+    2014): for the Newton *step*, where a cut direction would be held by the prior alone and the
+    step along it could be orders of magnitude too long (a slip-drift τ sent to e^80 on the first
+    block from the prior).
     """
     symmetric = 0.5 * (curvature + curvature.T)
     finite = jnp.all(jnp.isfinite(symmetric))
     symmetric = jnp.where(finite, symmetric, 0.0)
     eigenvalues, vectors = jnp.linalg.eigh(symmetric)
-    return (vectors * jnp.maximum(eigenvalues, 0.0)[None, :]) @ vectors.T
+    kept = jnp.abs(eigenvalues) if absolute else jnp.maximum(eigenvalues, 0.0)
+    return (vectors * kept[None, :]) @ vectors.T
 
 
 def laplace_update(
@@ -99,9 +107,10 @@ def laplace_update(
 
     def newton(carry, _):
         theta, _ = carry
-        information = _information(hessian(theta))
+        curvature = hessian(theta)
+        information = _information(curvature)
         g = precision @ (theta - mean) + gradient(theta)
-        step = _floored_inverse(precision + information) @ g
+        step = _floored_inverse(precision + _information(curvature, absolute=True)) @ g
         step = jnp.where(jnp.all(jnp.isfinite(step)), step, 0.0)
         candidates = theta[None, :] - lengths[:, None] * step[None, :]
         values = jax.vmap(objective)(candidates)

@@ -31,7 +31,11 @@ class LinearEkfTrajectory(eqx.Module):
 
 def linear_ekf(blocks: WindowBlocks, priors: TyrePriors | None = None) -> LinearEkfTrajectory:
     """Run the linear-slip EKF over a stream's steps (module docstring), from the type prior."""
-    priors = TyrePriors() if priors is None else priors
+    return _linear_ekf(blocks, TyrePriors() if priors is None else priors)
+
+
+@eqx.filter_jit
+def _linear_ekf(blocks: WindowBlocks, priors: TyrePriors) -> LinearEkfTrajectory:
     c0 = priors.c_xr_median
     mean0 = jnp.asarray([c0, 0.0])
     cov0 = jnp.diag(jnp.asarray([(priors.c_xr_log_sd * c0) ** 2, priors.slip_offset_sd**2]))
