@@ -39,9 +39,7 @@ def _floored_inverse(matrix: Float[Array, "p p"]) -> Float[Array, "p p"]:
     return (vectors * inverse_values[None, :]) @ vectors.T
 
 
-def _information(
-    curvature: Float[Array, "p p"], absolute: bool = False
-) -> Float[Array, "p p"]:
+def _information(curvature: Float[Array, "p p"], absolute: bool = False) -> Float[Array, "p p"]:
     """The block's curvature −∇²ℓ with its negative eigenvalues set to 0 (or made positive).
 
     Far from the mode (the first blocks from a wide prior) −∇²ℓ is indefinite: the noise scales'
