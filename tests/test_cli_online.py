@@ -14,7 +14,7 @@ from tyrebayes.streams import write_stream
 def short_stream(tmp_path_factory):
     path = tmp_path_factory.mktemp("online") / "drive.parquet"
     df, _ = simulate_drive(
-        3, "compact_fwd", "summer", duration_s=180, profile=ProfileOptions(n_abs_events=1)
+        3, "compact_fwd", "summer", duration_s=300, profile=ProfileOptions(n_abs_events=1)
     )
     write_stream(df, path)
     return path
@@ -28,6 +28,8 @@ def test_online_json_trajectory(short_stream, capsys):
     payload = json.loads(capsys.readouterr().out)
     trajectory = payload["trajectory"]
     assert len(trajectory) >= 5 and payload["final"] == trajectory[-1]
+    # Five minutes of this drive are enough evidence for the linear model by the end.
+    assert trajectory[-1]["enough_evidence"] and trajectory[-1]["c_x"]["mean"] > 0
     times = [r["time_s"] for r in trajectory]
     assert times == sorted(times)
     first = trajectory[0]
