@@ -12,6 +12,7 @@ Exit status: 0; 2 on bad input (one line on stderr).
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 from .._domain import SURFACES
@@ -149,7 +150,7 @@ def _figure(args, windows, steps, trajectory, records) -> str:
         alarms_s=np.asarray([r["time_s"] for r in records if r["alarm"]]),
         batch=batch,
         baseline=(np.asarray(ekf.time_s), np.asarray(ekf.c_x_mean), np.asarray(ekf.c_x_sd)),
-        title=f"{args.stream}: C_x online ({args.model}) against the batch posterior",
+        title=f"{Path(args.stream).name}: C_x online ({args.model}) against the batch posterior",
     )
     atomic_write_bytes(args.figure, png)
     return str(args.figure)
