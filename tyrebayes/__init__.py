@@ -55,6 +55,13 @@ from .inference.tyre.fit import fit_tyre as fit_tyre
 from .inference.tyre.model import TyrePriors as TyrePriors
 from .inference.wear import build_wear_data as build_wear_data
 from .inference.wear import fit_wear as fit_wear
+from .inference.online import OnlineConfig as OnlineConfig
+from .inference.online import OnlineEstimator as OnlineEstimator
+from .inference.online import online_estimate as online_estimate
+from .inference.online import stream_steps as stream_steps
+from .inference.online import stream_windows as stream_windows
+from .inference.online import summary_record as summary_record
+from .inference.online import window_blocks as window_blocks
 
 # 3. predict
 from .inference.fleet import predict_friction as predict_friction

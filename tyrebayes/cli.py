@@ -24,6 +24,7 @@ _COMMAND_MODULES = (
     "convert",
     "inspect",
     "fit_tyre",
+    "online",
     "fleet",
     "wear",
     "vmax",

@@ -1,0 +1,101 @@
+"""Shared by the online benchmarks: simulated drives (stream pipeline) and the external drives."""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from tyrebayes._domain import load_vehicle
+from tyrebayes.inference.tyre.data import observations_from_features
+from tyrebayes.simulate.drive import simulate_drive
+from tyrebayes.simulate.profiles import ProfileOptions
+from tyrebayes.simulate.tyre_spec import TyreSpec, draw_database_curve
+from tyrebayes.simulate.vehicle_truth import (
+    ThermalSpread,
+    VehicleSpread,
+    draw_true_thermal,
+    draw_true_vehicle,
+)
+from tyrebayes.streams import (
+    compute_features,
+    features_tyre_temperature,
+    read_stream,
+    validate_stream,
+)
+
+EXTERNAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "external"
+TYRES = ("winter", "all_season", "summer")
+
+
+def machine() -> dict:
+    """What the timings ran on: a machine shared with other helpers."""
+    return {
+        "shared_machine": True,
+        "note": "2-core machine shared with other helpers' jobs; timings include their load",
+        "cpu_count": os.cpu_count(),
+        "load_average_1min": os.getloadavg()[0],
+    }
+
+
+def simulated_windows(
+    seed: int,
+    duration_s: float,
+    *,
+    tyre: TyreSpec | None = None,
+    abs_events: int = 1,
+    vehicle_name: str = "compact_fwd",
+):
+    """One simulated drive (car and thermal spread as in tyre_recovery.py) as windows.
+
+    Returns ``(windows, truth, tyre)``; ``tyre`` is the TyreSpec driven (drawn if not given:
+    a typical tyre of a cycled type with a Magic Formula shape from the shipped database).
+    """
+    vehicle = load_vehicle(vehicle_name)
+    if tyre is None:
+        kind = TYRES[seed % len(TYRES)]
+        tyre = TyreSpec.from_type(
+            kind, magic_formula=draw_database_curve(np.random.default_rng([seed, 9]))
+        )
+    car = draw_true_vehicle(np.random.default_rng([seed, 7]), vehicle, VehicleSpread())
+    thermal = draw_true_thermal(np.random.default_rng([seed, 8]), ThermalSpread())
+    df, truth = simulate_drive(
+        seed,
+        car,
+        tyre,
+        duration_s=duration_s,
+        profile=ProfileOptions(n_abs_events=abs_events),
+        ambient_c=15.0,
+        thermal=thermal,
+    )
+    features = compute_features(validate_stream(df, vehicle), vehicle)
+    temperature = features_tyre_temperature(features, ambient_c=15.0)
+    return observations_from_features(features, temperature_c=temperature), truth, tyre
+
+
+def true_c_x_so_far(truth, times_s: np.ndarray) -> np.ndarray:
+    """Mean true C_x (driven wheels, at their temperature) over the drive up to each time."""
+    t = np.asarray(truth.time_s, dtype=float)
+    c = np.asarray(truth.c_x, dtype=float)
+    cumulative = np.cumsum(c) / np.arange(1, len(c) + 1)
+    idx = np.clip(np.searchsorted(t, times_s, side="right") - 1, 0, len(c) - 1)
+    return cumulative[idx]
+
+
+def external_entries(folder: Path = EXTERNAL) -> list[dict]:
+    import json
+
+    return json.loads((folder / "truth.json").read_text())["drives"]
+
+
+def external_windows(entry: dict, folder: Path = EXTERNAL) -> dict:
+    """An external drive through the stream pipeline as a new user's fit-tyre would read it."""
+    vehicle_path = folder / "drives" / entry["vehicle"]
+    vehicle = load_vehicle(vehicle_path)
+    tomllib.loads(vehicle_path.read_text())
+    stream = validate_stream(read_stream(folder / "drives" / f"{entry['name']}.parquet"), vehicle)
+    features = compute_features(stream, vehicle)
+    temperature = features_tyre_temperature(features, ambient_c=20.0)
+    return observations_from_features(features, temperature_c=temperature)

@@ -1,0 +1,125 @@
+"""Speed of the online estimator: one car-hour of windows on one core, and many cars vmapped.
+
+One simulated one-hour drive (compact_fwd, Magic Formula truth) through the stream pipeline
+gives the windows (steps of 30 s, padded to 121 windows). Timed after compilation, median of
+``--reps`` runs, on one CPU thread (XLA's intra-op threads set to 1 before JAX starts):
+
+* one car-hour per model kind (target ≤ 40 ms, i.e. ≥ 10^5× real time);
+* ``--cars`` copies of that car-hour vmapped in one call, the time per car-hour (the issue asks
+  for 10^4 cars; the number run is stated, with why).
+
+The machine is shared with other helpers (recorded in the JSON).
+
+Usage: ``python benchmarks/online_speed.py [--reps N] [--cars N]``.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ["XLA_FLAGS"] = (
+    os.environ.get("XLA_FLAGS", "")
+    + " --xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
+)
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import resource  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import jax  # noqa: E402
+
+jax.config.update("jax_enable_x64", True)
+
+import equinox as eqx  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _online_common import machine, simulated_windows  # noqa: E402
+
+from tyrebayes.inference.online import OnlineEstimator, run_online, stream_steps  # noqa: E402
+
+RESULTS = Path(__file__).parent / "results" / "online_speed.json"
+KINDS = ("magic", "shaped", "brush", "linear")
+
+
+def timed(fn, reps):
+    t0 = time.perf_counter()
+    jax.block_until_ready(fn())
+    first = time.perf_counter() - t0
+    walls = []
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        jax.block_until_ready(fn())
+        walls.append(time.perf_counter() - t0)
+    return first, float(np.median(walls))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--reps", type=int, default=5)
+    parser.add_argument("--cars", type=int, default=64)
+    parser.add_argument("--out", default=str(RESULTS))
+    args = parser.parse_args()
+    windows, _, _ = simulated_windows(0, 3600.0)
+    steps = stream_steps(windows)
+    hours = float(steps.time_s[-1] - 0.0) / 3600.0
+    rows = []
+    for kind in KINDS:
+        est = OnlineEstimator.create(kind=kind)
+        first, wall = timed(lambda est=est: run_online(est, est.init(), steps), args.reps)
+        rows.append(
+            {
+                "kind": kind,
+                "compile_and_first_run_s": first,
+                "car_hour_s": wall / hours,
+                "target_s": 0.040,
+                "target_met": bool(wall / hours <= 0.040),
+                "real_time_factor": 3600.0 / (wall / hours),
+            }
+        )
+        print(json.dumps(rows[-1]), flush=True)
+    vmapped = []
+    for kind in ("magic", "linear"):
+        est = OnlineEstimator.create(kind=kind)
+        cars = jax.tree.map(lambda x: jnp.broadcast_to(x, (args.cars, *x.shape)), steps)
+        states = jax.tree.map(lambda x: jnp.broadcast_to(x, (args.cars, *x.shape)), est.init())
+        fn = eqx.filter_jit(jax.vmap(lambda s, b, est=est: est.run(s, b)))
+        first, wall = timed(lambda fn=fn, cars=cars, states=states: fn(states, cars), 1)
+        vmapped.append(
+            {
+                "kind": kind,
+                "n_cars": args.cars,
+                "compile_and_first_run_s": first,
+                "wall_s": wall,
+                "per_car_hour_s": wall / (args.cars * hours),
+                "target_cars": 10_000,
+                "target_met": False,
+                "why_fewer_cars": (
+                    "one core: at the measured time per car-hour 10^4 cars take "
+                    f"{10_000 * wall / args.cars / 60:.0f} min; their windows alone are "
+                    f"{10_000 * steps.slip.size * 8 * 9 / 1e9:.0f} GB"
+                ),
+            }
+        )
+        print(json.dumps(vmapped[-1]), flush=True)
+    result = {
+        "benchmark": "online_speed",
+        "windows_per_car_hour": int(np.sum(np.asarray(steps.mask)) / hours),
+        "steps_per_car_hour": steps.n_blocks / hours,
+        "step_width": int(steps.slip.shape[1]),
+        "hours_per_run": hours,
+        "threads": "XLA intra-op threads 1 (one core)",
+        "single_car": rows,
+        "vmapped": vmapped,
+        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "machine": machine(),
+    }
+    Path(args.out).write_text(json.dumps(result, indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,94 @@
+"""The online estimator: empty steps, vmap over cars, change detection, readiness.
+
+Every run has the same number of steps (padded), so the tests share one compiled filter.
+"""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from tyrebayes.inference.online import (
+    OnlineEstimator,
+    pad_steps,
+    run_online,
+    summary_record,
+    window_blocks,
+)
+
+from ._synthetic import linear_windows
+
+WIDTH = 121
+N_STEPS = 41  # 20 minutes of 30 s steps, and one more
+
+
+@pytest.fixture(scope="module")
+def estimator():
+    return OnlineEstimator.create(kind="linear")
+
+
+def _steps(windows):
+    return pad_steps(window_blocks(windows, "dry", width=WIDTH), N_STEPS)
+
+
+def test_empty_step_changes_only_the_drift(estimator):
+    steps = _steps(linear_windows(0, 600.0))  # 20 steps of windows, then empty ones
+    state, _ = run_online(estimator, estimator.init(), steps)
+    # The same, with the empty steps 400 s after the last window: only the drift grows.
+    later = eqx.tree_at(lambda b: b.time_s, steps, steps.time_s.at[20:].add(400.0))
+    moved, _ = run_online(estimator, estimator.init(), later)
+    np.testing.assert_allclose(moved.mean, state.mean, rtol=0, atol=1e-12)
+    drift = jnp.diag(estimator.config.drift_sd_per_sqrt_s**2 * 400.0)
+    expected = state.cov + drift
+    # Each step inverts the covariance twice (eigendecompositions): round-off of ~1e-11 of the
+    # entries' scale √(P_ii P_jj), on entries that are themselves round-off.
+    scale = np.sqrt(np.outer(np.diag(expected), np.diag(expected)))
+    np.testing.assert_allclose((moved.cov - expected) / scale, 0.0, atol=1e-9)
+    assert float(moved.n_slip_windows) == float(state.n_slip_windows) == 2400.0
+
+
+def test_vmap_over_cars_equals_one_car_at_a_time(estimator):
+    cars = [_steps(linear_windows(s, 300.0, c_x=30.0 + 10 * s)) for s in range(2)]
+    stacked = jax.tree.map(lambda *x: jnp.stack(x), *cars)
+    states = jax.tree.map(lambda x: jnp.stack([x, x]), estimator.init())
+    run_many = eqx.filter_jit(jax.vmap(lambda s, b: estimator.run(s, b)))
+    final, trajectory = run_many(states, stacked)
+    for i, car in enumerate(cars):
+        one, one_trajectory = run_online(estimator, estimator.init(), car)
+        np.testing.assert_allclose(final.mean[i], one.mean, rtol=1e-8, atol=1e-12)
+        # Batched and single eigendecompositions round differently (seen: 3e-10 of the scale).
+        scale = np.sqrt(np.outer(np.diag(one.cov), np.diag(one.cov)))
+        np.testing.assert_allclose((final.cov[i] - one.cov) / scale, 0.0, atol=1e-7)
+        np.testing.assert_allclose(trajectory.c_x.mean[i], one_trajectory.c_x.mean, rtol=1e-8)
+
+
+def test_the_estimate_settles_on_the_truth_and_is_ready(estimator):
+    _, trajectory = run_online(estimator, estimator.init(), _steps(linear_windows(3, 600.0)))
+    record = summary_record(trajectory, 19)
+    assert record["enough_evidence"] and record["reason"] is None
+    lo, hi = record["c_x"]["hdi_90"]
+    assert lo <= 40.0 <= hi
+    assert record["c_x"]["sd"] / record["c_x"]["mean"] < 0.05
+
+
+def test_change_fires_on_a_planted_step_and_not_without_one(estimator):
+    _, quiet = run_online(estimator, estimator.init(), _steps(linear_windows(5, 1200.0)))
+    assert int(quiet.n_alarms[-1]) == 0
+    swapped = _steps(linear_windows(5, 1200.0, c_x_after=48.0, change_s=600.0))
+    _, loud = run_online(estimator, estimator.init(), swapped)
+    alarms = np.asarray(loud.time_s)[np.asarray(loud.alarm)]
+    assert alarms.size >= 1 and 600.0 < alarms[0] <= 900.0
+    # After the restart from the prior the estimator learns the new tyre.
+    assert abs(float(loud.c_x.mean[-1]) / 48.0 - 1.0) < 0.05
+
+
+def test_not_ready_without_excitation(estimator):
+    # Forces that never leave the noise band: many windows, and no evidence of a slope.
+    windows = linear_windows(7, 600.0, force_range=(0.02, 0.045))
+    _, trajectory = run_online(estimator, estimator.init(), _steps(windows))
+    record = summary_record(trajectory, 19)
+    assert not record["enough_evidence"]
+    assert record["c_x"] is None and record["c_xr"] is None
+    assert "excitation" in record["reason"]
+    assert record["mu_max"] is None and "not observed" in record["mu_max_reason"]

@@ -1,0 +1,40 @@
+"""The Laplace update: exact Kalman on a linear-Gaussian likelihood; never grows the covariance."""
+
+import jax.numpy as jnp
+import numpy as np
+from jax.scipy.stats import norm
+
+from tyrebayes.inference.online.laplace_update import laplace_update
+
+
+def _kalman(mean, cov, a, y, r):
+    s = a @ cov @ a.T + r
+    gain = cov @ a.T @ np.linalg.inv(s)
+    return mean + gain @ (y - a @ mean), cov - gain @ a @ cov
+
+
+def test_linear_gaussian_update_equals_kalman():
+    rng = np.random.default_rng(0)
+    mean = rng.normal(size=3)
+    root = rng.normal(size=(3, 3))
+    cov = root @ root.T + np.eye(3)
+    a = rng.normal(size=(5, 3))
+    r_sd = np.full(5, 0.3)
+    y = rng.normal(size=5)
+
+    def log_likelihood(theta):
+        return jnp.sum(norm.logpdf(jnp.asarray(y), jnp.asarray(a) @ theta, jnp.asarray(r_sd)))
+
+    expected_mean, expected_cov = _kalman(mean, cov, a, y, np.diag(r_sd**2))
+    for steps in (1, 3):
+        m, c = laplace_update(log_likelihood, jnp.asarray(mean), jnp.asarray(cov), steps)
+        np.testing.assert_allclose(m, expected_mean, rtol=1e-8, atol=1e-10)
+        np.testing.assert_allclose(c, expected_cov, rtol=1e-8, atol=1e-10)
+
+
+def test_convex_wrong_way_likelihood_does_not_grow_the_covariance():
+    # ℓ bending upward (negative information) must read as no information, not as a wider prior.
+    cov = jnp.diag(jnp.asarray([0.5, 2.0]))
+    m, c = laplace_update(lambda t: 0.1 * t[0] ** 2, jnp.zeros(2), cov, 2)
+    assert np.all(np.linalg.eigvalsh(np.asarray(cov - c)) >= -1e-12)
+    assert np.all(np.isfinite(m))

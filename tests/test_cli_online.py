@@ -1,0 +1,55 @@
+"""``tyrebayes online``: end to end on a short simulated drive, and bad input."""
+
+import json
+
+import pytest
+
+from tyrebayes.cli import main
+from tyrebayes.simulate.drive import simulate_drive
+from tyrebayes.simulate.profiles import ProfileOptions
+from tyrebayes.streams import write_stream
+
+
+@pytest.fixture(scope="module")
+def short_stream(tmp_path_factory):
+    path = tmp_path_factory.mktemp("online") / "drive.parquet"
+    df, _ = simulate_drive(
+        3, "compact_fwd", "summer", duration_s=300, profile=ProfileOptions(n_abs_events=1)
+    )
+    write_stream(df, path)
+    return path
+
+
+def test_online_json_trajectory(short_stream, capsys):
+    code = main(
+        ["online", str(short_stream), "--vehicle", "compact_fwd", "--model", "linear", "--json"]
+    )
+    assert code == 0
+    payload = json.loads(capsys.readouterr().out)
+    trajectory = payload["trajectory"]
+    assert len(trajectory) >= 5 and payload["final"] == trajectory[-1]
+    # Five minutes of this drive are enough evidence for the linear model by the end.
+    assert trajectory[-1]["enough_evidence"] and trajectory[-1]["c_x"]["mean"] > 0
+    times = [r["time_s"] for r in trajectory]
+    assert times == sorted(times)
+    first = trajectory[0]
+    # Thirty seconds of driving are not enough evidence: the value is withheld, with a reason.
+    assert not first["enough_evidence"] and first["c_x"] is None and first["reason"]
+    for r in trajectory:
+        if r["enough_evidence"]:
+            assert set(r["c_x"]) == {"mean", "sd", "hdi_90"}
+            lo, hi = r["c_x"]["hdi_90"]
+            assert lo < r["c_x"]["mean"] < hi
+    assert payload["alarms_s"] == [r["time_s"] for r in trajectory if r["alarm"]]
+    assert "whole stream" in payload["note"]
+
+
+def test_online_text_and_bad_input(short_stream, capsys, tmp_path):
+    assert main(["online", str(short_stream), "--vehicle", "compact_fwd", "--model", "linear"]) == 0
+    out = capsys.readouterr().out
+    assert "min" in out and "change alarms at" in out
+    assert main(["online", str(tmp_path / "missing.parquet"), "--vehicle", "compact_fwd"]) == 2
+    assert "file not found" in capsys.readouterr().err
+    bad = ["online", str(short_stream), "--vehicle", "compact_fwd", "--figure", "x.txt"]
+    assert main(bad) == 2
+    assert "--figure" in capsys.readouterr().err

@@ -1,0 +1,156 @@
+"""``tyrebayes online STREAM --vehicle VEHICLE [--json] [--figure PNG]``: the in-car estimator.
+
+Runs the online estimator (:mod:`tyrebayes.inference.online`) over one stream step by step, as a
+car would, and prints the trajectory of C_x: time, mean, 90 % interval and the "enough
+evidence" flag (a value without enough evidence is withheld, with the reason), and the change
+alarms. ``--figure`` also draws the trajectory against the batch posterior of the whole stream
+(``fit-tyre --method fast``).
+
+Exit status: 0; 2 on bad input (one line on stderr).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from .._domain import SURFACES
+from .._errors import BadInputError
+from ._common import add_can_arguments, check_ambient, output_file, print_json, stream_file
+from .fit_tyre import MODEL_CHOICES
+
+# Said in every output: what the estimator read that a car would not have had yet.
+LOOKAHEAD_NOTE = (
+    "force-density scores (E[true force | measured force]) are estimated over the whole stream; "
+    "slips and parameters are used only as they arrive"
+)
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "online",
+        help="the tyre posterior updated online, step by step, with change alarms",
+        description=(
+            "Run the in-car estimator over a stream: the per-tyre posterior of C_x updated every "
+            "30 s of driving, with its 90 %% interval, an 'enough evidence' flag (values withheld "
+            "until then) and alarms when C_x changes abruptly (tyre swap, puncture)."
+        ),
+    )
+    parser.add_argument(
+        "stream", help="stream file (.csv, .parquet, .mf4), or a CAN log with --profile"
+    )
+    parser.add_argument(
+        "--vehicle", required=True, help="vehicle preset name (e.g. suv_rav4) or TOML path"
+    )
+    parser.add_argument("--surface", choices=SURFACES, default="dry", help="road surface")
+    parser.add_argument("--temperature", type=float, default=None, help="fixed tyre temperature")
+    parser.add_argument("--ambient", type=float, default=None, help="ambient temperature [°C]")
+    parser.add_argument(
+        "--model", choices=MODEL_CHOICES, default=MODEL_CHOICES[0], help="tyre-curve model"
+    )
+    parser.add_argument(
+        "--figure", help="write a PNG of the trajectory against the batch posterior (fast fit)"
+    )
+    add_can_arguments(parser)
+    parser.add_argument("--json", action="store_true", help="machine-readable output")
+    parser.set_defaults(func=run)
+
+
+def _value_text(value: dict | None, reason: str | None) -> str:
+    if value is None:
+        return f"—  ({reason})"
+    lo, hi = value["hdi_90"]
+    return f"{value['mean']:7.2f}  [{lo:6.2f}, {hi:6.2f}]"
+
+
+def _text(payload: dict[str, Any]) -> str:
+    lines = [f"{'time':>8s}  {'C_x':>7s}  90% interval      ready"]
+    for r in payload["trajectory"]:
+        minutes = r["time_s"] / 60.0
+        flag = "yes" if r["enough_evidence"] else "no"
+        text = _value_text(r["c_x"], r["reason"])
+        alarm = "  CHANGE ALARM: restarted from the type prior" if r["alarm"] else ""
+        lines.append(f"{minutes:6.1f} min  {text}  {flag}{alarm}")
+    final = payload["final"]
+    mu = final["mu_max"]
+    lines.append(
+        "mu_max  " + (_value_text(mu, None) if mu is not None else f"—  ({final['mu_max_reason']})")
+    )
+    lines.append(f"change alarms at: {payload['alarms_s'] or 'none'} s")
+    lines.append(f"note: {LOOKAHEAD_NOTE}")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.figure is not None:
+        output_file(args.figure, option="--figure", suffixes=(".png",))
+    check_ambient(args.ambient)
+    import jax
+
+    # The slip signal is ~1e-3 and its noise ~1e-4: the Newton steps need float64.
+    jax.config.update("jax_enable_x64", True)
+    import numpy as np
+
+    from ..inference.online import online_estimate, stream_steps, stream_windows
+    from ..inference.online.summary import summary_record
+
+    with stream_file(args, args.vehicle) as path:
+        windows = stream_windows(
+            path,
+            args.vehicle,
+            surface=args.surface,
+            temperature_c=args.temperature,
+            ambient_c=args.ambient,
+        )
+    steps = stream_steps(windows, args.surface)
+    imu = float(np.max(windows.get("imu_gain_log_sd", np.zeros(1)), initial=0.0))
+    _, trajectory = online_estimate(steps, kind=args.model, imu_gain_log_sd=imu)
+    records = [summary_record(trajectory, i) for i in range(steps.n_blocks)]
+    payload = {
+        "stream": args.stream,
+        "vehicle": args.vehicle,
+        "surface": args.surface,
+        "model": args.model,
+        "step_s": float(np.diff(np.asarray(steps.time_s)).min()) if steps.n_blocks > 1 else None,
+        "trajectory": records,
+        "final": records[-1],
+        "alarms_s": [r["time_s"] for r in records if r["alarm"]],
+        "note": LOOKAHEAD_NOTE,
+    }
+    if args.figure is not None:
+        payload["figure"] = _figure(args, windows, steps, trajectory, records)
+    if args.json:
+        print_json(payload)
+    else:
+        print(_text(payload))
+    return 0
+
+
+def _figure(args, windows, steps, trajectory, records) -> str:
+    import numpy as np
+
+    from .._io import atomic_write_bytes
+    from ..inference.online import linear_ekf
+    from ..inference.tyre.data import stack_drives
+    from ..inference.tyre.fit import fit_tyre
+    from ..report.online_figure import online_trajectory_figure
+
+    fit = fit_tyre(stack_drives([windows], [args.surface]), method="fast", kind=args.model)
+    if not fit.diagnostics.converged:
+        raise BadInputError(f"--figure: the batch fit did not converge ({fit.diagnostics.reason})")
+    batch = fit.summary()["c_x"]
+    ekf = linear_ekf(steps)
+    png = online_trajectory_figure(
+        np.asarray(trajectory.time_s),
+        np.asarray(trajectory.c_x.mean),
+        np.asarray(trajectory.c_x.low),
+        np.asarray(trajectory.c_x.high),
+        np.asarray(trajectory.ready),
+        alarms_s=np.asarray([r["time_s"] for r in records if r["alarm"]]),
+        batch=batch,
+        baseline=(np.asarray(ekf.time_s), np.asarray(ekf.c_x_mean), np.asarray(ekf.c_x_sd)),
+        title=f"{Path(args.stream).name}: C_x online ({args.model}) against the batch posterior",
+    )
+    atomic_write_bytes(args.figure, png)
+    return str(args.figure)

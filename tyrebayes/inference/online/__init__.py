@@ -1,0 +1,29 @@
+"""The in-car estimator: the per-tyre posterior updated online, window block by window block.
+
+:mod:`.estimator` holds :class:`OnlineEstimator` (``init``, ``update``, ``summary``, ``run``);
+the parts are one concept per module: θ and the type prior (:mod:`.parameters`), the blocks of
+windows it reads (:mod:`.windows`), their likelihood (:mod:`.block_likelihood`), the Laplace
+update (:mod:`.laplace_update`), the change detector (:mod:`.change`), the slip errors'
+inflation (:mod:`.inflation`), the state (:mod:`.state`), settings (:mod:`.config`), the
+reported estimate and its readiness (:mod:`.summary`) and the linear-model EKF it is compared
+with (:mod:`.linear_ekf`).
+"""
+
+from .config import OnlineConfig as OnlineConfig
+from .config import default_config as default_config
+from .estimator import OnlineEstimator as OnlineEstimator
+from .estimator import online_estimate as online_estimate
+from .estimator import run_online as run_online
+from .linear_ekf import LinearEkfTrajectory as LinearEkfTrajectory
+from .linear_ekf import linear_ekf as linear_ekf
+from .parameters import GaussianPrior as GaussianPrior
+from .parameters import parameter_names as parameter_names
+from .parameters import type_prior as type_prior
+from .state import FilterState as FilterState
+from .stream import stream_steps as stream_steps
+from .stream import stream_windows as stream_windows
+from .summary import OnlineSummary as OnlineSummary
+from .summary import summary_record as summary_record
+from .windows import WindowBlocks as WindowBlocks
+from .windows import pad_steps as pad_steps
+from .windows import window_blocks as window_blocks

@@ -1,0 +1,239 @@
+"""The in-car estimator: the per-tyre posterior updated online, one block of windows at a time.
+
+:class:`OnlineEstimator` is pure JAX: ``init(prior)`` gives a :class:`~.state.FilterState`,
+``update(state, block)`` one step, ``run(state, blocks)`` a ``lax.scan`` over a drive's blocks,
+``summary(state)`` the estimate; all jit, and vmap over cars (a state and blocks with a leading
+car axis).
+
+One step (Särkkä 2013, ch. 5-6; module docstrings of the parts):
+
+1. predict: θ's covariance grows by the random-walk drift over the time since the last step
+   (:data:`~.config.DRIFT_PER_SQRT_S`);
+2. change: the two-sided CUSUM of a C_xr step on the block's log-likelihood ratio
+   (:mod:`.change`); an alarm restarts the filter from the type prior, and the block updates that;
+3. update: the Laplace update on the batch model's own per-window likelihood of the block
+   (:mod:`.laplace_update`, :mod:`.block_likelihood`), slips weighted by 1/VIF;
+4. the standardised residuals at the new mode feed the VIF estimate (:mod:`.inflation`).
+
+Examples
+--------
+>>> est = OnlineEstimator.create(kind="brush")  # doctest: +SKIP
+>>> state = est.init(type_prior(kind="brush"))  # doctest: +SKIP
+>>> state, trajectory = est.run(state, window_blocks(windows))  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from ..tyre.model import TyrePriors, check_kind
+from .block_likelihood import block_log_likelihood, standardised_slip_residuals
+from .change import cusum_step
+from .config import OnlineConfig, default_config
+from .inflation import accrue_residuals, empty_inflation, inflation_in_use
+from .laplace_update import laplace_update
+from .parameters import GaussianPrior, parameter_names, type_prior
+from .state import FilterState
+from .summary import OnlineSummary, c_x_direction, log_normal_summary, readiness
+from .windows import WindowBlocks
+
+
+class OnlineEstimator(eqx.Module):
+    """Recursive estimator of one tyre set's parameters (module docstring).
+
+    Fields
+    ------
+    prior : GaussianPrior
+        The type prior it starts from and restarts at after a change alarm.
+    config : OnlineConfig
+        Drift, Newton steps, change detection, readiness.
+    priors : TyrePriors
+        The batch model's prior scales (the shape family's constants).
+    """
+
+    prior: GaussianPrior
+    config: OnlineConfig
+    priors: TyrePriors
+
+    @classmethod
+    def create(
+        cls,
+        *,
+        kind: str = "magic",
+        surface: str = "dry",
+        priors: TyrePriors | None = None,
+        config: OnlineConfig | None = None,
+        imu_gain_log_sd: float = 0.0,
+    ) -> OnlineEstimator:
+        """An estimator with the type prior of ``priors`` and the stated default settings."""
+        check_kind(kind)
+        priors = TyrePriors() if priors is None else priors
+        prior = type_prior(priors, kind=kind, surface=surface, imu_gain_log_sd=imu_gain_log_sd)
+        return cls(prior=prior, config=config or default_config(kind), priors=priors)
+
+    @property
+    def kind(self) -> str:
+        return self.prior.kind
+
+    @property
+    def _index(self) -> dict:
+        return {n: i for i, n in enumerate(parameter_names(self.kind))}
+
+    def init(self, prior: GaussianPrior | None = None, time_s=0.0) -> FilterState:
+        """The state before any window: the type prior (default this estimator's)."""
+        prior = self.prior if prior is None else prior
+        if prior.kind != self.kind:
+            raise ValueError(f"prior: expected kind {self.kind!r}, got {prior.kind!r}")
+        dtype = prior.mean.dtype
+        zero = jnp.zeros((), dtype=dtype)
+        return FilterState(
+            mean=prior.mean,
+            cov=prior.cov,
+            time_s=jnp.asarray(time_s, dtype=dtype),
+            start_s=jnp.asarray(time_s, dtype=dtype),
+            n_slip_windows=zero,
+            n_excited_windows=zero,
+            n_limit_windows=zero,
+            temperature_sum=zero,
+            cusum_up=zero,
+            cusum_down=zero,
+            n_alarms=jnp.zeros((), dtype=jnp.int32),
+            alarm=jnp.zeros((), dtype=bool),
+            inflation=empty_inflation(dtype),
+        )
+
+    def update(self, state: FilterState, block: WindowBlocks) -> FilterState:
+        """One step: predict, test for change, update by one block of windows (unbatched)."""
+        cfg = self.config
+        weight = 1.0 / inflation_in_use(
+            state.inflation, cfg.initial_inflation, cfg.inflation_prior_blocks
+        )
+
+        def log_likelihood(theta):
+            return block_log_likelihood(theta, block, weight, self.kind, self.priors)
+
+        elapsed = jnp.maximum(block.time_s - state.time_s, 0.0)
+        cov = state.cov + jnp.diag(cfg.drift_sd_per_sqrt_s**2 * elapsed)
+        up, down, alarm = cusum_step(
+            log_likelihood,
+            state.mean,
+            cov,
+            state.cusum_up,
+            state.cusum_down,
+            index=self._index["log_c_xr"],
+            shift=cfg.change_log_shift,
+            threshold=cfg.change_threshold,
+            gate_sd=cfg.change_gate_log_sd,
+        )
+        fresh = self.init(time_s=block.time_s)
+        mean = jnp.where(alarm, fresh.mean, state.mean)
+        cov = jnp.where(alarm, fresh.cov, cov)
+        mean, cov = laplace_update(log_likelihood, mean, cov, cfg.newton_steps)
+
+        z = standardised_slip_residuals(mean, block, self.kind, self.priors)
+        slip_window = block.mask & ~block.at_limit
+        dtype = mean.dtype
+        slips = jnp.sum(slip_window).astype(dtype)
+        excited = jnp.sum(slip_window & (jnp.abs(block.rho) >= cfg.excitation_force))
+        limits = jnp.sum(block.mask & block.at_limit).astype(dtype)
+        temperature = jnp.sum(jnp.where(slip_window, block.temperature_c, 0.0))
+
+        def since_start(previous, added):
+            return jnp.where(alarm, 0.0, previous) + added
+
+        return FilterState(
+            mean=mean,
+            cov=cov,
+            time_s=jnp.maximum(block.time_s, state.time_s),
+            start_s=jnp.where(alarm, block.time_s, state.start_s),
+            n_slip_windows=since_start(state.n_slip_windows, slips),
+            n_excited_windows=since_start(state.n_excited_windows, excited.astype(dtype)),
+            n_limit_windows=since_start(state.n_limit_windows, limits),
+            temperature_sum=since_start(state.temperature_sum, temperature),
+            cusum_up=jnp.where(alarm, 0.0, up),
+            cusum_down=jnp.where(alarm, 0.0, down),
+            n_alarms=state.n_alarms + alarm.astype(jnp.int32),
+            alarm=alarm,
+            inflation=accrue_residuals(state.inflation, z, slip_window),
+        )
+
+    def summary(self, state: FilterState) -> OnlineSummary:
+        """The estimate of a state (unbatched; vmap for many)."""
+        idx = self._index
+        sd = jnp.sqrt(jnp.diag(state.cov))
+        mean_temperature = jnp.where(
+            state.n_slip_windows > 0,
+            state.temperature_sum / jnp.maximum(state.n_slip_windows, 1.0),
+            20.0,
+        )
+        a = c_x_direction(state.mean.shape[0], mean_temperature, idx, state.mean.dtype)
+        c_x = log_normal_summary(a @ state.mean, jnp.sqrt(a @ state.cov @ a))
+        ready, reason = readiness(c_x, state.n_slip_windows, state.n_excited_windows, self.config)
+        mu_i = idx["log_mu_max"]
+        mu_contraction = 1.0 - sd[mu_i] / jnp.sqrt(self.prior.cov[mu_i, mu_i])
+        mu_observed = (state.n_limit_windows > 0) & (
+            mu_contraction >= self.config.mu_observed_contraction
+        )
+        gain_i, offset_i, c_i = idx["log_force_gain"], idx["slip_offset"], idx["log_c_xr"]
+        return OnlineSummary(
+            time_s=state.time_s,
+            c_x=c_x,
+            c_xr=log_normal_summary(state.mean[c_i], sd[c_i]),
+            mu_max=log_normal_summary(state.mean[mu_i], sd[mu_i]),
+            force_gain=log_normal_summary(state.mean[gain_i], sd[gain_i]),
+            slip_offset_mean=state.mean[offset_i],
+            slip_offset_sd=sd[offset_i],
+            ready=ready,
+            reason=reason,
+            mu_observed=mu_observed,
+            alarm=state.alarm,
+            n_alarms=state.n_alarms,
+            n_slip_windows=state.n_slip_windows,
+            n_excited_windows=state.n_excited_windows,
+            n_limit_windows=state.n_limit_windows,
+            slip_inflation=inflation_in_use(
+                state.inflation, self.config.initial_inflation, self.config.inflation_prior_blocks
+            ),
+        )
+
+    def run(self, state: FilterState, blocks: WindowBlocks) -> tuple[FilterState, OnlineSummary]:
+        """Scan :meth:`update` over blocks (leading axis); returns the last state and every step's
+        summary (a trajectory)."""
+
+        def step(carry, block):
+            new = self.update(carry, block)
+            return new, self.summary(new)
+
+        return jax.lax.scan(step, state, blocks)
+
+
+@eqx.filter_jit
+def run_online(
+    estimator: OnlineEstimator, state: FilterState, blocks: WindowBlocks
+) -> tuple[FilterState, OnlineSummary]:
+    """:meth:`OnlineEstimator.run`, compiled (once per block shape and estimator settings)."""
+    return estimator.run(state, blocks)
+
+
+def online_estimate(
+    blocks: WindowBlocks,
+    *,
+    kind: str = "magic",
+    priors: TyrePriors | None = None,
+    config: OnlineConfig | None = None,
+    imu_gain_log_sd: float = 0.0,
+) -> tuple[FilterState, OnlineSummary]:
+    """Run the estimator from the type prior over one stream's blocks (the command's path)."""
+    estimator = OnlineEstimator.create(
+        kind=kind,
+        surface=blocks.surface,
+        priors=priors,
+        config=config,
+        imu_gain_log_sd=imu_gain_log_sd,
+    )
+    return run_online(estimator, estimator.init(), blocks)
+
+
+__all__ = ["OnlineEstimator", "online_estimate", "run_online", "type_prior"]

@@ -1,0 +1,178 @@
+"""What the online estimator reports at a step, and whether it has the evidence to report it.
+
+C_x is reported at the mean tyre temperature of the windows since the (re)start, as the batch
+fit does (``c_x`` of :func:`~tyrebayes.inference.tyre.model.tyre_model`): log C_x = log C_xr −
+κ(T̄ − 20 °C) is linear in θ, so it is Gaussian under the filter and C_x log-normal. Intervals are
+the log-normal's central 90 % intervals (for the sds a step carries, a fraction of a percent
+from its 90 % HDI), keyed ``hdi_90`` as every summary of the package.
+
+"Enough evidence" (``ready``) for C_x and C_xr: their 90 % interval lies within
+±``ready_half_width`` of the mean AND the windows since the (re)start excite the tyre (enough
+slip windows, enough of them at a force away from zero). μ_max has its own rule: an ABS window
+was seen and the posterior sd of log μ_max has shrunk by half from the prior's. A value that is
+not ready is reported as missing, with the reason (:func:`summary_record`).
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Bool, Float, Int
+
+from ..tyre.model import REFERENCE_TEMPERATURE_C
+
+_Z90 = 1.6448536269514722
+
+# Reasons a C_x value is withheld (codes in OnlineSummary.reason, texts in summary_record).
+READY, TOO_LITTLE_EXCITATION, INTERVAL_TOO_WIDE = 0, 1, 2
+REASONS = {
+    READY: "",
+    TOO_LITTLE_EXCITATION: "too little excitation: too few windows pushing the tyre",
+    INTERVAL_TOO_WIDE: "90 % interval of C_x wider than the readiness width",
+}
+
+
+class LogNormalSummary(eqx.Module):
+    """A log-normal posterior summary (all fields with the caller's leading axes).
+
+    Fields
+    ------
+    mean, sd : Float[Array, "*t"]
+        Mean and sd of the value.
+    low, high : Float[Array, "*t"]
+        Its central 90 % interval.
+    """
+
+    mean: Float[Array, "*t"]
+    sd: Float[Array, "*t"]
+    low: Float[Array, "*t"]
+    high: Float[Array, "*t"]
+
+
+def log_normal_summary(log_mean, log_sd) -> LogNormalSummary:
+    """Summary of exp(X), X ~ Normal(log_mean, log_sd²)."""
+    mean = jnp.exp(log_mean + 0.5 * log_sd**2)
+    sd = mean * jnp.sqrt(jnp.expm1(log_sd**2))
+    return LogNormalSummary(
+        mean=mean,
+        sd=sd,
+        low=jnp.exp(log_mean - _Z90 * log_sd),
+        high=jnp.exp(log_mean + _Z90 * log_sd),
+    )
+
+
+class OnlineSummary(eqx.Module):
+    """The estimate at one step (or a trajectory: every field gains a leading time axis).
+
+    Fields
+    ------
+    time_s : Float[Array, "*t"]
+        Drive time [s].
+    c_x, c_xr, mu_max, force_gain : LogNormalSummary
+        C_x at the mean tyre temperature since the (re)start, C_xr at 20 °C, μ_max and the
+        force gain g [-].
+    slip_offset_mean, slip_offset_sd : Float[Array, "*t"]
+        The drive's slip at zero force [-].
+    ready : Bool[Array, "*t"]
+        Enough evidence for C_x and C_xr (module docstring).
+    reason : Int[Array, "*t"]
+        Why not (:data:`REASONS`), 0 when ready.
+    mu_observed : Bool[Array, "*t"]
+        μ_max observed (module docstring).
+    alarm : Bool[Array, "*t"]
+        A change alarm at this step (the estimator restarted from the prior).
+    n_alarms : Int[Array, "*t"]
+        Alarms so far.
+    n_slip_windows, n_excited_windows, n_limit_windows : Float[Array, "*t"]
+        Windows since the (re)start.
+    slip_inflation : Float[Array, "*t"]
+        Variance inflation of the slip errors the next step uses.
+    """
+
+    time_s: Float[Array, "*t"]
+    c_x: LogNormalSummary
+    c_xr: LogNormalSummary
+    mu_max: LogNormalSummary
+    force_gain: LogNormalSummary
+    slip_offset_mean: Float[Array, "*t"]
+    slip_offset_sd: Float[Array, "*t"]
+    ready: Bool[Array, "*t"]
+    reason: Int[Array, "*t"]
+    mu_observed: Bool[Array, "*t"]
+    alarm: Bool[Array, "*t"]
+    n_alarms: Int[Array, "*t"]
+    n_slip_windows: Float[Array, "*t"]
+    n_excited_windows: Float[Array, "*t"]
+    n_limit_windows: Float[Array, "*t"]
+    slip_inflation: Float[Array, "*t"]
+
+
+def c_x_direction(n_params: int, mean_temperature_c, index: dict, dtype=float):
+    """Coefficients a with log C_x = aᵀθ at the given mean tyre temperature."""
+    a = jnp.zeros(n_params, dtype=dtype).at[index["log_c_xr"]].set(1.0)
+    return a.at[index["temp_sensitivity"]].set(-(mean_temperature_c - REFERENCE_TEMPERATURE_C))
+
+
+def readiness(c_x: LogNormalSummary, n_slip, n_excited, config) -> tuple:
+    """(ready, reason) for C_x (module docstring)."""
+    narrow = (c_x.high <= (1.0 + config.ready_half_width) * c_x.mean) & (
+        c_x.low >= (1.0 - config.ready_half_width) * c_x.mean
+    )
+    excited = (n_slip >= config.min_slip_windows) & (n_excited >= config.min_excited_windows)
+    reason = jnp.where(~excited, TOO_LITTLE_EXCITATION, jnp.where(narrow, READY, INTERVAL_TOO_WIDE))
+    return excited & narrow, reason
+
+
+def _value(s: LogNormalSummary, i) -> dict:
+    lo, hi = float(np.asarray(s.low)[i]), float(np.asarray(s.high)[i])
+    return {
+        "mean": float(np.asarray(s.mean)[i]),
+        "sd": float(np.asarray(s.sd)[i]),
+        "hdi_90": [lo, hi],
+    }
+
+
+def summary_record(summary: OnlineSummary, i=()) -> dict:
+    """One step of a summary as plain data; withheld values are ``None`` with a reason.
+
+    ``i`` indexes the step of a trajectory (default: an unbatched summary).
+    """
+    ready = bool(np.asarray(summary.ready)[i])
+    reason = REASONS[int(np.asarray(summary.reason)[i])]
+    mu_ok = bool(np.asarray(summary.mu_observed)[i])
+    record = {
+        "time_s": float(np.asarray(summary.time_s)[i]),
+        "enough_evidence": ready,
+        "reason": None if ready else reason,
+        "c_x": _value(summary.c_x, i) if ready else None,
+        "c_xr": _value(summary.c_xr, i) if ready else None,
+        "mu_max": _value(summary.mu_max, i) if mu_ok else None,
+        "mu_max_reason": None if mu_ok else "not observed: no ABS stop, or too little contraction",
+        "slip_offset": {
+            "mean": float(np.asarray(summary.slip_offset_mean)[i]),
+            "sd": float(np.asarray(summary.slip_offset_sd)[i]),
+            "hdi_90": [
+                float(np.asarray(summary.slip_offset_mean - _Z90 * summary.slip_offset_sd)[i]),
+                float(np.asarray(summary.slip_offset_mean + _Z90 * summary.slip_offset_sd)[i]),
+            ],
+        },
+        "force_gain": _value(summary.force_gain, i),
+        "alarm": bool(np.asarray(summary.alarm)[i]),
+        "n_alarms": int(np.asarray(summary.n_alarms)[i]),
+        "n_slip_windows": int(np.asarray(summary.n_slip_windows)[i]),
+        "n_excited_windows": int(np.asarray(summary.n_excited_windows)[i]),
+        "n_abs_windows": int(np.asarray(summary.n_limit_windows)[i]),
+        "slip_inflation": float(np.asarray(summary.slip_inflation)[i]),
+    }
+    return record
+
+
+__all__ = [
+    "REASONS",
+    "LogNormalSummary",
+    "OnlineSummary",
+    "log_normal_summary",
+    "readiness",
+    "summary_record",
+]
