@@ -39,7 +39,6 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).parent))
 from _online_common import TYRES, machine, simulated_windows  # noqa: E402
 
-from tyrebayes.inference.tyre.force_density import force_density_score  # noqa: E402
 from tyrebayes.inference.online import (  # noqa: E402
     OnlineEstimator,
     pad_steps,
@@ -47,7 +46,9 @@ from tyrebayes.inference.online import (  # noqa: E402
     stream_steps,
 )
 from tyrebayes.inference.tyre.data import BLOCK_S  # noqa: E402
-from tyrebayes.inference.tyre.model import curve_slip, stiffness_at_temperature  # noqa: E402
+from tyrebayes.inference.tyre.force_density import force_density_score  # noqa: E402
+from tyrebayes.inference.tyre.model import curve_slip  # noqa: E402
+from tyrebayes.physics.thermal import stiffness_with_sensitivity  # noqa: E402
 from tyrebayes.simulate.tyre_spec import TyreSpec, draw_database_curve  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "online_change.json"
@@ -90,7 +91,7 @@ def model_windows(template: dict, seed: int) -> dict:
     rho_true = template["rho"][use]
     rho_sd, slip_sd = template["rho_sd"][use], template["slip_sd"][use]
     temperature = template["temperature_c"][use]
-    c_x = np.asarray(stiffness_at_temperature(TRUE["c_xr"], TRUE["kappa"], temperature))
+    c_x = np.asarray(stiffness_with_sensitivity(TRUE["c_xr"], temperature, TRUE["kappa"]))
     params = {"curve_shape_c": TRUE["shape_c"], "curve_curvature_e": TRUE["curvature_e"]}
     slip_true = np.asarray(curve_slip("magic", rho_true, c_x, TRUE["mu"], params))
     block = np.floor(t / BLOCK_S).astype(int)

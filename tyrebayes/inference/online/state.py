@@ -13,8 +13,8 @@ class InflationSums(eqx.Module):
     """Running batch-means sums of the standardised slip residuals (the variance inflation).
 
     The batch fit weighs each drive's slips by 1/VIF, VIF from batch means over
-    :data:`~tyrebayes.inference.tyre.window_correlation.BLOCK_WINDOWS` consecutive slip windows of its
-    standardised residuals (:func:`~tyrebayes.inference.tyre.window_correlation.variance_inflation`).
+    ``BLOCK_WINDOWS`` consecutive slip windows of its standardised residuals
+    (:func:`~tyrebayes.inference.tyre.window_correlation.variance_inflation`).
     These are that estimate's sums, accrued as residuals arrive (each at the mode of its step).
 
     Fields
