@@ -20,7 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
-from ..tyre.model import REFERENCE_TEMPERATURE_C
+from ...physics.thermal import REFERENCE_TEMPERATURE_C
 
 _Z90 = 1.6448536269514722
 
