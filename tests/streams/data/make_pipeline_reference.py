@@ -99,6 +99,10 @@ def summarise(outputs: dict) -> dict:
 
 
 def main() -> None:
+    import jax
+
+    # As the tests run (tests/conftest.py): the force balance in float64.
+    jax.config.update("jax_enable_x64", True)
     from tyrebayes._domain import load_vehicle
     from tyrebayes.simulate.drive import simulate_drive
     from tyrebayes.streams import write_stream
