@@ -25,6 +25,7 @@ _COMMAND_MODULES = (
     "inspect",
     "fit_tyre",
     "fleet",
+    "fleet_run",
     "wear",
     "vmax",
     "criticize",

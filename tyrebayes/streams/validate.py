@@ -284,6 +284,58 @@ def _resample_channel(
     return out, bridged
 
 
+class _SharedSearch:
+    """Where each grid point falls among the file's time stamps, computed once for all channels.
+
+    Most channels hold a value at both file rows around a grid point; there a channel's own
+    interval is the file's and the interpolation needs no search of its own.
+    """
+
+    def __init__(self, grid: np.ndarray, t: np.ndarray):
+        # np.interp's interval: t[j] <= g < t[j + 1] (the last interval for g = t[-1]).
+        self.j = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, t.size - 2)
+        t0 = t[self.j]
+        self.t0 = t0
+        self.span = t[self.j + 1] - t0
+        self.offset = grid - t0
+        self.on_knot = self.offset == 0.0
+        self.at_end = grid == t[-1]
+        self.inside = (grid >= t[0]) & (grid <= t[-1])
+
+
+def _resample_shared(
+    grid: np.ndarray, t: np.ndarray, x: np.ndarray, max_fill_s: float, shared: _SharedSearch
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_resample_channel` on the file's intervals, the per-channel search only near NaN.
+
+    Where the channel has values at both file rows around a grid point its interval is the
+    file's, so the value is ``np.interp``'s own arithmetic there (the same to the last bit) and
+    the gap tests are the file's interval against the channel's period. The few grid points next
+    to a dropped sample (NaN here) go through :func:`_resample_channel`, which searches the
+    channel's own valid instants.
+    """
+    valid = np.isfinite(x)
+    if valid.sum() < 2:
+        return _resample_channel(grid, t, x, max_fill_s)
+    period = _median_interval(t if bool(valid.all()) else t[valid])
+    limit = max(max_fill_s, 1.5 * period)
+    j = shared.j
+    x0 = x[j]
+    span = shared.span
+    values = (x[j + 1] - x0) / span * shared.offset + x0
+    np.copyto(values, x0, where=shared.on_knot)
+    np.copyto(values, x[-1], where=shared.at_end)
+    near_nan = ~np.isfinite(values) & shared.inside
+    exact = shared.on_knot | shared.at_end
+    ok = shared.inside & (exact | (span <= limit * (1 + 1e-9)))
+    out = np.where(ok, values, np.nan)
+    bridged = ok & ~exact & (span > 1.5 * period)
+    if near_nan.any():
+        idx = np.flatnonzero(near_nan)
+        out[idx], bridged[idx] = _resample_channel(grid[idx], t, x, max_fill_s)
+    return out, bridged
+
+
 def _fill_on_own_grid(
     t: np.ndarray, x: np.ndarray, valid: np.ndarray, max_fill_s: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -580,18 +632,25 @@ def validate_stream(
     grid, resampled = _time_base(t, wheel_dt)
     dt_s = float(grid[1] - grid[0])
     rate_hz = 1.0 / dt_s
-    data: dict[str, np.ndarray] = {"time": grid}
+    # One float block, a row per column: the table is a view of it (no consolidating copy).
+    names = ["time", *(name for name in cols if name != "time")]
+    block = np.empty((len(names), grid.size))
+    data: dict[str, np.ndarray] = {}
     filled = np.zeros(grid.shape, dtype=bool)
-    for name, x in cols.items():
-        if name == "time":
+    shared = _SharedSearch(grid, t) if resampled else None
+    for row, name in zip(block, names, strict=True):
+        data[name] = row
+        x = grid if name == "time" else cols[name]
+        if name == "time" or (not resampled and np.all(np.isfinite(x))):
+            row[:] = x
             continue
-        if not resampled and np.all(np.isfinite(x)):
-            data[name] = x
-            continue
-        data[name], bridged = _resample_channel(grid, t, x, max_fill_s)
+        if shared is None:
+            row[:], bridged = _resample_channel(grid, t, x, max_fill_s)
+        else:
+            row[:], bridged = _resample_shared(grid, t, x, max_fill_s, shared)
         if name in REQUIRED_COLUMNS:
             filled |= bridged
-    out = pd.DataFrame(data)
+    out = pd.DataFrame(block.T, columns=names, copy=False)
 
     _unit_checks(data, vehicle, rate_hz)
     missing = ~np.all(np.isfinite(np.column_stack([data[c] for c in WHEEL_COLUMNS])), axis=1)

@@ -1,0 +1,180 @@
+"""The per-drive stage: read → validate → features → windows table and summary row.
+
+:func:`process_drive` runs on a worker, one drive at a time. It writes, atomically and in this
+order, ``drives/ID.windows.parquet`` (:mod:`.windows`), ``drives/ID.summary.parquet`` (one row,
+:func:`~.drive_summary.drive_summary`) and ``drives/ID.record.json`` (:mod:`.records`); a drive
+whose record matches its input's content hash and the settings is skipped. A bad log (corrupt,
+unreadable, unknown vehicle, too few usable windows) gives a failed record with its one-line
+reason, never an exception: one bad file must not stop a fleet run.
+"""
+
+from __future__ import annotations
+
+import math
+import resource
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .._errors import BadInputError
+from .drive_summary import drive_summary
+from .manifest import DriveItem
+from .records import (
+    file_hash,
+    read_record,
+    record_path,
+    unchanged,
+    value_hash,
+    write_parquet,
+    write_record,
+)
+from .settings import RunSettings, configure_jax
+from .windows import windows_table
+
+DRIVES_DIR = "drives"
+
+
+def _vehicle_file(vehicle: str) -> Path:
+    from .._domain import vehicle_path
+
+    try:
+        return vehicle_path(vehicle)
+    except ValueError as err:
+        raise BadInputError(str(err).splitlines()[0]) from None
+
+
+def drive_input_hash(item: DriveItem) -> str:
+    """Content hash of everything a drive's outputs come from: the log, vehicle, profile, row."""
+    parts = {
+        "log": file_hash(item.path),
+        "vehicle": file_hash(_vehicle_file(item.vehicle)),
+        "row": {
+            "tyre_set_id": item.tyre_set_id,
+            "tyre_type": item.tyre_type,
+            "surface": item.surface,
+            "ambient_c": None if math.isnan(item.ambient_c) else item.ambient_c,
+            "profile": item.profile,
+        },
+    }
+    if item.profile:
+        from .._resources import models_dir
+
+        profile = Path(item.profile)
+        if not profile.suffix:
+            profile = models_dir() / "profiles" / f"{item.profile}.toml"
+        parts["profile"] = file_hash(profile) if profile.is_file() else item.profile
+    return value_hash(parts)
+
+
+def _read_log(item: DriveItem, vehicle):
+    from ..streams import read_stream
+
+    if not item.profile:
+        return read_stream(item.path)
+    from ..streams.can import read_can_log
+
+    return read_can_log(item.path, item.profile, vehicle=vehicle).data
+
+
+def _windows_and_summary(item: DriveItem, settings: RunSettings) -> tuple[pd.DataFrame, dict]:
+    from .._domain import load_vehicle
+    from ..inference.tyre_data import observations_from_features
+    from ..streams import compute_features, validate_stream
+    from ..streams.tyre_temperature import features_tyre_temperature
+
+    try:
+        vehicle = load_vehicle(item.vehicle)
+    except ValueError as err:
+        raise BadInputError(str(err).splitlines()[0]) from None
+    stream = validate_stream(_read_log(item, vehicle), vehicle)
+    ambient = item.ambient_c
+    if math.isnan(ambient):
+        ambient = 20.0
+        if "ambient_temperature" in stream.data:
+            values = stream.data["ambient_temperature"].to_numpy(dtype=float)
+            if np.isfinite(values).any():
+                ambient = float(np.nanmean(values))
+    features = compute_features(stream, vehicle)
+    temperature = features_tyre_temperature(features, ambient_c=ambient)
+    windows = observations_from_features(
+        features, temperature_c=temperature, window_s=settings.window_s
+    )
+    if len(windows["slip"]) == 0:
+        raise BadInputError("no usable windows (too short, too slow, or no traction)")
+    table = windows_table(
+        windows, drive_id=item.drive_id, tyre_set_id=item.tyre_set_id, surface=item.surface
+    )
+    row = drive_summary(item, stream, features, windows)
+    row["ambient_c"] = float(ambient)
+    return table, row
+
+
+def one_line(err: BaseException) -> str:
+    """An exception as one line: bad input as its message, anything else with its type."""
+    text = str(err).strip().splitlines()[0] if str(err).strip() else ""
+    if isinstance(err, BadInputError):
+        return text
+    if isinstance(err, FileNotFoundError):
+        return f"no such file '{err.filename}'"
+    return f"{type(err).__name__}: {text}" if text else type(err).__name__
+
+
+def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
+    """Run the per-drive stage for one drive (or skip it); returns its record.
+
+    The record holds ``status`` (``"done"``, ``"failed"``), ``skipped`` (True when an earlier
+    record with the same input hash and settings was reused), ``reason`` (one line, failed
+    only), ``windows_hash`` (content hash of the windows table, what the tyre-set stage keys
+    on), ``seconds`` and ``cpu_seconds`` of this call, ``peak_rss_mb`` of the worker process.
+    """
+    start, cpu = time.perf_counter(), time.process_time()
+    configure_jax(settings.jax_cache)
+    folder = Path(out_dir) / DRIVES_DIR
+    rec_path = record_path(folder, item.drive_id)
+    config = settings.drive_settings()
+    try:
+        input_hash = drive_input_hash(item)
+    except (OSError, BadInputError) as err:
+        input_hash = ""
+        failure = one_line(err)
+    else:
+        failure = None
+    old = read_record(rec_path)
+    if input_hash and old is not None and unchanged(old, input_hash, config):
+        return {**old, "skipped": True, "seconds": time.perf_counter() - start}
+    record = {
+        "item": "drive",
+        "drive_id": item.drive_id,
+        "tyre_set_id": item.tyre_set_id,
+        "path": item.path,
+        "input_hash": input_hash,
+        "settings": config,
+        "folder": str(folder),
+    }
+    if failure is None:
+        try:
+            table, row = _windows_and_summary(item, settings)
+            windows_path = write_parquet(table, folder / f"{item.drive_id}.windows.parquet")
+            write_parquet(pd.DataFrame([row]), folder / f"{item.drive_id}.summary.parquet")
+            record |= {
+                "status": "done",
+                "reason": "",
+                "windows_hash": file_hash(windows_path),
+                "surface": item.surface,
+                "windows": int(len(table)),
+                "duration_s": row["duration_s"],
+                "outputs": [f"{item.drive_id}.windows.parquet", f"{item.drive_id}.summary.parquet"],
+            }
+        except Exception as err:  # noqa: BLE001 -- any bad log is recorded, never raised
+            failure = one_line(err)
+    if failure is not None:
+        record |= {"status": "failed", "reason": failure, "outputs": []}
+    record |= {
+        "seconds": time.perf_counter() - start,
+        "cpu_seconds": time.process_time() - cpu,
+        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+    }
+    write_record(rec_path, record)
+    return {**record, "skipped": False}
