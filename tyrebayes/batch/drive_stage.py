@@ -36,35 +36,40 @@ from .windows import windows_table
 DRIVES_DIR = "drives"
 
 
-def _vehicle_file(vehicle: str) -> Path:
-    from .._domain import vehicle_path
+def _content(path_or_name, resolve=Path) -> str:
+    """A file's content hash; for a file that cannot be found or read, what was asked for.
 
+    A missing log or an unknown vehicle is then part of the input too: its failure is recorded
+    once and skipped on a rerun until the file appears.
+    """
     try:
-        return vehicle_path(vehicle)
-    except ValueError as err:
-        raise BadInputError(str(err).splitlines()[0]) from None
+        return file_hash(resolve(path_or_name))
+    except (OSError, ValueError, BadInputError):
+        return f"unavailable: {path_or_name}"
+
+
+def _profile_file(profile: str) -> Path:
+    from .._resources import models_dir
+
+    path = Path(profile)
+    return path if path.suffix else models_dir() / "profiles" / f"{profile}.toml"
 
 
 def drive_input_hash(item: DriveItem) -> str:
     """Content hash of everything a drive's outputs come from: the log, vehicle, profile, row."""
+    from .._domain import vehicle_path
+
     parts = {
-        "log": file_hash(item.path),
-        "vehicle": file_hash(_vehicle_file(item.vehicle)),
+        "log": _content(item.path),
+        "vehicle": _content(item.vehicle, vehicle_path),
+        "profile": _content(item.profile, _profile_file) if item.profile else "",
         "row": {
             "tyre_set_id": item.tyre_set_id,
             "tyre_type": item.tyre_type,
             "surface": item.surface,
             "ambient_c": None if math.isnan(item.ambient_c) else item.ambient_c,
-            "profile": item.profile,
         },
     }
-    if item.profile:
-        from .._resources import models_dir
-
-        profile = Path(item.profile)
-        if not profile.suffix:
-            profile = models_dir() / "profiles" / f"{item.profile}.toml"
-        parts["profile"] = file_hash(profile) if profile.is_file() else item.profile
     return value_hash(parts)
 
 
@@ -134,15 +139,9 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
     folder = Path(out_dir) / DRIVES_DIR
     rec_path = record_path(folder, item.drive_id)
     config = settings.drive_settings()
-    try:
-        input_hash = drive_input_hash(item)
-    except (OSError, BadInputError) as err:
-        input_hash = ""
-        failure = one_line(err)
-    else:
-        failure = None
+    input_hash = drive_input_hash(item)
     old = read_record(rec_path)
-    if input_hash and old is not None and unchanged(old, input_hash, config):
+    if unchanged(old, input_hash, config):
         return {**old, "skipped": True, "seconds": time.perf_counter() - start}
     record = {
         "item": "drive",
@@ -153,24 +152,21 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
         "settings": config,
         "folder": str(folder),
     }
-    if failure is None:
-        try:
-            table, row = _windows_and_summary(item, settings)
-            windows_path = write_parquet(table, folder / f"{item.drive_id}.windows.parquet")
-            write_parquet(pd.DataFrame([row]), folder / f"{item.drive_id}.summary.parquet")
-            record |= {
-                "status": "done",
-                "reason": "",
-                "windows_hash": file_hash(windows_path),
-                "surface": item.surface,
-                "windows": int(len(table)),
-                "duration_s": row["duration_s"],
-                "outputs": [f"{item.drive_id}.windows.parquet", f"{item.drive_id}.summary.parquet"],
-            }
-        except Exception as err:  # noqa: BLE001 -- any bad log is recorded, never raised
-            failure = one_line(err)
-    if failure is not None:
-        record |= {"status": "failed", "reason": failure, "outputs": []}
+    try:
+        table, row = _windows_and_summary(item, settings)
+        windows_path = write_parquet(table, folder / f"{item.drive_id}.windows.parquet")
+        write_parquet(pd.DataFrame([row]), folder / f"{item.drive_id}.summary.parquet")
+        record |= {
+            "status": "done",
+            "reason": "",
+            "windows_hash": file_hash(windows_path),
+            "surface": item.surface,
+            "windows": int(len(table)),
+            "duration_s": row["duration_s"],
+            "outputs": [f"{item.drive_id}.windows.parquet", f"{item.drive_id}.summary.parquet"],
+        }
+    except Exception as err:  # noqa: BLE001 -- any bad log is recorded, never raised
+        record |= {"status": "failed", "reason": one_line(err), "outputs": []}
     record |= {
         "seconds": time.perf_counter() - start,
         "cpu_seconds": time.process_time() - cpu,

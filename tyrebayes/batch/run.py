@@ -102,21 +102,19 @@ class _Progress:
 
 
 def _stage_stats(records: list[dict]) -> dict:
-    done = [r for r in records if r.get("status") == "done" and not r.get("skipped")]
-    failed = [r for r in records if r.get("status") == "failed"]
+    """Counts and costs of one stage: ``done`` (ran now and succeeded), ``skipped`` (an earlier
+    record was reused, whatever its status), ``failed`` (failed now or earlier: still failed),
+    ``failed_now``; seconds, CPU seconds and peak RSS over the items that ran now."""
+    ran = [r for r in records if not r.get("skipped")]
     return {
         "items": len(records),
-        "done": len(done),
-        "skipped": sum(bool(r.get("skipped")) for r in records),
-        "failed": len(failed),
-        "seconds": sum(float(r.get("seconds", 0.0)) for r in records if not r.get("skipped")),
-        "cpu_seconds": sum(
-            float(r.get("cpu_seconds", 0.0)) for r in records if not r.get("skipped")
-        ),
-        "peak_rss_mb_max": max(
-            (float(r.get("peak_rss_mb", 0.0)) for r in records if not r.get("skipped")),
-            default=0.0,
-        ),
+        "done": sum(r.get("status") == "done" for r in ran),
+        "skipped": len(records) - len(ran),
+        "failed": sum(r.get("status") == "failed" for r in records),
+        "failed_now": sum(r.get("status") == "failed" for r in ran),
+        "seconds": sum(float(r.get("seconds", 0.0)) for r in ran),
+        "cpu_seconds": sum(float(r.get("cpu_seconds", 0.0)) for r in ran),
+        "peak_rss_mb_max": max((float(r.get("peak_rss_mb", 0.0)) for r in ran), default=0.0),
     }
 
 
