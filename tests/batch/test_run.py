@@ -5,7 +5,8 @@ unknown vehicle) goes through the command in a subprocess that is killed (SIGKIL
 group: client, scheduler and workers) as soon as the first drives are recorded; the rerun must
 skip exactly those, finish the rest, and leave every output once; a third run skips everything.
 The fits use the linear tyre model: its compilation is the shortest, and the batch machinery,
-not the model, is under test here.
+not the model, is under test here. The JAX cache is the command's default
+(``~/.cache/tyrebayes/jax``, shared with the demo): the first run compiles, later runs load.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tyrebayes._commands.fleet_run import default_cache
 from tyrebayes.batch import RunSettings, dask_client, fleet_run, read_manifest
 from tyrebayes.batch.windows import WINDOW_COLUMNS
 from tyrebayes.cli import main
@@ -64,10 +66,10 @@ def _records(out: Path, stage: str) -> dict[str, dict]:
     }
 
 
-def _kill_after_first_drives(manifest: Path, out: Path, cache: Path) -> set[str]:
+def _kill_after_first_drives(manifest: Path, out: Path) -> set[str]:
     """Start fleet-run in its own process group; SIGKILL it once 2 drives are recorded."""
     cmd = [sys.executable, "-m", "tyrebayes.cli", "fleet-run", str(manifest), "--out", str(out),
-           "--workers", "2", "--model", MODEL, "--jax-cache", str(cache), "--json"]  # fmt: skip
+           "--workers", "2", "--model", MODEL, "--json"]  # fmt: skip
     proc = subprocess.Popen(
         cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
     )
@@ -85,12 +87,12 @@ def _kill_after_first_drives(manifest: Path, out: Path, cache: Path) -> set[str]
 
 
 def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
-    out, cache = tmp_path / "out", tmp_path / "jax_cache"
-    finished_before = _kill_after_first_drives(manifest, out, cache)
+    out = tmp_path / "out"
+    finished_before = _kill_after_first_drives(manifest, out)
     assert len(finished_before) >= 2
 
     items = read_manifest(manifest)
-    settings = RunSettings(model=MODEL, jax_cache=str(cache))
+    settings = RunSettings(model=MODEL, jax_cache=default_cache())
     with dask_client(workers=2) as client:
         assert len(client.scheduler_info()["workers"]) == 2
         summary = fleet_run(items, out, client, settings, progress=False)

@@ -44,15 +44,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
         "--jax-cache",
-        help="JAX compilation cache shared by the workers (default ~/.cache/tyrebayes/jax)",
+        help="JAX compilation cache shared by the workers (default $TYREBAYES_JAX_CACHE or "
+        "~/.cache/tyrebayes/jax; '' for none)",
     )
     parser.add_argument("--json", action="store_true", help="machine-readable summary")
     parser.set_defaults(func=run)
 
 
-def _default_cache() -> str:
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return str(Path(base) / "tyrebayes" / "jax")
+def default_cache() -> str:
+    """The demo's JAX cache: ``$TYREBAYES_JAX_CACHE``, else ``$XDG_CACHE_HOME/tyrebayes/jax``.
+
+    (``~/.cache`` without ``XDG_CACHE_HOME``; an empty ``TYREBAYES_JAX_CACHE`` switches it off.)
+    """
+    default = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "tyrebayes" / "jax"
+    return os.environ.get("TYREBAYES_JAX_CACHE", str(default))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -70,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
         method=args.method,
         model=args.model,
         seed=args.seed,
-        jax_cache=args.jax_cache or _default_cache(),
+        jax_cache=default_cache() if args.jax_cache is None else args.jax_cache,
     )
     with dask_client(args.scheduler, args.workers, args.memory_limit) as client:
         summary = fleet_run(items, out, client, settings)
