@@ -89,9 +89,7 @@ def pipeline_outputs(path: Path, vehicle_name: str) -> dict:
 def summarise(outputs: dict) -> dict:
     result = {}
     for key, value in outputs.items():
-        if isinstance(value, str) or (isinstance(value, list) and value and isinstance(value[0], str)):
-            result[key] = {"text": value}
-        elif isinstance(value, list) and not value:
+        if isinstance(value, str | list):  # flags, notes, labels: compared as they are
             result[key] = {"text": value}
         else:
             result[key] = fingerprint(value)
