@@ -304,7 +304,12 @@ class _SharedSearch:
 
 
 def _resample_shared(
-    grid: np.ndarray, t: np.ndarray, x: np.ndarray, max_fill_s: float, shared: _SharedSearch
+    grid: np.ndarray,
+    t: np.ndarray,
+    x: np.ndarray,
+    max_fill_s: float,
+    shared: _SharedSearch,
+    period: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_resample_channel` on the file's intervals, the per-channel search only near NaN.
 
@@ -312,12 +317,11 @@ def _resample_shared(
     file's, so the value is ``np.interp``'s own arithmetic there (the same to the last bit) and
     the gap tests are the file's interval against the channel's period. The few grid points next
     to a dropped sample (NaN here) go through :func:`_resample_channel`, which searches the
-    channel's own valid instants.
+    channel's own valid instants. ``period`` is the channel's median interval.
     """
     valid = np.isfinite(x)
     if valid.sum() < 2:
         return _resample_channel(grid, t, x, max_fill_s)
-    period = _median_interval(t if bool(valid.all()) else t[valid])
     limit = max(max_fill_s, 1.5 * period)
     j = shared.j
     x0 = x[j]
@@ -603,22 +607,22 @@ def validate_stream(
             f"too few samples: expected at least {min_samples} values of each wheel speed, "
             f"got {min(wheel_counts)}"
         )
-    wheel_dt = float(np.median([_median_interval(t[np.isfinite(cols[c])]) for c in WHEEL_COLUMNS]))
+    # Each channel's valid instants and median interval, found once: the wheel rate, the
+    # dropped fractions, the channel rates and the resampling all read them.
+    finite = {name: np.isfinite(x) for name, x in cols.items() if name != "time"}
+    valid_time = {name: t if ok.all() else t[ok] for name, ok in finite.items()}
+    interval = {name: _median_interval(tv) for name, tv in valid_time.items()}
+    wheel_dt = float(np.median([interval[c] for c in WHEEL_COLUMNS]))
     radius = vehicle.wheel_radius_m if vehicle is not None else _DEFAULT_RADIUS_M
     # One wheel: in a file with each wheel on its own instants a median of four has no rows.
     check_time_base(t, radius * cols["wheel_speed_fl"], cols["ax"], wheel_dt)
-    _fix_imu_frame(cols, notes)
-    dropped = {name: dropped_fraction(t[np.isfinite(cols[name])]) for name in REQUIRED_COLUMNS[1:]}
+    _fix_imu_frame(cols, notes)  # sign flips only: the valid instants stay
+    dropped = {name: dropped_fraction(valid_time[name]) for name in REQUIRED_COLUMNS[1:]}
 
-    nan_fraction = {
-        name: float(np.mean(~np.isfinite(x))) for name, x in cols.items() if name != "time"
+    nan_fraction = {name: float(np.mean(~ok)) for name, ok in finite.items()}
+    channel_rate = {
+        name: float(1.0 / dt_c) if dt_c > 0 else float("nan") for name, dt_c in interval.items()
     }
-    channel_rate = {}
-    for name, x in cols.items():
-        if name == "time":
-            continue
-        dt_c = _median_interval(t[np.isfinite(x)])
-        channel_rate[name] = float(1.0 / dt_c) if dt_c > 0 else float("nan")
     quant = {name: quantisation_step(cols[name]) for name in REQUIRED_COLUMNS[1:]}
     if "speed_reference" in cols:
         quant["speed_reference"] = quantisation_step(cols["speed_reference"])
@@ -647,7 +651,7 @@ def validate_stream(
         if shared is None:
             row[:], bridged = _resample_channel(grid, t, x, max_fill_s)
         else:
-            row[:], bridged = _resample_shared(grid, t, x, max_fill_s, shared)
+            row[:], bridged = _resample_shared(grid, t, x, max_fill_s, shared, interval[name])
         if name in REQUIRED_COLUMNS:
             filled |= bridged
     out = pd.DataFrame(block.T, columns=names, copy=False)

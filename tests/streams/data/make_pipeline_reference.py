@@ -89,7 +89,8 @@ def pipeline_outputs(path: Path, vehicle_name: str) -> dict:
 def summarise(outputs: dict) -> dict:
     result = {}
     for key, value in outputs.items():
-        if isinstance(value, str | list):  # flags, notes, labels: compared as they are
+        text = isinstance(value, list) and all(isinstance(v, str) for v in value)
+        if isinstance(value, str) or text:  # flags, notes, labels: compared as they are
             result[key] = {"text": value}
         else:
             result[key] = fingerprint(value)
