@@ -11,7 +11,6 @@ reason, never an exception: one bad file must not stop a fleet run.
 from __future__ import annotations
 
 import math
-import resource
 import time
 from pathlib import Path
 
@@ -23,6 +22,7 @@ from .drive_summary import drive_summary
 from .manifest import DriveItem
 from .records import (
     file_hash,
+    peak_rss_mb,
     read_record,
     record_path,
     unchanged,
@@ -83,17 +83,24 @@ def _read_log(item: DriveItem, vehicle):
     return read_can_log(item.path, item.profile, vehicle=vehicle).data
 
 
-def _windows_and_summary(item: DriveItem, settings: RunSettings) -> tuple[pd.DataFrame, dict]:
+def _windows_and_summary(
+    item: DriveItem, settings: RunSettings
+) -> tuple[pd.DataFrame, dict, dict[str, float]]:
+    """The drive's windows table and summary row, with the CPU seconds of each step."""
     from .._domain import load_vehicle
     from ..inference.tyre_data import observations_from_features
     from ..streams import compute_features, validate_stream
     from ..streams.tyre_temperature import features_tyre_temperature
 
+    cpu = [time.process_time()]
     try:
         vehicle = load_vehicle(item.vehicle)
     except ValueError as err:
         raise BadInputError(str(err).splitlines()[0]) from None
-    stream = validate_stream(_read_log(item, vehicle), vehicle)
+    log = _read_log(item, vehicle)
+    cpu.append(time.process_time())
+    stream = validate_stream(log, vehicle)
+    cpu.append(time.process_time())
     ambient = item.ambient_c
     if math.isnan(ambient):
         ambient = 20.0
@@ -102,6 +109,7 @@ def _windows_and_summary(item: DriveItem, settings: RunSettings) -> tuple[pd.Dat
             if np.isfinite(values).any():
                 ambient = float(np.nanmean(values))
     features = compute_features(stream, vehicle)
+    cpu.append(time.process_time())
     temperature = features_tyre_temperature(features, ambient_c=ambient)
     windows = observations_from_features(
         features, temperature_c=temperature, window_s=settings.window_s
@@ -113,7 +121,9 @@ def _windows_and_summary(item: DriveItem, settings: RunSettings) -> tuple[pd.Dat
     )
     row = drive_summary(item, stream, features, windows)
     row["ambient_c"] = float(ambient)
-    return table, row
+    cpu.append(time.process_time())
+    steps = ("read", "validate", "features", "windows_and_summary")
+    return table, row, {k: b - a for k, a, b in zip(steps, cpu[:-1], cpu[1:], strict=True)}
 
 
 def one_line(err: BaseException) -> str:
@@ -132,7 +142,8 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
     The record holds ``status`` (``"done"``, ``"failed"``), ``skipped`` (True when an earlier
     record with the same input hash and settings was reused), ``reason`` (one line, failed
     only), ``windows_hash`` (content hash of the windows table, what the tyre-set stage keys
-    on), ``seconds`` and ``cpu_seconds`` of this call, ``peak_rss_mb`` of the worker process.
+    on), ``seconds`` and ``cpu_seconds`` of this call (``step_cpu_seconds``: read, validate,
+    features, windows and summary), ``peak_rss_mb`` of the worker process.
     """
     start, cpu = time.perf_counter(), time.process_time()
     configure_jax(settings.jax_cache)
@@ -153,7 +164,7 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
         "folder": str(folder),
     }
     try:
-        table, row = _windows_and_summary(item, settings)
+        table, row, step_cpu = _windows_and_summary(item, settings)
         windows_path = write_parquet(table, folder / f"{item.drive_id}.windows.parquet")
         write_parquet(pd.DataFrame([row]), folder / f"{item.drive_id}.summary.parquet")
         record |= {
@@ -163,6 +174,7 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
             "surface": item.surface,
             "windows": int(len(table)),
             "duration_s": row["duration_s"],
+            "step_cpu_seconds": step_cpu,
             "outputs": [f"{item.drive_id}.windows.parquet", f"{item.drive_id}.summary.parquet"],
         }
     except Exception as err:  # noqa: BLE001 -- any bad log is recorded, never raised
@@ -170,7 +182,7 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
     record |= {
         "seconds": time.perf_counter() - start,
         "cpu_seconds": time.process_time() - cpu,
-        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "peak_rss_mb": peak_rss_mb(),
     }
     write_record(rec_path, record)
     return {**record, "skipped": False}

@@ -11,7 +11,6 @@ fit-fleet`` does) and predicts every fitted set's friction on snow with its wint
 
 from __future__ import annotations
 
-import resource
 import time
 from pathlib import Path
 
@@ -21,7 +20,15 @@ import pandas as pd
 from .._domain import SURFACES, TYRE_TYPES
 from .._errors import BadInputError
 from .drive_stage import one_line
-from .records import read_record, record_path, unchanged, value_hash, write_parquet, write_record
+from .records import (
+    peak_rss_mb,
+    read_record,
+    record_path,
+    unchanged,
+    value_hash,
+    write_parquet,
+    write_record,
+)
 from .settings import RunSettings, configure_jax
 
 FLEET_DIR = "fleet"
@@ -143,7 +150,7 @@ def run_fleet_stage(out_dir: str, tyre_sets: pd.DataFrame, settings: RunSettings
     record |= {
         "seconds": time.perf_counter() - start,
         "cpu_seconds": time.process_time() - cpu,
-        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "peak_rss_mb": peak_rss_mb(),
     }
     write_record(rec_path, record)
     return {**record, "skipped": False}

@@ -37,6 +37,24 @@ def value_hash(value) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
+def peak_rss_mb() -> float:
+    """This process's peak resident memory [MB] (VmHWM on Linux).
+
+    ``getrusage``'s ``ru_maxrss`` survives ``execve`` on Linux, so a worker spawned by a large
+    process would report its parent's peak; the kernel's VmHWM is the process's own.
+    """
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
 def record_path(folder: Path, name: str) -> Path:
     return Path(folder) / f"{name}.record.json"
 

@@ -19,7 +19,6 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import resource
 import sys
 import time
 from collections import defaultdict
@@ -31,7 +30,7 @@ from .._io import atomic_write_bytes, to_jsonable
 from .drive_stage import DRIVES_DIR, process_drive
 from .fleet_stage import run_fleet_stage
 from .manifest import DriveItem
-from .records import write_parquet
+from .records import peak_rss_mb, write_parquet
 from .settings import RunSettings
 from .tyre_set_stage import fit_tyre_set, set_file_name, tyre_set_table
 
@@ -265,7 +264,7 @@ def fleet_run(
         "drive_hours": sum(float(r.get("duration_s", 0.0)) for r in processed) / 3600.0,
         "wall_seconds": time.perf_counter() - start,
         "workers": len(client.scheduler_info().get("workers", {})),
-        "client_peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "client_peak_rss_mb": peak_rss_mb(),
         "settings": {
             "method": settings.method,
             "model": settings.model,

@@ -11,7 +11,6 @@ without its logs.
 from __future__ import annotations
 
 import re
-import resource
 import time
 from pathlib import Path
 
@@ -20,7 +19,15 @@ import pandas as pd
 from .._domain import SURFACES
 from .._errors import BadInputError
 from .drive_stage import DRIVES_DIR, one_line
-from .records import read_record, record_path, unchanged, value_hash, write_parquet, write_record
+from .records import (
+    peak_rss_mb,
+    read_record,
+    record_path,
+    unchanged,
+    value_hash,
+    write_parquet,
+    write_record,
+)
 from .settings import RunSettings, configure_jax
 from .windows import drives_from_windows
 
@@ -159,7 +166,7 @@ def fit_tyre_set(
     record |= {
         "seconds": time.perf_counter() - start,
         "cpu_seconds": time.process_time() - cpu,
-        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "peak_rss_mb": peak_rss_mb(),
     }
     write_record(rec_path, record)
     return {**record, "skipped": False}
