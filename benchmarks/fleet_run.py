@@ -160,7 +160,7 @@ def cluster_run(items, out: Path, settings, workers: int, noop_tasks: int = 0) -
         "cluster_start_seconds": ready - start,
         "run_wall_seconds": summary["wall_seconds"],
         "summary": summary,
-        "worker_peak_rss_mb": sorted(worker_peaks.values()),
+        "worker_peak_rss_mb_since_last_task_start": sorted(worker_peaks.values()),
         "idle_and_overhead_seconds_per_task": (summary["wall_seconds"] * workers - task_seconds)
         / n_tasks,
         "noop_round_trip_seconds_per_task": overhead,
@@ -259,8 +259,16 @@ def main() -> int:
             },
             "scaling_efficiency_1_to_2": one["run_wall_seconds"] / (2 * two["run_wall_seconds"]),
             "scaling_target": TARGET_SCALING,
+            # Each task resets its process's peak (records.reset_peak_rss): the records' peaks
+            # are per task, their maximum the most a worker held at once.
+            "peak_rss_mb_by_stage": {
+                stage: max(r["summary"][stage]["peak_rss_mb_max"] for r in (one, two))
+                for stage in ("drives", "tyre_sets")
+            },
             "peak_rss_mb_per_worker_max": max(
-                one["worker_peak_rss_mb"] + two["worker_peak_rss_mb"]
+                r["summary"][stage]["peak_rss_mb_max"]
+                for r in (one, two)
+                for stage in ("drives", "tyre_sets")
             ),
             "peak_target_mb": TARGET_PEAK_MB,
             "scheduler_round_trip_seconds_per_task": two["noop_round_trip_seconds_per_task"],

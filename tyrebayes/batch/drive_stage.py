@@ -25,6 +25,7 @@ from .records import (
     peak_rss_mb,
     read_record,
     record_path,
+    reset_peak_rss,
     unchanged,
     value_hash,
     write_parquet,
@@ -145,6 +146,7 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
     on), ``seconds`` and ``cpu_seconds`` of this call (``step_cpu_seconds``: read, validate,
     features, windows and summary), ``peak_rss_mb`` of the worker process.
     """
+    reset_peak_rss()
     start, cpu = time.perf_counter(), time.process_time()
     configure_jax(settings.jax_cache)
     folder = Path(out_dir) / DRIVES_DIR

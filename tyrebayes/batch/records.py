@@ -55,6 +55,19 @@ def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+def reset_peak_rss() -> None:
+    """Start a new peak-memory count for this process (Linux: ``5`` to ``/proc/self/clear_refs``).
+
+    A worker runs many tasks; resetting at the start of each makes its record's
+    ``peak_rss_mb`` that task's own peak. Where the file cannot be written the count goes on.
+    """
+    try:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+    except OSError:
+        pass
+
+
 def record_path(folder: Path, name: str) -> Path:
     return Path(folder) / f"{name}.record.json"
 

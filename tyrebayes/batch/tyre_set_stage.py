@@ -23,6 +23,7 @@ from .records import (
     peak_rss_mb,
     read_record,
     record_path,
+    reset_peak_rss,
     unchanged,
     value_hash,
     write_parquet,
@@ -111,6 +112,7 @@ def fit_tyre_set(
         The run's output folder.
     settings : RunSettings
     """
+    reset_peak_rss()
     start, cpu = time.perf_counter(), time.process_time()
     configure_jax(settings.jax_cache)
     name = set_file_name(tyre_set_id)
