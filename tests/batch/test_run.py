@@ -165,3 +165,19 @@ def test_cli_bad_manifest_is_exit_2(tmp_path, capsys):
     assert err.startswith("tyrebayes fleet-run: manifest: expected columns") and "\n" not in err
     assert main(["fleet-run", str(tmp_path / "none.csv"), "--out", str(tmp_path / "o")]) == 2
     assert "got no file" in capsys.readouterr().err
+
+
+def test_cli_options(tmp_path, capsys):
+    from tyrebayes._commands.fleet_run import MODEL_CHOICES
+    from tyrebayes.inference.tyre_model import DEFAULT_KIND, MODEL_KINDS
+
+    assert set(MODEL_CHOICES) == set(MODEL_KINDS) and MODEL_CHOICES[0] == DEFAULT_KIND
+    manifest = tmp_path / "m.csv"
+    pd.DataFrame([{"path": "a.parquet", "vehicle": "compact_fwd", "tyre_set_id": "s"}]).to_csv(
+        manifest, index=False
+    )
+    assert main(["fleet-run", str(manifest), "--out", str(tmp_path / "o"), "--workers", "0"]) == 2
+    assert "--workers: expected >= 1" in capsys.readouterr().err
+    (tmp_path / "file").write_text("")
+    assert main(["fleet-run", str(manifest), "--out", str(tmp_path / "file")]) == 2
+    assert "expected a folder" in capsys.readouterr().err
