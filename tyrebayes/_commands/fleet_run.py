@@ -36,7 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--scheduler", help="address of a dask scheduler (default: a local one)")
     parser.add_argument("--workers", type=int, help="local workers (default: one per core)")
     parser.add_argument(
-        "--memory-limit", default=None, help="per local worker (default 3GiB; dask syntax)"
+        "--memory-limit", default=None, help="per local worker (default 4GiB; dask syntax)"
     )
     parser.add_argument("--method", choices=("fast", "nuts"), default="fast")
     parser.add_argument("--model", choices=MODEL_CHOICES, default=MODEL_CHOICES[0])

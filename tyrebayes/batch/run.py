@@ -34,9 +34,20 @@ from .records import peak_rss_mb, write_parquet
 from .settings import RunSettings
 from .tyre_set_stage import fit_tyre_set, set_file_name, tyre_set_table
 
-#: Memory limit of each local worker; the per-drive stage of a one-hour log peaks near 0.5 GB
-#: and a tyre-set fit near 1 GB (benchmarks/results/fleet_run.json).
-DEFAULT_MEMORY_LIMIT = "3GiB"
+#: Memory limit of each local worker: a fast fit of a set with about two hours of driving held
+#: 2.6 GB at its peak (benchmarks/results/fleet_run.json), the per-drive stage less.
+DEFAULT_MEMORY_LIMIT = "4GiB"
+
+# The tasks keep no data in the workers (they write files and return small records), so dask's
+# spilling and pausing only get in the way: memory that JAX and the allocator keep after a fit
+# does not come back, and a paused single worker never resumes. The limit stays as the nanny's
+# hard stop (a worker over 95 % is restarted and its task recorded as failed).
+_WORKER_MEMORY_CONFIG = {
+    "distributed.worker.memory.target": False,
+    "distributed.worker.memory.spill": False,
+    "distributed.worker.memory.pause": False,
+    "distributed.worker.memory.terminate": 0.95,
+}
 
 # One thread per worker and no hidden thread pools: a worker is one core.
 _WORKER_ENV = {
@@ -57,6 +68,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, memory
     with ``memory_limit`` (default :data:`DEFAULT_MEMORY_LIMIT`). With an address the cluster's
     own workers run the tasks (dask-jobqueue, Kubernetes, cloud: the same code).
     """
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -65,6 +77,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, memory
         return
     n = workers or os.cpu_count() or 1
     with (
+        dask.config.set(_WORKER_MEMORY_CONFIG),
         LocalCluster(
             n_workers=n,
             threads_per_worker=1,
