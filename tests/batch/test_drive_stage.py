@@ -106,3 +106,25 @@ def test_bad_logs_are_failed_records_with_one_line(tmp_path, drive_file):
         "no_such_car"
         in process_drive(cases["unknown vehicle"], str(tmp_path), RunSettings())["reason"]
     )
+
+
+def test_a_raw_can_log_with_a_profile(tmp_path):
+    from tyrebayes.simulate.can_log import stream_messages, write_can_log
+    from tyrebayes.streams.can import load_dbc, load_profile
+
+    vehicle = load_vehicle("suv_rav4")
+    df, _ = simulate_drive(6, "suv_rav4", "summer", duration_s=60.0, surface="dry")
+    profile = load_profile("toyota_rav4_2017")
+    messages = stream_messages(
+        df.fillna(0.0), profile, load_dbc(profile.dbc_path()), wheel_radius_m=vehicle.wheel_radius_m
+    )
+    log = write_can_log(messages, tmp_path / "drive.log")
+    table = pd.DataFrame(
+        [{"path": str(log), "vehicle": "suv_rav4", "tyre_set_id": "rav4",
+          "profile": "toyota_rav4_2017"}]
+    )  # fmt: skip
+    item = manifest_from_table(table)[0]
+    record = process_drive(item, str(tmp_path), RunSettings())
+    assert record["status"] == "done", record["reason"]
+    windows = pd.read_parquet(tmp_path / "drives" / f"{item.drive_id}.windows.parquet")
+    assert len(windows) == record["windows"] > 0
