@@ -50,3 +50,29 @@ def test_pad_sizes_are_few():
     sizes = {pad_size(int(n)) for n in np.unique(np.geomspace(10, 200_000, 500).astype(int))}
     assert sizes == {2**k for k in range(8, 19)}
     assert all(pad_size(n) >= n for n in (1, 255, 256, 257, 65_536, 65_537))
+
+
+def test_fleet_stage_fits_and_predicts_per_set(tmp_path):
+    from tyrebayes.inference.result import load_fit
+
+    sets = pd.DataFrame(
+        [
+            _row(f"w{i}", "winter", snow=mu) | {"c_xr": c}
+            for i, (c, mu) in enumerate([(28.0, 0.33), (30.0, 0.31), (26.0, 0.35)])
+        ]
+        + [
+            _row(f"s{i}", "summer", snow=mu) | {"c_xr": c}
+            for i, (c, mu) in enumerate([(50.0, 0.22), (55.0, 0.20), (47.0, 0.24)])
+        ]
+        + [_row("x", "summer")]  # nothing observed: predicted, not fitted
+    )
+    record = run_fleet_stage(str(tmp_path), sets, RunSettings())
+    assert record["status"] == "done", record["reason"]
+    assert record["rows"] == 6
+    assert load_fit(tmp_path / "fleet" / "fleet.nc", kind="fleet").data is not None
+    pred = pd.read_parquet(tmp_path / "fleet" / "predictions.parquet")
+    assert list(pred["tyre_id"]) == list(sets["tyre_id"])
+    assert set(pred["verdict"]) <= {"ok", "warn", "insufficient_evidence"}
+    by_id = pred.set_index("tyre_id")
+    assert by_id.loc["w0", "p_below_mu_min"] < by_id.loc["s0", "p_below_mu_min"]
+    assert (pred["mu_q05"] < pred["mu_mean"]).all() and (pred["mu_mean"] < pred["mu_q95"]).all()
