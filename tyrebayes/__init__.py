@@ -8,7 +8,8 @@ The public API in task order, re-exported from the modules that define it:
 3. predict from fits;
 4. decide (:mod:`tyrebayes.decisions`);
 5. criticise (:mod:`tyrebayes.criticism`);
-6. report (:mod:`tyrebayes.report`).
+6. report (:mod:`tyrebayes.report`);
+7. run a fleet of drive logs on dask.distributed (:mod:`tyrebayes.batch`).
 
 Physics lives in :mod:`tyrebayes.physics`; simulated drives and fleets with known truth in
 :mod:`tyrebayes.simulate` (not re-exported here: the library never needs them).
@@ -97,5 +98,11 @@ from .criticism import posterior_predictive_check as posterior_predictive_check
 # 6. report
 from .report import Report as Report
 from .report import write_report as write_report
+
+# 7. fleet runs on dask.distributed
+from .batch import RunSettings as RunSettings
+from .batch import dask_client as dask_client
+from .batch import fleet_run as fleet_run
+from .batch import read_manifest as read_manifest
 
 __version__ = "0.1.0"

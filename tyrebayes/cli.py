@@ -26,6 +26,7 @@ _COMMAND_MODULES = (
     "fit_tyre",
     "online",
     "fleet",
+    "fleet_run",
     "wear",
     "vmax",
     "criticize",

@@ -8,13 +8,15 @@ from tyrebayes.internal.jax_cache import default_cache_dir, enable_compilation_c
 
 @pytest.fixture
 def restore_cache_config():
-    before = (
-        jax.config.jax_compilation_cache_dir,
-        jax.config.jax_persistent_cache_min_compile_time_secs,
+    names = (
+        "jax_compilation_cache_dir",
+        "jax_persistent_cache_min_compile_time_secs",
+        "jax_persistent_cache_min_entry_size_bytes",
     )
+    before = {name: getattr(jax.config, name) for name in names}
     yield
-    jax.config.update("jax_compilation_cache_dir", before[0])
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", before[1])
+    for name, value in before.items():
+        jax.config.update(name, value)
 
 
 def test_environment_chooses_the_folder_and_empty_switches_it_off(monkeypatch, tmp_path):
@@ -33,6 +35,7 @@ def test_enabling_points_jax_at_a_created_folder(tmp_path, restore_cache_config)
     assert folder.is_dir()
     assert jax.config.jax_compilation_cache_dir == str(folder)
     assert jax.config.jax_persistent_cache_min_compile_time_secs == 0.0
+    assert jax.config.jax_persistent_cache_min_entry_size_bytes == 0
 
 
 def test_a_folder_that_cannot_be_made_runs_without_cache(tmp_path, restore_cache_config):

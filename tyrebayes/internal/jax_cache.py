@@ -24,8 +24,9 @@ def default_cache_dir() -> str:
 def enable_compilation_cache(path: str | None = None) -> str:
     """Point JAX's persistent compilation cache at ``path`` (default :func:`default_cache_dir`).
 
-    Every compiled program is kept, however quick its compilation. Returns the folder in use, or
-    "" when the cache is off or the folder cannot be made (a read-only home: run without it).
+    Every compiled program is kept, however quick its compilation or small. Returns the folder
+    in use, or "" when the cache is off or the folder cannot be made (a read-only home: run
+    without it).
     """
     import jax
 
@@ -38,4 +39,5 @@ def enable_compilation_cache(path: str | None = None) -> str:
         return ""
     jax.config.update("jax_compilation_cache_dir", path)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+    jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
     return path

@@ -57,17 +57,19 @@ def nan_moving_average(x: Float[np.ndarray, "n *k"], window: int) -> Float[np.nd
         elif half:
             total *= (2 * half + 1) / _edge_counts(n, half, x.ndim)
         return total
-    count = _window_difference(_cumsum0(valid.astype(np.float64)), n, half)
+    # Counts in integers: exact, and a boolean's integer cumulative sum costs a third of a
+    # float one on (n, k) arrays.
+    count = _window_difference(_cumsum0(valid, np.int32), n, half)
     with np.errstate(invalid="ignore", divide="ignore"):
         np.divide(total, count, out=total)
-    total[count < 0.5] = np.nan
+    total[count == 0] = np.nan
     return total
 
 
-def _cumsum0(x: np.ndarray) -> np.ndarray:
+def _cumsum0(x: np.ndarray, dtype=np.float64) -> np.ndarray:
     """Cumulative sum along axis 0 with a zero row in front (shape n + 1)."""
-    out = np.empty((x.shape[0] + 1,) + x.shape[1:])
-    out[0] = 0.0
+    out = np.empty((x.shape[0] + 1,) + x.shape[1:], dtype=dtype)
+    out[0] = 0
     np.cumsum(x, axis=0, out=out[1:])
     return out
 
@@ -77,7 +79,7 @@ def _window_difference(csum: np.ndarray, n: int, half: int) -> np.ndarray:
     if n <= 2 * half:  # every window truncated: index arrays, cheap at this size
         idx = np.arange(n)
         return csum[np.minimum(idx + half + 1, n)] - csum[np.maximum(idx - half, 0)]
-    out = np.empty((n,) + csum.shape[1:])
+    out = np.empty((n,) + csum.shape[1:], dtype=csum.dtype)
     np.subtract(csum[2 * half + 1 :], csum[: n - 2 * half], out=out[half : n - half])
     if half:
         out[:half] = csum[half + 1 : 2 * half + 1]  # minus csum[0] = 0

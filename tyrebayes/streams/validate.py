@@ -284,6 +284,62 @@ def _resample_channel(
     return out, bridged
 
 
+class _SharedSearch:
+    """Where each grid point falls among the file's time stamps, computed once for all channels.
+
+    Most channels hold a value at both file rows around a grid point; there a channel's own
+    interval is the file's and the interpolation needs no search of its own.
+    """
+
+    def __init__(self, grid: np.ndarray, t: np.ndarray):
+        # np.interp's interval: t[j] <= g < t[j + 1] (the last interval for g = t[-1]).
+        self.j = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, t.size - 2)
+        t0 = t[self.j]
+        self.t0 = t0
+        self.span = t[self.j + 1] - t0
+        self.offset = grid - t0
+        self.on_knot = self.offset == 0.0
+        self.at_end = grid == t[-1]
+        self.inside = (grid >= t[0]) & (grid <= t[-1])
+
+
+def _resample_shared(
+    grid: np.ndarray,
+    t: np.ndarray,
+    x: np.ndarray,
+    max_fill_s: float,
+    shared: _SharedSearch,
+    period: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_resample_channel` on the file's intervals, the per-channel search only near NaN.
+
+    Where the channel has values at both file rows around a grid point its interval is the
+    file's, so the value is ``np.interp``'s own arithmetic there (the same to the last bit) and
+    the gap tests are the file's interval against the channel's period. The few grid points next
+    to a dropped sample (NaN here) go through :func:`_resample_channel`, which searches the
+    channel's own valid instants. ``period`` is the channel's median interval.
+    """
+    valid = np.isfinite(x)
+    if valid.sum() < 2:
+        return _resample_channel(grid, t, x, max_fill_s)
+    limit = max(max_fill_s, 1.5 * period)
+    j = shared.j
+    x0 = x[j]
+    span = shared.span
+    values = (x[j + 1] - x0) / span * shared.offset + x0
+    np.copyto(values, x0, where=shared.on_knot)
+    np.copyto(values, x[-1], where=shared.at_end)
+    near_nan = ~np.isfinite(values) & shared.inside
+    exact = shared.on_knot | shared.at_end
+    ok = shared.inside & (exact | (span <= limit * (1 + 1e-9)))
+    out = np.where(ok, values, np.nan)
+    bridged = ok & ~exact & (span > 1.5 * period)
+    if near_nan.any():
+        idx = np.flatnonzero(near_nan)
+        out[idx], bridged[idx] = _resample_channel(grid[idx], t, x, max_fill_s)
+    return out, bridged
+
+
 def _fill_on_own_grid(
     t: np.ndarray, x: np.ndarray, valid: np.ndarray, max_fill_s: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -551,22 +607,22 @@ def validate_stream(
             f"too few samples: expected at least {min_samples} values of each wheel speed, "
             f"got {min(wheel_counts)}"
         )
-    wheel_dt = float(np.median([_median_interval(t[np.isfinite(cols[c])]) for c in WHEEL_COLUMNS]))
+    # Each channel's valid instants and median interval, found once: the wheel rate, the
+    # dropped fractions, the channel rates and the resampling all read them.
+    finite = {name: np.isfinite(x) for name, x in cols.items() if name != "time"}
+    valid_time = {name: t if ok.all() else t[ok] for name, ok in finite.items()}
+    interval = {name: _median_interval(tv) for name, tv in valid_time.items()}
+    wheel_dt = float(np.median([interval[c] for c in WHEEL_COLUMNS]))
     radius = vehicle.wheel_radius_m if vehicle is not None else _DEFAULT_RADIUS_M
     # One wheel: in a file with each wheel on its own instants a median of four has no rows.
     check_time_base(t, radius * cols["wheel_speed_fl"], cols["ax"], wheel_dt)
-    _fix_imu_frame(cols, notes)
-    dropped = {name: dropped_fraction(t[np.isfinite(cols[name])]) for name in REQUIRED_COLUMNS[1:]}
+    _fix_imu_frame(cols, notes)  # sign flips only: the valid instants stay
+    dropped = {name: dropped_fraction(valid_time[name]) for name in REQUIRED_COLUMNS[1:]}
 
-    nan_fraction = {
-        name: float(np.mean(~np.isfinite(x))) for name, x in cols.items() if name != "time"
+    nan_fraction = {name: float(np.mean(~ok)) for name, ok in finite.items()}
+    channel_rate = {
+        name: float(1.0 / dt_c) if dt_c > 0 else float("nan") for name, dt_c in interval.items()
     }
-    channel_rate = {}
-    for name, x in cols.items():
-        if name == "time":
-            continue
-        dt_c = _median_interval(t[np.isfinite(x)])
-        channel_rate[name] = float(1.0 / dt_c) if dt_c > 0 else float("nan")
     quant = {name: quantisation_step(cols[name]) for name in REQUIRED_COLUMNS[1:]}
     if "speed_reference" in cols:
         quant["speed_reference"] = quantisation_step(cols["speed_reference"])
@@ -580,18 +636,25 @@ def validate_stream(
     grid, resampled = _time_base(t, wheel_dt)
     dt_s = float(grid[1] - grid[0])
     rate_hz = 1.0 / dt_s
-    data: dict[str, np.ndarray] = {"time": grid}
+    # One float block, a row per column: the table is a view of it (no consolidating copy).
+    names = ["time", *(name for name in cols if name != "time")]
+    block = np.empty((len(names), grid.size))
+    data: dict[str, np.ndarray] = {}
     filled = np.zeros(grid.shape, dtype=bool)
-    for name, x in cols.items():
-        if name == "time":
+    shared = _SharedSearch(grid, t) if resampled else None
+    for row, name in zip(block, names, strict=True):
+        data[name] = row
+        x = grid if name == "time" else cols[name]
+        if name == "time" or (not resampled and np.all(np.isfinite(x))):
+            row[:] = x
             continue
-        if not resampled and np.all(np.isfinite(x)):
-            data[name] = x
-            continue
-        data[name], bridged = _resample_channel(grid, t, x, max_fill_s)
+        if shared is None:
+            row[:], bridged = _resample_channel(grid, t, x, max_fill_s)
+        else:
+            row[:], bridged = _resample_shared(grid, t, x, max_fill_s, shared, interval[name])
         if name in REQUIRED_COLUMNS:
             filled |= bridged
-    out = pd.DataFrame(data)
+    out = pd.DataFrame(block.T, columns=names, copy=False)
 
     _unit_checks(data, vehicle, rate_hz)
     missing = ~np.all(np.isfinite(np.column_stack([data[c] for c in WHEEL_COLUMNS])), axis=1)

@@ -1,0 +1,78 @@
+"""The fleet table from tyre-set rows: only observed μ_max of converged sets of known type."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from tyrebayes.batch.fleet_stage import fleet_table, run_fleet_stage
+from tyrebayes.batch.settings import RunSettings
+from tyrebayes.batch.tyre_set_stage import pad_size
+
+
+def _row(tyre_id, tyre_type="winter", converged=True, **observed):
+    row = {"tyre_id": tyre_id, "tyre_type": tyre_type, "c_xr": 30.0, "c_xr_sd": 1.0,
+           "converged": converged}  # fmt: skip
+    for s in ("snow", "ice", "wet", "dry"):
+        row[f"mu_{s}"] = observed.get(s, 0.5)
+        row[f"mu_{s}_observed"] = s in observed
+    return row
+
+
+def test_fleet_table_keeps_only_observations():
+    sets = pd.DataFrame(
+        [
+            _row("a", snow=0.31, dry=0.9),
+            _row("b", snow=0.35),
+            _row("c"),  # nothing observed: its μ are priors
+            _row("d", tyre_type="", snow=0.3),  # type unknown
+            _row("e", converged=False, snow=0.3),
+        ]
+    )
+    table = fleet_table(sets)
+    assert list(zip(table["tyre_id"], table["surface"], table["mu"], strict=True)) == [
+        ("a", "snow", 0.31),
+        ("a", "dry", 0.9),
+        ("b", "snow", 0.35),
+    ]
+
+
+def test_fleet_stage_without_observations_is_a_recorded_failure(tmp_path):
+    sets = pd.DataFrame([_row("a"), _row("b")])
+    record = run_fleet_stage(str(tmp_path), sets, RunSettings())
+    assert record["status"] == "failed" and "observed" in record["reason"]
+    assert (tmp_path / "fleet" / "fleet_table.csv").is_file()
+    again = run_fleet_stage(str(tmp_path), sets, RunSettings())
+    assert again["skipped"]
+
+
+def test_pad_sizes_are_few():
+    sizes = {pad_size(int(n)) for n in np.unique(np.geomspace(10, 200_000, 500).astype(int))}
+    assert sizes == {2**k for k in range(8, 19)}
+    assert all(pad_size(n) >= n for n in (1, 255, 256, 257, 65_536, 65_537))
+
+
+def test_fleet_stage_fits_and_predicts_per_set(tmp_path):
+    from tyrebayes.inference.result import load_fit
+
+    sets = pd.DataFrame(
+        [
+            _row(f"w{i}", "winter", snow=mu) | {"c_xr": c}
+            for i, (c, mu) in enumerate([(28.0, 0.33), (30.0, 0.31), (26.0, 0.35)])
+        ]
+        + [
+            _row(f"s{i}", "summer", snow=mu) | {"c_xr": c}
+            for i, (c, mu) in enumerate([(50.0, 0.22), (55.0, 0.20), (47.0, 0.24)])
+        ]
+        + [_row("x", "summer")]  # nothing observed: predicted, not fitted
+    )
+    record = run_fleet_stage(str(tmp_path), sets, RunSettings())
+    assert record["status"] == "done", record["reason"]
+    assert record["rows"] == 6
+    assert load_fit(tmp_path / "fleet" / "fleet.nc", kind="fleet").data is not None
+    pred = pd.read_parquet(tmp_path / "fleet" / "predictions.parquet")
+    assert list(pred["tyre_id"]) == list(sets["tyre_id"])
+    assert set(pred["verdict"]) <= {"ok", "warn", "insufficient_evidence"}
+    by_id = pred.set_index("tyre_id")
+    assert by_id.loc["w0", "p_below_mu_min"] < by_id.loc["s0", "p_below_mu_min"]
+    assert (pred["mu_q05"] < pred["mu_mean"]).all() and (pred["mu_mean"] < pred["mu_q95"]).all()

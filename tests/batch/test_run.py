@@ -1,0 +1,183 @@
+"""``fleet-run`` end to end on a LocalCluster of 2 workers: killed mid-run, rerun, rerun again.
+
+A small manifest (2 tyre sets x 2 simulated one-minute drives, a corrupt file, a drive of an
+unknown vehicle) goes through the command in a subprocess that is killed (SIGKILL to its process
+group: client, scheduler and workers) as soon as the first drives are recorded; the rerun must
+skip exactly those, finish the rest, and leave every output once; a third run skips everything.
+The fits use the linear tyre model: its compilation is the shortest, and the batch machinery,
+not the model, is under test here. The JAX cache is the command's default
+(``~/.cache/tyrebayes/jax``, shared with the demo): the first run compiles, later runs load.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tyrebayes._commands.fleet_run import default_cache
+from tyrebayes.batch import RunSettings, dask_client, fleet_run, read_manifest
+from tyrebayes.batch.windows import WINDOW_COLUMNS
+from tyrebayes.cli import main
+from tyrebayes.inference.result import load_fit
+from tyrebayes.simulate.drive_io import write_drive
+from tyrebayes.simulate.tyre_set import simulate_tyre_set_drives
+
+MODEL = "linear"
+
+
+@pytest.fixture(scope="module")
+def manifest(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("fleet_logs")
+    rows = []
+    for k, tyre_type in enumerate(("winter", "summer")):
+        drives = simulate_tyre_set_drives(
+            10 + k, "compact_fwd", tyre_type, n_drives=2, duration_s=60.0, surfaces=("snow", "dry")
+        )
+        for j, (df, truth) in enumerate(drives):
+            path = folder / f"set{k}_{j}.parquet"
+            write_drive(df, truth, path)
+            rows.append(
+                {"path": path.name, "vehicle": "compact_fwd", "tyre_set_id": f"set{k}",
+                 "tyre_type": tyre_type, "surface": truth.surface, "ambient_c": truth.ambient_c}
+            )  # fmt: skip
+    (folder / "corrupt.parquet").write_bytes(b"PAR1 not a parquet file")
+    rows.append({"path": "corrupt.parquet", "vehicle": "compact_fwd", "tyre_set_id": "set0",
+                 "tyre_type": "winter", "surface": "dry"})  # fmt: skip
+    (folder / "other.parquet").write_bytes((folder / "set1_0.parquet").read_bytes())
+    rows.append({"path": "other.parquet", "vehicle": "no_such_car", "tyre_set_id": "set9"})
+    path = folder / "manifest.csv"
+    pd.DataFrame(rows).to_csv(path, index=False)
+    return path
+
+
+def _records(out: Path, stage: str) -> dict[str, dict]:
+    return {
+        p.name.removesuffix(".record.json"): json.loads(p.read_text())
+        for p in sorted((out / stage).glob("*.record.json"))
+    }
+
+
+def _kill_after_first_drives(manifest: Path, out: Path) -> set[str]:
+    """Start fleet-run in its own process group; SIGKILL it once 2 drives are recorded."""
+    cmd = [sys.executable, "-m", "tyrebayes.cli", "fleet-run", str(manifest), "--out", str(out),
+           "--workers", "2", "--model", MODEL, "--json"]  # fmt: skip
+    proc = subprocess.Popen(
+        cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
+    deadline = time.monotonic() + 240.0
+    try:
+        while time.monotonic() < deadline and proc.poll() is None:
+            if len(list((out / "drives").glob("*.record.json"))) >= 2:
+                break
+            time.sleep(0.05)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+    return set(_records(out, "drives"))
+
+
+def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
+    out = tmp_path / "out"
+    finished_before = _kill_after_first_drives(manifest, out)
+    assert len(finished_before) >= 2
+
+    items = read_manifest(manifest)
+    settings = RunSettings(model=MODEL, jax_cache=default_cache())
+    with dask_client(workers=2) as client:
+        assert len(client.scheduler_info()["workers"]) == 2
+        summary = fleet_run(items, out, client, settings, progress=False)
+
+    # Drives: the ones recorded before the kill were skipped, the rest ran now.
+    drives = summary["drives"]
+    assert drives["items"] == 6
+    assert drives["skipped"] == len(finished_before)
+    assert drives["failed"] == 2
+    assert drives["done"] + drives["skipped"] + drives["failed_now"] == 6
+    records = _records(out, "drives")
+    assert set(records) == {i.drive_id for i in items}  # one record per drive, none extra
+    reasons = {
+        Path(r["path"]).name: r["reason"] for r in records.values() if r["status"] == "failed"
+    }
+    assert set(reasons) == {"corrupt.parquet", "other.parquet"}
+    assert "no_such_car" in reasons["other.parquet"]
+    assert all(r and "\n" not in r for r in reasons.values())
+
+    # Every good drive: a windows table (the contract) and one summary row, once.
+    good = [i for i in items if Path(i.path).name.startswith("set")]
+    for item in good:
+        windows = pd.read_parquet(out / "drives" / f"{item.drive_id}.windows.parquet")
+        assert tuple(windows.columns) == WINDOW_COLUMNS and len(windows) > 0
+        assert set(windows["drive_id"]) == {item.drive_id}
+    summaries = pd.read_parquet(out / "drive_summaries.parquet")
+    assert sorted(summaries["drive_id"]) == sorted(i.drive_id for i in good)
+
+    # Tyre sets: two fitted jointly over their two drives; the unknown car's set has no drive.
+    sets = pd.read_parquet(out / "tyre_sets.parquet")
+    assert sorted(sets["tyre_id"]) == ["set0", "set1"]
+    assert (sets["n_drives"] == 2).all() and sets["converged"].all()
+    assert set(sets["tyre_type"]) == {"winter", "summer"}
+    for rec in _records(out, "tyre_sets").values():
+        if rec["tyre_set_id"] == "set9":
+            assert rec["status"] == "failed" and "no drive" in rec["reason"]
+            continue
+        fit = load_fit(out / "tyre_sets" / rec["outputs"][0], kind="tyre")
+        row = sets[sets["tyre_id"] == rec["tyre_set_id"]].iloc[0]
+        c_xr = np.asarray(fit.posterior["c_xr"]).mean()
+        assert c_xr == pytest.approx(row["c_xr"], rel=1e-9)
+        assert 10.0 < row["c_xr"] < 100.0
+    failures = pd.read_csv(out / "failures.csv")
+    assert sorted(failures["item"]) == ["drive", "drive", "tyre_set"]
+
+    # Fleet: recorded with its one-line reason when no set observed μ_max; table written.
+    fleet = json.loads((out / "fleet" / "fleet.record.json").read_text())
+    assert fleet["status"] in ("done", "failed") and "\n" not in fleet["reason"]
+    assert (out / "fleet" / "fleet_table.csv").is_file()
+    assert json.loads((out / "summary.json").read_text())["drives"] == summary["drives"]
+    assert not [p for p in out.rglob(".*.tmp*")], "temporary files left behind"
+
+    # A third run: nothing changed, nothing runs, nothing is rewritten.
+    fits = sorted((out / "tyre_sets").glob("*.fit.nc"))
+    stamps = [p.stat().st_mtime_ns for p in fits]
+    with dask_client(workers=2) as client:
+        again = fleet_run(items, out, client, settings, progress=False)
+    assert again["drives"]["skipped"] == 6 and again["drives"]["done"] == 0
+    assert again["tyre_sets"]["skipped"] == 3 and again["tyre_sets"]["done"] == 0
+    assert again["fleet"]["skipped"]
+    assert [p.stat().st_mtime_ns for p in fits] == stamps
+    assert len(pd.read_parquet(out / "drive_summaries.parquet")) == 4
+
+
+def test_cli_bad_manifest_is_exit_2(tmp_path, capsys):
+    bad = tmp_path / "m.csv"
+    pd.DataFrame([{"path": "a.parquet", "vehicle": "compact_fwd"}]).to_csv(bad, index=False)
+    assert main(["fleet-run", str(bad), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("tyrebayes fleet-run: manifest: expected columns") and "\n" not in err
+    assert main(["fleet-run", str(tmp_path / "none.csv"), "--out", str(tmp_path / "o")]) == 2
+    assert "got no file" in capsys.readouterr().err
+
+
+def test_cli_options(tmp_path, capsys):
+    from tyrebayes._commands.fleet_run import MODEL_CHOICES
+    from tyrebayes.inference.tyre.model import DEFAULT_KIND, MODEL_KINDS
+
+    assert set(MODEL_CHOICES) == set(MODEL_KINDS) and MODEL_CHOICES[0] == DEFAULT_KIND
+    manifest = tmp_path / "m.csv"
+    pd.DataFrame([{"path": "a.parquet", "vehicle": "compact_fwd", "tyre_set_id": "s"}]).to_csv(
+        manifest, index=False
+    )
+    assert main(["fleet-run", str(manifest), "--out", str(tmp_path / "o"), "--workers", "0"]) == 2
+    assert "--workers: expected >= 1" in capsys.readouterr().err
+    (tmp_path / "file").write_text("")
+    assert main(["fleet-run", str(manifest), "--out", str(tmp_path / "file")]) == 2
+    assert "expected a folder" in capsys.readouterr().err

@@ -1,0 +1,89 @@
+"""``tyrebayes fleet-run MANIFEST --out DIR [--scheduler ADDR] [--workers N] [--method fast|nuts]``.
+
+Runs the three stages of :mod:`tyrebayes.batch` on dask.distributed: with no ``--scheduler`` a
+``LocalCluster`` of ``--workers`` single-threaded processes (default one per core) with a memory
+limit each; with an address the existing cluster. Prints the run's summary (items done, skipped,
+failed, time per stage; JSON with ``--json``). Exit status 0 when the run finished, even with
+failed items (they are listed with their reasons); 2 on a bad manifest or option.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .._errors import BadInputError
+from ..internal.jax_cache import default_cache_dir
+from ._common import print_json
+
+# tyrebayes.inference.tyre.model.MODEL_KINDS (spelled out: importing it would start JAX).
+MODEL_CHOICES = ("magic", "shaped", "brush", "linear")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "fleet-run",
+        help="many drive logs to per-tyre-set and fleet posteriors on dask.distributed",
+        description=(
+            "Process every drive of a manifest (CSV/Parquet: path, vehicle, tyre_set_id, "
+            "optional tyre_type, surface, ambient_c, profile) or a glob of logs with --vehicle: "
+            "per drive a windows table and summary row, per tyre set a joint fit, then the "
+            "fleet model. Reruns skip unchanged items."
+        ),
+    )
+    parser.add_argument("manifest", help="manifest (.csv, .parquet) or a quoted glob of logs")
+    parser.add_argument("--out", required=True, help="output folder")
+    parser.add_argument("--scheduler", help="address of a dask scheduler (default: a local one)")
+    parser.add_argument("--workers", type=int, help="local workers (default: one per core)")
+    parser.add_argument(
+        "--memory-limit", default=None, help="per local worker (default 4GiB; dask syntax)"
+    )
+    parser.add_argument("--method", choices=("fast", "nuts"), default="fast")
+    parser.add_argument("--model", choices=MODEL_CHOICES, default=MODEL_CHOICES[0])
+    parser.add_argument("--vehicle", help="vehicle of every log of a glob")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--jax-cache",
+        help="JAX compilation cache shared by the workers (default $TYREBAYES_JAX_CACHE or "
+        "~/.cache/tyrebayes/jax; '' for none)",
+    )
+    parser.add_argument("--json", action="store_true", help="machine-readable summary")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..batch import RunSettings, dask_client, fleet_run, read_manifest
+
+    if args.workers is not None and args.workers < 1:
+        raise BadInputError(f"--workers: expected >= 1, got {args.workers}")
+    if args.workers is not None and args.scheduler:
+        raise BadInputError("--workers: expected only without --scheduler, got both")
+    items = read_manifest(args.manifest, vehicle=args.vehicle)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise BadInputError(f"--out: expected a folder, got the file '{out}'")
+    settings = RunSettings(
+        method=args.method,
+        model=args.model,
+        seed=args.seed,
+        jax_cache=default_cache_dir() if args.jax_cache is None else args.jax_cache,
+    )
+    with dask_client(args.scheduler, args.workers, args.memory_limit) as client:
+        summary = fleet_run(items, out, client, settings)
+    if args.json:
+        print_json(summary)
+        return 0
+    for stage in ("drives", "tyre_sets"):
+        s = summary[stage]
+        print(
+            f"{stage:9s} {s['items']} items: {s['done']} done, {s['skipped']} skipped, "
+            f"{s['failed']} failed ({s['seconds']:.1f} s in tasks)"
+        )
+    fleet = summary["fleet"]
+    print(
+        f"fleet     {fleet['status']}{' (skipped)' if fleet['skipped'] else ''} {fleet['reason']}"
+    )
+    for failure in summary["failures"]:
+        print(f"failed {failure['item']} {failure['id']}: {failure['reason']}")
+    print(f"{summary['wall_seconds']:.1f} s on {summary['workers']} workers -> {out}")
+    return 0

@@ -1,0 +1,156 @@
+"""The fleet stage: the hierarchical fleet model on the tyre-set table, predictions per set.
+
+:func:`fleet_table` turns the tyre-set table into the fleet-table contract (DESIGN.md): one row
+per tyre set and surface on which its drives *observed* μ_max (ABS stops), from converged fits
+of sets with a known tyre type. A μ_max that only repeats its prior is no observation and never
+enters. :func:`run_fleet_stage` fits :func:`tyrebayes.fit_fleet` to it (what ``tyrebayes
+fit-fleet`` does) and predicts every fitted set's friction on snow with its winter verdict
+(:func:`tyrebayes.predict_friction`, :func:`tyrebayes.winter_verdict`). Outputs in ``fleet/``:
+``fleet_table.csv``, ``fleet.nc``, ``predictions.parquet`` and the record.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .._domain import SURFACES, TYRE_TYPES
+from .._errors import BadInputError
+from .drive_stage import one_line
+from .records import (
+    peak_rss_mb,
+    read_record,
+    record_path,
+    unchanged,
+    value_hash,
+    write_parquet,
+    write_record,
+)
+from .settings import RunSettings, configure_jax
+
+FLEET_DIR = "fleet"
+#: Surface of the per-set predictions and warnings (the thesis' question: winter suitability).
+PREDICTION_SURFACE = "snow"
+
+
+def fleet_table(tyre_sets: pd.DataFrame) -> pd.DataFrame:
+    """Fleet-table rows (``tyre_id``, ``tyre_type``, ``c_xr``, ``c_xr_sd``, ``mu``, ``surface``).
+
+    One per converged set with a known type and surface where μ_max was observed.
+    """
+    rows = []
+    for rec in tyre_sets.to_dict("records"):
+        if rec.get("tyre_type") not in TYRE_TYPES or not rec.get("converged", False):
+            continue
+        for s in SURFACES:
+            if bool(rec.get(f"mu_{s}_observed", False)) and np.isfinite(rec.get(f"mu_{s}", np.nan)):
+                rows.append(
+                    {
+                        "tyre_id": rec["tyre_id"],
+                        "tyre_type": rec["tyre_type"],
+                        "c_xr": rec["c_xr"],
+                        "c_xr_sd": rec["c_xr_sd"],
+                        "mu": rec[f"mu_{s}"],
+                        "surface": s,
+                    }
+                )
+    return pd.DataFrame(rows, columns=["tyre_id", "tyre_type", "c_xr", "c_xr_sd", "mu", "surface"])
+
+
+def _predictions(fit, tyre_sets: pd.DataFrame, seed: int) -> pd.DataFrame:
+    from ..decisions import winter_verdict
+    from ..inference.fleet import predict_friction
+
+    rows = []
+    for rec in tyre_sets.to_dict("records"):
+        tyre_type = rec.get("tyre_type") if rec.get("tyre_type") in TYRE_TYPES else None
+        draws = predict_friction(
+            fit, float(rec["c_xr"]), float(rec["c_xr_sd"]), tyre_type, PREDICTION_SURFACE, seed=seed
+        )
+        verdict = winter_verdict(draws)
+        lo, hi = np.quantile(draws, [0.05, 0.95])
+        rows.append(
+            {
+                "tyre_id": rec["tyre_id"],
+                "tyre_type": rec.get("tyre_type", ""),
+                "surface": PREDICTION_SURFACE,
+                "mu_mean": float(np.mean(draws)),
+                "mu_sd": float(np.std(draws)),
+                "mu_q05": float(lo),
+                "mu_q95": float(hi),
+                "verdict": verdict["verdict"],
+                "p_below_mu_min": float(verdict["probability"]),
+                "mu_min": float(verdict["mu_min"]),
+                "reason": verdict["reason"],
+                "set_converged": bool(rec.get("converged", False)),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def run_fleet_stage(out_dir: str, tyre_sets: pd.DataFrame, settings: RunSettings) -> dict:
+    """Fit the fleet model to the run's tyre-set table and predict per set (or skip); a record.
+
+    A table the fleet model cannot take (too few sets with observed μ_max per type and surface)
+    gives a failed record with the model's one-line reason; the per-set results stand.
+    """
+    start, cpu = time.perf_counter(), time.process_time()
+    folder = Path(out_dir) / FLEET_DIR
+    rec_path = record_path(folder, "fleet")
+    config = settings.fleet_settings()
+    table = fleet_table(tyre_sets)
+    input_hash = value_hash(
+        {
+            "fleet_table": table.to_dict("list"),
+            "sets": tyre_sets[["tyre_id", "c_xr", "c_xr_sd"]].to_dict("list")
+            if len(tyre_sets)
+            else {},
+        }
+    )
+    old = read_record(rec_path)
+    if unchanged(old, input_hash, config):
+        return {**old, "skipped": True, "seconds": time.perf_counter() - start}
+    record = {
+        "item": "fleet",
+        "input_hash": input_hash,
+        "settings": config,
+        "folder": str(folder),
+        "rows": int(len(table)),
+    }
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        from .._io import atomic_write_bytes
+
+        atomic_write_bytes(folder / "fleet_table.csv", table.to_csv(index=False).encode())
+        if len(table) == 0:
+            raise BadInputError(
+                "no tyre set observed μ_max (ABS stops) with a known tyre type and a converged fit"
+            )
+        configure_jax(settings.jax_cache)
+        from ..inference.fleet import fit_fleet
+
+        method = "nuts" if len(table) <= 2000 else "svi"
+        fit = fit_fleet(
+            table, outcome="mu", method=method, key=settings.seed, source="fleet-run tyre sets"
+        )
+        fit.save(folder / "fleet.nc")
+        write_parquet(_predictions(fit, tyre_sets, settings.seed), folder / "predictions.parquet")
+        record |= {
+            "status": "done",
+            "reason": "",
+            "converged": bool(fit.converged),
+            "method": method,
+            "outputs": ["fleet_table.csv", "fleet.nc", "predictions.parquet"],
+        }
+    except Exception as err:  # noqa: BLE001 -- recorded: the per-set results stand without it
+        record |= {"status": "failed", "reason": one_line(err), "outputs": ["fleet_table.csv"]}
+    record |= {
+        "seconds": time.perf_counter() - start,
+        "cpu_seconds": time.process_time() - cpu,
+        "peak_rss_mb": peak_rss_mb(),
+    }
+    write_record(rec_path, record)
+    return {**record, "skipped": False}

@@ -1,0 +1,297 @@
+"""A fleet run on dask.distributed: drives map over workers, tyre sets reduce, the fleet closes.
+
+:func:`fleet_run` submits one task per drive (:func:`~.drive_stage.process_drive`); as soon as
+every drive of a tyre set has finished (done, failed or skipped) it submits that set's joint fit
+(:func:`~.tyre_set_stage.fit_tyre_set`); when all sets are in, it writes the run's tables and
+runs the fleet stage (:func:`~.fleet_stage.run_fleet_stage`) on the client. Every item writes its
+own outputs atomically when it finishes, so a killed run loses only the items in flight, and a
+rerun skips what its records say is unchanged.
+
+Outputs in ``out``: ``drives/`` (per drive: ``ID.windows.parquet``, the windows table a set's
+fit reads; ``ID.summary.parquet``; the record), ``tyre_sets/`` (per set: ``ID.fit.nc``,
+``ID.row.parquet``, the record), ``drive_summaries.parquet`` and ``tyre_sets.parquet`` (the
+rows gathered), ``failures.csv`` (item, id, path, one-line reason), ``fleet/`` and
+``summary.json`` (:func:`fleet_run`'s return value).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import pandas as pd
+
+from .._io import atomic_write_bytes, to_jsonable
+from .drive_stage import DRIVES_DIR, process_drive
+from .fleet_stage import run_fleet_stage
+from .manifest import DriveItem
+from .records import peak_rss_mb, write_parquet
+from .settings import RunSettings
+from .tyre_set_stage import fit_tyre_set, set_file_name, tyre_set_table
+
+#: Memory limit of each local worker: a fast fit of a set with about two hours of driving held
+#: 2.6 GB at its peak (benchmarks/results/fleet_run.json), the per-drive stage less.
+DEFAULT_MEMORY_LIMIT = "4GiB"
+
+# The tasks keep no data in the workers (they write files and return small records), so dask's
+# spilling and pausing only get in the way: memory that JAX and the allocator keep after a fit
+# does not come back, and a paused single worker never resumes. The limit stays as the nanny's
+# hard stop (a worker over 95 % is restarted and its task recorded as failed).
+_WORKER_MEMORY_CONFIG = {
+    "distributed.worker.memory.target": False,
+    "distributed.worker.memory.spill": False,
+    "distributed.worker.memory.pause": False,
+    "distributed.worker.memory.terminate": 0.95,
+}
+
+# One thread per worker and no hidden thread pools: a worker is one core.
+_WORKER_ENV = {
+    "OMP_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1",
+    "JAX_ENABLE_X64": "1",
+    "JAX_PLATFORMS": "cpu",
+}
+
+
+@contextlib.contextmanager
+def dask_client(scheduler: str | None = None, workers: int | None = None, memory_limit=None):
+    """A dask ``Client``: on the cluster at ``scheduler``, or on a new ``LocalCluster``.
+
+    The local cluster has ``workers`` processes (default: one per core), each single-threaded
+    with ``memory_limit`` (default :data:`DEFAULT_MEMORY_LIMIT`). With an address the cluster's
+    own workers run the tasks (dask-jobqueue, Kubernetes, cloud: the same code).
+    """
+    import dask
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        with Client(scheduler) as client:
+            yield client
+        return
+    n = workers or os.cpu_count() or 1
+    with (
+        dask.config.set(_WORKER_MEMORY_CONFIG),
+        LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            memory_limit=memory_limit or DEFAULT_MEMORY_LIMIT,
+            dashboard_address=None,
+            env=_WORKER_ENV,
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        yield client
+
+
+class _Progress:
+    """tqdm on stderr when it is a terminal; silent otherwise (logs, pipes, tests)."""
+
+    def __init__(self, total: int, enabled: bool | None):
+        self.bar = None
+        if enabled is None:
+            enabled = sys.stderr.isatty()
+        if enabled:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, file=sys.stderr, unit="item", desc="fleet-run")
+
+    def update(self, label: str) -> None:
+        if self.bar is not None:
+            self.bar.set_postfix_str(label[:40], refresh=False)
+            self.bar.update(1)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _stage_stats(records: list[dict]) -> dict:
+    """Counts and costs of one stage: ``done`` (ran now and succeeded), ``skipped`` (an earlier
+    record was reused, whatever its status), ``failed`` (failed now or earlier: still failed),
+    ``failed_now``; seconds, CPU seconds and peak RSS over the items that ran now."""
+    ran = [r for r in records if not r.get("skipped")]
+    return {
+        "items": len(records),
+        "done": sum(r.get("status") == "done" for r in ran),
+        "skipped": len(records) - len(ran),
+        "failed": sum(r.get("status") == "failed" for r in records),
+        "failed_now": sum(r.get("status") == "failed" for r in ran),
+        "seconds": sum(float(r.get("seconds", 0.0)) for r in ran),
+        "cpu_seconds": sum(float(r.get("cpu_seconds", 0.0)) for r in ran),
+        "peak_rss_mb_max": max((float(r.get("peak_rss_mb", 0.0)) for r in ran), default=0.0),
+    }
+
+
+def _write_tables(out: Path, drive_records: list[dict], set_records: list[dict]) -> pd.DataFrame:
+    drives_dir = out / DRIVES_DIR
+    summaries = [
+        pd.read_parquet(drives_dir / f"{r['drive_id']}.summary.parquet")
+        for r in drive_records
+        if r.get("status") == "done"
+    ]
+    if summaries:
+        write_parquet(pd.concat(summaries, ignore_index=True), out / "drive_summaries.parquet")
+    sets = tyre_set_table(str(out), set_records)
+    write_parquet(sets, out / "tyre_sets.parquet")
+    failures = [
+        {"item": "drive", "id": r["drive_id"], "path": r.get("path", ""), "reason": r["reason"]}
+        for r in drive_records
+        if r.get("status") == "failed"
+    ] + [
+        {"item": "tyre_set", "id": r["tyre_set_id"], "path": "", "reason": r["reason"]}
+        for r in set_records
+        if r.get("status") == "failed"
+    ]
+    table = pd.DataFrame(failures, columns=["item", "id", "path", "reason"])
+    atomic_write_bytes(out / "failures.csv", table.to_csv(index=False).encode())
+    return sets
+
+
+def fleet_run(
+    items: list[DriveItem],
+    out: str | os.PathLike,
+    client,
+    settings: RunSettings | None = None,
+    *,
+    progress: bool | None = None,
+) -> dict:
+    """Run the three stages over ``items`` on a dask ``client``; returns the run's summary.
+
+    Parameters
+    ----------
+    items : list of DriveItem
+        From :func:`~.manifest.read_manifest`.
+    out : path-like
+        Output folder (created); a rerun into the same folder skips unchanged items.
+    client : distributed.Client
+        From :func:`dask_client` (or any client).
+    settings : RunSettings, optional
+        Default :class:`RunSettings` (fast fits).
+    progress : bool, optional
+        Progress bar on stderr; default: when stderr is a terminal.
+
+    Returns
+    -------
+    dict
+        Written to ``out/summary.json`` too: ``drives``, ``tyre_sets``, ``fleet`` (per stage:
+        items, done, skipped, failed, seconds and CPU seconds summed over the items, the largest
+        worker peak RSS), ``failures`` (id and one-line reason), ``wall_seconds``,
+        ``workers``, ``settings``, ``drive_hours`` (processed this run), ``outputs``.
+    """
+    from distributed import as_completed
+
+    settings = settings or RunSettings()
+    start = time.perf_counter()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    out_s = str(out.resolve())
+    by_set: dict[str, list[DriveItem]] = defaultdict(list)
+    for item in items:
+        by_set[item.tyre_set_id].append(item)
+    set_type = {
+        s: next((d.tyre_type for d in drives if d.tyre_type), "") for s, drives in by_set.items()
+    }
+    bar = _Progress(len(items) + len(by_set), progress)
+    futures = {
+        client.submit(
+            process_drive, item, out_s, settings, key=f"drive-{item.drive_id}", pure=False
+        ): ("drive", item)
+        for item in items
+    }
+    pending = {s: len(d) for s, d in by_set.items()}
+    drive_records: dict[str, dict] = {}
+    set_records: dict[str, dict] = {}
+    completed = as_completed(list(futures))
+    for future in completed:
+        kind, item = futures.pop(future)
+        try:
+            record = future.result()
+        except Exception as err:  # noqa: BLE001 -- a lost worker or a bug: recorded, run goes on
+            from .drive_stage import one_line
+
+            name = item.drive_id if kind == "drive" else item
+            record = {"status": "failed", "reason": f"task failed: {one_line(err)}"}
+            record |= {"drive_id": name, "path": item.path} if kind == "drive" else {}
+            record |= {"tyre_set_id": item} if kind == "tyre_set" else {}
+        future.release()
+        if kind == "drive":
+            drive_records[item.drive_id] = record
+            bar.update(item.drive_id)
+            pending[item.tyre_set_id] -= 1
+            if pending[item.tyre_set_id] == 0:
+                s = item.tyre_set_id
+                finished = [
+                    drive_records[d.drive_id]
+                    for d in by_set[s]
+                    if drive_records[d.drive_id].get("status") == "done"
+                ]
+                fut = client.submit(
+                    fit_tyre_set,
+                    s,
+                    set_type[s],
+                    finished,
+                    out_s,
+                    settings,
+                    key=f"tyre-set-{set_file_name(s)}",
+                    pure=False,
+                )
+                futures[fut] = ("tyre_set", s)
+                completed.add(fut)
+        else:
+            set_records[item] = record
+            bar.update(f"set {item}")
+    bar.close()
+    ordered_drives = [drive_records[i.drive_id] for i in items]
+    ordered_sets = [set_records[s] for s in by_set]
+    sets = _write_tables(out, ordered_drives, ordered_sets)
+    fleet_record = run_fleet_stage(out_s, sets, settings)
+    processed = [r for r in ordered_drives if r.get("status") == "done" and not r.get("skipped")]
+    summary = {
+        "drives": _stage_stats(ordered_drives),
+        "tyre_sets": _stage_stats(ordered_sets),
+        "fleet": {
+            "status": fleet_record.get("status"),
+            "skipped": bool(fleet_record.get("skipped")),
+            "reason": fleet_record.get("reason", ""),
+            "rows": fleet_record.get("rows", 0),
+            "seconds": float(fleet_record.get("seconds", 0.0)),
+        },
+        "failures": [
+            {"item": "drive", "id": r["drive_id"], "reason": r["reason"]}
+            for r in ordered_drives
+            if r.get("status") == "failed"
+        ]
+        + [
+            {"item": "tyre_set", "id": r["tyre_set_id"], "reason": r["reason"]}
+            for r in ordered_sets
+            if r.get("status") == "failed"
+        ],
+        "drive_hours": sum(float(r.get("duration_s", 0.0)) for r in processed) / 3600.0,
+        "wall_seconds": time.perf_counter() - start,
+        "workers": len(client.scheduler_info().get("workers", {})),
+        "client_peak_rss_mb": peak_rss_mb(),
+        "settings": {
+            "method": settings.method,
+            "model": settings.model,
+            "seed": settings.seed,
+            "window_s": settings.window_s,
+        },
+        "outputs": {
+            "drive_summaries": "drive_summaries.parquet",
+            "tyre_sets": "tyre_sets.parquet",
+            "failures": "failures.csv",
+            "fleet": "fleet/",
+        },
+    }
+    atomic_write_bytes(
+        out / "summary.json", (json.dumps(to_jsonable(summary), indent=1) + "\n").encode()
+    )
+    return summary

@@ -1,0 +1,71 @@
+"""Settings of a fleet run, and the per-process set-up its tasks need (JAX, float64, cache)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+from ..inference.result import PACKAGE_VERSION
+from ..internal.jax_cache import enable_compilation_cache
+
+METHODS = ("fast", "nuts")
+
+
+@dataclasses.dataclass(frozen=True)
+class RunSettings:
+    """What a fleet run's results depend on besides its inputs (kept beside every output).
+
+    Attributes
+    ----------
+    method : str
+        Tyre-set fit: ``"fast"`` (MAP + Laplace) or ``"nuts"``.
+    model : str
+        Tyre-curve model of the tyre-set fit (:data:`tyrebayes.inference.tyre.model.MODEL_KINDS`).
+    seed : int
+        Randomness of the fits.
+    window_s : float
+        Window length of the windowed observations [s].
+    jax_cache : str
+        Folder of JAX's persistent compilation cache, shared by every worker ("" = none).
+    """
+
+    method: str = "fast"
+    model: str = "magic"
+    seed: int = 0
+    window_s: float = 0.25
+    jax_cache: str = ""
+
+    def __post_init__(self):
+        if self.method not in METHODS:
+            raise ValueError(f"method: expected one of {METHODS}, got {self.method!r}")
+        if not self.window_s > 0:
+            raise ValueError(f"window_s: expected > 0, got {self.window_s}")
+
+    def drive_settings(self) -> dict:
+        """What a drive's outputs depend on (the fit method does not change them)."""
+        return {"stage": "drive", "window_s": self.window_s, "version": PACKAGE_VERSION}
+
+    def tyre_set_settings(self) -> dict:
+        return {
+            "stage": "tyre_set",
+            "method": self.method,
+            "model": self.model,
+            "seed": self.seed,
+            "version": PACKAGE_VERSION,
+        }
+
+    def fleet_settings(self) -> dict:
+        return {"stage": "fleet", "seed": self.seed, "version": PACKAGE_VERSION}
+
+
+def configure_jax(cache_dir: str = "") -> None:
+    """Float64 (slip is ~1e-3 with noise ~1e-4) and the shared compilation cache, per process.
+
+    Idempotent; every task calls it first, so workers of any cluster are set up alike. The
+    persistent cache keeps compiled fits on disk: a worker that starts after another compiled the
+    same shapes loads them instead of compiling (a minute per shape on one core).
+    """
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    if cache_dir and jax.config.jax_compilation_cache_dir != cache_dir:
+        enable_compilation_cache(cache_dir)

@@ -1,0 +1,206 @@
+"""The per-tyre-set stage: the joint fit of all drives of one tyre set, from their windows tables.
+
+All drives of a set share its C_xr; each surface its μ_max
+(:func:`tyrebayes.inference.stack_drives` + :func:`tyrebayes.inference.fit_tyre`, the same fit
+as the demo's multi-drive sets). :func:`fit_tyre_set` writes ``tyre_sets/ID.fit.nc``
+(:func:`tyrebayes.load_fit` reads it), ``tyre_sets/ID.row.parquet`` (one row of the tyre-set
+table, :func:`tyre_set_row`) and the record; it reads only windows tables, so a set is refitted
+without its logs.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from pathlib import Path
+
+import pandas as pd
+
+from .._domain import SURFACES
+from .._errors import BadInputError
+from .drive_stage import DRIVES_DIR, one_line
+from .records import (
+    peak_rss_mb,
+    read_record,
+    record_path,
+    reset_peak_rss,
+    unchanged,
+    value_hash,
+    write_parquet,
+    write_record,
+)
+from .settings import RunSettings, configure_jax
+from .windows import drives_from_windows
+
+TYRE_SETS_DIR = "tyre_sets"
+
+
+def set_file_name(tyre_set_id: str) -> str:
+    """A file-safe name for a tyre set id (its hash keeps distinct ids distinct)."""
+    import hashlib
+
+    safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", tyre_set_id)[:60]
+    return f"{safe}-{hashlib.sha256(tyre_set_id.encode()).hexdigest()[:8]}"
+
+
+def pad_size(n: int) -> int:
+    """Padded number of windows: the next power of two (at least 256).
+
+    Each padded length is one compilation of the fit (about a minute on a core without the
+    cache); powers of two bound a fleet's lengths to a handful, at most doubling the work.
+    """
+    return max(256, 1 << max(0, int(n - 1).bit_length()))
+
+
+def tyre_set_row(tyre_set_id: str, tyre_type: str, fit, n_drives: int, n_windows: int) -> dict:
+    """One row of the tyre-set table from a :class:`~tyrebayes.inference.tyre.fit.TyreFit`.
+
+    Columns: ``tyre_id``, ``tyre_type``, ``c_xr``, ``c_xr_sd``, per surface ``mu_<surface>``,
+    ``mu_<surface>_sd``, ``mu_<surface>_observed`` (NaN / False for surfaces without drives),
+    ``converged``, ``adequate``, ``adequacy_reasons``, ``r_hat_max``, ``ess_bulk_min``,
+    ``divergences``, ``optimiser_result``, ``method``, ``model``, ``n_drives``, ``n_windows``,
+    ``n_abs_windows``.
+    """
+    summary = fit.summary()
+    diag = fit.diagnostics
+    row = {
+        "tyre_id": tyre_set_id,
+        "tyre_type": tyre_type,
+        "c_xr": float(summary["c_xr"]["mean"]),
+        "c_xr_sd": float(summary["c_xr"]["sd"]),
+    }
+    by_surface = summary["mu_max_by_surface"]
+    for s in SURFACES:
+        mu = by_surface.get(s)
+        row[f"mu_{s}"] = float(mu["mean"]) if mu else float("nan")
+        row[f"mu_{s}_sd"] = float(mu["sd"]) if mu else float("nan")
+        row[f"mu_{s}_observed"] = bool(mu["observed"]) if mu else False
+    row |= {
+        "converged": bool(fit.converged),
+        "adequate": bool(diag.adequate),
+        "adequacy_reasons": " | ".join(diag.adequacy_reasons),
+        "r_hat_max": float(diag.r_hat_max),
+        "ess_bulk_min": float(diag.ess_bulk_min),
+        "divergences": int(diag.divergences),
+        "optimiser_result": str(diag.optimiser_result),
+        "method": str(diag.method),
+        "model": str(fit.kind),
+        "n_drives": int(n_drives),
+        "n_windows": int(n_windows),
+        "n_abs_windows": int(summary["n_abs_windows"]),
+    }
+    return row
+
+
+def fit_tyre_set(
+    tyre_set_id: str,
+    tyre_type: str,
+    drives: list[dict],
+    out_dir: str,
+    settings: RunSettings,
+) -> dict:
+    """Fit one tyre set jointly over its finished drives (or skip it); returns its record.
+
+    Parameters
+    ----------
+    tyre_set_id, tyre_type : str
+        The set and its type (``""`` when the manifest does not say).
+    drives : list of dict
+        Records of the set's finished drives (:func:`~.drive_stage.process_drive`), in manifest
+        order: their ``drive_id`` and ``windows_hash`` key the fit.
+    out_dir : str
+        The run's output folder.
+    settings : RunSettings
+    """
+    reset_peak_rss()
+    start, cpu = time.perf_counter(), time.process_time()
+    configure_jax(settings.jax_cache)
+    name = set_file_name(tyre_set_id)
+    folder = Path(out_dir) / TYRE_SETS_DIR
+    rec_path = record_path(folder, name)
+    config = settings.tyre_set_settings()
+    input_hash = value_hash(
+        {
+            "tyre_set_id": tyre_set_id,
+            "tyre_type": tyre_type,
+            "drives": [(d["drive_id"], d["windows_hash"]) for d in drives],
+        }
+    )
+    old = read_record(rec_path)
+    if unchanged(old, input_hash, config):
+        return {**old, "skipped": True, "seconds": time.perf_counter() - start}
+    record = {
+        "item": "tyre_set",
+        "tyre_set_id": tyre_set_id,
+        "input_hash": input_hash,
+        "settings": config,
+        "folder": str(folder),
+        "drives": [d["drive_id"] for d in drives],
+    }
+    try:
+        if not drives:
+            raise BadInputError("no drive of this tyre set was processed")
+        from ..inference.result import provenance
+        from ..inference.tyre.data import stack_drives
+        from ..inference.tyre.fit import fit_tyre
+
+        drives_dir = Path(out_dir) / DRIVES_DIR
+        table = pd.concat(
+            [pd.read_parquet(drives_dir / f"{d['drive_id']}.windows.parquet") for d in drives],
+            ignore_index=True,
+        )
+        windows, surfaces = drives_from_windows(table)
+        n = int(len(table))
+        obs = stack_drives(windows, surfaces, pad_to=pad_size(n))
+        fit = fit_tyre(obs, method=settings.method, kind=settings.model, seed=settings.seed)
+        fit = _with_provenance(fit, provenance, tyre_set_id, drives, settings)
+        fit.save(folder / f"{name}.fit.nc")
+        row = tyre_set_row(tyre_set_id, tyre_type, fit, len(drives), n)
+        write_parquet(pd.DataFrame([row]), folder / f"{name}.row.parquet")
+        record |= {
+            "status": "done",
+            "reason": "",
+            "converged": row["converged"],
+            "outputs": [f"{name}.fit.nc", f"{name}.row.parquet"],
+        }
+    except Exception as err:  # noqa: BLE001 -- a set that cannot be fitted is recorded
+        record |= {"status": "failed", "reason": one_line(err), "outputs": []}
+    record |= {
+        "seconds": time.perf_counter() - start,
+        "cpu_seconds": time.process_time() - cpu,
+        "peak_rss_mb": peak_rss_mb(),
+    }
+    write_record(rec_path, record)
+    return {**record, "skipped": False}
+
+
+def _with_provenance(fit, provenance, tyre_set_id, drives, settings):
+    import dataclasses
+
+    return dataclasses.replace(
+        fit,
+        provenance=provenance(
+            settings.method,
+            settings.model,
+            tuple(d.get("path", d["drive_id"]) for d in drives),
+            tyre_set_id=tyre_set_id,
+            seed=settings.seed,
+            source="fleet-run windows tables",
+        ),
+    )
+
+
+def tyre_set_table(out_dir: str, records: list[dict]) -> pd.DataFrame:
+    """The tyre-set table: the rows of the sets whose fit is done, in the order given."""
+    folder = Path(out_dir) / TYRE_SETS_DIR
+    rows = [
+        pd.read_parquet(folder / f"{set_file_name(r['tyre_set_id'])}.row.parquet")
+        for r in records
+        if r.get("status") == "done"
+    ]
+    if not rows:
+        return pd.DataFrame(columns=["tyre_id", "tyre_type", "c_xr", "c_xr_sd"])
+    return pd.concat(rows, ignore_index=True)
+
+
+__all__ = ["fit_tyre_set", "pad_size", "set_file_name", "tyre_set_row", "tyre_set_table"]
