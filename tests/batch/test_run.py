@@ -23,11 +23,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tyrebayes._commands.fleet_run import default_cache
 from tyrebayes.batch import RunSettings, dask_client, fleet_run, read_manifest
 from tyrebayes.batch.windows import WINDOW_COLUMNS
 from tyrebayes.cli import main
 from tyrebayes.inference.result import load_fit
+from tyrebayes.internal.jax_cache import default_cache_dir
 from tyrebayes.simulate.drive_io import write_drive
 from tyrebayes.simulate.tyre_set import simulate_tyre_set_drives
 
@@ -92,7 +92,7 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
     assert len(finished_before) >= 2
 
     items = read_manifest(manifest)
-    settings = RunSettings(model=MODEL, jax_cache=default_cache())
+    settings = RunSettings(model=MODEL, jax_cache=default_cache_dir())
     with dask_client(workers=2) as client:
         assert len(client.scheduler_info()["workers"]) == 2
         summary = fleet_run(items, out, client, settings, progress=False)
