@@ -67,7 +67,7 @@ def _orthonormal(
 def permutation_pvalues(
     y: Float[np.ndarray, " n"],
     x0: Float[np.ndarray, "n p"],
-    extras: list[Float[np.ndarray, "n q"]],
+    extras: list[Float[np.ndarray, "n _q"]],  # each candidate its own width
     permutations: Int[np.ndarray, "b n"],
 ) -> list[tuple[float, float]]:
     """Freedman-Lane permutation p-values of adding each of ``extras`` to the baseline ``x0``.
