@@ -421,6 +421,14 @@ def compute_features(
     Returns
     -------
     StreamFeatures
+
+    Notes
+    -----
+    A chain of named steps, each returning a small Module: :func:`_motion` (smoothed channels,
+    wheel speeds as V_x, vehicle speed, slips; thesis ch. 4.3), :func:`_wheel_noise` (noise at
+    the smoothing scale), :func:`_imu_calibration` (IMU gain, offsets, grade), :func:`_forces`
+    (force balance, eqs. 4.22/4.23, normalised forces and their noise) and :func:`_assemble`
+    (regime labels, nuisances).
     """
     if not 0.0 <= brake_front_share <= 1.0:
         raise ValueError(f"brake_front_share: expected a value in [0, 1], got {brake_front_share}")
@@ -428,19 +436,68 @@ def compute_features(
         raise ValueError(f"spin_threshold: expected a value > 0, got {spin_threshold}")
     if ax_gain is not None and not ax_gain > 0:
         raise ValueError(f"ax_gain: expected a value > 0, got {ax_gain}")
+    scales = _Scales.of(stream.sample_rate_hz, smoothing_s)
+    motion = _motion(stream, vehicle, scales, spin_threshold, thresholds)
+    noise = _wheel_noise(motion, vehicle, scales, spin_threshold)
+    imu = _imu_calibration(stream, vehicle, motion, scales, ax_offset_mps2, ax_gain)
+    forces = _forces(stream, vehicle, motion, noise, imu, scales, brake_front_share)
+    return _assemble(
+        stream, vehicle, motion, noise, imu, forces, scales, thresholds, brake_front_share
+    )
+
+
+class _Scales(eqx.Module):
+    """The pipeline's sample counts at the stream's rate: smoothing, derivative, noise span."""
+
+    rate_hz: float
+    dt_s: float
+    window: int  # smoothing window [samples]
+    deriv_window: int  # window of the speed and yaw-rate derivatives (≥ 0.5 s) [samples]
+    span: int  # span of the local noise estimates (10 s) [samples]
+    smoothing_s: float
+
+    @classmethod
+    def of(cls, rate_hz: float, smoothing_s: float) -> _Scales:
+        return cls(
+            rate_hz=float(rate_hz),
+            dt_s=1.0 / rate_hz,
+            window=window_samples(smoothing_s, rate_hz),
+            deriv_window=window_samples(max(smoothing_s, 0.5), rate_hz),
+            span=window_samples(10.0, rate_hz),
+            smoothing_s=float(smoothing_s),
+        )
+
+
+class _Motion(eqx.Module):
+    """Step 1: smoothed channels, each wheel's speed as V_x, the vehicle speed and slips."""
+
+    omega_raw: Float[np.ndarray, "n 4"]  # unsmoothed wheel speeds [rad/s]
+    gap: Bool[np.ndarray, "n"]  # a wheel speed missing
+    yaw: Float[np.ndarray, "n"]  # smoothed yaw rate [rad/s]
+    steer: Float[np.ndarray, "n"]  # front road-wheel angle [rad]
+    ax_raw: Float[np.ndarray, "n"]  # smoothed IMU ax, uncorrected [m/s²]
+    ay_raw: Float[np.ndarray, "n"]  # smoothed IMU ay, uncorrected [m/s²]
+    trig: tuple  # the front wheels' geometry terms (_front_terms)
+    wheel_vx: Float[np.ndarray, "n 4"]  # [m/s]
+    vx: Float[np.ndarray, "n"]  # [m/s]
+    spin: Bool[np.ndarray, "n"]
+    valid: Bool[np.ndarray, "n"]
+    vx_safe: Float[np.ndarray, "n"]  # V_x, NaN where not valid [m/s]
+    slip: Float[np.ndarray, "n 4"]
+    slip_axle: Float[np.ndarray, "n 2"]
+    slip_driven: Float[np.ndarray, "n"]
+    driven_wheels: tuple[int, ...] = eqx.field(static=True)
+
+
+def _motion(stream, vehicle, scales, spin_threshold, thresholds) -> _Motion:
     data = stream.data
-    rate = stream.sample_rate_hz
-    dt = 1.0 / rate
-    t = data["time"].to_numpy(dtype=float)
-    window = window_samples(smoothing_s, rate)
-    deriv_window = window_samples(max(smoothing_s, 0.5), rate)
 
     def smooth(name: str) -> np.ndarray:
-        return nan_moving_average(data[name].to_numpy(dtype=float), window)
+        return nan_moving_average(data[name].to_numpy(dtype=float), scales.window)
 
     omega_raw = np.column_stack([data[c].to_numpy(dtype=float) for c in WHEEL_COLUMNS])
     gap = ~np.all(np.isfinite(omega_raw), axis=1)
-    omega = nan_moving_average(omega_raw, window)
+    omega = nan_moving_average(omega_raw, scales.window)
     yaw = smooth("yaw_rate")
     if "wheel_angle_front" in data:
         steer = smooth("wheel_angle_front")
@@ -457,32 +514,90 @@ def compute_features(
 
     slip = (wheel_vx - vx_safe[:, None]) / vx_safe[:, None]
     slip_axle = np.column_stack([slip[:, :2].mean(axis=1), slip[:, 2:].mean(axis=1)])
-    driven_idx = {"front": [0, 1], "rear": [2, 3], "both": [0, 1, 2, 3]}[vehicle.driven_axle]
-    slip_driven = slip[:, driven_idx].mean(axis=1)
+    driven_wheels = {"front": (0, 1), "rear": (2, 3), "both": (0, 1, 2, 3)}[vehicle.driven_axle]
+    slip_driven = slip[:, list(driven_wheels)].mean(axis=1)
+    return _Motion(
+        omega_raw=omega_raw,
+        gap=gap,
+        yaw=yaw,
+        steer=steer,
+        ax_raw=ax_raw,
+        ay_raw=ay_raw,
+        trig=trig,
+        wheel_vx=wheel_vx,
+        vx=vx,
+        spin=spin,
+        valid=valid,
+        vx_safe=vx_safe,
+        slip=slip,
+        slip_axle=slip_axle,
+        slip_driven=slip_driven,
+        driven_wheels=driven_wheels,
+    )
 
+
+class _WheelNoise(eqx.Module):
+    """Step 2: the wheel signals' noise at the smoothing scale, with the vehicle motion removed."""
+
+    wheel_vx_raw: Float[np.ndarray, "n 4"]  # unsmoothed wheel speeds as V_x [m/s]
+    slip_velocity_driven: Float[np.ndarray, "n"]  # driven axle's R·Ω − V_x, unsmoothed [m/s]
+    local_wheel: Float[np.ndarray, "n 4"]  # each wheel's slip-velocity noise [m/s]
+    slip_sd: Float[np.ndarray, "n 4"]  # [-]
+    vx_sd: Float[np.ndarray, "n"]  # [m/s]
+
+
+def _wheel_noise(motion: _Motion, vehicle, scales: _Scales, spin_threshold) -> _WheelNoise:
     # Noise at the smoothing scale, measured on signals with the vehicle motion removed (slip
     # velocities R·Ω − V_x, differences of the V_x wheels), per sample over ~10 s: coloured noise,
     # quantisation and changing road roughness included, unlike a white-noise / √window rule.
     # The probes use the unsmoothed wheel speeds: local_noise_sd applies the smoothing itself.
-    span = window_samples(10.0, rate)
-    wheel_vx_raw = _wheel_to_vx(omega_raw, yaw, steer, vehicle, trig)
-    vx_raw = np.where(valid, _vehicle_speed(wheel_vx_raw, vehicle.drive, spin_threshold)[0], np.nan)
+    m = motion
+    wheel_vx_raw = _wheel_to_vx(m.omega_raw, m.yaw, m.steer, vehicle, m.trig)
+    vx_raw = np.where(
+        m.valid, _vehicle_speed(wheel_vx_raw, vehicle.drive, spin_threshold)[0], np.nan
+    )
     slip_velocity = wheel_vx_raw - vx_raw[:, None]
-    slip_velocity_driven = slip_velocity[:, driven_idx].mean(axis=1)
+    slip_velocity_driven = slip_velocity[:, list(m.driven_wheels)].mean(axis=1)
     probes = np.column_stack([slip_velocity, _vx_noise_probe(wheel_vx_raw, vehicle.drive)])
-    probe_sd = local_noise_sd(probes, window, span)  # one pass over all five probes
+    probe_sd = local_noise_sd(probes, scales.window, scales.span)  # one pass over all five
     local_wheel = probe_sd[:, :4]
-    slip_sd = local_wheel / vx_safe[:, None]
-    vx_sd = probe_sd[:, 4]
+    return _WheelNoise(
+        wheel_vx_raw=wheel_vx_raw,
+        slip_velocity_driven=slip_velocity_driven,
+        local_wheel=local_wheel,
+        slip_sd=local_wheel / m.vx_safe[:, None],
+        vx_sd=probe_sd[:, 4],
+    )
 
+
+class _ImuCalibration(eqx.Module):
+    """Step 3: the IMU's gain and offsets against the wheel speeds; corrected ax, ay, grade."""
+
+    pitch_gain: float  # squat/dive over-read 1 + g·k [-]
+    dvx_dt: Float[np.ndarray, "n"]  # [m/s²]
+    imu_gain: ImuGainCorrection
+    ax_offset: float  # [m/s²]
+    ax_offset_sd: float  # [m/s²]
+    ax: Float[np.ndarray, "n"]  # corrected, grade included [m/s²]
+    grade: Float[np.ndarray, "n"]  # [rad]
+    ay_offset: float  # [m/s²]
+    ay: Float[np.ndarray, "n"]  # [m/s²]
+    lateral_kin: Float[np.ndarray, "n"]  # V_x · yaw rate [m/s²]
+    yaw_acc: Float[np.ndarray, "n"]  # [rad/s²]
+
+
+def _imu_calibration(
+    stream, vehicle, motion: _Motion, scales: _Scales, ax_offset_mps2, ax_gain
+) -> _ImuCalibration:
+    m, data, rate = motion, stream.data, scales.rate_hz
     # IMU offset against the wheel-speed derivative; the corrected ax keeps the road grade.
     # Squat and dive add g·k·a_x to the reading: left in, the forces read 1 + g·k ≈ 2 % high and
     # C_x with them (the model's force gain is centred at 1), and a drive that brakes more than
     # it accelerates would shift the offset.
     pitch_gain = float(body_pitch_gain(vehicle))
-    dvx_dt = smoothed_derivative(vx_safe, dt, deriv_window)
-    ax_smooth_d = nan_moving_average(data["ax"].to_numpy(dtype=float), deriv_window)
-    steady = valid & ~spin & (np.abs(dvx_dt) < 4.0)
+    dvx_dt = smoothed_derivative(m.vx_safe, scales.dt_s, scales.deriv_window)
+    ax_smooth_d = nan_moving_average(data["ax"].to_numpy(dtype=float), scales.deriv_window)
+    steady = m.valid & ~m.spin & (np.abs(dvx_dt) < 4.0)
     # The IMU's scale factor against the wheel speeds' dV_x/dt (which the pitch over-read is part
     # of): a calibrated IMU is left to the tyre model's force gain, a badly scaled one (a
     # dashcam) would scale every force and C_x with it, so ax is divided by its estimate.
@@ -494,7 +609,7 @@ def compute_features(
         imu_gain = ImuGainCorrection(
             float(ax_gain), 0.0, float(ax_gain != 1.0), float(ax_gain), 0.0
         )
-    ax_raw = ax_raw / imu_gain.applied
+    ax_raw = m.ax_raw / imu_gain.applied
     ax_smooth_d = ax_smooth_d / imu_gain.applied - (pitch_gain - 1.0) * dvx_dt
     if ax_offset_mps2 is None:
         ax_offset, ax_offset_sd = estimate_ax_offset(ax_smooth_d, dvx_dt, steady, rate)
@@ -509,28 +624,62 @@ def compute_features(
         # separate from the mounting pitch: widen its error by the mean grade's uncertainty.
         grade_mean_sd = mean_grade_sd(grade[steady], rate)
         ax_offset_sd = float(np.hypot(ax_offset_sd, GRAVITY_MPS2 * grade_mean_sd))
-    lateral_kin = vx_safe * yaw
-    ay_resid = (ay_raw - lateral_kin)[valid & np.isfinite(ay_raw)]
+    lateral_kin = m.vx_safe * m.yaw
+    ay_resid = (m.ay_raw - lateral_kin)[m.valid & np.isfinite(m.ay_raw)]
     ay_offset = float(np.median(ay_resid)) if ay_resid.size else 0.0
-    ay = ay_raw - ay_offset
-    yaw_acc = smoothed_derivative(yaw, dt, deriv_window)
+    return _ImuCalibration(
+        pitch_gain=pitch_gain,
+        dvx_dt=dvx_dt,
+        imu_gain=imu_gain,
+        ax_offset=float(ax_offset),
+        ax_offset_sd=float(ax_offset_sd),
+        ax=ax,
+        grade=grade,
+        ay_offset=ay_offset,
+        ay=m.ay_raw - ay_offset,
+        lateral_kin=lateral_kin,
+        yaw_acc=smoothed_derivative(m.yaw, scales.dt_s, scales.deriv_window),
+    )
 
-    speed_for_drag = np.where(np.isfinite(vx), np.maximum(vx, 0.0), 0.0)
-    ax_f = np.nan_to_num(ax)
+
+class _Forces(eqx.Module):
+    """Step 4: axle forces from the force balance, normalised forces and their noise."""
+
+    resistance: Float[np.ndarray, "n"]  # drag + rolling resistance [N]
+    fx_axle: Float[np.ndarray, "n 2"]  # [N]
+    fz_axle: Float[np.ndarray, "n 2"]  # [N]
+    rho_axle: Float[np.ndarray, "n 2"]
+    fx_driven: Float[np.ndarray, "n"]  # [N]
+    fz_driven: Float[np.ndarray, "n"]  # [N]
+    rho_driven: Float[np.ndarray, "n"]
+    rho_driven_sd: Float[np.ndarray, "n"]
+    rho_driven_traction: Float[np.ndarray, "n"]
+    rho_driven_traction_sd: Float[np.ndarray, "n"]
+    rho_total_traction: Float[np.ndarray, "n"]
+    slip_driven_noise: Float[np.ndarray, "n"]  # driven slip-velocity noise [m/s]
+    slip_driven_sd: Float[np.ndarray, "n"]
+    ax_sd_local: Float[np.ndarray, "n"]  # noise of the smoothed, corrected ax [m/s²]
+
+
+def _forces(
+    stream,
+    vehicle,
+    motion: _Motion,
+    noise: _WheelNoise,
+    imu: _ImuCalibration,
+    scales: _Scales,
+    brake_front_share: float,
+) -> _Forces:
+    m, window, span = motion, scales.window, scales.span
+    speed_for_drag = np.where(np.isfinite(m.vx), np.maximum(m.vx, 0.0), 0.0)
+    lateral = (np.nan_to_num(imu.ay), np.nan_to_num(imu.yaw_acc), np.nan_to_num(m.steer))
     resistance, fx_front, fx_rear, fz_front, fz_rear, *_ = _force_balance(
-        vehicle,
-        ax_f,
-        np.nan_to_num(ay),
-        np.nan_to_num(yaw_acc),
-        np.nan_to_num(steer),
-        speed_for_drag,
-        brake_front_share,
+        vehicle, np.nan_to_num(imu.ax), *lateral, speed_for_drag, brake_front_share
     )
     fx_axle = np.column_stack([fx_front, fx_rear])
     fz_axle = np.column_stack([fz_front, fz_rear])
-    has_force = (valid & np.isfinite(ax))[:, None]
+    has_force = (m.valid & np.isfinite(imu.ax))[:, None]
     fx_axle = np.where(has_force, fx_axle, np.nan)
-    rho_axle = fx_axle / fz_axle
 
     def driven(per_axle: np.ndarray) -> np.ndarray:
         """The driven axle's column, or the sum of both for AWD."""
@@ -539,22 +688,16 @@ def compute_features(
         return per_axle[:, 0 if vehicle.driven_axle == "front" else 1]
 
     fx_driven, fz_driven = driven(fx_axle), driven(fz_axle)
-    rho_driven = fx_driven / fz_driven
     ax_traction, ax_traction_sd = _traction_acceleration(
-        vx_safe, ax, wheel_vx_raw, vehicle.drive, dt, window, rate, span
-    )
+        m.vx_safe, imu.ax, noise.wheel_vx_raw, vehicle.drive, scales.dt_s, window,
+        scales.rate_hz, span,
+    )  # fmt: skip
     traction = _force_balance(
-        vehicle,
-        np.nan_to_num(ax_traction),
-        np.nan_to_num(ay),
-        np.nan_to_num(yaw_acc),
-        np.nan_to_num(steer),
-        speed_for_drag,
-        brake_front_share,
+        vehicle, np.nan_to_num(ax_traction), *lateral, speed_for_drag, brake_front_share
     )
     fx_traction_driven = driven(np.column_stack(traction[5:7]))
     fz_traction_driven = driven(np.column_stack(traction[3:5]))
-    has_traction = valid & np.isfinite(ax_traction)
+    has_traction = m.valid & np.isfinite(ax_traction)
     rho_driven_traction = np.where(has_traction, fx_traction_driven / fz_traction_driven, np.nan)
     rho_total_traction = np.where(
         has_traction, (traction[5] + traction[6]) / (traction[3] + traction[4]), np.nan
@@ -564,9 +707,9 @@ def compute_features(
         np.column_stack(
             [
                 _slip_noise_probe(
-                    slip_velocity_driven, rho_driven_traction * vx_safe, pushing, window
+                    noise.slip_velocity_driven, rho_driven_traction * m.vx_safe, pushing, window
                 ),
-                slip_velocity_driven,
+                noise.slip_velocity_driven,
             ]
         ),
         window,
@@ -576,37 +719,65 @@ def compute_features(
     slip_driven_noise = np.where(
         np.isfinite(slip_driven_noise[:, 0]), slip_driven_noise[:, 0], slip_driven_noise[:, 1]
     )
-    slip_driven_sd = slip_driven_noise / vx_safe
     # Per-sample noise of the smoothed ax, scaled by the axle's share of m·ax. The offset's
     # uncertainty is common to the whole log and reported apart (nuisances.rho_offset_sd).
-    ax_sd_local = local_noise_sd(data["ax"].to_numpy(dtype=float), window, span) / (
-        pitch_gain * imu_gain.applied
+    ax_sd_local = local_noise_sd(stream.data["ax"].to_numpy(dtype=float), window, span) / (
+        imu.pitch_gain * imu.imu_gain.applied
     )
     share = np.where(
         np.abs(fx_axle.sum(axis=1)) > 0, np.abs(fx_driven) / np.abs(fx_axle.sum(axis=1)), 1.0
     )
     share = np.clip(np.nan_to_num(share, nan=1.0), 0.0, 1.0)
-    rho_driven_sd = vehicle.mass_kg * ax_sd_local * np.maximum(share, 0.5) / fz_driven
-    rho_driven_traction_sd = (
-        vehicle.mass_kg
-        * np.where(np.isfinite(ax_traction_sd), ax_traction_sd, ax_sd_local)
-        / fz_traction_driven
+    return _Forces(
+        resistance=resistance,
+        fx_axle=fx_axle,
+        fz_axle=fz_axle,
+        rho_axle=fx_axle / fz_axle,
+        fx_driven=fx_driven,
+        fz_driven=fz_driven,
+        rho_driven=fx_driven / fz_driven,
+        rho_driven_sd=vehicle.mass_kg * ax_sd_local * np.maximum(share, 0.5) / fz_driven,
+        rho_driven_traction=rho_driven_traction,
+        rho_driven_traction_sd=(
+            vehicle.mass_kg
+            * np.where(np.isfinite(ax_traction_sd), ax_traction_sd, ax_sd_local)
+            / fz_traction_driven
+        ),
+        rho_total_traction=rho_total_traction,
+        slip_driven_noise=slip_driven_noise,
+        slip_driven_sd=slip_driven_noise / m.vx_safe,
+        ax_sd_local=ax_sd_local,
     )
-    friction_power = np.abs(fx_driven * vx_safe * slip_driven)
 
+
+def _assemble(
+    stream,
+    vehicle,
+    motion: _Motion,
+    noise: _WheelNoise,
+    imu: _ImuCalibration,
+    forces: _Forces,
+    scales: _Scales,
+    thresholds: SegmentThresholds,
+    brake_front_share: float,
+) -> StreamFeatures:
+    """Step 5: regime labels and the log's nuisances (radius ratios, speed scale), then features."""
+    m, f, data, window, rate = motion, forces, stream.data, scales.window, scales.rate_hz
     label = label_samples(
-        valid,
-        rho_driven,
-        np.max(np.abs(np.nan_to_num(slip, nan=0.0)), axis=1),
-        spin,
-        lateral_kin,
+        m.valid,
+        f.rho_driven,
+        np.max(np.abs(np.nan_to_num(m.slip, nan=0.0)), axis=1),
+        m.spin,
+        imu.lateral_kin,
         thresholds,
     )
-    free_straight = (label == FREE_ROLLING) & (np.abs(steer) < 0.02)
-    radius_ratio, radius_sd, radius_seconds = estimate_radius_ratios(wheel_vx, free_straight, rate)
+    free_straight = (label == FREE_ROLLING) & (np.abs(m.steer) < 0.02)
+    radius_ratio, radius_sd, radius_seconds = estimate_radius_ratios(
+        m.wheel_vx, free_straight, rate
+    )
     if "speed_reference" in data:
         ref = nan_moving_average(data["speed_reference"].to_numpy(dtype=float), window)
-        speed_scale, speed_scale_sd = estimate_speed_scale(vx_safe, ref, valid, rate)
+        speed_scale, speed_scale_sd = estimate_speed_scale(m.vx_safe, ref, m.valid, rate)
     else:
         speed_scale, speed_scale_sd = float("nan"), float("nan")
     quant = np.array([stream.quantisation.get(c, 0.0) for c in WHEEL_COLUMNS], dtype=float)
@@ -614,57 +785,57 @@ def compute_features(
         radius_ratio=radius_ratio,
         radius_ratio_sd=radius_sd,
         radius_ratio_seconds=radius_seconds,
-        ax_offset_mps2=float(ax_offset),
-        ax_offset_sd_mps2=float(ax_offset_sd),
-        ax_gain=imu_gain,
-        pitch_offset_rad=float(np.arcsin(np.clip(ax_offset / GRAVITY_MPS2, -1, 1))),
-        ay_offset_mps2=ay_offset,
+        ax_offset_mps2=imu.ax_offset,
+        ax_offset_sd_mps2=imu.ax_offset_sd,
+        ax_gain=imu.imu_gain,
+        pitch_offset_rad=float(np.arcsin(np.clip(imu.ax_offset / GRAVITY_MPS2, -1, 1))),
+        ay_offset_mps2=imu.ay_offset,
         quantisation_radps=quant,
         speed_scale=float(speed_scale),
         speed_scale_sd=float(speed_scale_sd),
-        rho_offset_sd=float(vehicle.mass_kg * ax_offset_sd / _summary(fz_driven, window)),
+        rho_offset_sd=float(vehicle.mass_kg * imu.ax_offset_sd / _summary(f.fz_driven, window)),
         smoothed_noise={
-            "vx_mps": float(_summary(vx_sd, window)),
-            "slip_velocity_mps": [float(v) for v in _summary(local_wheel, window)],
-            "slip_velocity_driven_mps": float(_summary(slip_driven_noise, window)),
-            "ax_mps2": float(_summary(ax_sd_local, window)),
+            "vx_mps": float(_summary(noise.vx_sd, window)),
+            "slip_velocity_mps": [float(v) for v in _summary(noise.local_wheel, window)],
+            "slip_velocity_driven_mps": float(_summary(f.slip_driven_noise, window)),
+            "ax_mps2": float(_summary(f.ax_sd_local, window)),
         },
     )
     return StreamFeatures(
-        time_s=t,
-        vx_mps=vx_safe,
-        vx_sd_mps=vx_sd,
-        wheel_vx_mps=wheel_vx,
-        slip=slip,
-        slip_sd=slip_sd,
-        slip_axle=slip_axle,
-        slip_driven=slip_driven,
-        slip_driven_sd=slip_driven_sd,
-        fx_axle_n=fx_axle,
-        fz_axle_n=fz_axle,
-        rho_axle=rho_axle,
-        rho_driven=rho_driven,
-        rho_driven_sd=rho_driven_sd,
-        rho_driven_traction=rho_driven_traction,
-        rho_driven_traction_sd=rho_driven_traction_sd,
-        rho_total_traction=rho_total_traction,
-        friction_power_w=friction_power,
-        ax_mps2=ax,
-        ay_mps2=ay,
-        dvx_dt_mps2=dvx_dt,
-        grade_rad=grade,
-        yaw_rate_radps=yaw,
-        yaw_acc_radps2=yaw_acc,
-        steer_rad=steer,
-        resistance_n=resistance,
+        time_s=data["time"].to_numpy(dtype=float),
+        vx_mps=m.vx_safe,
+        vx_sd_mps=noise.vx_sd,
+        wheel_vx_mps=m.wheel_vx,
+        slip=m.slip,
+        slip_sd=noise.slip_sd,
+        slip_axle=m.slip_axle,
+        slip_driven=m.slip_driven,
+        slip_driven_sd=f.slip_driven_sd,
+        fx_axle_n=f.fx_axle,
+        fz_axle_n=f.fz_axle,
+        rho_axle=f.rho_axle,
+        rho_driven=f.rho_driven,
+        rho_driven_sd=f.rho_driven_sd,
+        rho_driven_traction=f.rho_driven_traction,
+        rho_driven_traction_sd=f.rho_driven_traction_sd,
+        rho_total_traction=f.rho_total_traction,
+        friction_power_w=np.abs(f.fx_driven * m.vx_safe * m.slip_driven),
+        ax_mps2=imu.ax,
+        ay_mps2=imu.ay,
+        dvx_dt_mps2=imu.dvx_dt,
+        grade_rad=imu.grade,
+        yaw_rate_radps=m.yaw,
+        yaw_acc_radps2=imu.yaw_acc,
+        steer_rad=m.steer,
+        resistance_n=f.resistance,
         label=label,
-        valid=valid,
-        spin=spin,
+        valid=m.valid,
+        spin=m.spin,
         filled=stream.filled,
         nuisances=nuisances,
         noise=dict(stream.noise),
         sample_rate_hz=float(rate),
-        smoothing_s=float(smoothing_s),
+        smoothing_s=scales.smoothing_s,
         driven_axle=vehicle.driven_axle,
         vx_source={"fwd": "rear wheels", "rwd": "front wheels", "awd": "median of four wheels"}[
             vehicle.drive
