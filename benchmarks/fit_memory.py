@@ -4,8 +4,8 @@
 so its peak includes the simulator's arrays and every earlier compilation. Here the drive is
 written to Parquet first and each method runs in a fresh ``tyrebayes fit-tyre`` process; its peak
 resident set size (its own ``ru_maxrss`` at exit) is what a user's machine needs. Each method runs
-twice on an empty JAX compilation cache: ``cold`` compiles the model (XLA's compiler holds about
-1 GB while it works), ``warm`` loads the compiled program from the cache, as every later fit of
+twice on an empty JAX compilation cache: ``cold`` compiles the model (XLA's compiler works in the
+same process), ``warm`` loads the compiled program from the cache, as every later fit of
 that data shape on the machine does. Target: ≤ 2 GB per one-hour fit (as in ``tyre_speed.py``).
 
 Usage: ``python benchmarks/fit_memory.py [--out FILE] [--methods fast,nuts]``.
