@@ -32,7 +32,7 @@ from ..inference.result import Fit, load_fit
 from .fleet import candidates_from_table
 from .linear import loo_from_pointwise, psis_loo_pointwise
 from .permutation import DEFAULT_PERMUTATIONS
-from .ppc import posterior_predictive_check
+from .ppc import posterior_predictive_check, residual_correlation
 from .scan import DEFAULT_ALPHA, ELPD_SE_FACTOR, CriticismResult, criticize_linear
 
 #: Prior variance of the per-stratum intercepts of the residual model (units of its sd^2).
@@ -192,17 +192,10 @@ def _fit_ppc(y, y_rep, mean, data, candidates, table: pd.DataFrame) -> dict:
         if cand.kind != "numeric" or not np.all(np.isfinite(cand.columns)):
             continue
         x = cand.columns[:, 0]
-        r_obs = _abs_corr(y[None, :] - mean, x)
-        r_rep = _abs_corr(y_rep - mean, x)
+        r_obs = residual_correlation(y[None, :] - mean, x)
+        r_rep = residual_correlation(y_rep - mean, x)
         out[f"|corr(residual, {cand.name})|"] = {
             "observed": float(np.mean(r_obs)),
             "p_value": float(np.mean(r_rep >= r_obs)),
         }
     return out
-
-
-def _abs_corr(resid: np.ndarray, x: np.ndarray) -> np.ndarray:
-    r = resid - resid.mean(axis=-1, keepdims=True)
-    xc = x - x.mean()
-    denom = np.sqrt((r**2).sum(axis=-1) * (xc @ xc))
-    return np.abs(r @ xc) / np.maximum(denom, 1e-300)

@@ -60,3 +60,17 @@ def posterior_predictive_check(
         t_rep = np.asarray(fn(y_rep), dtype=float)
         out[name] = {"observed": t_obs, "p_value": float(np.mean(t_rep >= t_obs))}
     return out
+
+
+def residual_correlation(
+    resid: Float[np.ndarray, "*draws n"], x: Float[np.ndarray, " n"]
+) -> Float[np.ndarray, "*draws"]:
+    """|corr(residual, x)| of each row of ``resid``: the check statistic of a candidate covariate.
+
+    A model that missed an effect of ``x`` leaves residuals correlated with it, more than its own
+    replicated residuals are (the p-value of the predictive check).
+    """
+    r = resid - resid.mean(axis=-1, keepdims=True)
+    xc = x - x.mean()
+    denom = np.sqrt((r**2).sum(axis=-1) * (xc @ xc))
+    return np.abs(r @ xc) / np.maximum(denom, 1e-300)

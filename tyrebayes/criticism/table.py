@@ -7,7 +7,7 @@ import pandas as pd
 
 from .fleet import baseline_design, candidates_from_table, select_rows, type_onehot
 from .permutation import DEFAULT_PERMUTATIONS
-from .ppc import posterior_predictive_check
+from .ppc import posterior_predictive_check, residual_correlation
 from .scan import DEFAULT_ALPHA, ELPD_SE_FACTOR, CriticismResult, criticize_linear
 
 
@@ -118,17 +118,10 @@ def _fleet_ppc(y, x0, base_fit, candidates, seed: int) -> dict:
         if cand.kind != "numeric" or not np.all(np.isfinite(cand.columns)):
             continue
         xc = cand.columns[:, 0]
-        r_obs = _abs_corr(y[None, :] - mu, xc)
-        r_rep = _abs_corr(y_rep - mu, xc)
+        r_obs = residual_correlation(y[None, :] - mu, xc)
+        r_rep = residual_correlation(y_rep - mu, xc)
         ppc[f"|corr(residual, {cand.name})|"] = {
             "observed": float(np.mean(r_obs)),
             "p_value": float(np.mean(r_rep >= r_obs)),
         }
     return ppc
-
-
-def _abs_corr(resid: np.ndarray, x: np.ndarray) -> np.ndarray:
-    r = resid - resid.mean(axis=-1, keepdims=True)
-    xc = x - x.mean()
-    denom = np.sqrt((r**2).sum(axis=-1) * (xc @ xc))
-    return np.abs(r @ xc) / np.maximum(denom, 1e-300)

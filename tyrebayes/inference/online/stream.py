@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..._errors import BadInputError
-from ..tyre.data import SURFACES, observations_from_features
+from ..tyre.data import windows_from_stream
 from .windows import STEP_S, WindowBlocks, window_blocks
 
 
@@ -18,34 +18,19 @@ def stream_windows(
     ambient_c: float | None = None,
     channel_map: dict[str, str] | None = None,
 ) -> dict[str, np.ndarray]:
-    """Read, validate and window one stream as :func:`~..tyre_data.observations_from_stream` does.
+    """Read, validate and window one stream (:func:`~..tyre.data.windows_from_stream`).
 
-    Returns the windows (:func:`~..tyre_data.observations_from_features`), in time order of
-    their steps once grouped by :func:`stream_steps`.
+    Returns the windows, in time order of their steps once grouped by :func:`stream_steps`; at
+    least 10 of them, or :class:`~tyrebayes.BadInputError`.
     """
-    from ..._domain import load_vehicle
-    from ...physics.vehicle import Vehicle
-    from ...streams import compute_features, read_stream, validate_stream
-    from ...streams.tyre_temperature import features_tyre_temperature
-
-    if not isinstance(vehicle, Vehicle):
-        try:
-            vehicle = load_vehicle(vehicle)
-        except ValueError as err:
-            raise BadInputError(str(err).splitlines()[0]) from None
-    if surface not in SURFACES:
-        raise BadInputError(f"surface: expected one of {SURFACES}, got {surface!r}")
-    stream = validate_stream(read_stream(path, channel_map), vehicle)
-    if ambient_c is None:
-        ambient_c = 20.0
-        if "ambient_temperature" in stream.data:
-            ambient = stream.data["ambient_temperature"].to_numpy(dtype=float)
-            if np.isfinite(ambient).any():
-                ambient_c = float(np.nanmean(ambient))
-    features = compute_features(stream, vehicle)
-    if temperature_c is None:
-        temperature_c = features_tyre_temperature(features, ambient_c=ambient_c)
-    windows = observations_from_features(features, temperature_c=temperature_c)
+    windows = windows_from_stream(
+        path,
+        vehicle,
+        surface=surface,
+        temperature_c=temperature_c,
+        ambient_c=ambient_c,
+        channel_map=channel_map,
+    )
     if len(windows["slip"]) < 10:
         raise BadInputError(
             f"online estimator: expected at least 10 usable windows, got {len(windows['slip'])}"

@@ -475,7 +475,7 @@ def stack_drives(
     )
 
 
-def observations_from_stream(
+def windows_from_stream(
     path,
     vehicle,
     *,
@@ -484,8 +484,11 @@ def observations_from_stream(
     ambient_c: float | None = None,
     window_s: float = 0.25,
     channel_map: dict[str, str] | None = None,
-) -> TyreObservations:
-    """Read, validate and window one stream file for :func:`tyrebayes.inference.fit_tyre`.
+) -> dict[str, np.ndarray]:
+    """Read, validate and window one stream file: the windows of one drive, in time order.
+
+    The stream pipeline of ``fit-tyre`` (:func:`observations_from_stream` stacks its result) and
+    of the online estimator.
 
     Parameters
     ----------
@@ -532,5 +535,30 @@ def observations_from_stream(
     features = compute_features(stream, vehicle)
     if temperature_c is None:
         temperature_c = features_tyre_temperature(features, ambient_c=ambient_c)
-    windows = observations_from_features(features, temperature_c=temperature_c, window_s=window_s)
+    return observations_from_features(features, temperature_c=temperature_c, window_s=window_s)
+
+
+def observations_from_stream(
+    path,
+    vehicle,
+    *,
+    surface: str = "dry",
+    temperature_c: float | None = None,
+    ambient_c: float | None = None,
+    window_s: float = 0.25,
+    channel_map: dict[str, str] | None = None,
+) -> TyreObservations:
+    """Read, validate and window one stream file for :func:`tyrebayes.inference.fit_tyre`.
+
+    :func:`windows_from_stream` (same parameters and errors), stacked as one drive.
+    """
+    windows = windows_from_stream(
+        path,
+        vehicle,
+        surface=surface,
+        temperature_c=temperature_c,
+        ambient_c=ambient_c,
+        window_s=window_s,
+        channel_map=channel_map,
+    )
     return stack_drives([windows], [surface])
