@@ -26,6 +26,7 @@ _COMMAND_MODULES = (
     "fit_tyre",
     "fleet",
     "wear",
+    "fit_wear",
     "vmax",
     "criticize",
     "report",
