@@ -179,6 +179,7 @@ def run(args: argparse.Namespace) -> int:
     import json
 
     from .._io import to_jsonable
+    from ..decisions import high_wear_warning
     from ..inference.wear.history import drive_history, tread_readings
     from ..inference.wear.history_fit import fit_wear_history
     from ..inference.wear.history_predict import wear_history_predictions
@@ -195,7 +196,8 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         source=" ".join(args.drives),
     )
-    out = wear_history_predictions(fit, history, readings, tyre_type=args.tyre_type)
+    out, ratio = wear_history_predictions(fit, history, readings, tyre_type=args.tyre_type)
+    out["high_wear"] = high_wear_warning(ratio)
     out["vehicle"] = _vehicle_name(args.vehicle)
     out["converged"] = fit.converged
     out["diagnostics"] = fit.diagnostics.as_dict()

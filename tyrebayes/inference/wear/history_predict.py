@@ -5,8 +5,8 @@ friction work per km of that axle (all drives, each weighted by the distance it 
 current depth is the pair's initial depth (posterior with readings, the new-tyre prior without)
 minus what the history wore off it. Future driving is assumed like the history's and no further
 rotation is assumed. The high-wear warning compares the car set's worn mass per 1000 km with the
-ADAC convoy figure of the tyre type (``tyrebayes/data/wear_by_tyre_type.csv``, mid-range) through
-:func:`tyrebayes.decisions.high_wear_warning`.
+ADAC convoy figure of the tyre type (``tyrebayes/data/wear_by_tyre_type.csv``, mid-range); the
+command turns the ratio's draws into a warning with :func:`tyrebayes.decisions.high_wear_warning`.
 """
 
 from __future__ import annotations
@@ -47,17 +47,17 @@ def wear_history_predictions(
     geom: TreadGeometry | None = None,
     horizon_km: float = 60000.0,
     seed: int = 0,
-) -> dict:
+) -> tuple[dict, np.ndarray]:
     """Predictive tread depth, distance to the limits and the high-wear warning (draws summarised).
 
     Returns a JSON-ready dict: ``gamma``, ``gamma_work`` (γ times the work-scale error: per
     joule of the evidence's work), ``kappa`` (extended), ``wear_mm_per_1000km``
     (front, rear), ``depth_now_mm`` (front, rear), ``km_to_3mm`` and ``km_to_1_6mm`` (from the
     last drive; the first axle to reach the limit), ``depth_curve`` (quantiles 5/50/95 % of the
-    lower axle at distances ahead), ``tyre_changes`` and ``high_wear`` (the warning).
+    lower axle at distances ahead), ``tyre_changes`` and ``wear_over_reference`` (the car set's
+    worn mass over the type's reference). The second item returned is the draws of that ratio,
+    for :func:`tyrebayes.decisions.high_wear_warning`.
     """
-    from ...decisions import high_wear_warning
-
     geom = TreadGeometry() if geom is None else geom
     gamma = fit.draws("gamma_work")  # per joule of evidence work: what the history fixed
     kappa = fit.draws("kappa") if "kappa" in fit.posterior.data_vars else np.zeros_like(gamma)
@@ -107,8 +107,8 @@ def wear_history_predictions(
     grams = grams * geom.rubber_density_g_per_cm3 / 1000.0  # car set, per 1000 km
     reference = reference_wear_g_per_1000km(tyre_type)
     out["g_per_1000km_car_set"] = summarize(grams)
-    out["high_wear"] = {
-        **high_wear_warning(grams / reference),
+    out["wear_over_reference"] = {
+        **summarize(grams / reference),
         "reference_g_per_1000km": reference,
         "tyre_type": tyre_type,
     }
@@ -124,4 +124,4 @@ def wear_history_predictions(
     ]
     out["n_drives"] = history.n_drives
     out["history_km"] = history.total_km
-    return out
+    return out, grams / reference
