@@ -58,6 +58,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--baseline", action="store_true", help="no temperature sensitivity (kappa = 0)"
     )
+    parser.add_argument(
+        "--samples", type=int, default=500, help="NUTS warm-up and draws per chain (2 chains)"
+    )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", help="write the fit (netCDF, read back with tyrebayes.load_fit)")
     parser.add_argument("--json", action="store_true", help="machine-readable output")
@@ -170,6 +173,8 @@ def _text(out: dict, diagnostics) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    if not 50 <= args.samples <= 100000:
+        raise BadInputError(f"--samples: expected 50 to 100000, got {args.samples}")
     if args.out is not None:
         output_file(args.out, suffixes=(".nc", ".netcdf"))
     import jax
@@ -193,6 +198,8 @@ def run(args: argparse.Namespace) -> int:
         history,
         readings,
         extended=not args.baseline,
+        num_warmup=args.samples,
+        num_samples=args.samples,
         seed=args.seed,
         source=" ".join(args.drives),
     )

@@ -7,11 +7,13 @@ swaps or renews the tyres and moves y by about the accumulated wear difference: 
 
 Test: b is estimated robustly (median of Δy / x), the residuals e_k = Δy_k − b x_k are scaled by
 a robust noise level s (1.4826 MAD), and a step between drives k − 1 and k is declared where
-min(|e_{k−1}| / s, |e_{k−1} + e_k| / (√2 s)) exceeds z, with P(|N(0,1)| > z) =
-false_alarm / (n − 1): a Bonferroni bound, so that a history of n drives without a change raises
-a false alarm with probability at most ``false_alarm`` under Gaussian noise (checked by a test).
-The second term keeps a single bad drive (two residuals of opposite sign) from reading as a
-step. Declared steps closer than ``window`` drives keep the strongest.
+min(|e_{k−1}| / s, |e_{k−2} + e_{k−1}| / (√2 s), |e_{k−1} + e_k| / (√2 s)) exceeds z, with
+P(|N(0,1)| > z) = false_alarm / (n − 1) (per channel: the ratio, and the speed scale where
+logged, share the rate): a Bonferroni bound, so that a history of n drives without a change
+raises a false alarm with probability at most ``false_alarm`` under Gaussian noise (checked by a
+test).
+The sums keep a single bad drive (two residuals of opposite sign) from reading as a step.
+Declared steps closer than ``window`` drives keep the strongest.
 
 Classification: a rotation moves y by about twice the accumulated drift of the segment before it
 (the worn pair changes axle), a replacement by about once (both pairs new); the speed scale
@@ -144,10 +146,12 @@ def detect_tyre_changes(
         resid, scale = _residuals(dy, xs)
         if resid_y is None:
             resid_y, scale_y = resid, scale
-        # step between drives k-1 and k: one large residual that the next one does not undo
+        # step between drives k-1 and k: one large residual that neither neighbour undoes
         # (a single bad drive gives two of opposite sign)
         nxt = np.append(resid[1:], 0.0)
-        stat = np.minimum(np.abs(resid) / scale, np.abs(resid + nxt) / (np.sqrt(2.0) * scale))
+        prev = np.insert(resid[:-1], 0, 0.0)
+        pair = np.minimum(np.abs(resid + nxt), np.abs(resid + prev)) / (np.sqrt(2.0) * scale)
+        stat = np.minimum(np.abs(resid) / scale, pair)
         stats[1:] = np.maximum(stats[1:], np.nan_to_num(stat))
     candidates = [k for k in np.argsort(-np.abs(stats)) if abs(stats[k]) > threshold]
     chosen: list[int] = []
