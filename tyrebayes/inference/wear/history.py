@@ -204,13 +204,16 @@ def tread_readings(table: pd.DataFrame) -> TreadReadings:
     return TreadReadings(odo[order], axle[order], depth[order])
 
 
-def reading_exposure(history: DriveHistory, readings: TreadReadings) -> np.ndarray:
+def reading_exposure(
+    history: DriveHistory, readings: TreadReadings
+) -> tuple[np.ndarray, np.ndarray]:
     """How much of each interval's wear of each axle position a reading has seen.
 
-    Returns ``A[i, j, a]`` in [0, 1]: the fraction of interval j completed by reading i's
-    odometer, where interval j's axle a carried the pair that reading i measured (the pair on
-    the read axle at the reading). Raises :class:`~tyrebayes.BadInputError` when a reading
-    exceeds an earlier one of the same pair by more than :data:`READING_TOLERANCE_MM`.
+    Returns ``(A, pair)``: ``A[i, j, a]`` in [0, 1] is the fraction of interval j completed by
+    reading i's odometer, where interval j's axle a carried the pair that reading i measured
+    (the pair on the read axle at the reading); ``pair[i]`` is that pair. Raises
+    :class:`~tyrebayes.BadInputError` when a reading exceeds an earlier one of the same pair by
+    more than :data:`READING_TOLERANCE_MM`.
     """
     start = history.odometer_km
     frac = np.clip((readings.odometer_km[:, None] - start[None, :]) / history.interval_km, 0, 1)
