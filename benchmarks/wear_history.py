@@ -44,7 +44,7 @@ from tyrebayes.streams.wear_evidence import wear_evidence_table  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results" / "wear_history.json"
 PREFIX_FRACTIONS = (0.25, 0.5, 0.75, 1.0)
-NUTS = {"num_warmup": 300, "num_samples": 300, "num_chains": 2}
+NUTS = {"num_warmup": 500, "num_samples": 500, "num_chains": 2}  # as fit-wear
 
 
 def _gamma_summary(fit, truth: float) -> dict:

@@ -18,7 +18,8 @@ from ..._errors import BadInputError
 from ...physics.wear import TreadGeometry
 from .changepoint import FALSE_ALARM_RATE, TyreChanges, detect_tyre_changes
 
-#: Evidence columns the history needs (a subset of WEAR_EVIDENCE_COLUMNS).
+#: Evidence columns the history needs (a subset of WEAR_EVIDENCE_COLUMNS; ``speed_scale`` is
+#: optional).
 HISTORY_COLUMNS: tuple[str, ...] = (
     "distance_km",
     "odometer_start_km",
@@ -28,7 +29,6 @@ HISTORY_COLUMNS: tuple[str, ...] = (
     "work_x_rear_sd_j",
     "radius_ratio_front_rear",
     "radius_ratio_front_rear_sd",
-    "speed_scale",
     "tyre_temperature_c",
 )
 #: Axle names of tread-depth readings, in axle order.
@@ -110,6 +110,9 @@ def drive_history(
     n = len(table)
     if n < 2:
         raise BadInputError(f"drive history: expected at least 2 drives, got {n}")
+    missing = [c for c in HISTORY_COLUMNS if c not in table]
+    if missing:
+        raise BadInputError(f"drive history: expected columns {missing}, not found")
     distance = _column(table, "distance_km")
     work = np.column_stack([_column(table, "work_x_front_j"), _column(table, "work_x_rear_j")])
     work_sd = np.column_stack(
