@@ -114,3 +114,18 @@ def _summary(table: pd.DataFrame) -> pd.DataFrame:
     full["drive_id"] = [f"d{i}" for i in range(len(full))]
     full["drive_order"] = np.arange(len(full))
     return full
+
+
+def test_a_manifest_is_read(tiny_year, tmp_path, capsys):
+    """A .txt manifest of one path is a history of one drive; a CSV one names other cars."""
+    _, truth = tiny_year
+    txt = tmp_path / "drives.txt"
+    txt.write_text(f"# one drive\n{truth.stream_paths[0]}\n")
+    assert main(["fit-wear", str(txt), "--vehicle", "compact_fwd"]) == 2
+    assert "at least 2 drives" in _one_line_error(capsys)
+    csv = tmp_path / "drives.csv"
+    pd.DataFrame(
+        {"path": list(truth.stream_paths[:2]), "vehicle": ["compact_fwd", "suv_rav4"]}
+    ).to_csv(csv, index=False)
+    assert main(["fit-wear", str(csv), "--vehicle", "compact_fwd"]) == 2
+    assert "one vehicle" in _one_line_error(capsys)
