@@ -14,7 +14,7 @@ ratio of the evidence's friction work to the simulator's true work (what biases 
 radius drift only, the kilometres after which the 90 % HDI of γ lies within ±20 % of its median
 (prefix fits of the first years).
 
-Run ``python benchmarks/wear_history.py [--years 20] [--prefix-years 3]``; results go to
+Run ``python benchmarks/wear_history.py [--years 20] [--prefix-years 3] [--resume]``; results go to
 ``benchmarks/results/wear_history.json``. Timings are taken on a machine shared with other jobs.
 """
 
@@ -121,10 +121,19 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--years", type=int, default=20, help="simulated years (issue: 20)")
     parser.add_argument("--prefix-years", type=int, default=3, help="years with prefix fits")
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep the years already in the results file and run the rest (same seeds)",
+    )
     args = parser.parse_args(argv)
     start = time.time()
     years = []
-    for y in range(args.years):
+    if args.resume and RESULTS.exists():
+        previous = json.loads(RESULTS.read_text())
+        years = previous["years"]
+        start -= previous["seconds_total"]
+    for y in range(len(years), args.years):
         years.append(run_year(1000 + y, y < args.prefix_years))
         print(json.dumps(to_jsonable(years[-1]))[:400], flush=True)
         # written after every year: an interrupted run leaves the years it finished
