@@ -41,7 +41,7 @@ from .data import WearPriors
 from .history import DriveHistory, TreadReadings, reading_exposure
 
 #: Log-sd of the scale error of a stream's friction work (eq. 4.19 from smoothed F_x and σ_x,
-#: axle-level loads, the linear slip under braking): on 13 simulated years the evidence read the
+#: axle-level loads, the linear slip under braking): on 20 simulated years the evidence read the
 #: simulator's true front-axle work at 0.81-0.88 of it (benchmarks/results/wear_history.json,
 #: ``evidence_work_over_true``); the prior does not correct that, it makes γ's interval honest.
 WORK_SCALE_LOG_SD = 0.2
