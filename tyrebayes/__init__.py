@@ -106,3 +106,14 @@ from .batch import fleet_run as fleet_run
 from .batch import read_manifest as read_manifest
 
 __version__ = "0.1.0"
+
+# tread wear from a car's own drive history (fit-wear)
+from .inference.wear.changepoint import detect_tyre_changes as detect_tyre_changes
+from .inference.wear.history import drive_history as drive_history
+from .inference.wear.history import tread_readings as tread_readings
+from .inference.wear.history_fit import fit_wear_history as fit_wear_history
+from .inference.wear.history_predict import wear_history_predictions as wear_history_predictions
+from .streams.wear_evidence import WEAR_EVIDENCE_COLUMNS as WEAR_EVIDENCE_COLUMNS
+from .streams.wear_evidence import DriveWearEvidence as DriveWearEvidence
+from .streams.wear_evidence import drive_wear_evidence as drive_wear_evidence
+from .streams.wear_evidence import wear_evidence_table as wear_evidence_table

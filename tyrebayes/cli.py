@@ -28,6 +28,7 @@ _COMMAND_MODULES = (
     "fleet",
     "fleet_run",
     "wear",
+    "fit_wear",
     "vmax",
     "criticize",
     "report",

@@ -4,7 +4,8 @@
 energy rates, tyre temperatures and relative wear of a soft and a stiff tyre at 7 and 40 °C, with
 the heat budget that explains why it fails. ``tyrebayes predict-wear --gamma G [--gamma-sd S]
 --c-xr C [--c-xr-sd S] --ambient T [--kappa K] [--speed-kmh V] [--json]`` gives the expected wear
-per 1000 km (g per car set and mm on the driven axle) for a mixed driving profile.
+per 1000 km (g per car set and mm on the driven axle) for a mixed driving profile
+(:func:`tyrebayes.physics.wear_duty.duty_kernel`, a compact FWD car).
 """
 
 from __future__ import annotations
@@ -81,14 +82,21 @@ def run_predict(args: argparse.Namespace) -> int:
     check_ambient(args.ambient)
     import jax
 
+    from .._domain import load_vehicle
     from ..inference.summary import summarize
     from ..physics.thermal import StiffnessTemperature, stiffness_at_temperature
     from ..physics.wear import TreadGeometry, volume_to_mass_g
-    from ..simulate.wear import DutyProfile, profile_kernel
+    from ..physics.wear_duty import DutyProfile, duty_kernel
 
     profile = DutyProfile(mean_speed_mps=args.speed_kmh / 3.6, dt_s=4.0)
-    kernel, grid = profile_kernel(
-        jax.random.PRNGKey(args.seed), args.ambient, 1000.0, profile, args.c_xr, n_drives=8
+    kernel, grid = duty_kernel(
+        jax.random.PRNGKey(args.seed),
+        args.ambient,
+        1000.0,
+        profile,
+        load_vehicle("compact_fwd"),
+        args.c_xr,
+        n_drives=8,
     )
     rng = np.random.default_rng(args.seed)
     n = 2000

@@ -44,7 +44,7 @@ from .diagnostics import loo as loo
 from .diagnostics import posterior_predictive_adequacy as posterior_predictive_adequacy
 
 #: The kinds of fit, one per fitter.
-FIT_KINDS: tuple[str, ...] = ("tyre", "fleet", "wear", "vmax")
+FIT_KINDS: tuple[str, ...] = ("tyre", "fleet", "wear", "vmax", "wear_history")
 try:
     PACKAGE_VERSION = importlib.metadata.version("tyrebayes")
 except importlib.metadata.PackageNotFoundError:  # run from a source tree that is not installed

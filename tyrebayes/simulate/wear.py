@@ -28,164 +28,25 @@ add to both axles and is absorbed into gamma.
 
 from __future__ import annotations
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
 from .._domain import load_vehicle
-from ..internal.validation import check_in_range, check_positive
 from ..physics.thermal import StiffnessTemperature, ThermalParams
-from ..physics.vehicle import Vehicle, aero_drag, axle_loads, rolling_resistance_force
+from ..physics.vehicle import Vehicle
 from ..physics.wear import (
-    TEMPERATURE_GRID_C,
     Abrasability,
     DriveWork,
     TreadGeometry,
     WearObservations,
-    abrasability_at_temperature,
-    bin_by_temperature,
     cumulative_depth_loss,
-    simulate_constant_traction,
-    slip_work_kernel,
 )
-
-
-class DutyProfile(eqx.Module):
-    """A simple random driving profile (all fields scalars; see the module docstring).
-
-    Parameters
-    ----------
-    mean_speed_mps : float
-        Speed the driver returns to [m/s] (mixed driving ~ 60 km/h, motorway ~ 110 km/h).
-    speed_sd_mps : float
-        Spread of the speed around its mean [m/s].
-    accel_sd_mps2 : float
-        Standard deviation of the longitudinal acceleration [m/s^2] (calm 0.3, brisk 0.8).
-    accel_time_constant_s : float
-        Correlation time of the acceleration [s].
-    drive_duration_s : float
-        Length of one drive [s].
-    dt_s : float
-        Sample interval of the synthetic drive [s].
-    brake_front_fraction : float
-        Share of braking force on the front axle [-] (~0.7 for cars).
-    """
-
-    mean_speed_mps: float = 60 / 3.6
-    speed_sd_mps: float = 5.0
-    accel_sd_mps2: float = 0.5
-    accel_time_constant_s: float = 4.0
-    drive_duration_s: float = 1800.0
-    dt_s: float = 2.0
-    brake_front_fraction: float = 0.7
-
-    def __check_init__(self):
-        for name in ("mean_speed_mps", "accel_time_constant_s", "drive_duration_s", "dt_s"):
-            check_positive("DutyProfile", name, getattr(self, name))
-        check_in_range("DutyProfile", "speed_sd_mps", self.speed_sd_mps, 0.0, 100.0)
-        check_in_range("DutyProfile", "accel_sd_mps2", self.accel_sd_mps2, 0.0, 5.0)
-        check_in_range("DutyProfile", "brake_front_fraction", self.brake_front_fraction, 0.0, 1.0)
-
-    @property
-    def n_steps(self) -> int:
-        return int(round(self.drive_duration_s / self.dt_s)) + 1
-
-
-class DriveSeries(eqx.Module):
-    """One drive's samples: ``speed_mps`` (n,), ``rho_x`` (n, 2) and ``fz_n`` (n, 2) per wheel of
-    the (front, rear) axle."""
-
-    time_s: Float[Array, "n"]
-    speed_mps: Float[Array, "n"]
-    rho_x: Float[Array, "n 2"]
-    fz_n: Float[Array, "n 2"]
-
-
-def _driven_share(vehicle: Vehicle) -> float:
-    if vehicle.drive == "fwd":
-        return 1.0
-    if vehicle.drive == "rwd":
-        return 0.0
-    return float(vehicle.front_drive_fraction)
-
-
-def simulate_drive_series(
-    key: PRNGKeyArray,
-    profile: DutyProfile,
-    vehicle: Vehicle,
-    mean_speed_mps: Float[ArrayLike, ""] | None = None,
-) -> DriveSeries:
-    """One synthetic drive: OU acceleration, speed pulled back to its mean, axle forces and loads.
-
-    Examples
-    --------
-    >>> d = simulate_drive_series(jax.random.PRNGKey(0), DutyProfile(), load_vehicle("compact_fwd"))
-    >>> d.rho_x.shape
-    (901, 2)
-    """
-    n = profile.n_steps
-    dt = profile.dt_s
-    v_mean = profile.mean_speed_mps if mean_speed_mps is None else mean_speed_mps
-    phi = np.exp(-dt / profile.accel_time_constant_s)
-    # The driver's acceleration wish is an OU process; a pull -dv / tau_v back to the mean speed
-    # keeps the speed from drifting. For tau_v >> tau_a, var(dv) = sd_a^2 tau_a tau_v, so tau_v is
-    # chosen to give the requested speed spread.
-    sd_a = max(profile.accel_sd_mps2, 1e-9)
-    tau_v = max(profile.speed_sd_mps**2 / (sd_a**2 * profile.accel_time_constant_s), 5 * dt)
-    noise = jax.random.normal(key, (n,)) * profile.accel_sd_mps2 * np.sqrt(1 - phi**2)
-
-    def step(state, eps):
-        wish, dv = state
-        accel = wish - dv / tau_v
-        return (phi * wish + eps, dv + accel * dt), (accel, dv)
-
-    _, (accel, dv) = jax.lax.scan(step, (jnp.zeros(()), jnp.zeros(())), noise)
-    speed = jnp.maximum(v_mean + dv, 1.0)
-    # a floor at 1 m/s keeps the slip definition (division by V) meaningful; there the
-    # acceleration is set to 0 so no force is applied at the floor.
-    accel = jnp.where(v_mean + dv > 1.0, accel, 0.0)
-    resistance = aero_drag(vehicle, speed) + rolling_resistance_force(vehicle)
-    total = vehicle.mass_kg * accel + resistance
-    share = jnp.where(total > 0, _driven_share(vehicle), profile.brake_front_fraction)
-    front_axle_n, rear_axle_n = axle_loads(vehicle, accel)
-    rho = jnp.stack(
-        [share * total / front_axle_n, (1.0 - share) * total / rear_axle_n], axis=-1
-    )  # F_axle / 2 per wheel over F_z,axle / 2 per wheel
-    fz = jnp.stack([front_axle_n / 2, rear_axle_n / 2], axis=-1)
-    time = jnp.arange(n, dtype=float) * dt
-    return DriveSeries(time, speed, rho, fz)
-
-
-def drive_work(
-    series: DriveSeries,
-    ambient_c: Float[ArrayLike, ""],
-    c_xr: Float[ArrayLike, ""],
-    abrasability: Abrasability,
-    thermal: ThermalParams,
-    comp: StiffnessTemperature,
-    grid_c: Float[ArrayLike, "b"] = TEMPERATURE_GRID_C,
-) -> tuple[Float[Array, "2 b"], Float[Array, "2"], Float[Array, "2"]]:
-    """Binned friction-work kernel, true worn volume and mean tyre temperature of one drive.
-
-    The tyre starts at ambient temperature; the thesis' closed loop (Fig. 4.2) runs per axle.
-    """
-    grid = jnp.asarray(grid_c, dtype=float)
-    dt = series.time_s[1] - series.time_s[0]
-
-    def per_axle(rho, fz):
-        run = simulate_constant_traction(
-            thermal, comp, c_xr, rho, fz, series.speed_mps, ambient_c, series.time_s
-        )
-        gamma = abrasability_at_temperature(abrasability, run.tyre_temperature_c)
-        volume = jnp.sum(gamma * run.energy_rate_w) * dt
-        k = slip_work_kernel(rho, fz, series.speed_mps, dt)
-        binned = bin_by_temperature(k, run.tyre_temperature_c, grid)
-        t_mean = jnp.sum(k * run.tyre_temperature_c) / jnp.maximum(jnp.sum(k), 1e-12)
-        return binned, volume, t_mean
-
-    return jax.vmap(per_axle, in_axes=(1, 1))(series.rho_x, series.fz_n)
+from ..physics.wear_duty import DriveSeries as DriveSeries
+from ..physics.wear_duty import DutyProfile as DutyProfile
+from ..physics.wear_duty import drive_work as drive_work
+from ..physics.wear_duty import duty_drives, duty_kernel
 
 
 def simulate_drives(
@@ -228,23 +89,18 @@ def simulate_drives(
     vehicle = load_vehicle("compact_fwd") if vehicle is None else vehicle
     thermal = ThermalParams() if thermal is None else thermal
     comp = StiffnessTemperature() if comp is None else comp
-    ambient = jnp.broadcast_to(jnp.asarray(ambient_c, dtype=float), (n_drives,))
-    speeds = (
-        jnp.full((n_drives,), profile.mean_speed_mps)
-        if mean_speed_mps is None
-        else jnp.broadcast_to(jnp.asarray(mean_speed_mps, dtype=float), (n_drives,))
+    return duty_drives(
+        key,
+        n_drives,
+        ambient_c,
+        c_xr,
+        abrasability,
+        profile,
+        vehicle,
+        thermal,
+        comp,
+        mean_speed_mps,
     )
-    keys = jax.random.split(key, n_drives)
-
-    @jax.jit
-    def one(k, amb, v):
-        s = simulate_drive_series(k, profile, vehicle, v)
-        binned, vol, t_mean = drive_work(s, amb, c_xr, abrasability, thermal, comp)
-        dist = jnp.sum(s.speed_mps[:-1]) * profile.dt_s / 1000.0
-        return binned, vol, t_mean, dist
-
-    binned, vol, t_mean, dist = jax.lax.map(lambda a: one(*a), (keys, ambient, speeds))
-    return DriveWork(dist, ambient, binned, jnp.asarray(TEMPERATURE_GRID_C), vol, t_mean)
 
 
 def seasonal_ambient(
@@ -314,16 +170,6 @@ def profile_kernel(
     :func:`tyrebayes.inference.wear.predict_wear_volume`. ``c_xr`` only sets the (tiny) friction
     heating of the tyre temperature.
     """
-    work = simulate_drives(
-        key,
-        n_drives,
-        jnp.full((n_drives,), float(ambient_c)),
-        c_xr,
-        Abrasability(1.0),
-        profile,
-        vehicle,
-        thermal,
-        comp,
-    )
-    scale = km / float(jnp.sum(work.distance_km))
-    return np.asarray(work.kernel_binned.sum(axis=0)) * scale, np.asarray(work.grid_c)
+    profile = DutyProfile() if profile is None else profile
+    vehicle = load_vehicle("compact_fwd") if vehicle is None else vehicle
+    return duty_kernel(key, ambient_c, km, profile, vehicle, c_xr, n_drives, thermal, comp)

@@ -22,8 +22,15 @@ Modules: :mod:`.data` (priors, :class:`WearSet`, :class:`WearData`, :func:`build
 :class:`~tyrebayes.inference.result.Fit` of kind "wear"), :mod:`.predict`
 (:func:`predict_wear_volume`, :func:`relative_wear_draws`). The warning rule on relative wear is
 a decision: :func:`tyrebayes.decisions.high_wear_warning`.
+
+One car's own drive history (``tyrebayes fit-wear``): :mod:`.history` (:func:`drive_history`,
+:func:`tread_readings`), :mod:`.changepoint` (:func:`detect_tyre_changes`), :mod:`.history_fit`
+(:func:`fit_wear_history`, a Fit of kind "wear_history") and :mod:`.history_predict`
+(:func:`wear_history_predictions`).
 """
 
+from .changepoint import TyreChanges as TyreChanges
+from .changepoint import detect_tyre_changes as detect_tyre_changes
 from .data import WearData as WearData
 from .data import WearPriors as WearPriors
 from .data import WearSet as WearSet
@@ -32,6 +39,12 @@ from .data import c_xr_lognormal as c_xr_lognormal
 from .fit import WEAR_METHODS as WEAR_METHODS
 from .fit import fit_wear as fit_wear
 from .fit import wear_fit_parts as wear_fit_parts
+from .history import DriveHistory as DriveHistory
+from .history import TreadReadings as TreadReadings
+from .history import drive_history as drive_history
+from .history import tread_readings as tread_readings
+from .history_fit import fit_wear_history as fit_wear_history
+from .history_predict import wear_history_predictions as wear_history_predictions
 from .model import init_values as init_values
 from .model import wear_factor as wear_factor
 from .model import wear_model as wear_model

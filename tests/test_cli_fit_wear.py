@@ -1,0 +1,131 @@
+"""``tyrebayes fit-wear``: end to end on a few tiny drives; bad inputs exit 2 with one line."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tyrebayes.cli import main
+from tyrebayes.inference.result import load_fit
+
+from .inference.test_wear_history import synthetic_table
+
+
+def _one_line_error(capsys) -> str:
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    return err
+
+
+@pytest.fixture(scope="module")
+def tiny_year(tmp_path_factory):
+    from tyrebayes.simulate.wear_history import simulate_wear_year
+
+    folder = tmp_path_factory.mktemp("year")
+    truth = simulate_wear_year(
+        4,
+        folder,
+        n_drives=8,
+        drive_s=90.0,
+        km_per_year=4000.0,
+        gamma_mm3_per_j=0.2,
+        rotation_at=0.5,
+        replacement_at=None,
+    )
+    return folder, truth
+
+
+def test_streams_end_to_end(tiny_year, tmp_path, capsys):
+    folder, truth = tiny_year
+    fit_path = tmp_path / "wear.nc"
+    argv = ["fit-wear", *truth.stream_paths, "--vehicle", "compact_fwd", "--samples", "60"]
+    code = main([*argv, "--out", str(fit_path), "--json"])
+    assert code in (0, 3)  # 3: not converged at 60 draws; the summary is printed either way
+    out = json.loads(capsys.readouterr().out)
+    assert out["n_drives"] == 8
+    assert out["history_km"] > 3000
+    for key in ("gamma", "gamma_work", "km_to_3mm", "km_to_1_6mm", "depth_curve", "high_wear"):
+        assert key in out
+    assert out["km_to_1_6mm"]["mean"] > out["km_to_3mm"]["mean"]
+    assert isinstance(out["high_wear"]["warning"], bool)
+    fit = load_fit(fit_path, kind="wear_history")
+    assert "predictions" in fit.data.attrs
+
+
+@pytest.mark.slow
+def test_the_summary_table_gives_the_same_answer(tiny_year, capsys):
+    """The same drives as a fleet-run summary table (shuffled: drive_order restores it)."""
+    _, truth = tiny_year
+    argv = ["fit-wear", *truth.stream_paths, "--vehicle", "compact_fwd", "--samples", "60"]
+    main([*argv, "--json"])
+    out = json.loads(capsys.readouterr().out)
+    from tyrebayes._domain import load_vehicle
+    from tyrebayes.streams.wear_evidence import wear_evidence_table
+
+    table = wear_evidence_table(truth.stream_paths, load_vehicle("compact_fwd"), "compact_fwd")
+    summary = truth.stream_paths[0].rsplit("/", 1)[0] + "/drives.parquet"
+    table.sample(frac=1.0, random_state=0).to_parquet(summary)
+    code = main(["fit-wear", summary, "--vehicle", "compact_fwd", "--samples", "60", "--json"])
+    again = json.loads(capsys.readouterr().out)
+    assert code in (0, 3)
+    assert again["gamma_work"]["mean"] == pytest.approx(out["gamma_work"]["mean"], rel=1e-6)
+
+
+def test_a_history_of_one_drive(tiny_year, capsys):
+    _, truth = tiny_year
+    code = main(["fit-wear", truth.stream_paths[0], "--vehicle", "compact_fwd"])
+    assert code == 2
+    assert "at least 2 drives" in _one_line_error(capsys)
+
+
+def test_drives_of_different_vehicles(tmp_path, capsys):
+    table, _ = synthetic_table()
+    full = _summary(table)
+    full.loc[3, "vehicle"] = "suv_rav4"
+    path = tmp_path / "drives.csv"
+    full.to_csv(path, index=False)
+    code = main(["fit-wear", str(path), "--vehicle", "compact_fwd"])
+    assert code == 2
+    assert "one vehicle" in _one_line_error(capsys)
+
+
+def test_readings_that_increase(tmp_path, capsys):
+    table, _ = synthetic_table()
+    path = tmp_path / "drives.csv"
+    _summary(table).to_csv(path, index=False)
+    readings = tmp_path / "readings.csv"
+    pd.DataFrame(
+        {"odometer_km": [500.0, 2500.0], "axle": ["rear", "rear"], "depth_mm": [7.0, 7.9]}
+    ).to_csv(readings, index=False)
+    code = main(["fit-wear", str(path), "--vehicle", "compact_fwd", "--tread-depth", str(readings)])
+    assert code == 2
+    assert "do not increase" in _one_line_error(capsys)
+
+
+def _summary(table: pd.DataFrame) -> pd.DataFrame:
+    from tyrebayes.streams.wear_evidence import WEAR_EVIDENCE_COLUMNS
+
+    full = table.copy()
+    for col in WEAR_EVIDENCE_COLUMNS:
+        if col not in full:
+            full[col] = np.nan
+    full["vehicle"] = "compact_fwd"
+    full["drive_id"] = [f"d{i}" for i in range(len(full))]
+    full["drive_order"] = np.arange(len(full))
+    return full
+
+
+def test_a_manifest_is_read(tiny_year, tmp_path, capsys):
+    """A .txt manifest of one path is a history of one drive; a CSV one names other cars."""
+    _, truth = tiny_year
+    txt = tmp_path / "drives.txt"
+    txt.write_text(f"# one drive\n{truth.stream_paths[0]}\n")
+    assert main(["fit-wear", str(txt), "--vehicle", "compact_fwd"]) == 2
+    assert "at least 2 drives" in _one_line_error(capsys)
+    csv = tmp_path / "drives.csv"
+    pd.DataFrame(
+        {"path": list(truth.stream_paths[:2]), "vehicle": ["compact_fwd", "suv_rav4"]}
+    ).to_csv(csv, index=False)
+    assert main(["fit-wear", str(csv), "--vehicle", "compact_fwd"]) == 2
+    assert "one vehicle" in _one_line_error(capsys)

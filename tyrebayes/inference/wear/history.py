@@ -1,0 +1,237 @@
+"""A car's drive history as wear-model input: per-drive evidence, tyre sets, tread readings.
+
+:func:`drive_history` reads the per-drive evidence table (the columns of
+:data:`tyrebayes.streams.wear_evidence.WEAR_EVIDENCE_COLUMNS`, one row per drive in drive order),
+finds the tyre changes (:func:`~tyrebayes.inference.wear.changepoint.detect_tyre_changes`) and
+lays out which tyre pair was on which axle in every interval. Each drive stands for the distance
+to the next drive's odometer reading (its own distance where there is no odometer): its friction
+work is scaled by that distance over its own.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import numpy as np
+import pandas as pd
+
+from ..._errors import BadInputError
+from ...physics.wear import TreadGeometry
+from .changepoint import FALSE_ALARM_RATE, TyreChanges, detect_tyre_changes
+
+#: Evidence columns the history needs (a subset of WEAR_EVIDENCE_COLUMNS; ``speed_scale`` is
+#: optional).
+HISTORY_COLUMNS: tuple[str, ...] = (
+    "distance_km",
+    "odometer_start_km",
+    "work_x_front_j",
+    "work_x_front_sd_j",
+    "work_x_rear_j",
+    "work_x_rear_sd_j",
+    "radius_ratio_front_rear",
+    "radius_ratio_front_rear_sd",
+    "tyre_temperature_c",
+)
+#: Axle names of tread-depth readings, in axle order.
+AXLES = ("front", "rear")
+#: A reading may exceed an earlier one of the same axle and tyre set by this much (gauge
+#: resolution and reading noise) before the readings count as increasing [mm].
+READING_TOLERANCE_MM = 0.5
+
+
+class TreadReadings(eqx.Module):
+    """Tread-depth readings: ``odometer_km`` [km], ``axle`` (0 front, 1 rear), ``depth_mm``."""
+
+    odometer_km: np.ndarray
+    axle: np.ndarray
+    depth_mm: np.ndarray
+
+
+class DriveHistory(eqx.Module):
+    """One car's drives, in order, with its tyre sets (arrays of length n drives).
+
+    Attributes
+    ----------
+    odometer_km : start of each drive's interval [km]
+    interval_km : distance each drive stands for [km]
+    scale : interval_km / the drive's own distance [-]
+    work_j, work_sd_j : (n, 2) friction work per axle over the interval [J] and its sd
+    ratio_mm, ratio_sd_mm : (n,) front/rear radius ratio as (ratio − 1) R_0 [mm] and its sd
+    speed_scale_mm : (n,) free-rolling axle's radius change against GNSS [mm] (NaN: none)
+    tyre_temperature_c : (n,) friction-power weighted tyre temperature [°C]
+    segment : (n,) tyre-set segment of each drive
+    pair : (n, 2) tyre pair on the (front, rear) axle in each drive's interval
+    n_pairs : number of tyre pairs in the history
+    changes : TyreChanges
+    radius_mm : R_0 used for the mm scale
+    """
+
+    odometer_km: np.ndarray
+    interval_km: np.ndarray
+    scale: np.ndarray
+    work_j: np.ndarray
+    work_sd_j: np.ndarray
+    ratio_mm: np.ndarray
+    ratio_sd_mm: np.ndarray
+    speed_scale_mm: np.ndarray
+    tyre_temperature_c: np.ndarray
+    segment: np.ndarray
+    pair: np.ndarray
+    n_pairs: int = eqx.field(static=True)
+    changes: TyreChanges
+    radius_mm: float = eqx.field(static=True)
+
+    @property
+    def n_drives(self) -> int:
+        return int(self.ratio_mm.size)
+
+    @property
+    def total_km(self) -> float:
+        return float(self.interval_km.sum())
+
+
+def _column(table: pd.DataFrame, name: str) -> np.ndarray:
+    if name not in table:
+        raise BadInputError(f"drive history: expected column {name!r}, got {list(table.columns)}")
+    return pd.to_numeric(table[name], errors="coerce").to_numpy(dtype=float)
+
+
+def drive_history(
+    table: pd.DataFrame,
+    geom: TreadGeometry | None = None,
+    *,
+    false_alarm: float = FALSE_ALARM_RATE,
+) -> DriveHistory:
+    """Build a :class:`DriveHistory` from per-drive evidence rows (already in drive order).
+
+    Raises :class:`~tyrebayes.BadInputError` for fewer than two drives, missing columns, drives
+    without a radius ratio or friction work, or an odometer that runs backwards.
+    """
+    geom = TreadGeometry() if geom is None else geom
+    n = len(table)
+    if n < 2:
+        raise BadInputError(f"drive history: expected at least 2 drives, got {n}")
+    missing = [c for c in HISTORY_COLUMNS if c not in table]
+    if missing:
+        raise BadInputError(f"drive history: expected columns {missing}, not found")
+    distance = _column(table, "distance_km")
+    work = np.column_stack([_column(table, "work_x_front_j"), _column(table, "work_x_rear_j")])
+    work_sd = np.column_stack(
+        [_column(table, "work_x_front_sd_j"), _column(table, "work_x_rear_sd_j")]
+    )
+    ratio = _column(table, "radius_ratio_front_rear")
+    ratio_sd = _column(table, "radius_ratio_front_rear_sd")
+    if not np.all(np.isfinite(distance) & (distance > 0)):
+        raise BadInputError("drive history: expected every drive to have distance_km > 0")
+    if not np.all(np.isfinite(work)):
+        raise BadInputError("drive history: expected finite friction work for every drive")
+    bad = ~(np.isfinite(ratio) & np.isfinite(ratio_sd))
+    if bad.any():
+        raise BadInputError(
+            f"drive history: expected a radius ratio for every drive (too little straight free "
+            f"rolling), got none for {int(bad.sum())} of {n}"
+        )
+    odometer = _column(table, "odometer_start_km")
+    if np.all(np.isfinite(odometer)):
+        interval = np.diff(odometer)
+        if np.any(interval < distance[:-1] * 0.99):
+            raise BadInputError(
+                "drive history: expected odometer readings that grow by at least each drive's "
+                "distance, got one that does not (drives out of order or of another car?)"
+            )
+        interval = np.append(interval, distance[-1])
+    else:
+        interval = distance.copy()
+        odometer = np.concatenate([[0.0], np.cumsum(distance[:-1])])
+    scale = interval / distance
+    temp = _column(table, "tyre_temperature_c")
+    temp = np.where(np.isfinite(temp), temp, np.nanmean(temp) if np.isfinite(temp).any() else 20.0)
+    radius_mm = float(geom.outer_radius_mm)
+    ratio_mm = (ratio - 1.0) * radius_mm
+    ratio_sd_mm = ratio_sd * radius_mm
+    ss = _column(table, "speed_scale") if "speed_scale" in table else np.full(n, np.nan)
+    ss_mm = -(ss - 1.0) * radius_mm
+    work_iv = work * scale[:, None]
+    changes = detect_tyre_changes(
+        ratio_mm, work_iv[:, 0] - work_iv[:, 1], ss_mm, false_alarm=false_alarm
+    )
+    segment = changes.segments(n)
+    pair = np.zeros((n, 2), dtype=int)
+    current, next_pair = np.array([0, 1]), 2
+    change_at = dict(zip(changes.index.tolist(), changes.kind, strict=True))
+    for k in range(n):
+        if k in change_at:
+            if change_at[k] == "rotation":
+                current = current[::-1].copy()
+            else:
+                current = np.array([next_pair, next_pair + 1])
+                next_pair += 2
+        pair[k] = current
+    return DriveHistory(
+        odometer_km=odometer,
+        interval_km=interval,
+        scale=scale,
+        work_j=work_iv,
+        work_sd_j=work_sd * scale[:, None],
+        ratio_mm=ratio_mm,
+        ratio_sd_mm=ratio_sd_mm,
+        speed_scale_mm=ss_mm,
+        tyre_temperature_c=temp,
+        segment=segment,
+        pair=pair,
+        n_pairs=int(next_pair),
+        changes=changes,
+        radius_mm=radius_mm,
+    )
+
+
+def tread_readings(table: pd.DataFrame) -> TreadReadings:
+    """Readings from a table with ``odometer_km``, ``axle`` (front/rear) and ``depth_mm``."""
+    for name in ("odometer_km", "axle", "depth_mm"):
+        if name not in table:
+            raise BadInputError(
+                f"tread readings: expected columns odometer_km, axle, depth_mm, got "
+                f"{list(table.columns)}"
+            )
+    axle_names = table["axle"].astype(str).str.strip().str.lower()
+    unknown = sorted(set(axle_names) - set(AXLES))
+    if unknown:
+        raise BadInputError(f"tread readings: expected axle front or rear, got {unknown}")
+    odo = pd.to_numeric(table["odometer_km"], errors="coerce").to_numpy(dtype=float)
+    depth = pd.to_numeric(table["depth_mm"], errors="coerce").to_numpy(dtype=float)
+    if not (np.all(np.isfinite(odo)) and np.all(np.isfinite(depth))):
+        raise BadInputError("tread readings: expected numbers in odometer_km and depth_mm")
+    if np.any((depth <= 0) | (depth > 15)):
+        raise BadInputError(f"tread readings: expected depths in (0, 15] mm, got {depth.min():g}")
+    axle = np.array([AXLES.index(a) for a in axle_names], dtype=int)
+    order = np.argsort(odo, kind="stable")
+    return TreadReadings(odo[order], axle[order], depth[order])
+
+
+def reading_exposure(
+    history: DriveHistory, readings: TreadReadings
+) -> tuple[np.ndarray, np.ndarray]:
+    """How much of each interval's wear of each axle position a reading has seen.
+
+    Returns ``(A, pair)``: ``A[i, j, a]`` in [0, 1] is the fraction of interval j completed by
+    reading i's odometer, where interval j's axle a carried the pair that reading i measured
+    (the pair on the read axle at the reading); ``pair[i]`` is that pair. Raises
+    :class:`~tyrebayes.BadInputError` when a reading exceeds an earlier one of the same pair by
+    more than :data:`READING_TOLERANCE_MM`.
+    """
+    start = history.odometer_km
+    frac = np.clip((readings.odometer_km[:, None] - start[None, :]) / history.interval_km, 0, 1)
+    # the drive whose interval holds the reading decides which pair was on the axle
+    # a reading at the start of a drive closes the interval before it (the service came first)
+    at = np.clip(np.searchsorted(start, readings.odometer_km, side="left") - 1, 0, None)
+    read_pair = history.pair[at, readings.axle]
+    on = history.pair[None, :, :] == read_pair[:, None, None]  # (m, n, 2)
+    last: dict[int, float] = {}
+    for i, p in enumerate(read_pair.tolist()):
+        if p in last and readings.depth_mm[i] > last[p] + READING_TOLERANCE_MM:
+            raise BadInputError(
+                f"tread readings: expected depths that do not increase on one tyre set, got "
+                f"{readings.depth_mm[i]:g} mm after {last[p]:g} mm "
+                f"({AXLES[readings.axle[i]]} axle, {readings.odometer_km[i]:g} km)"
+            )
+        last[p] = float(readings.depth_mm[i])
+    return frac[:, :, None] * on, read_pair

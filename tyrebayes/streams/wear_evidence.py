@@ -1,0 +1,364 @@
+"""Per-drive tread-wear evidence from one stream: friction work per axle, radius ratio, temperature.
+
+What one drive tells about tread wear (thesis Sec. 4.4):
+
+* **Longitudinal friction work** per axle, W_x = ∫ F_x V_x σ_x dt (eq. 4.19a, 4.25). On the
+  driven axle in traction the slip is measured: the wheel speeds' σ_x, corrected for the drive's
+  own per-wheel radius ratios (free rolling), times the force balance's F_x. Under braking the
+  wheel speeds only see slip relative to the braking free wheels, and the free axle's slip is
+  not seen at all, so there the linear slip σ_x = ρ_x / C_x of eq. 4.27 is used with the drive's
+  own secant stiffness Ĉ_x = Σ ρ_x² F_z V dt / Σ F_x V σ_x dt over the driven axle's traction
+  samples (both axles carry the same tyre model). Its uncertainty: the slip noise of every sample
+  (correlated over the smoothing window), and the radius-ratio error, which multiplies the whole
+  traction energy ∫ F_x V dt.
+* **Lateral friction work** per axle, W_y = ∫ F_y V_x α dt (eq. 4.19b) with the axle forces of the
+  single-track model (eq. 4.23b, c, from a_y and yaw acceleration) and α = ρ_y / c_α (linear
+  lateral slip with a normalised cornering stiffness c_α, a stated assumption: yaw rate and
+  lateral acceleration fix F_y, not the split of δ − L ψ̇ / V between the axles' slip angles).
+  Only where yaw rate and lateral acceleration agree (|a_y − V_x ψ̇| below a tolerance:
+  quasi-steady cornering).
+* **Radius ratio** front / rear (for a front-driven car: driven over non-driven) from straight
+  free rolling, with its per-drive standard error: it falls as the driven tyres lose tread (one
+  millimetre is about 0.3 % of a 316 mm rolling radius).
+* **Speed scale** V_x / GNSS speed where ``speed_reference`` is logged: the free-rolling wheels'
+  nominal over true radius, which rises as their tread goes.
+* Ambient temperature (median of ``ambient_temperature``) and the driven tyre's temperature
+  (lumped heat balance, :func:`~tyrebayes.streams.tyre_temperature.features_tyre_temperature`),
+  weighted by friction power.
+* Distance (∫ V_x dt over the valid samples) and the odometer at the start of the drive, from an
+  optional extra ``odometer`` column [m]: with it, a history of logged drives stands for the
+  distance driven between them.
+
+:class:`DriveWearEvidence` holds one drive's numbers; :meth:`DriveWearEvidence.row` flattens it to
+the columns of :data:`WEAR_EVIDENCE_COLUMNS` (the fleet-run drive summary table carries them).
+
+Examples
+--------
+>>> from tyrebayes._resources import data_dir
+>>> from tyrebayes._domain import load_vehicle
+>>> from tyrebayes.streams import read_stream, validate_stream
+>>> vehicle = load_vehicle("suv_rav4")
+>>> stream = validate_stream(read_stream(data_dir() / "comma2k19_rav4_segment.csv"), vehicle)
+>>> ev = drive_wear_evidence(stream, vehicle)
+>>> 0.5 < ev.distance_km < 2.0
+True
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import equinox as eqx
+import numpy as np
+import pandas as pd
+
+from ..physics.vehicle import Vehicle
+from .features import StreamFeatures, compute_features
+from .tyre_temperature import features_tyre_temperature
+from .validate import ValidatedStream
+
+#: Columns of :meth:`DriveWearEvidence.row`, in order (units in the names; ``_sd`` = 1-sigma).
+WEAR_EVIDENCE_COLUMNS: tuple[str, ...] = (
+    "duration_s",
+    "distance_km",
+    "odometer_start_km",
+    "work_x_front_j",
+    "work_x_front_sd_j",
+    "work_x_rear_j",
+    "work_x_rear_sd_j",
+    "work_y_front_j",
+    "work_y_rear_j",
+    "secant_stiffness",
+    "radius_ratio_front_rear",
+    "radius_ratio_front_rear_sd",
+    "free_rolling_s",
+    "speed_scale",
+    "speed_scale_sd",
+    "ambient_c",
+    "tyre_temperature_c",
+)
+
+#: Normalised cornering stiffness c_α = C_α / F_z of a passenger-car tyre [1/rad] used for the
+#: lateral slip angle (typical 12-20 /rad; an assumption, see the module docstring).
+CORNERING_STIFFNESS_PER_RAD = 15.0
+#: Largest |a_y − V_x ψ̇| [m/s²] at which a sample counts as quasi-steady cornering.
+LATERAL_CONSISTENCY_MPS2 = 0.5
+#: Ambient temperature assumed for the tyre-temperature estimate of a stream without an
+#: ``ambient_temperature`` column [°C]; the evidence then reports ``ambient_c`` as NaN.
+FALLBACK_AMBIENT_C = 15.0
+
+
+class DriveWearEvidence(eqx.Module):
+    """One drive's tread-wear evidence (module docstring). Axles are (front, rear).
+
+    Attributes
+    ----------
+    duration_s : float
+        Length of the stream [s].
+    distance_km : float
+        ∫ V_x dt over the valid samples [km].
+    odometer_start_km : float
+        Odometer at the drive's start [km] (NaN without an ``odometer`` column).
+    work_x_j, work_x_sd_j : ndarray, shape (2,)
+        Longitudinal friction work of each axle (both wheels) [J] and its standard error.
+    work_y_j : ndarray, shape (2,)
+        Lateral friction work of each axle [J] (0 where no sample was usable).
+    secant_stiffness : float
+        The drive's Ĉ_x used for the linear-slip parts [-] (NaN: no traction samples; then the
+        work is the measured traction part only and its sd says so).
+    radius_ratio_front_rear, radius_ratio_front_rear_sd : float
+        Mean rolling radius of the front wheels over the rear ones [-] and its standard error.
+    free_rolling_s : float
+        Seconds of straight free rolling behind the radius ratio.
+    speed_scale, speed_scale_sd : float
+        V_x / speed_reference [-] and its standard error (NaN without a reference).
+    ambient_c : float
+        Median ambient temperature [°C] (NaN without an ambient column).
+    tyre_temperature_c : float
+        Friction-power weighted mean temperature of the driven tyres [°C].
+    """
+
+    duration_s: float
+    distance_km: float
+    odometer_start_km: float
+    work_x_j: np.ndarray
+    work_x_sd_j: np.ndarray
+    work_y_j: np.ndarray
+    secant_stiffness: float
+    radius_ratio_front_rear: float
+    radius_ratio_front_rear_sd: float
+    free_rolling_s: float
+    speed_scale: float
+    speed_scale_sd: float
+    ambient_c: float
+    tyre_temperature_c: float
+
+    def row(self) -> dict[str, float]:
+        """The evidence as one flat row: :data:`WEAR_EVIDENCE_COLUMNS` to floats."""
+        return {
+            "duration_s": float(self.duration_s),
+            "distance_km": float(self.distance_km),
+            "odometer_start_km": float(self.odometer_start_km),
+            "work_x_front_j": float(self.work_x_j[0]),
+            "work_x_front_sd_j": float(self.work_x_sd_j[0]),
+            "work_x_rear_j": float(self.work_x_j[1]),
+            "work_x_rear_sd_j": float(self.work_x_sd_j[1]),
+            "work_y_front_j": float(self.work_y_j[0]),
+            "work_y_rear_j": float(self.work_y_j[1]),
+            "secant_stiffness": float(self.secant_stiffness),
+            "radius_ratio_front_rear": float(self.radius_ratio_front_rear),
+            "radius_ratio_front_rear_sd": float(self.radius_ratio_front_rear_sd),
+            "free_rolling_s": float(self.free_rolling_s),
+            "speed_scale": float(self.speed_scale),
+            "speed_scale_sd": float(self.speed_scale_sd),
+            "ambient_c": float(self.ambient_c),
+            "tyre_temperature_c": float(self.tyre_temperature_c),
+        }
+
+
+def _free_slip_ratios(feats: StreamFeatures, driven: list[int], c_hat: float) -> np.ndarray:
+    """Per-wheel radius ratios with the driven wheels' free-rolling slip taken out.
+
+    "Free rolling" (|ρ_x| < 0.02 on the driven axle) still pushes against drag and rolling
+    resistance, so the driven wheels turn faster by σ ≈ ρ_x / C_x there: the free-rolling ratio
+    reads that slip as radius. Divided out with the drive's secant stiffness (eq. 4.27).
+    """
+    ratio = np.asarray(feats.nuisances.radius_ratio, dtype=float).copy()
+    if not (np.all(np.isfinite(ratio)) and np.isfinite(c_hat)):
+        return ratio
+    free = feats.mask("free_rolling") & (np.abs(feats.steer_rad) < 0.02)
+    rho = feats.rho_axle[free]
+    for axle in driven:
+        mean_rho = float(np.nanmean(rho[:, axle])) if rho.size else 0.0
+        ratio[2 * axle : 2 * axle + 2] /= 1.0 + np.nan_to_num(mean_rho) / c_hat
+    return ratio
+
+
+def _corrected_slip(feats: StreamFeatures, ratio: np.ndarray, drive: str) -> np.ndarray:
+    """Per-wheel slip with the drive's own radius ratios removed (NaN ratios: nominal radii).
+
+    A wheel of true radius r_i R_nom reads wheel_vx_i = (1 + σ_i) V r_ref / r_i, where r_ref is
+    the mean ratio of the wheels V_x comes from; hence σ_i = (1 + slip_i) r_i / r_ref − 1.
+    """
+    if not np.all(np.isfinite(ratio)):
+        return feats.slip
+    ref = {"fwd": (2, 3), "rwd": (0, 1)}.get(drive, (0, 1, 2, 3))
+    r_ref = float(np.mean(ratio[list(ref)]))
+    return (1.0 + feats.slip) * (ratio / r_ref)[None, :] - 1.0
+
+
+def _front_rear_ratio(ratio: np.ndarray, sd: np.ndarray) -> tuple[float, float]:
+    front, rear = ratio[:2].mean(), ratio[2:].mean()
+    # the four ratios share one normalisation; their errors are treated as independent
+    value = front / rear
+    value_sd = value * np.hypot(
+        np.hypot(sd[0], sd[1]) / 2 / front, np.hypot(sd[2], sd[3]) / 2 / rear
+    )
+    return float(value), float(value_sd)
+
+
+def _longitudinal_work(feats, ratios, ratio_sd4, drive, is_driven, valid, dt):
+    """(work [J], its sd, Ĉ_x, per-sample kernel ρ² F_z V dt (n, 2), usable mask (n, 2))."""
+    vx = feats.vx_mps
+    slip = _corrected_slip(feats, ratios, drive)
+    fx, fz = feats.fx_axle_n, feats.fz_axle_n
+    slip_axle = np.column_stack([slip[:, :2].mean(axis=1), slip[:, 2:].mean(axis=1)])
+    slip_axle_sd = np.column_stack(
+        [
+            np.hypot(feats.slip_sd[:, 0], feats.slip_sd[:, 1]) / 2,
+            np.hypot(feats.slip_sd[:, 2], feats.slip_sd[:, 3]) / 2,
+        ]
+    )
+    use = valid[:, None] & np.isfinite(fx) & np.isfinite(slip_axle) & ~feats.spin[:, None]
+    traction = use & (fx > 0) & is_driven[None, :]
+    power = np.where(use, fx * vx[:, None], 0.0)  # F_x V [W]
+    measured = np.where(traction, power * slip_axle, 0.0).sum(axis=0) * dt
+    # Slip noise is correlated over the smoothing window: a sum of n samples has the variance
+    # of n / window independent ones, each window-fold larger.
+    window = max(1.0, feats.smoothing_s * feats.sample_rate_hz)
+    noise_var = np.where(traction, (power * slip_axle_sd) ** 2, 0.0).sum(axis=0) * dt**2 * window
+    kernel = np.where(use, (fx / fz) ** 2 * fz * np.abs(vx)[:, None], 0.0) * dt
+    traction_kernel = np.where(traction, kernel, 0.0).sum()
+    traction_energy = np.where(traction, power, 0.0).sum(axis=0) * dt
+    _, ratio_sd = _front_rear_ratio(ratios, ratio_sd4)
+    ratio_sd = ratio_sd if np.isfinite(ratio_sd) else 2e-3  # nominal radii: ~0.2 % unknown
+    offset_var = (traction_energy * ratio_sd) ** 2
+    measured_total = float(measured.sum())
+    measured_sd = float(np.sqrt(noise_var.sum() + offset_var.sum()))
+    if measured_total > 0 and traction_kernel > 0:
+        c_hat = float(traction_kernel / measured_total)
+        rel_sd = measured_sd / measured_total
+    else:
+        c_hat, rel_sd = float("nan"), float("nan")
+    linear_part = np.where(use & ~traction, kernel, 0.0).sum(axis=0)
+    linear = linear_part / c_hat if np.isfinite(c_hat) else np.zeros(2)
+    work_x = measured + linear
+    work_x_sd = np.sqrt(noise_var + offset_var + (linear * np.nan_to_num(rel_sd)) ** 2)
+    return work_x, work_x_sd, c_hat, kernel, use
+
+
+def drive_wear_evidence(
+    stream: ValidatedStream,
+    vehicle: Vehicle,
+    *,
+    features: StreamFeatures | None = None,
+    cornering_stiffness_per_rad: float = CORNERING_STIFFNESS_PER_RAD,
+) -> DriveWearEvidence:
+    """Tread-wear evidence of one drive (thesis eq. 4.19, 4.25, 4.27; module docstring).
+
+    Parameters
+    ----------
+    stream : ValidatedStream
+        From :func:`tyrebayes.streams.validate_stream`.
+    vehicle : Vehicle
+        The car (nominal radius, geometry, drive).
+    features : StreamFeatures, optional
+        Features already computed from ``stream`` with ``vehicle``
+        (:func:`~tyrebayes.streams.compute_features`); computed here otherwise.
+    cornering_stiffness_per_rad : float
+        Normalised cornering stiffness c_α for the lateral slip angle [1/rad].
+
+    Returns
+    -------
+    DriveWearEvidence
+    """
+    if not cornering_stiffness_per_rad > 0:
+        raise ValueError(
+            f"cornering_stiffness_per_rad: expected > 0, got {cornering_stiffness_per_rad}"
+        )
+    feats = compute_features(stream, vehicle) if features is None else features
+    data = stream.data
+    dt = 1.0 / feats.sample_rate_hz
+    vx = feats.vx_mps
+    valid = feats.valid & np.isfinite(vx)
+    distance_km = float(np.sum(np.where(valid, vx, 0.0)) * dt / 1000.0)
+    duration_s = float(feats.time_s[-1] - feats.time_s[0])
+    odometer = data["odometer"].to_numpy(dtype=float) if "odometer" in data else np.array([np.nan])
+    finite_odo = odometer[np.isfinite(odometer)]
+    odometer_start_km = float(finite_odo[0] / 1000.0) if finite_odo.size else float("nan")
+
+    # --- longitudinal work (iterated: the radius ratios need Ĉ_x, Ĉ_x needs the slip)
+    fz = feats.fz_axle_n
+    driven = {"front": [0], "rear": [1], "both": [0, 1]}[vehicle.driven_axle]
+    is_driven = np.zeros(2, dtype=bool)
+    is_driven[driven] = True
+    ratio_sd4 = np.asarray(feats.nuisances.radius_ratio_sd, dtype=float)
+    c_hat = float("nan")
+    for _ in range(4):
+        ratios = _free_slip_ratios(feats, driven, c_hat)
+        work = _longitudinal_work(feats, ratios, ratio_sd4, vehicle.drive, is_driven, valid, dt)
+        c_hat = work[2]
+    work_x, work_x_sd, c_hat, kernel, use = work
+
+    # --- lateral work (single track, eq. 4.23b, c; quasi-steady samples only)
+    ay, yaw, yaw_acc = feats.ay_mps2, feats.yaw_rate_radps, feats.yaw_acc_radps2
+    steady = (
+        valid
+        & np.isfinite(ay)
+        & np.isfinite(yaw)
+        & np.isfinite(yaw_acc)
+        & (np.abs(ay - vx * yaw) < LATERAL_CONSISTENCY_MPS2)
+    )
+    lf, lr = vehicle.cog_to_front_axle_m, vehicle.wheelbase_m - vehicle.cog_to_front_axle_m
+    fy_front = (
+        vehicle.mass_kg * ay * lr + vehicle.yaw_inertia_kgm2 * yaw_acc
+    ) / vehicle.wheelbase_m
+    fy_rear = (vehicle.mass_kg * ay * lf - vehicle.yaw_inertia_kgm2 * yaw_acc) / vehicle.wheelbase_m
+    fy = np.column_stack([fy_front, fy_rear])
+    alpha = fy / fz / cornering_stiffness_per_rad
+    work_y = np.where(steady[:, None] & np.isfinite(fz), fy * vx[:, None] * alpha, 0.0).sum(0) * dt
+
+    # --- radius ratio, speed scale, temperatures
+    ratio, ratio_sd_raw = _front_rear_ratio(ratios, ratio_sd4)
+    ambient = (
+        data["ambient_temperature"].to_numpy(dtype=float)
+        if "ambient_temperature" in data
+        else np.array([np.nan])
+    )
+    ambient_c = float(np.nanmedian(ambient)) if np.any(np.isfinite(ambient)) else float("nan")
+    temp = features_tyre_temperature(
+        feats, ambient_c=ambient_c if np.isfinite(ambient_c) else FALLBACK_AMBIENT_C
+    )
+    weight = np.where(use, kernel, 0.0).sum(axis=1)
+    ok = np.isfinite(temp) & (weight > 0)
+    tyre_temp = (
+        float(np.sum(weight[ok] * temp[ok]) / np.sum(weight[ok]))
+        if ok.any()
+        else float(np.nanmean(temp))
+    )
+    return DriveWearEvidence(
+        duration_s=duration_s,
+        distance_km=distance_km,
+        odometer_start_km=odometer_start_km,
+        work_x_j=np.asarray(work_x, dtype=float),
+        work_x_sd_j=np.asarray(work_x_sd, dtype=float),
+        work_y_j=np.asarray(work_y, dtype=float),
+        secant_stiffness=c_hat,
+        radius_ratio_front_rear=ratio,
+        radius_ratio_front_rear_sd=ratio_sd_raw,
+        free_rolling_s=float(feats.nuisances.radius_ratio_seconds),
+        speed_scale=float(feats.nuisances.speed_scale),
+        speed_scale_sd=float(feats.nuisances.speed_scale_sd),
+        ambient_c=ambient_c,
+        tyre_temperature_c=tyre_temp,
+    )
+
+
+def wear_evidence_table(paths, vehicle: Vehicle, vehicle_name: str = "") -> pd.DataFrame:
+    """Evidence rows of several stream files, in the given order, with ``drive_id`` (file stem),
+    ``vehicle`` and ``drive_order`` columns added (the fleet-run summary table's layout)."""
+    from .io import read_stream
+    from .validate import validate_stream
+
+    rows = []
+    for order, path in enumerate(paths):
+        stream = validate_stream(read_stream(path), vehicle)
+        rows.append(
+            {
+                "drive_id": Path(path).stem,
+                "vehicle": vehicle_name,
+                "drive_order": order,
+                **drive_wear_evidence(stream, vehicle).row(),
+            }
+        )
+    return pd.DataFrame(rows)
