@@ -53,6 +53,32 @@ def test_streams_end_to_end(tiny_year, tmp_path, capsys):
     assert "predictions" in fit.data.attrs
 
 
+def test_a_fit_that_did_not_converge_exits_3_and_is_still_written(
+    tiny_year, tmp_path, capsys, monkeypatch
+):
+    """The one fit contract: exit 3 with the reason on stderr, the fit file written anyway."""
+    import dataclasses
+
+    from tyrebayes.inference.wear import history_fit
+
+    real = history_fit.fit_wear_history
+
+    def not_converged(*args, **kwargs):
+        fit = real(*args, **kwargs)
+        failed = dataclasses.replace(
+            fit.diagnostics, converged=False, reasons=("R-hat 1.500 > 1.01",)
+        )
+        return dataclasses.replace(fit, diagnostics=failed)
+
+    monkeypatch.setattr(history_fit, "fit_wear_history", not_converged)
+    _, truth = tiny_year
+    fit_path = tmp_path / "failed.nc"
+    argv = ["fit-wear", *truth.stream_paths, "--vehicle", "compact_fwd", "--samples", "60"]
+    assert main([*argv, "--out", str(fit_path)]) == 3
+    assert "did not converge: R-hat 1.500" in capsys.readouterr().err
+    assert not load_fit(fit_path, kind="wear_history").diagnostics.converged
+
+
 @pytest.mark.slow
 def test_the_summary_table_gives_the_same_answer(tiny_year, capsys):
     """The same drives as a fleet-run summary table (shuffled: drive_order restores it)."""
