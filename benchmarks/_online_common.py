@@ -31,10 +31,9 @@ TYRES = ("winter", "all_season", "summer")
 
 
 def machine() -> dict:
-    """What the timings ran on: a machine shared with other helpers."""
+    """What the timings ran on; the load average says how much else was running."""
     return {
-        "shared_machine": True,
-        "note": "2-core machine shared with other helpers' jobs; timings include their load",
+        "note": "timings include whatever else ran on the machine: see load_average_1min",
         "cpu_count": os.cpu_count(),
         "load_average_1min": os.getloadavg()[0],
     }

@@ -48,7 +48,7 @@ from tyrebayes.simulate.fleet import THESIS_AGED_TYRE_EFFECT, simulate_fleet
 
 RESULTS = Path(__file__).resolve().parent / "results" / "discovery.json"
 MORE_NULL = RESULTS.with_name("discovery_more_null.json")
-MACHINE = "shared 2-core CPU machine, other helpers' jobs running at the same time"
+MACHINE = "CPU machine; timings include whatever else ran on it (see the load averages)"
 # Truth of the effect in the reported unit (outcome per unit of the effect's column).
 _TRUE_COEF = {"age": lambda s: -s, "tread": lambda s: s}
 ALPHA = 0.05

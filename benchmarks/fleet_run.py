@@ -305,8 +305,8 @@ def main() -> int:
                 "fit_file_mb_per_set": fit_bytes / 2**20 / max(1, s1["tyre_sets"]["done"]),
             },
             "cpu_count": os.cpu_count(),
-            "note": "shared 2-core machine (other helpers running): wall times and the scaling "
-            "figure are inflated by their load (load averages recorded per run); throughput "
+            "note": "wall times and the scaling figure include whatever else ran on the "
+            "machine (load averages recorded per run); throughput "
             "counts wall time x workers, everything included",
         }
         print(json.dumps({k: v for k, v in results.items() if k not in (

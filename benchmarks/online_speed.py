@@ -8,7 +8,7 @@ gives the windows (steps of 30 s, padded to 121 windows). Timed after compilatio
 * ``--cars`` copies of that car-hour vmapped in one call, the time per car-hour (the issue asks
   for 10^4 cars; the number run is stated, with why).
 
-The machine is shared with other helpers (recorded in the JSON).
+Timings include whatever else ran on the machine (the load average is recorded in the JSON).
 
 Usage: ``python benchmarks/online_speed.py [--reps N] [--cars N]``.
 """
