@@ -43,6 +43,7 @@ from ..physics.lanechange import (
     iso3888_2_course,
 )
 from ..physics.vehicle import Vehicle
+from .nuts import run_nuts
 from .result import Fit, diagnose, loo, provenance
 
 K_TYPE = {"winter": 0.45, "all_season": 0.40, "summer": 0.35}
@@ -120,20 +121,14 @@ def fit_extended(
     ``delta_kmh``, ``sigma_driver_kmh``, ``adaptation``; ``log_likelihood["v_max"]`` per measured
     set (interval-censored); diagnostics under the package's policy (one chain: no R-hat).
     """
-    mcmc = numpyro.infer.MCMC(
-        numpyro.infer.NUTS(extended_model),
+    run = run_nuts(
+        extended_model,
+        (jnp.asarray(lo_kmh), jnp.asarray(m), jnp.asarray(s), SPEED_STEP_KMH),
+        seed=seed,
         num_warmup=500,
         num_samples=num_samples,
-        progress_bar=False,
     )
-    mcmc.run(
-        jax.random.PRNGKey(seed),
-        jnp.asarray(lo_kmh),
-        jnp.asarray(m),
-        jnp.asarray(s),
-        SPEED_STEP_KMH,
-    )
-    draws = {k: np.asarray(v) for k, v in mcmc.get_samples(group_by_chain=True).items()}
+    draws = dict(run.samples)
     log_lik = draws.pop("log_lik")
     data = azb.from_dict(
         {
@@ -141,9 +136,7 @@ def fit_extended(
             "log_likelihood": {"v_max": log_lik},
             "observed_data": {"v_max": np.asarray(lo_kmh, float)},
             "constant_data": {"predicted_mean": np.asarray(m), "predicted_sd": np.asarray(s)},
-            "sample_stats": {
-                "diverging": np.asarray(mcmc.get_extra_fields(group_by_chain=True)["diverging"])
-            },
+            "sample_stats": {"diverging": run.diverging},
         },
         dims={
             "v_max": ["measured_set"],

@@ -13,11 +13,12 @@ import arviz_base as azb
 import jax
 import numpy as np
 import xarray as xr
-from numpyro.infer import MCMC, NUTS, SVI, Predictive, Trace_ELBO, init_to_value, log_likelihood
+from numpyro.infer import SVI, Predictive, Trace_ELBO, init_to_value, log_likelihood
 from numpyro.infer.autoguide import AutoLaplaceApproximation
 from numpyro.optim import Adam
 
 from ...physics.thermal import StiffnessTemperature
+from ..nuts import run_nuts
 from ..result import Fit, diagnose, provenance
 from .data import WearData, WearPriors
 from .model import init_values, wear_model
@@ -111,29 +112,23 @@ def fit_wear(
 
 def _run_nuts(data, extended, priors, comp, num_warmup, num_samples, num_chains, seed):
     # dense mass: wear data fix gamma / C_xr, so (log gamma, log C_xr) is a correlated ridge
-    kernel = NUTS(
+    draws = run_nuts(
         wear_model,
-        init_strategy=init_to_value(values=init_values(data, extended, priors)),
+        (data, extended, priors, comp),
+        seed=seed,
+        num_warmup=num_warmup,
+        num_samples=num_samples,
+        num_chains=num_chains,
+        init_values=init_values(data, extended, priors),
         target_accept_prob=0.95,
         dense_mass=True,
         max_tree_depth=8,
     )
-    mcmc = MCMC(
-        kernel,
-        num_warmup=num_warmup,
-        num_samples=num_samples,
-        num_chains=num_chains,
-        chain_method="sequential",
-        progress_bar=False,
-    )
-    mcmc.run(jax.random.PRNGKey(seed), data, extended, priors, comp)
-    by_chain = {k: np.asarray(v) for k, v in mcmc.get_samples(group_by_chain=True).items()}
     # Built by hand: the converter re-traces the model with random draws, which trips the strict
     # rank promotion this package runs with.
-    loglik = log_likelihood(wear_model, mcmc.get_samples(), data, extended, priors, comp)
+    loglik = log_likelihood(wear_model, draws.flat(), data, extended, priors, comp)
     loglik = {k: np.asarray(v).reshape((num_chains, -1) + v.shape[1:]) for k, v in loglik.items()}
-    stats = {"diverging": np.asarray(mcmc.get_extra_fields(group_by_chain=True)["diverging"])}
-    return by_chain, loglik, stats
+    return draws.samples, loglik, {"diverging": draws.diverging}
 
 
 def _run_laplace(data, extended, priors, comp, seed, steps, num_draws, learning_rate):

@@ -28,14 +28,13 @@ from __future__ import annotations
 import json
 
 import arviz_base as azb
-import jax
 import jax.numpy as jnp
 import numpy as np
 import numpyro
 import numpyro.distributions as dist
-from numpyro.infer import MCMC, NUTS, init_to_value
 
 from ...physics.wear import TreadGeometry
+from ..nuts import run_nuts
 from ..result import Fit, diagnose, provenance
 from .data import WearPriors
 from .history import DriveHistory, TreadReadings, reading_exposure
@@ -176,24 +175,19 @@ def fit_wear_history(
     if depth is not None:
         init["initial_depth_mm"] = np.full(history.n_pairs, NEW_DEPTH_MM)
         init["sigma_depth_mm"] = 0.2
-    kernel = NUTS(
+    draws = run_nuts(
         wear_history_model,
-        init_strategy=init_to_value(values=init),
-        target_accept_prob=0.9,
-    )
-    mcmc = MCMC(
-        kernel,
+        args,
+        seed=seed,
         num_warmup=num_warmup,
         num_samples=num_samples,
         num_chains=num_chains,
-        chain_method="sequential",
-        progress_bar=False,
+        init_values=init,
+        target_accept_prob=0.9,
     )
-    with jax.default_device(jax.devices("cpu")[0]):
-        mcmc.run(jax.random.PRNGKey(seed), *args, extra_fields=("diverging",))
-    samples = {k: np.asarray(v) for k, v in mcmc.get_samples(group_by_chain=True).items()}
+    samples = dict(draws.samples)
     samples.update(_split_work_scale(samples["log_gamma_work"], priors, seed))
-    stats = {"diverging": np.asarray(mcmc.get_extra_fields(group_by_chain=True)["diverging"])}
+    stats = {"diverging": draws.diverging}
     tree = azb.from_dict({"posterior": samples, "sample_stats": stats})
     changes = history.changes
     tree.attrs["tyre_changes"] = json.dumps(
