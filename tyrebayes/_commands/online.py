@@ -77,7 +77,9 @@ def _text(payload: dict[str, Any]) -> str:
     lines.append(
         "mu_max  " + (_value_text(mu, None) if mu is not None else f"—  ({final['mu_max_reason']})")
     )
-    lines.append(f"change alarms at: {payload['alarms_s'] or 'none'} s")
+    alarms = payload["alarms_s"]
+    at = ", ".join(f"{t:.0f} s" for t in alarms) if alarms else "none"
+    lines.append(f"change alarms at: {at}")
     lines.append(f"note: {LOOKAHEAD_NOTE}")
     return "\n".join(lines)
 
