@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tyrebayes._commands.fit_wear import drive_table
 from tyrebayes.batch import RunSettings, dask_client, fleet_run, read_manifest
 from tyrebayes.batch.windows import WINDOW_COLUMNS
 from tyrebayes.cli import main
@@ -30,6 +31,7 @@ from tyrebayes.inference.result import load_fit
 from tyrebayes.internal.jax_cache import default_cache_dir
 from tyrebayes.simulate.drive_io import write_drive
 from tyrebayes.simulate.tyre_set import simulate_tyre_set_drives
+from tyrebayes.streams.wear_evidence import WEAR_EVIDENCE_COLUMNS
 
 MODEL = "linear"
 
@@ -120,6 +122,12 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
         assert set(windows["drive_id"]) == {item.drive_id}
     summaries = pd.read_parquet(out / "drive_summaries.parquet")
     assert sorted(summaries["drive_id"]) == sorted(i.drive_id for i in good)
+    # The table fit-wear reads (issue 24): the wear evidence, in manifest order.
+    assert set(WEAR_EVIDENCE_COLUMNS) <= set(summaries.columns)
+    order = {i.drive_id: k for k, i in enumerate(items)}
+    assert list(summaries["drive_order"]) == [order[d] for d in summaries["drive_id"]]
+    history = drive_table([str(out / "drive_summaries.parquet")], "compact_fwd")
+    assert len(history) == len(good) and (history["distance_km"] > 0).all()
 
     # Tyre sets: two fitted jointly over their two drives; the unknown car's set has no drive.
     sets = pd.read_parquet(out / "tyre_sets.parquet")

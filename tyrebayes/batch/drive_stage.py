@@ -120,7 +120,7 @@ def _windows_and_summary(
     table = windows_table(
         windows, drive_id=item.drive_id, tyre_set_id=item.tyre_set_id, surface=item.surface
     )
-    row = drive_summary(item, stream, features, windows)
+    row = drive_summary(item, stream, features, windows, vehicle)
     row["ambient_c"] = float(ambient)
     cpu.append(time.process_time())
     steps = ("read", "validate", "features", "windows_and_summary")

@@ -1,7 +1,9 @@
 """One drive's summary row: what the per-drive stage learnt about a log besides its windows.
 
-:func:`drive_summary` is the one place the row is built: further per-drive evidence (wear work
-per axle, radius ratios) is added here as columns, so that every fleet run writes the same row.
+:func:`drive_summary` is the one place the row is built. It carries the tread-wear evidence
+(:data:`~tyrebayes.streams.wear_evidence.WEAR_EVIDENCE_COLUMNS`: friction work per axle, radius
+ratios, distance), so that ``tyrebayes fit-wear`` reads a fleet run's ``drive_summaries.parquet``
+without re-reading the logs.
 """
 
 from __future__ import annotations
@@ -10,11 +12,15 @@ import math
 
 import numpy as np
 
+from ..physics.vehicle import Vehicle
 from ..streams.segments import SEGMENT_KINDS
+from ..streams.wear_evidence import drive_wear_evidence
 from .manifest import DriveItem
 
 
-def drive_summary(item: DriveItem, stream, features, windows: dict[str, np.ndarray]) -> dict:
+def drive_summary(
+    item: DriveItem, stream, features, windows: dict[str, np.ndarray], vehicle: Vehicle
+) -> dict:
     """The summary row of one processed drive (flat: str, float, int and bool values).
 
     Parameters
@@ -27,6 +33,8 @@ def drive_summary(item: DriveItem, stream, features, windows: dict[str, np.ndarr
         Its features (:func:`tyrebayes.streams.compute_features`).
     windows : dict
         Its windowed observations (:func:`tyrebayes.inference.observations_from_features`).
+    vehicle : Vehicle
+        The car (for the wear evidence's axle loads and radii).
 
     Returns
     -------
@@ -37,7 +45,8 @@ def drive_summary(item: DriveItem, stream, features, windows: dict[str, np.ndarr
         (``noise_vx_mps``, ``noise_slip_velocity_mps``, ``noise_ax_mps2``), nuisances
         (``ax_offset_mps2``, ``ax_gain``, ``speed_scale``), ``friction_work_driven_j`` (the
         driven axle's ∫|F_x V_x σ_x| dt, thesis eq. 4.19a/4.26), ``windows``, ``abs_windows``,
-        ``flags`` (the stream's flags, " | "-joined).
+        ``flags`` (the stream's flags, " | "-joined), and the columns of
+        :data:`~tyrebayes.streams.wear_evidence.WEAR_EVIDENCE_COLUMNS` not named above.
     """
     time_s = features.time_s
     dt = 1.0 / features.sample_rate_hz
@@ -70,6 +79,8 @@ def drive_summary(item: DriveItem, stream, features, windows: dict[str, np.ndarr
         "abs_windows": int(np.sum(windows["at_limit"])),
         "flags": " | ".join(stream.flags),
     }
+    wear = drive_wear_evidence(stream, vehicle, features=features).row()
+    row.update({k: v for k, v in wear.items() if k not in row})
     return {
         k: (v if not isinstance(v, float) or math.isfinite(v) else float("nan"))
         for k, v in row.items()

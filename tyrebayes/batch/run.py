@@ -132,9 +132,10 @@ def _stage_stats(records: list[dict]) -> dict:
 
 def _write_tables(out: Path, drive_records: list[dict], set_records: list[dict]) -> pd.DataFrame:
     drives_dir = out / DRIVES_DIR
+    # drive_order: the position in the manifest, which fit-wear reads as a car's drive order.
     summaries = [
-        pd.read_parquet(drives_dir / f"{r['drive_id']}.summary.parquet")
-        for r in drive_records
+        pd.read_parquet(drives_dir / f"{r['drive_id']}.summary.parquet").assign(drive_order=k)
+        for k, r in enumerate(drive_records)
         if r.get("status") == "done"
     ]
     if summaries:
