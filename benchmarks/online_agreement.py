@@ -182,6 +182,12 @@ def pooled(rows: list[dict]) -> dict:
     }
 
 
+def _print_row(row: dict) -> None:
+    """One drive's headline figures as a JSON line (progress of a long run)."""
+    keys = ("name", "agree", "sd_ratio", "mean_diff_in_batch_sd", "online_time_to_useful_s")
+    print(json.dumps({k: row[k] for k in keys}), flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sim", type=int, default=4)
@@ -205,21 +211,7 @@ def main() -> None:
                 "simulated",
             )
         )
-        print(
-            json.dumps(
-                {
-                    k: rows[-1][k]
-                    for k in (
-                        "name",
-                        "agree",
-                        "sd_ratio",
-                        "mean_diff_in_batch_sd",
-                        "online_time_to_useful_s",
-                    )
-                }
-            ),
-            flush=True,
-        )
+        _print_row(rows[-1])
     if not args.no_external:
         for entry in external_entries():
             windows = external_windows(entry)
@@ -233,21 +225,7 @@ def main() -> None:
                     "external",
                 )
             )
-            print(
-                json.dumps(
-                    {
-                        k: rows[-1][k]
-                        for k in (
-                            "name",
-                            "agree",
-                            "sd_ratio",
-                            "mean_diff_in_batch_sd",
-                            "online_time_to_useful_s",
-                        )
-                    }
-                ),
-                flush=True,
-            )
+            _print_row(rows[-1])
     result = {
         "benchmark": "online_agreement",
         "model": estimator.kind,

@@ -14,7 +14,6 @@ import math
 import time
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from .._errors import BadInputError
@@ -102,13 +101,7 @@ def _windows_and_summary(
     cpu.append(time.process_time())
     stream = validate_stream(log, vehicle)
     cpu.append(time.process_time())
-    ambient = item.ambient_c
-    if math.isnan(ambient):
-        ambient = 20.0
-        if "ambient_temperature" in stream.data:
-            values = stream.data["ambient_temperature"].to_numpy(dtype=float)
-            if np.isfinite(values).any():
-                ambient = float(np.nanmean(values))
+    ambient = stream.mean_ambient_c() if math.isnan(item.ambient_c) else item.ambient_c
     features = compute_features(stream, vehicle)
     cpu.append(time.process_time())
     temperature = features_tyre_temperature(features, ambient_c=ambient)

@@ -106,6 +106,14 @@ class ValidatedStream:
         t = self.data["time"].to_numpy()
         return float(t[-1] - t[0])
 
+    def mean_ambient_c(self, default: float = 20.0) -> float:
+        """Mean of the ``ambient_temperature`` column [°C], or ``default`` without one."""
+        if "ambient_temperature" in self.data:
+            ambient = self.data["ambient_temperature"].to_numpy(dtype=float)
+            if np.isfinite(ambient).any():
+                return float(np.nanmean(ambient))
+        return float(default)
+
 
 def _check_columns(df: pd.DataFrame) -> None:
     missing = [c for c in REQUIRED_COLUMNS if c not in df.columns]

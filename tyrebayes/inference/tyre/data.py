@@ -527,11 +527,7 @@ def windows_from_stream(
         raise BadInputError(f"surface: expected one of {SURFACES}, got {surface!r}")
     stream = validate_stream(read_stream(path, channel_map), vehicle)
     if ambient_c is None:
-        ambient_c = 20.0
-        if "ambient_temperature" in stream.data:
-            ambient = stream.data["ambient_temperature"].to_numpy(dtype=float)
-            if np.isfinite(ambient).any():
-                ambient_c = float(np.nanmean(ambient))
+        ambient_c = stream.mean_ambient_c()
     features = compute_features(stream, vehicle)
     if temperature_c is None:
         temperature_c = features_tyre_temperature(features, ambient_c=ambient_c)
