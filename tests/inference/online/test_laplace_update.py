@@ -3,6 +3,7 @@
 import jax.numpy as jnp
 import numpy as np
 from jax.scipy.stats import norm
+from scipy.stats import multivariate_normal
 
 from tyrebayes.inference.online.laplace_update import laplace_update
 
@@ -27,14 +28,17 @@ def test_linear_gaussian_update_equals_kalman():
 
     expected_mean, expected_cov = _kalman(mean, cov, a, y, np.diag(r_sd**2))
     for steps in (1, 3):
-        m, c = laplace_update(log_likelihood, jnp.asarray(mean), jnp.asarray(cov), steps)
-        np.testing.assert_allclose(m, expected_mean, rtol=1e-8, atol=1e-10)
-        np.testing.assert_allclose(c, expected_cov, rtol=1e-8, atol=1e-10)
+        u = laplace_update(log_likelihood, jnp.asarray(mean), jnp.asarray(cov), steps)
+        np.testing.assert_allclose(u.mean, expected_mean, rtol=1e-8, atol=1e-10)
+        np.testing.assert_allclose(u.cov, expected_cov, rtol=1e-8, atol=1e-10)
+        # The evidence is the predictive density of y: N(a m, a P aᵀ + R), exactly.
+        predictive = multivariate_normal.logpdf(y, a @ mean, a @ cov @ a.T + np.diag(r_sd**2))
+        np.testing.assert_allclose(u.log_evidence, predictive, rtol=1e-9)
 
 
 def test_convex_wrong_way_likelihood_does_not_grow_the_covariance():
     # ℓ bending upward (negative information) must read as no information, not as a wider prior.
     cov = jnp.diag(jnp.asarray([0.5, 2.0]))
-    m, c = laplace_update(lambda t: 0.1 * t[0] ** 2, jnp.zeros(2), cov, 2)
-    assert np.all(np.linalg.eigvalsh(np.asarray(cov - c)) >= -1e-12)
-    assert np.all(np.isfinite(m))
+    u = laplace_update(lambda t: 0.1 * t[0] ** 2, jnp.zeros(2), cov, 2)
+    assert np.all(np.linalg.eigvalsh(np.asarray(cov - u.cov)) >= -1e-12)
+    assert np.all(np.isfinite(u.mean))

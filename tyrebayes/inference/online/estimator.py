@@ -8,12 +8,18 @@ car axis).
 One step (Särkkä 2013, ch. 5-6; module docstrings of the parts):
 
 1. predict: θ's covariance grows by the random-walk drift over the time since the last step
-   (:data:`~.config.DRIFT_PER_SQRT_S`);
-2. change: the two-sided CUSUM of a C_xr step on the block's log-likelihood ratio
-   (:mod:`.change`); an alarm restarts the filter from the type prior, and the block updates that;
-3. update: the Laplace update on the batch model's own per-window likelihood of the block
+   (:data:`~.config.DRIFT_PER_SQRT_S`); at a drive start the per-drive coordinates
+   (:data:`~.parameters.PER_DRIVE`) take their prior again, uncorrelated with the rest;
+2. update: the Laplace update on the batch model's own per-window likelihood of the block
    (:mod:`.laplace_update`, :mod:`.block_likelihood`), slips weighted by 1/VIF;
-4. the standardised residuals at the new mode feed the VIF estimate (:mod:`.inflation`).
+3. swap: for the first steps of a drive, a challenger filter whose tyre coordinates started
+   again from the prior at the drive start is updated by the same block; the log Bayes factor
+   of the two (:mod:`.swap`) past its threshold makes the challenger the estimate;
+4. change: the two-sided CUSUM of a mid-drive C_xr step on the block's predictive likelihood
+   ratio, from the predicted and the updated Gaussians (:mod:`.change`); an alarm restarts the
+   filter from the type prior, updated by the block's Gaussian message
+   (:func:`.restart_with_block`);
+5. the standardised residuals at the new mode feed the VIF estimate (:mod:`.inflation`).
 
 Examples
 --------
@@ -30,13 +36,21 @@ import jax.numpy as jnp
 
 from ..tyre.model import TyrePriors, check_kind
 from .block_likelihood import block_log_likelihood, standardised_slip_residuals
-from .change import cusum_step
+from .change import cusum_step, predictive_shift_ratios
 from .config import OnlineConfig, default_config
 from .inflation import accrue_residuals, empty_inflation, inflation_in_use
-from .laplace_update import laplace_update
-from .parameters import GaussianPrior, parameter_names, type_prior
+from .laplace_update import laplace_update, restart_with_block
+from .parameters import (
+    PER_DRIVE,
+    TYRE_COORDINATES,
+    GaussianPrior,
+    parameter_names,
+    reset_to_prior,
+    type_prior,
+)
 from .state import FilterState
 from .summary import OnlineSummary, c_x_direction, log_normal_summary, readiness
+from .swap import either, swap_step
 from .windows import WindowBlocks
 
 
@@ -99,6 +113,10 @@ class OnlineEstimator(eqx.Module):
             temperature_sum=zero,
             cusum_up=zero,
             cusum_down=zero,
+            challenger_mean=prior.mean,
+            challenger_cov=prior.cov,
+            log_bayes_factor=zero,
+            drive_steps=jnp.zeros((), dtype=jnp.int32),
             n_alarms=jnp.zeros((), dtype=jnp.int32),
             alarm=jnp.zeros((), dtype=bool),
             inflation=empty_inflation(dtype),
@@ -115,22 +133,51 @@ class OnlineEstimator(eqx.Module):
             return block_log_likelihood(theta, block, weight, self.kind, self.priors)
 
         elapsed = jnp.maximum(block.time_s - state.time_s, 0.0)
-        cov = state.cov + jnp.diag(cfg.drift_sd_per_sqrt_s**2 * elapsed)
-        up, down, alarm = cusum_step(
-            log_likelihood,
-            state.mean,
-            cov,
+        drift = jnp.diag(cfg.drift_sd_per_sqrt_s**2 * elapsed)
+        start = block.drive_start
+        predicted = reset_to_prior(self.prior, state.mean, state.cov + drift, PER_DRIVE, start)
+        updated = laplace_update(log_likelihood, *predicted, cfg.newton_steps, cfg.newton_tolerance)
+
+        # The swap test's challenger: from a drive start, the tyre's coordinates anew.
+        challenger = either(
+            start,
+            reset_to_prior(self.prior, *predicted, TYRE_COORDINATES, start),
+            (state.challenger_mean, state.challenger_cov + drift),
+        )
+        drive_steps = jnp.where(start, 0, state.drive_steps + 1)
+        active = drive_steps < cfg.swap_window_steps
+        challenged = jax.lax.cond(
+            active,
+            lambda: laplace_update(
+                log_likelihood, *challenger, cfg.newton_steps, cfg.newton_tolerance
+            ),
+            lambda: updated,
+        )
+        log_bayes_factor, swapped = swap_step(
+            challenged,
+            updated,
+            state.log_bayes_factor,
+            drive_start=start,
+            active=active,
+            threshold=cfg.swap_threshold,
+        )
+
+        c_index = self._index["log_c_xr"]
+        up, down, shifted = cusum_step(
+            predictive_shift_ratios(predicted, updated, index=c_index, shift=cfg.change_log_shift),
             state.cusum_up,
             state.cusum_down,
-            index=self._index["log_c_xr"],
-            shift=cfg.change_log_shift,
+            armed=~swapped & (jnp.sqrt(predicted[1][c_index, c_index]) <= cfg.change_gate_log_sd),
             threshold=cfg.change_threshold,
-            gate_sd=cfg.change_gate_log_sd,
         )
-        fresh = self.init(time_s=block.time_s)
-        mean = jnp.where(alarm, fresh.mean, state.mean)
-        cov = jnp.where(alarm, fresh.cov, cov)
-        mean, cov = laplace_update(log_likelihood, mean, cov, cfg.newton_steps)
+        alarm = swapped | shifted
+        restarted = restart_with_block(self.prior.mean, self.prior.cov, predicted, updated)
+        mean, cov = either(
+            swapped,
+            (challenged.mean, challenged.cov),
+            either(shifted, restarted, (updated.mean, updated.cov)),
+        )
+        challenger = either(active & ~alarm, (challenged.mean, challenged.cov), (mean, cov))
 
         z = standardised_slip_residuals(mean, block, self.kind, self.priors)
         slip_window = block.mask & ~block.at_limit
@@ -154,6 +201,10 @@ class OnlineEstimator(eqx.Module):
             temperature_sum=since_start(state.temperature_sum, temperature),
             cusum_up=jnp.where(alarm, 0.0, up),
             cusum_down=jnp.where(alarm, 0.0, down),
+            challenger_mean=challenger[0],
+            challenger_cov=challenger[1],
+            log_bayes_factor=jnp.where(alarm, 0.0, log_bayes_factor),
+            drive_steps=drive_steps,
             n_alarms=state.n_alarms + alarm.astype(jnp.int32),
             alarm=alarm,
             inflation=accrue_residuals(state.inflation, z, slip_window),
@@ -190,6 +241,7 @@ class OnlineEstimator(eqx.Module):
             mu_observed=mu_observed,
             alarm=state.alarm,
             n_alarms=state.n_alarms,
+            swap_log_bayes_factor=state.log_bayes_factor,
             n_slip_windows=state.n_slip_windows,
             n_excited_windows=state.n_excited_windows,
             n_limit_windows=state.n_limit_windows,

@@ -17,7 +17,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array, Bool, Float
 
 from ..tyre.model import TyrePriors, check_kind
 
@@ -35,6 +35,21 @@ _COMMON_TAIL = (
     "log_rho_noise_scale",
     "log_slip_noise_scale",
     "log_slip_drift_sd",
+)
+
+
+#: θ's per-drive coordinates: each drive has its own in the batch model (a drive's rolling radii
+#: and load share), so the filter starts them again from the prior at every drive start.
+PER_DRIVE = ("slip_offset", "log_force_gain")
+#: θ's coordinates that belong to the tyre (not to the drive or the sensors): what a swap renews.
+TYRE_COORDINATES = (
+    "log_c_xr",
+    "temp_sensitivity",
+    "log_mu_max",
+    "abs_force_ratio",
+    "log_curve_shape_excess",
+    "log_curve_curvature_gap",
+    "log_curve_bend",
 )
 
 
@@ -169,4 +184,28 @@ def model_sites(theta: Float[Array, "p"], kind: str, priors: TyrePriors | None =
     return sites
 
 
-__all__ = ["GaussianPrior", "model_sites", "parameter_names", "type_prior"]
+def reset_to_prior(
+    prior: GaussianPrior,
+    mean: Float[Array, "p"],
+    cov: Float[Array, "p p"],
+    names: tuple[str, ...],
+    where: Bool[Array, ""],
+) -> tuple[Float[Array, "p"], Float[Array, "p p"]]:
+    """Where ``where``, the coordinates ``names`` take ``prior``'s marginal, uncorrelated with the
+    rest (whose marginal is kept)."""
+    chosen = jnp.asarray([n in names for n in parameter_names(prior.kind)]) & where
+    either = chosen[:, None] | chosen[None, :]
+    both = chosen[:, None] & chosen[None, :]
+    cov = jnp.where(either, jnp.where(both, prior.cov, 0.0), cov)
+    return jnp.where(chosen, prior.mean, mean), cov
+
+
+__all__ = [
+    "PER_DRIVE",
+    "TYRE_COORDINATES",
+    "reset_to_prior",
+    "GaussianPrior",
+    "model_sites",
+    "parameter_names",
+    "type_prior",
+]

@@ -64,6 +64,15 @@ class FilterState(eqx.Module):
         their mean, as the batch fit does).
     cusum_up, cusum_down : Float[Array, ""]
         CUSUM statistics of a C_xr step up and down [nats].
+    challenger_mean : Float[Array, "p"]
+        Mean of the swap test's challenger: θ with the tyre's coordinates started again from
+        the prior at the last drive start (:mod:`.swap`).
+    challenger_cov : Float[Array, "p p"]
+        Its covariance.
+    log_bayes_factor : Float[Array, ""]
+        Log Bayes factor of a swap at the last drive start [nats].
+    drive_steps : Int[Array, ""]
+        Steps since the last drive start.
     n_alarms : Int[Array, ""]
         Change alarms so far.
     alarm : Bool[Array, ""]
@@ -83,6 +92,10 @@ class FilterState(eqx.Module):
     temperature_sum: Float[Array, ""]
     cusum_up: Float[Array, ""]
     cusum_down: Float[Array, ""]
+    challenger_mean: Float[Array, "p"]
+    challenger_cov: Float[Array, "p p"]
+    log_bayes_factor: Float[Array, ""]
+    drive_steps: Int[Array, ""]
     n_alarms: Int[Array, ""]
     alarm: Bool[Array, ""]
     inflation: InflationSums

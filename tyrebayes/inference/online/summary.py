@@ -84,6 +84,9 @@ class OnlineSummary(eqx.Module):
         A change alarm at this step (the estimator restarted from the prior).
     n_alarms : Int[Array, "*t"]
         Alarms so far.
+    swap_log_bayes_factor : Float[Array, "*t"]
+        Log Bayes factor of a tyre swap at the last drive start [nats] (:mod:`.swap`; an alarm
+        at its threshold).
     n_slip_windows, n_excited_windows, n_limit_windows : Float[Array, "*t"]
         Windows since the (re)start.
     slip_inflation : Float[Array, "*t"]
@@ -102,6 +105,7 @@ class OnlineSummary(eqx.Module):
     mu_observed: Bool[Array, "*t"]
     alarm: Bool[Array, "*t"]
     n_alarms: Int[Array, "*t"]
+    swap_log_bayes_factor: Float[Array, "*t"]
     n_slip_windows: Float[Array, "*t"]
     n_excited_windows: Float[Array, "*t"]
     n_limit_windows: Float[Array, "*t"]
@@ -160,6 +164,7 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
         "force_gain": _value(summary.force_gain, i),
         "alarm": bool(np.asarray(summary.alarm)[i]),
         "n_alarms": int(np.asarray(summary.n_alarms)[i]),
+        "swap_log_bayes_factor": float(np.asarray(summary.swap_log_bayes_factor)[i]),
         "n_slip_windows": int(np.asarray(summary.n_slip_windows)[i]),
         "n_excited_windows": int(np.asarray(summary.n_excited_windows)[i]),
         "n_abs_windows": int(np.asarray(summary.n_limit_windows)[i]),

@@ -63,6 +63,9 @@ class WindowBlocks(eqx.Module):
         False for padding.
     time_s : Float[Array, "*b"]
         End of each block [s] (drive time; the process noise grows with its differences).
+    drive_start : Bool[Array, "*b"]
+        The first step of a drive: the per-drive nuisances (slip offset, force gain) start
+        again from their prior there, as they are per drive in the batch model.
     surface : str
         Road surface of the stream (static).
     """
@@ -78,6 +81,7 @@ class WindowBlocks(eqx.Module):
     block_index: Int[Array, "*b w"]
     mask: Bool[Array, "*b w"]
     time_s: Float[Array, "*b"]
+    drive_start: Bool[Array, "*b"]
     surface: str = eqx.field(static=True)
 
     def __check_init__(self):
@@ -128,7 +132,9 @@ def window_blocks(
     windows : dict of ndarray
         :func:`~tyrebayes.inference.tyre.data.observations_from_features` output (``time_s``,
         ``slip``, ``rho``, the noise sds, ``temperature_c``, ``at_limit``; ``rho_score`` and
-        ``rho_score_slope`` if present, else 0: no force-noise correction).
+        ``rho_score_slope`` if present, else 0: no force-noise correction; ``drive`` if
+        present, an integer per window that changes where a new drive begins, else one drive).
+        Steps never straddle two drives.
     surface : str
         Road surface.
     width : int, optional
@@ -160,9 +166,17 @@ def window_blocks(
         raise BadInputError("online estimator: expected at least one finite window, got none")
     order = np.flatnonzero(finite)[np.argsort(time[finite], kind="stable")]
     time = time[order]
+    drive = np.asarray(windows.get("drive", np.zeros(len(finite))), dtype=np.int64)[order]
     block = np.floor(time / BLOCK_S).astype(np.int64)
     step = block // int(blocks_per_step)
-    ids, inverse, counts = np.unique(step, return_inverse=True, return_counts=True)
+    # One key per (drive, step), in time order: a drive boundary inside a step splits it.
+    new_drive = np.concatenate([[True], drive[1:] != drive[:-1]])
+    drive_number = np.cumsum(new_drive) - 1
+    keys = drive_number * (int(step.max()) + 1) + step
+    ids, first, inverse, counts = np.unique(
+        keys, return_index=True, return_inverse=True, return_counts=True
+    )
+    step_of_key, drive_of_key = step[first], drive_number[first]
     width = int(counts.max()) if width is None else int(width)
     if counts.max() > width:
         raise BadInputError(
@@ -190,7 +204,8 @@ def window_blocks(
         at_limit=jnp.asarray(at_limit),
         block_index=jnp.asarray(block_index),
         mask=jnp.asarray(mask),
-        time_s=jnp.asarray((ids + 1) * step_s, dtype=float),
+        time_s=jnp.asarray((step_of_key + 1) * step_s, dtype=float),
+        drive_start=jnp.asarray(np.concatenate([[True], np.diff(drive_of_key) != 0])),
         surface=surface,
     )
 
@@ -218,6 +233,7 @@ def pad_steps(blocks: WindowBlocks, n_steps: int) -> WindowBlocks:
         block_index=pad(blocks.block_index, 0),
         mask=pad(blocks.mask, False),
         time_s=pad(blocks.time_s, blocks.time_s[-1]),
+        drive_start=pad(blocks.drive_start, False),
         surface=blocks.surface,
     )
 
