@@ -23,6 +23,7 @@ from .records import (
     peak_rss_mb,
     read_record,
     record_path,
+    release_free_memory,
     reset_peak_rss,
     unchanged,
     value_hash,
@@ -171,6 +172,7 @@ def fit_tyre_set(
         "peak_rss_mb": peak_rss_mb(),
     }
     write_record(rec_path, record)
+    release_free_memory()  # the worker idles, or starts its next task, without it
     return {**record, "skipped": False}
 
 
