@@ -34,7 +34,7 @@ from ..._errors import BadInputError
 N_COMPONENTS = 8
 # EM is stopped after this many steps: on 20 simulated one-hour drives 5 reached it, and running
 # those on to 5,000 steps moved E[ρ_true | ρ_obs] by at most 0.25 of the window's noise sd (rms
-# 0.003-0.04), where 400 steps already take 0.9-1.4 s per drive: reported, not run on
+# 0.003-0.04), while the steps are most of the per-drive windowing cost: reported, not run on
 # (ForceMixture.converged).
 _MAX_ITERATIONS = 400
 _TOLERANCE = 1e-6  # on the mean log-likelihood per window [nats]
@@ -136,11 +136,12 @@ def _em(
 ):
     """EM steps until the mean log-likelihood gains less than ``tolerance`` or the step limit.
 
-    One compiled loop (the steps of :func:`deconvolve_forces` in numpy cost ~3 ms each on a
-    one-hour drive, 400 of them over a second; fused they cost a fraction of that). Each step
-    takes the responsibilities of the current mixture and the M step of extreme deconvolution;
-    the returned mixture is the one after the step whose log-likelihood gain fell below the
-    tolerance, as before.
+    One compiled loop: in numpy each step made a dozen passes over windows × components, the
+    per-drive stage's largest cost (``benchmarks/results/fleet_run.json``); fused, the steps are
+    the same arithmetic (equal to round-off) in fewer passes. Each step takes the
+    responsibilities of the current mixture and the M step of extreme deconvolution; the
+    returned mixture is the one after the step whose log-likelihood gain fell below the
+    tolerance, or after the step limit.
     """
     n_real = jnp.sum(mask)
     weight = mask[:, None].astype(x.dtype)
