@@ -213,6 +213,7 @@ def main() -> int:
     parser.add_argument("--drives", type=int, default=12)
     parser.add_argument("--sets", type=int, default=4)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", type=Path, default=RESULTS, help="JSON to write")
     args = parser.parse_args()
     n_drives, n_sets = (200, 50) if args.full else (args.drives, args.sets)
 
@@ -353,8 +354,8 @@ def main() -> int:
             indent=1))  # fmt: skip
         from tyrebayes._io import atomic_write_bytes, to_jsonable
 
-        atomic_write_bytes(RESULTS, json.dumps(to_jsonable(results), indent=1).encode())
-        print(f"saved {RESULTS}")
+        atomic_write_bytes(args.out, json.dumps(to_jsonable(results), indent=1).encode())
+        print(f"saved {args.out}")
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return 0
