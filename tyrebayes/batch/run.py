@@ -35,8 +35,8 @@ from .records import peak_rss_mb, write_parquet
 from .settings import RunSettings
 from .tyre_set_stage import fit_tyre_set, pad_size, set_file_name, tyre_set_table
 
-#: Memory limit of each local worker: a fast fit of a set with about two hours of driving held
-#: 2.6 GB at its peak (benchmarks/results/fleet_run.json), the per-drive stage less.
+#: Memory limit of each local worker: a fast fit of a set of four 10-60 min drives held up to
+#: 3.2 GB at its peak (benchmarks/results/fleet_run.json, full size), the per-drive stage less.
 DEFAULT_MEMORY_LIMIT = "4GiB"
 
 # The tasks keep no data in the workers (they write files and return small records), so dask's
