@@ -189,3 +189,71 @@ def test_cli_options(tmp_path, capsys):
     (tmp_path / "file").write_text("")
     assert main(["fleet-run", str(manifest), "--out", str(tmp_path / "file")]) == 2
     assert "expected a folder" in capsys.readouterr().err
+
+
+@pytest.fixture
+def separate_cluster(tmp_path):
+    """A dask scheduler and one single-threaded worker, each a ``dask`` CLI process of its own.
+
+    What ``--scheduler ADDRESS`` meets on a real cluster: nothing of it lives in the process
+    that runs the command. Yields the scheduler's address; both processes are stopped after.
+    """
+    dask_cli = Path(sys.executable).parent / "dask"
+    info = tmp_path / "scheduler.json"
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "JAX_PLATFORMS": "cpu"}
+    common = {"env": env, "stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    scheduler = ["scheduler", "--port", "0", "--no-dashboard", "--scheduler-file", str(info)]
+    procs = [subprocess.Popen([str(dask_cli), *scheduler], **common)]
+    try:
+        deadline = time.monotonic() + 60.0
+        while not info.is_file() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        address = json.loads(info.read_text())["address"]
+        worker = ["worker", address, "--nthreads", "1", "--nworkers", "1", "--no-dashboard"]
+        procs.append(subprocess.Popen([str(dask_cli), *worker], **common))
+        yield address
+    finally:
+        for proc in reversed(procs):
+            proc.terminate()
+        for proc in procs:
+            try:
+                proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+
+
+# In a worker: whether it imported the stages' modules (a bare ``dask worker`` does not). A
+# lambda, so that it travels by value and unpickling it does not import this test module.
+_STAGE_MODULES = frozenset({"tyrebayes.batch.drive_stage", "tyrebayes.inference.tyre.fit"})
+_ran_fleet_tasks = lambda modules=_STAGE_MODULES: modules <= set(sys.modules)  # noqa: E731
+
+
+def test_cli_runs_on_an_existing_cluster_at_its_address(
+    manifest, separate_cluster, tmp_path, capsys
+):
+    # One tyre set's two drives and the corrupt file, on the separate cluster's one worker.
+    rows = pd.read_csv(manifest)
+    rows = rows[rows["path"].isin(["set0_0.parquet", "set0_1.parquet", "corrupt.parquet"])]
+    small = manifest.parent / "small_manifest.csv"
+    rows.to_csv(small, index=False)
+    from distributed import Client
+
+    with Client(separate_cluster, timeout="60s") as client:
+        client.wait_for_workers(1, timeout=60)
+        assert list(client.run(_ran_fleet_tasks).values()) == [False]
+    out = tmp_path / "out"
+    args = ["fleet-run", str(small), "--out", str(out), "--scheduler", separate_cluster]
+    assert main([*args, "--workers", "1"]) == 2  # a cluster brings its own workers
+    assert "--workers: expected only without --scheduler" in capsys.readouterr().err
+    assert main([*args, "--model", MODEL, "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["workers"] == 1
+    assert (summary["drives"]["done"], summary["drives"]["failed"]) == (2, 1)
+    assert (summary["tyre_sets"]["done"], summary["tyre_sets"]["failed"]) == (1, 0)
+    sets = pd.read_parquet(out / "tyre_sets.parquet")
+    assert list(sets["tyre_id"]) == ["set0"] and sets["converged"].all()
+    assert len(pd.read_parquet(out / "drive_summaries.parquet")) == 2
+    # The work ran on the cluster's worker, not in this process, and the cluster outlives the
+    # command (it is not the command's to close).
+    with Client(separate_cluster, timeout="60s") as client:
+        assert list(client.run(_ran_fleet_tasks).values()) == [True]

@@ -24,6 +24,7 @@ from .records import (
     peak_rss_mb,
     read_record,
     record_path,
+    release_free_memory,
     reset_peak_rss,
     unchanged,
     value_hash,
@@ -180,4 +181,5 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
         "peak_rss_mb": peak_rss_mb(),
     }
     write_record(rec_path, record)
+    release_free_memory()  # the worker idles, or starts its next task, without it
     return {**record, "skipped": False}

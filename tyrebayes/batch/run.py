@@ -1,8 +1,9 @@
 """A fleet run on dask.distributed: drives map over workers, tyre sets reduce, the fleet closes.
 
-:func:`fleet_run` submits one task per drive (:func:`~.drive_stage.process_drive`); as soon as
-every drive of a tyre set has finished (done, failed or skipped) it submits that set's joint fit
-(:func:`~.tyre_set_stage.fit_tyre_set`); when all sets are in, it writes the run's tables and
+:func:`fleet_run` submits one task per drive (:func:`~.drive_stage.process_drive`); once every
+drive has finished (done, failed or skipped) it submits each set's joint fit
+(:func:`~.tyre_set_stage.fit_tyre_set`), largest padded shape first, so that a worker compiles
+and keeps one fit shape at a time; when all sets are in, it writes the run's tables and
 runs the fleet stage (:func:`~.fleet_stage.run_fleet_stage`) on the client. Every item writes its
 own outputs atomically when it finishes, so a killed run loses only the items in flight, and a
 rerun skips what its records say is unchanged.
@@ -32,10 +33,10 @@ from .fleet_stage import run_fleet_stage
 from .manifest import DriveItem
 from .records import peak_rss_mb, write_parquet
 from .settings import RunSettings
-from .tyre_set_stage import fit_tyre_set, set_file_name, tyre_set_table
+from .tyre_set_stage import fit_tyre_set, pad_size, set_file_name, tyre_set_table
 
-#: Memory limit of each local worker: a fast fit of a set with about two hours of driving held
-#: 2.6 GB at its peak (benchmarks/results/fleet_run.json), the per-drive stage less.
+#: Memory limit of each local worker: a fast fit of a set of four 10-60 min drives held up to
+#: 3.2 GB at its peak (benchmarks/results/fleet_run.json, full size), the per-drive stage less.
 DEFAULT_MEMORY_LIMIT = "4GiB"
 
 # The tasks keep no data in the workers (they write files and return small records), so dask's
@@ -207,10 +208,38 @@ def fleet_run(
         ): ("drive", item)
         for item in items
     }
-    pending = {s: len(d) for s, d in by_set.items()}
     drive_records: dict[str, dict] = {}
     set_records: dict[str, dict] = {}
     completed = as_completed(list(futures))
+
+    def submit_sets() -> None:
+        # All drives are done: the sets go out largest padded shape first, so that each worker
+        # meets each compiled fit shape in one run (it keeps one shape's programs, not all:
+        # fit_tyre_set), and the longest fits start first.
+        finished = {
+            s: [
+                drive_records[d.drive_id]
+                for d in drives
+                if drive_records[d.drive_id].get("status") == "done"
+            ]
+            for s, drives in by_set.items()
+        }
+        order = sorted(by_set, key=lambda s: -pad_size(sum(r["windows"] for r in finished[s])))
+        for rank, s in enumerate(order):
+            fut = client.submit(
+                fit_tyre_set,
+                s,
+                set_type[s],
+                finished[s],
+                out_s,
+                settings,
+                key=f"tyre-set-{set_file_name(s)}",
+                pure=False,
+                priority=len(order) - rank,
+            )
+            futures[fut] = ("tyre_set", s)
+            completed.add(fut)
+
     for future in completed:
         kind, item = futures.pop(future)
         try:
@@ -226,26 +255,8 @@ def fleet_run(
         if kind == "drive":
             drive_records[item.drive_id] = record
             bar.update(item.drive_id)
-            pending[item.tyre_set_id] -= 1
-            if pending[item.tyre_set_id] == 0:
-                s = item.tyre_set_id
-                finished = [
-                    drive_records[d.drive_id]
-                    for d in by_set[s]
-                    if drive_records[d.drive_id].get("status") == "done"
-                ]
-                fut = client.submit(
-                    fit_tyre_set,
-                    s,
-                    set_type[s],
-                    finished,
-                    out_s,
-                    settings,
-                    key=f"tyre-set-{set_file_name(s)}",
-                    pure=False,
-                )
-                futures[fut] = ("tyre_set", s)
-                completed.add(fut)
+            if len(drive_records) == len(items):
+                submit_sets()
         else:
             set_records[item] = record
             bar.update(f"set {item}")

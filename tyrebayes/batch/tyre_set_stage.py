@@ -23,6 +23,7 @@ from .records import (
     peak_rss_mb,
     read_record,
     record_path,
+    release_free_memory,
     reset_peak_rss,
     unchanged,
     value_hash,
@@ -50,6 +51,24 @@ def pad_size(n: int) -> int:
     cache); powers of two bound a fleet's lengths to a handful, at most doubling the work.
     """
     return max(256, 1 << max(0, int(n - 1).bit_length()))
+
+
+_LAST_SHAPE: list[int] = []
+
+
+def _keep_one_shape(size: int) -> None:
+    """Drop this process's compiled programs when the fit's padded shape changes.
+
+    A worker keeps every compiled program of every shape it fitted (the fit's programs are
+    hundreds of MB), and they count towards every later task's peak. The run submits the sets
+    largest shape first (:func:`~.run.fleet_run`), so a worker meets each shape in one run and
+    this drops each shape once; reloading from the shared cache costs tracing only.
+    """
+    import jax
+
+    if _LAST_SHAPE and _LAST_SHAPE[0] != size:
+        jax.clear_caches()
+    _LAST_SHAPE[:] = [size]
 
 
 def tyre_set_row(tyre_set_id: str, tyre_type: str, fit, n_drives: int, n_windows: int) -> dict:
@@ -151,6 +170,7 @@ def fit_tyre_set(
         )
         windows, surfaces = drives_from_windows(table)
         n = int(len(table))
+        _keep_one_shape(pad_size(n))
         obs = stack_drives(windows, surfaces, pad_to=pad_size(n))
         fit = fit_tyre(obs, method=settings.method, kind=settings.model, seed=settings.seed)
         fit = _with_provenance(fit, provenance, tyre_set_id, drives, settings)
@@ -171,6 +191,7 @@ def fit_tyre_set(
         "peak_rss_mb": peak_rss_mb(),
     }
     write_record(rec_path, record)
+    release_free_memory()  # the worker idles, or starts its next task, without it
     return {**record, "skipped": False}
 
 
