@@ -59,8 +59,8 @@ class OnlineConfig(eqx.Module):
         Most Newton iterations of each Laplace update (static): the first blocks from a wide
         prior (the start, a restart, the swap test's challenger) can need many. Stopping such
         a block short of its mode takes its information at the wrong point, and the too-small
-        covariance then holds the estimate there (seen: a challenger stuck at C_x 48.8 of 52
-        with 3 iterations, at 52.2 with 10).
+        covariance then holds the estimate there (a challenger adopted after a swap stayed
+        short of the new tyre's C_x with 3 iterations).
     newton_tolerance : float
         ... and no more once a step is shorter than this many posterior sds: a settled
         posterior takes two, the second confirming the first. It also sets how exactly the

@@ -9,11 +9,11 @@ as a new tyre would be. Each filter's Laplace update gives the block's predictiv
 drive start is the log Bayes factor of "a new tyre since this drive start" against "the same
 tyre" (Kass & Raftery 1995, with the predictive-sequential form of Dawid 1984).
 
-Why this and not a shift test on C_xr alone: a swapped tyre differs in its whole curve, and the
-carried-over filter explains a new tyre's slips partly by moving its weakly known shape, so a
-C_xr-only test sees the evidence for a swap drain away within a block or two (on simulated
-swaps of ±20 %, the predictive CUSUM of :mod:`.change` rose to 4-6 nats in the first block
-after the swap and fell back to 0). The challenger asks the question a swap poses.
+Why a second test beside the mid-drive CUSUM of :mod:`.change`: a swapped tyre differs in its
+whole curve, and the carried-over filter explains part of a new tyre's slips by moving its
+weakly known shape and the new drive's force gain, so evidence for a step of C_xr alone drains
+away within a few blocks of the swap. The challenger asks the question a swap poses: are this
+drive's slips better told by a tyre learned from them alone?
 
 Stated false-alarm rate: under "same tyre", the Bayes factor is a non-negative martingale with
 mean 1 (the challenger's predictive is a proper mixture over tyres), so by Ville's inequality it
