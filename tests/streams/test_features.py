@@ -233,3 +233,27 @@ def test_a_known_imu_gain_is_divided_out_and_a_bad_one_rejected(synthetic):
     np.testing.assert_allclose(known.rho_driven[ok], feats.rho_driven[ok], atol=2e-3)
     with pytest.raises(ValueError, match="ax_gain: expected a value > 0, got -1"):
         compute_features(stream, VEHICLE, ax_gain=-1.0)
+
+
+def test_steered_wheels_read_with_the_turns_sideslip():
+    """A tight turn at walking pace: the front wheels' speed carries the body's sideslip
+    (ψ̇ l_r sin δ), which eq. 4.23's β = 0 would read as 1-2 % of slip."""
+    from tyrebayes.streams.features import REAR_CORNERING_PER_RAD, _front_terms, _wheel_to_vx
+
+    vx = np.array([3.0, 4.0, 6.0, 25.0])
+    steer = np.array([0.18, 0.15, 0.10, 0.004])  # road-wheel angle [rad]
+    length, lr = VEHICLE.wheelbase_m, VEHICLE.cog_to_rear_axle_m
+    yaw = vx * np.tan(steer) / length
+    ay = vx * yaw
+    rear_slip_angle = ay / (9.80665 * REAR_CORNERING_PER_RAD)
+    vy = yaw * lr - vx * rear_slip_angle
+    half, lf = 0.5 * VEHICLE.track_width_m, VEHICLE.cog_to_front_axle_m
+    y = np.array([half, -half, half, -half])
+    u = vx[:, None] - yaw[:, None] * y[None, :]
+    u[:, :2] = u[:, :2] * np.cos(steer)[:, None] + ((vy + yaw * lf) * np.sin(steer))[:, None]
+    omega = u / VEHICLE.wheel_radius_m
+    got = _wheel_to_vx(omega, yaw, VEHICLE, _front_terms(yaw, steer, ay, VEHICLE))
+    # Within 1e-4 of slip at every speed; the β = 0 reading is off by ≥ 1 % at 3-4 m/s.
+    assert np.max(np.abs(got / vx[:, None] - 1.0)) < 1e-4
+    beta_zero = (u[:, 0] - yaw * lf * np.sin(steer)) / np.cos(steer) + yaw * half
+    assert np.all(np.abs(beta_zero[:2] / vx[:2] - 1.0) > 0.01)

@@ -4,7 +4,9 @@ Steps (thesis chapter 4.3):
 
 1. Smooth the channels with a short NaN-aware moving average (``smoothing_s``).
 2. Translate each wheel's speed R·Ω to the vehicle's longitudinal speed (curve compensation with
-   yaw rate and road-wheel angle, β = 0 as in eq. 4.23).
+   yaw rate and road-wheel angle). Eq. 4.23 takes the body's sideslip β = 0; the steered
+   wheels' speeds are read here with the single-track model's steady-state V_y instead
+   (:func:`_front_terms`), which in a tight low-speed turn is worth 1-2 % of slip.
 3. V_x from the non-driven wheels, with the spin check of chapter 4.3.2 (driven vs non-driven
    wheel on the same side) and a lock check between the two non-driven wheels.
 4. Slip σ_x = (R·Ω − V)/V per wheel and per axle (eq. 2.1), with nominal radii: per-wheel radius
@@ -174,21 +176,19 @@ class StreamFeatures(eqx.Module):
 def _wheel_to_vx(
     wheel_radps: np.ndarray,
     yaw: np.ndarray,
-    steer: np.ndarray,
     vehicle: Vehicle,
-    trig: tuple[np.ndarray, np.ndarray] | None = None,
+    trig: tuple[np.ndarray, np.ndarray],
 ) -> np.ndarray:
-    """Each wheel's longitudinal speed translated to the CoG V_x (β = 0, small V_y).
+    """Each wheel's longitudinal speed translated to the CoG V_x.
 
-    A wheel at (x_i, y_i) moves with (V_x − ψ̇ y_i, V_y + ψ̇ x_i); the front wheels point along δ.
-    Solving its wheel-frame speed u_i = R Ω_i for V_x gives
-    V_x = (u_i − ψ̇ x_i sin δ)/cos δ + ψ̇ y_i. ``trig`` passes (1/cos δ, ψ̇ l_f sin δ) computed
-    once for several calls; the output is written in place, column by column (no temporaries of
-    shape (n, 4)).
+    A wheel at (x_i, y_i) moves with (V_x − ψ̇ y_i, V_y + ψ̇ x_i); the front wheels point along δ,
+    so the front wheels' speed u_i = R Ω_i = V_x cos δ + (V_y + ψ̇ l_f) sin δ, with the front
+    axle's lateral speed V_y + ψ̇ l_f = ψ̇ L − α_r V_x of :func:`_front_terms`. Solved for V_x:
+    V_x = (u_i − ψ̇ L sin δ)/(cos δ − α_r sin δ) + ψ̇ y_i; the rear wheels need only the ψ̇ y_i
+    term. ``trig`` is (1/(cos δ − α_r sin δ), ψ̇ L sin δ), computed once for several calls; the
+    output is written in place, column by column (no temporaries of shape (n, 4)).
     """
-    if trig is None:
-        trig = _front_terms(yaw, steer, vehicle)
-    inv_cos, yaw_lf_sin = trig
+    inv_cos, yaw_l_sin = trig
     yaw_half = yaw * (0.5 * vehicle.track_width_m)
     out = np.empty(wheel_radps.shape)
     radius = vehicle.wheel_radius_m
@@ -196,7 +196,7 @@ def _wheel_to_vx(
         col = out[:, i]
         np.multiply(wheel_radps[:, i], radius, out=col)
         if i < 2:
-            col -= yaw_lf_sin
+            col -= yaw_l_sin
             col *= inv_cos
         if sign > 0:
             col += yaw_half
@@ -205,9 +205,29 @@ def _wheel_to_vx(
     return out
 
 
-def _front_terms(yaw: np.ndarray, steer: np.ndarray, vehicle: Vehicle) -> tuple[np.ndarray, ...]:
-    """(1/cos δ, ψ̇ l_f sin δ) of :func:`_wheel_to_vx`."""
-    return 1.0 / np.cos(steer), yaw * vehicle.cog_to_front_axle_m * np.sin(steer)
+# Cornering stiffness of the rear axle per unit of its load [1/rad]: radial passenger tyres have
+# a cornering coefficient of about 0.2 per degree (Gillespie 1992, Fundamentals of Vehicle
+# Dynamics, ch. 6), 11.5 per radian. It sets only the rear slip angle's share of the front
+# axle's lateral speed, α_r sin δ, a few 1e-4 of slip where δ is large; an error of half of it
+# moves a window's slip by less than its noise.
+REAR_CORNERING_PER_RAD = 11.5
+
+
+def _front_terms(
+    yaw: np.ndarray, steer: np.ndarray, ay: np.ndarray, vehicle: Vehicle
+) -> tuple[np.ndarray, np.ndarray]:
+    """(1/(cos δ − α_r sin δ), ψ̇ L sin δ) of :func:`_wheel_to_vx`.
+
+    The front axle's lateral speed from the single-track model in a steady turn: the rear axle
+    moves sideways at −α_r V_x, with α_r = F_yr/C_r = a_y/(g c_r) (the rear axle carries
+    m a_y l_f/L, its static load times a_y/g; c_r = :data:`REAR_CORNERING_PER_RAD`), so
+    V_y + ψ̇ l_f = ψ̇ L − α_r V_x. With β = 0 (thesis eq. 4.23) the term ψ̇ l_r sin δ/V_x is
+    left out: in a turn of radius R at walking pace it is l_r L/R², 1.8 % of slip at R = 15 m,
+    where the slip a wheel transmits is a few per mille.
+    """
+    sin, cos = np.sin(steer), np.cos(steer)
+    rear_slip_angle = ay / (GRAVITY_MPS2 * REAR_CORNERING_PER_RAD)
+    return 1.0 / (cos - rear_slip_angle * sin), yaw * vehicle.wheelbase_m * sin
 
 
 def _vehicle_speed(
@@ -505,8 +525,8 @@ def _motion(stream, vehicle, scales, spin_threshold, thresholds) -> _Motion:
         steer = smooth("steering_wheel_angle") / vehicle.steering_ratio
     ax_raw, ay_raw = smooth("ax"), smooth("ay")
 
-    trig = _front_terms(yaw, steer, vehicle)
-    wheel_vx = _wheel_to_vx(omega, yaw, steer, vehicle, trig)
+    trig = _front_terms(yaw, steer, ay_raw, vehicle)
+    wheel_vx = _wheel_to_vx(omega, yaw, vehicle, trig)
     vx, lock = _vehicle_speed(wheel_vx, vehicle.drive, spin_threshold)
     spin = _spin_check(wheel_vx, vx, vehicle.drive, spin_threshold) | lock
     valid = ~gap & np.isfinite(vx) & (vx > thresholds.min_speed_mps)
@@ -552,7 +572,7 @@ def _wheel_noise(motion: _Motion, vehicle, scales: _Scales, spin_threshold) -> _
     # quantisation and changing road roughness included, unlike a white-noise / √window rule.
     # The probes use the unsmoothed wheel speeds: local_noise_sd applies the smoothing itself.
     m = motion
-    wheel_vx_raw = _wheel_to_vx(m.omega_raw, m.yaw, m.steer, vehicle, m.trig)
+    wheel_vx_raw = _wheel_to_vx(m.omega_raw, m.yaw, vehicle, m.trig)
     vx_raw = np.where(
         m.valid, _vehicle_speed(wheel_vx_raw, vehicle.drive, spin_threshold)[0], np.nan
     )

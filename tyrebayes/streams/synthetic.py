@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from ..physics.vehicle import GRAVITY_MPS2, Vehicle, body_pitch_gain
+from .features import REAR_CORNERING_PER_RAD
 
 _KMH_STEP = 0.01 / 3.6  # CAN wheel-speed resolution of 0.01 km/h, in m/s
 
@@ -131,11 +132,16 @@ def synthetic_stream(
     rho_front, rho_rear = fx_front / fz_front, fx_rear / fz_rear
     slip = np.column_stack([rho_front, rho_front, rho_rear, rho_rear]) / c_x
 
-    half, lf = 0.5 * vehicle.track_width_m, vehicle.cog_to_front_axle_m
+    # The body's sideslip of a steady turn (single-track model): the rear axle moves sideways at
+    # −α_r V_x, so the front axle's lateral speed is ψ̇ L − α_r V_x; the rear slip angle takes
+    # the cornering stiffness the features assume, so this term's truth is theirs.
+    half = 0.5 * vehicle.track_width_m
+    rear_slip_angle = ay_true / (g * REAR_CORNERING_PER_RAD)
+    front_lat = yaw * vehicle.wheelbase_m - rear_slip_angle * vx
     u = np.column_stack(
         [
-            (vx - yaw * half) * np.cos(steer) + yaw * lf * np.sin(steer),
-            (vx + yaw * half) * np.cos(steer) + yaw * lf * np.sin(steer),
+            (vx - yaw * half) * np.cos(steer) + front_lat * np.sin(steer),
+            (vx + yaw * half) * np.cos(steer) + front_lat * np.sin(steer),
             vx - yaw * half,
             vx + yaw * half,
         ]

@@ -86,6 +86,17 @@ def test_change_fires_on_a_planted_step_and_not_without_one(estimator):
     assert abs(float(loud.c_x.mean[-1]) / 48.0 - 1.0) < 0.05
 
 
+def test_one_block_of_outlying_slips_is_not_a_change(estimator):
+    # Ten seconds of windows whose slips sit 20 σ off (what a feature error in a tight turn
+    # looks like): evidence from one step is capped, so no alarm, and the estimate stays.
+    windows = linear_windows(6, 1200.0)
+    burst = (windows["time_s"] > 700.0) & (windows["time_s"] < 710.0)
+    windows["slip"] = windows["slip"] + np.where(burst, 20 * 2e-4 * 5, 0.0)
+    _, trajectory = run_online(estimator, estimator.init(), _steps(windows))
+    assert int(trajectory.n_alarms[-1]) == 0
+    assert abs(float(trajectory.c_x.mean[-1]) / 40.0 - 1.0) < 0.05
+
+
 def _two_drives(seed, c_x_after, offset_after):
     """A 10-minute drive, then a 10-minute one on a tyre of C_x ``c_x_after`` with its own slip
     offset (the car stood between them)."""

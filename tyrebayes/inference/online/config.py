@@ -69,6 +69,9 @@ class OnlineConfig(eqx.Module):
         The C_xr step (log) the CUSUM tests for, in both directions.
     change_threshold : float
         CUSUM alarm level [nats] (:data:`CHANGE_THRESHOLD`: ≤ 0.5 false alarms per 100 h).
+    change_min_steps : int
+        One step adds at most ``change_threshold / (change_min_steps − ½)`` to the CUSUM, so an
+        alarm needs this many steps of evidence (3: 90 s; :mod:`.change`).
     swap_threshold : float
         Log Bayes factor of a swap at the drive start that raises an alarm [nats]
         (:data:`SWAP_THRESHOLD`: ≤ 0.5 false alarms per 100 h).
@@ -105,6 +108,7 @@ class OnlineConfig(eqx.Module):
     newton_tolerance: float = 0.05
     change_log_shift: float = CHANGE_LOG_SHIFT
     change_threshold: float = CHANGE_THRESHOLD
+    change_min_steps: int = 3
     swap_threshold: float = SWAP_THRESHOLD
     swap_window_steps: int = 20
     change_gate_log_sd: float = 0.06
@@ -119,6 +123,8 @@ class OnlineConfig(eqx.Module):
     def __check_init__(self):
         if self.newton_steps < 1:
             raise ValueError(f"newton_steps: expected ≥ 1, got {self.newton_steps}")
+        if self.change_min_steps < 1:
+            raise ValueError(f"change_min_steps: expected ≥ 1, got {self.change_min_steps}")
 
 
 def default_config(kind: str = "magic", **changes) -> OnlineConfig:

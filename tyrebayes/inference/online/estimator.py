@@ -17,8 +17,13 @@ One step (Särkkä 2013, ch. 5-6; module docstrings of the parts):
    of the two (:mod:`.swap`) past its threshold makes the challenger the estimate;
 4. change: the two-sided CUSUM of a mid-drive C_xr step on the block's predictive likelihood
    ratio, from the predicted and the updated Gaussians (:mod:`.change`); an alarm restarts the
-   filter from the type prior, updated by the block's Gaussian message
-   (:func:`.restart_with_block`);
+   tyre's and the drive's coordinates (:data:`~.parameters.TYRE_COORDINATES`,
+   :data:`~.parameters.PER_DRIVE`) from the type prior, since in the steps before the alarm the
+   drive's slip offset took up part of the change; the sensor's noise levels are kept. The
+   block that raised the alarm is left out:
+   its information was taken at the old tyre's mode, and carried from there to the prior as a
+   linear message it can land far outside the prior (a block of turning windows whose slips
+   sat 20 σ off sent C_x to zero);
 5. the standardised residuals at the new mode feed the VIF estimate (:mod:`.inflation`).
 
 Examples
@@ -39,7 +44,7 @@ from .block_likelihood import block_log_likelihood, standardised_slip_residuals
 from .change import cusum_step, predictive_shift_ratios
 from .config import OnlineConfig, default_config
 from .inflation import accrue_residuals, empty_inflation, inflation_in_use
-from .laplace_update import laplace_update, restart_with_block
+from .laplace_update import laplace_update
 from .parameters import (
     PER_DRIVE,
     TYRE_COORDINATES,
@@ -169,9 +174,10 @@ class OnlineEstimator(eqx.Module):
             state.cusum_down,
             armed=~swapped & (jnp.sqrt(predicted[1][c_index, c_index]) <= cfg.change_gate_log_sd),
             threshold=cfg.change_threshold,
+            max_increment=cfg.change_threshold / (cfg.change_min_steps - 0.5),
         )
         alarm = swapped | shifted
-        restarted = restart_with_block(self.prior.mean, self.prior.cov, predicted, updated)
+        restarted = reset_to_prior(self.prior, *predicted, TYRE_COORDINATES + PER_DRIVE, shifted)
         mean, cov = either(
             swapped,
             (challenged.mean, challenged.cov),
@@ -188,7 +194,9 @@ class OnlineEstimator(eqx.Module):
         temperature = jnp.sum(jnp.where(slip_window, block.temperature_c, 0.0))
 
         def since_start(previous, added):
-            return jnp.where(alarm, 0.0, previous) + added
+            # A change restart leaves this block out (step 4), a swap keeps it (the challenger
+            # took it in).
+            return jnp.where(alarm, 0.0, previous) + jnp.where(shifted, 0.0, added)
 
         return FilterState(
             mean=mean,

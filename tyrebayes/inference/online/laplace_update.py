@@ -162,27 +162,4 @@ def laplace_update(
     )
 
 
-def restart_with_block(
-    prior_mean: Float[Array, "p"],
-    prior_cov: Float[Array, "p p"],
-    predicted: tuple[Float[Array, "p"], Float[Array, "p p"]],
-    updated: GaussianUpdate,
-) -> tuple[Float[Array, "p"], Float[Array, "p p"]]:
-    """A new prior updated by the block that took ``predicted`` to ``updated``.
-
-    The update's Gaussian message, the block's information Λ = Σ⁻¹ − P⁻¹ and its natural mean
-    η = Σ⁻¹θ* − P⁻¹m, multiplies into N(prior_mean, prior_cov): what a restart after a change
-    alarm keeps of the block that raised it, without a second Newton solve (the message is
-    linearised at the old estimate's mode; the next blocks correct it).
-    """
-    mean, cov = predicted
-    mode, post_cov = updated.mean, updated.cov
-    old_precision, post_precision = _floored_inverse(cov), _floored_inverse(post_cov)
-    information = _information(post_precision - old_precision)
-    natural = post_precision @ mode - old_precision @ mean
-    precision = _floored_inverse(prior_cov)
-    new_cov = _floored_inverse(precision + information)
-    return new_cov @ (precision @ prior_mean + natural), new_cov
-
-
-__all__ = ["GaussianUpdate", "laplace_update", "restart_with_block"]
+__all__ = ["GaussianUpdate", "laplace_update"]
