@@ -22,14 +22,19 @@ distribution under both hypotheses.
 
 Page's recursion S± ← max(0, S± + g±) alarms when either exceeds h; with exact predictive
 ratios the run length to a false alarm is at least e^h steps per side (Wald's inequality), which
-sets h (:data:`~.config.CHANGE_THRESHOLD`). One step's ratio counts at most h/(k − ½), so that
-an alarm takes k steps (:attr:`~.config.OnlineConfig.change_min_steps`, 3): a change of C_xr persists, while a single
-block the model cannot explain (a transient it lacks: a pothole, a feature error in a tight turn)
-moves the update far, and its ratio then speaks of the misfit rather than of C_xr. Capping an
-increment from above keeps exp(S) a supermartingale under the model, so the bound stands; a
-change whose blocks each carry more than that is found after k steps instead of fewer. The slips count with the filter's weight 1/VIF, so
-correlated slip errors do not read as evidence. While the estimate itself is still moving
-(posterior sd of log C_xr above the gate) the statistic stays at 0.
+sets h (:data:`~.config.CHANGE_THRESHOLD`).
+
+One step's ratio counts at most h/(k − ½), so that an alarm takes k steps
+(:attr:`~.config.OnlineConfig.change_min_steps`, 3). A change of C_xr persists, while a single
+block the model cannot explain (a transient it lacks: a pothole, a feature error in a tight
+turn) moves the update far, and its ratio then speaks of the misfit rather than of C_xr.
+Capping an increment from above keeps exp(S) a supermartingale under the model, so the bound
+stands; a change whose blocks each carry more than the cap is found after k steps instead of
+fewer.
+
+The slips count with the filter's weight 1/VIF, so correlated slip errors do not read as
+evidence. While the estimate itself is still moving (posterior sd of log C_xr above the gate)
+the statistic stays at 0.
 """
 
 from __future__ import annotations
