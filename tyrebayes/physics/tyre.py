@@ -12,6 +12,7 @@ The brush model with parabolic pressure has slope C at zero slip (eq. 3.4, 5.5) 
 from __future__ import annotations
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
@@ -407,6 +408,28 @@ def magic_formula_longitudinal(
 _MF_NEWTON_STEPS = 8
 
 
+@jax.custom_jvp
+def _magic_formula_root(t, curvature):
+    """x with (1 − E)x + E atan x = t, by Newton's method from x = t (``_MF_NEWTON_STEPS``)."""
+    x = t
+    for _ in range(_MF_NEWTON_STEPS):
+        h = (1.0 - curvature) * x + curvature * jnp.arctan(x) - t
+        x = x - h / (1.0 - curvature + curvature / (1.0 + x**2))
+    return x
+
+
+@_magic_formula_root.defjvp
+def _magic_formula_root_jvp(primals, tangents):
+    # Implicit differentiation of h(x; E) = t: dx = (dt − ∂h/∂E dE)/h′(x). Derivatives then cost
+    # one evaluation of h′ instead of a pass through the unrolled Newton steps, and higher ones
+    # (the Laplace Hessian's) follow from differentiating this rule, which calls the root again.
+    t, curvature = primals
+    dt, dcurvature = tangents
+    x = _magic_formula_root(t, curvature)
+    slope = 1.0 - curvature + curvature / (1.0 + x**2)
+    return x, (dt - (jnp.arctan(x) - x) * dcurvature) / slope
+
+
 def magic_formula_inverse_and_slope(
     rho: Scalarish, c_x: Scalarish, mu: Scalarish, shape: Scalarish, curvature: Scalarish
 ) -> tuple[Float[Array, "..."], Float[Array, "..."]]:
@@ -414,8 +437,8 @@ def magic_formula_inverse_and_slope(
 
     The curve is ρ = μ sin(C atan(Bσ − E(Bσ − atan Bσ))) with B = C_x/(C μ) (Pacejka 2006,
     4.E9–E18 at one load; slope C_x at zero, peak μ). With y = ρ/μ and x = Bσ the inverse solves
-    (1 − E)x + E atan x = t, t = tan(asin(y)/C), by Newton's method (``_MF_NEWTON_STEPS``,
-    unrolled, so that gradients and Hessians flow through it). dρ/dσ = C_x √(1 − y²) h′(x)/(1 + t²)
+    (1 − E)x + E atan x = t, t = tan(asin(y)/C), by Newton's method (``_MF_NEWTON_STEPS``),
+    differentiated implicitly, to any order. dρ/dσ = C_x √(1 − y²) h′(x)/(1 + t²)
     with h′(x) = 1 − E + E/(1 + x²). Near zero the curve departs from its tangent with a cubic
     term: ρ ≈ C_x σ (1 − x²((1 + E)/3 + C²/6)), where the brush model's departure is quadratic
     (thesis eq. 3.3–3.4); that is why a brush fit to such a tyre reads its straight start as a
@@ -455,10 +478,8 @@ def magic_formula_inverse_and_slope(
         jnp.tan(jnp.arcsin(y_in) / shape),
         jnp.sign(y) * jnp.tan(0.5 * jnp.pi / shape),
     )
-    x = t
-    for _ in range(_MF_NEWTON_STEPS):
-        h = (1.0 - curvature) * x + curvature * jnp.arctan(x) - t
-        x = x - h / (1.0 - curvature + curvature / (1.0 + x**2))
+    t, curvature = jnp.broadcast_arrays(t, curvature)
+    x = _magic_formula_root(t, curvature)
     b = c_x / (shape * mu)
     slip = x / b
     dh = 1.0 - curvature + curvature / (1.0 + x**2)

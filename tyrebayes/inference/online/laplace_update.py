@@ -10,8 +10,12 @@ step is exact and the update is the Kalman filter's (a test checks it).
 
 The Newton iterations are at most :attr:`OnlineConfig.newton_steps`, fewer once a step is short
 against the posterior sd (:attr:`OnlineConfig.newton_tolerance`), each with a Hessian floored to
-positive definite and a step length chosen from a fixed set by the objective (0 included, so a
-step never makes the objective worse). The loop is a ``lax.while_loop``: the update vmaps over
+positive definite. The full step is taken when it lowers the objective; otherwise the best of a
+fixed set of shorter ones (0 included, so a step never makes the objective worse). The Hessian,
+most of an iteration's cost, is taken again only after a step longer than
+:data:`_REFRESH_SD` posterior sds: a settled filter's first step from the predicted mean is a
+fraction of an sd, over which the block's curvature barely changes, so its update costs one
+Hessian (a chord step confirms the mode). The loop is a ``lax.while_loop``: the update vmaps over
 cars (running as many iterations as the slowest car needs) and scans over time.
 """
 
@@ -24,8 +28,11 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-# Step lengths tried per Newton iteration (the best is taken; 0 keeps the point).
-_STEP_LENGTHS = (1.0, 0.5, 0.2, 0.05, 0.01, 0.0)
+# Step lengths tried when the full Newton step does not lower the objective (the best is taken;
+# 0 keeps the point).
+_STEP_LENGTHS = (0.5, 0.2, 0.05, 0.01, 0.0)
+# A step longer than this many posterior sds takes the Hessian again at its end point.
+_REFRESH_SD = 1.0
 # Relative eigenvalue floor of a covariance's inverse (a predicted covariance is positive
 # definite; the floor only keeps round-off from making it otherwise).
 _EIGEN_FLOOR = 1e-12
@@ -41,25 +48,30 @@ def _floored_inverse(matrix: Float[Array, "p p"]) -> Float[Array, "p p"]:
     return (vectors * inverse_values[None, :]) @ vectors.T
 
 
-def _information(curvature: Float[Array, "p p"], absolute: bool = False) -> Float[Array, "p p"]:
-    """The block's curvature −∇²ℓ with its negative eigenvalues set to 0 (or made positive).
+def _informations(
+    curvature: Float[Array, "p p"],
+) -> tuple[Float[Array, "p p"], Float[Array, "p p"]]:
+    """The block's curvature −∇²ℓ with its negative eigenvalues set to 0, and made positive.
 
     Far from the mode (the first blocks from a wide prior) −∇²ℓ is indefinite: the noise scales'
     and the curve's directions bend the wrong way there. A direction the block bends the other
-    way is read as no information in it, never as negative precision, so the Newton matrix stays
-    at least the prior's precision and the covariance never grows by an update.
+    way is read as no information in it, never as negative precision (the first matrix), so the
+    covariance never grows by an update.
 
-    ``absolute`` keeps those eigenvalues' magnitudes instead (saddle-free Newton, Dauphin et al.
+    The second keeps those eigenvalues' magnitudes instead (saddle-free Newton, Dauphin et al.
     2014): for the Newton *step*, where a cut direction would be held by the prior alone and the
     step along it could be orders of magnitude too long (a slip-drift τ sent to e^80 on the first
-    block from the prior).
+    block from the prior). One eigendecomposition gives both.
     """
     symmetric = 0.5 * (curvature + curvature.T)
     finite = jnp.all(jnp.isfinite(symmetric))
     symmetric = jnp.where(finite, symmetric, 0.0)
     eigenvalues, vectors = jnp.linalg.eigh(symmetric)
-    kept = jnp.abs(eigenvalues) if absolute else jnp.maximum(eigenvalues, 0.0)
-    return (vectors * kept[None, :]) @ vectors.T
+
+    def rebuilt(values):
+        return (vectors * values[None, :]) @ vectors.T
+
+    return rebuilt(jnp.maximum(eigenvalues, 0.0)), rebuilt(jnp.abs(eigenvalues))
 
 
 class GaussianUpdate(eqx.Module):
@@ -108,8 +120,9 @@ def laplace_update(
     -------
     GaussianUpdate
         The mode of the one-step posterior and the inverse of its negative Hessian (the
-        block's part with negative eigenvalues cut, :func:`_information`, taken at the last
-        Newton iterate before the last step), and the block's Laplace log-evidence.
+        block's part with negative eigenvalues cut, :func:`_informations`, taken where the
+        Hessian was last taken: the start of the last step longer than ``_REFRESH_SD`` sds,
+        or the predicted mean), and the block's Laplace log-evidence.
 
     Examples
     --------
@@ -130,31 +143,38 @@ def laplace_update(
     lengths = jnp.asarray(_STEP_LENGTHS, dtype=mean.dtype)
 
     def newton(carry):
-        i, theta, _, _ = carry
-        curvature = hessian(theta)
+        i, theta, value, information, absolute, refresh, _ = carry
+        information, absolute = jax.lax.cond(
+            refresh, lambda: _informations(hessian(theta)), lambda: (information, absolute)
+        )
         g = precision @ (theta - mean) + gradient(theta)
-        newton_matrix = precision + _information(curvature, absolute=True)
+        newton_matrix = precision + absolute
         step = _floored_inverse(newton_matrix) @ g
         step = jnp.where(jnp.all(jnp.isfinite(step)), step, 0.0)
-        candidates = theta[None, :] - lengths[:, None] * step[None, :]
-        values = jax.vmap(objective)(candidates)
-        best = jnp.argmin(values)
-        moved = lengths[best] * step
+        full_value = objective(theta - step)
+
+        def shorter():
+            values = jax.vmap(objective)(theta[None, :] - lengths[:, None] * step[None, :])
+            best = jnp.argmin(values)
+            return lengths[best], values[best]
+
+        taken, new_value = jax.lax.cond(
+            full_value <= value, lambda: (jnp.ones((), mean.dtype), full_value), shorter
+        )
+        moved = taken * step
         length = jnp.sqrt(jnp.abs(moved @ newton_matrix @ moved))
-        return i + 1, candidates[best], _information(curvature), length
+        return i + 1, theta - moved, new_value, information, absolute, length > _REFRESH_SD, length
 
     def more(carry):
-        i, _, _, length = carry
+        i, length = carry[0], carry[-1]
         return (i < newton_steps) & ((i == 0) | (length >= tolerance))
 
-    # The Hessian is most of an iteration's cost (30 times the likelihood's for the Magic
-    # Formula curve); by the last step it is small against the posterior sd, so the
-    # covariance takes the information of the iterate before it.
-    start = (jnp.zeros((), jnp.int32), mean, jnp.zeros_like(cov), jnp.asarray(jnp.inf, mean.dtype))
-    _, mode, information, _ = jax.lax.while_loop(more, newton, start)
+    zeros, inf = jnp.zeros_like(cov), jnp.asarray(jnp.inf, mean.dtype)
+    start = (jnp.zeros((), jnp.int32), mean, objective(mean), zeros, zeros, jnp.array(True), inf)
+    _, mode, value, information, _, _, _ = jax.lax.while_loop(more, newton, start)
     post_cov = _floored_inverse(precision + information)
     _, log_det_ratio = jnp.linalg.slogdet(post_cov @ precision)
-    log_evidence = -objective(mode) + 0.5 * log_det_ratio
+    log_evidence = -value + 0.5 * log_det_ratio
     return GaussianUpdate(
         mean=mode,
         cov=post_cov,
