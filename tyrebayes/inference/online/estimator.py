@@ -121,7 +121,7 @@ class OnlineEstimator(eqx.Module):
             challenger_mean=prior.mean,
             challenger_cov=prior.cov,
             log_bayes_factor=zero,
-            drive_steps=jnp.zeros((), dtype=jnp.int32),
+            drive_steps=jnp.asarray(self.config.swap_window_steps, dtype=jnp.int32),
             n_alarms=jnp.zeros((), dtype=jnp.int32),
             alarm=jnp.zeros((), dtype=bool),
             inflation=empty_inflation(dtype),
@@ -149,7 +149,12 @@ class OnlineEstimator(eqx.Module):
             reset_to_prior(self.prior, *predicted, TYRE_COORDINATES, start),
             (state.challenger_mean, state.challenger_cov + drift),
         )
-        drive_steps = jnp.where(start, 0, state.drive_steps + 1)
+        # A drive start with no slip window since the (re)start carries nothing of a tyre to
+        # test against: its challenger would be the estimate itself, so the test stays off.
+        carried = state.n_slip_windows > 0
+        drive_steps = jnp.where(
+            start, jnp.where(carried, 0, cfg.swap_window_steps), state.drive_steps + 1
+        )
         active = drive_steps < cfg.swap_window_steps
         challenged = jax.lax.cond(
             active,

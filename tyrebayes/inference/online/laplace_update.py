@@ -138,40 +138,53 @@ def laplace_update(
         value = 0.5 * d @ precision @ d - log_likelihood(theta)
         return jnp.where(jnp.isfinite(value), value, jnp.inf)
 
-    gradient = jax.grad(lambda t: -log_likelihood(t))
-    hessian = jax.jacfwd(gradient)
+    def negative_log_likelihood(theta):
+        return -log_likelihood(theta)
+
+    value_and_gradient = jax.value_and_grad(negative_log_likelihood)
+    hessian = jax.jacfwd(jax.grad(negative_log_likelihood))
     lengths = jnp.asarray(_STEP_LENGTHS, dtype=mean.dtype)
 
+    def evaluated(theta):
+        # The objective and its gradient at θ from one pass (the gradient is the next
+        # iteration's if θ is taken).
+        d = theta - mean
+        nll, g = value_and_gradient(theta)
+        value = 0.5 * d @ precision @ d + nll
+        return jnp.where(jnp.isfinite(value), value, jnp.inf), precision @ d + g
+
     def newton(carry):
-        i, theta, value, information, absolute, refresh, _ = carry
+        i, theta, value, g, information, absolute, refresh, _ = carry
         information, absolute = jax.lax.cond(
             refresh, lambda: _informations(hessian(theta)), lambda: (information, absolute)
         )
-        g = precision @ (theta - mean) + gradient(theta)
         newton_matrix = precision + absolute
         step = _floored_inverse(newton_matrix) @ g
         step = jnp.where(jnp.all(jnp.isfinite(step)), step, 0.0)
-        full_value = objective(theta - step)
+        full_value, full_gradient = evaluated(theta - step)
 
         def shorter():
-            values = jax.vmap(objective)(theta[None, :] - lengths[:, None] * step[None, :])
-            best = jnp.argmin(values)
-            return lengths[best], values[best]
+            candidates = theta[None, :] - lengths[:, None] * step[None, :]
+            taken = lengths[jnp.argmin(jax.vmap(objective)(candidates))]
+            return (taken, *evaluated(theta - taken * step))
 
-        taken, new_value = jax.lax.cond(
-            full_value <= value, lambda: (jnp.ones((), mean.dtype), full_value), shorter
+        taken, new_value, new_gradient = jax.lax.cond(
+            full_value <= value,
+            lambda: (jnp.ones((), mean.dtype), full_value, full_gradient),
+            shorter,
         )
         moved = taken * step
         length = jnp.sqrt(jnp.abs(moved @ newton_matrix @ moved))
-        return i + 1, theta - moved, new_value, information, absolute, length > _REFRESH_SD, length
+        refresh = length > _REFRESH_SD
+        return i + 1, theta - moved, new_value, new_gradient, information, absolute, refresh, length
 
     def more(carry):
         i, length = carry[0], carry[-1]
         return (i < newton_steps) & ((i == 0) | (length >= tolerance))
 
     zeros, inf = jnp.zeros_like(cov), jnp.asarray(jnp.inf, mean.dtype)
-    start = (jnp.zeros((), jnp.int32), mean, objective(mean), zeros, zeros, jnp.array(True), inf)
-    _, mode, value, information, _, _, _ = jax.lax.while_loop(more, newton, start)
+    start = (jnp.zeros((), jnp.int32), mean, *evaluated(mean), zeros, zeros, jnp.array(True), inf)
+    _, mode, value, _, information, _, _, _ = jax.lax.while_loop(more, newton, start)
     post_cov = _floored_inverse(precision + information)
     _, log_det_ratio = jnp.linalg.slogdet(post_cov @ precision)
     log_evidence = -value + 0.5 * log_det_ratio

@@ -72,7 +72,8 @@ class FilterState(eqx.Module):
     log_bayes_factor : Float[Array, ""]
         Log Bayes factor of a swap at the last drive start [nats].
     drive_steps : Int[Array, ""]
-        Steps since the last drive start.
+        Steps since the last drive start; the swap test runs while it is below
+        ``swap_window_steps``, and a start it does not test is counted from there.
     n_alarms : Int[Array, ""]
         Change alarms so far.
     alarm : Bool[Array, ""]
