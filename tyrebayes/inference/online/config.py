@@ -91,6 +91,10 @@ class OnlineConfig(eqx.Module):
         away from zero: 120 windows, 30 s).
     excitation_force : float
         Force of an exciting window [-]: 0.05, beyond the force noise (±0.01, PUSHING_MARGIN).
+    max_prior_z : float
+        C_x is withheld while the mean of log C_xr lies more than this many type-prior sds
+        from the type's median (4: with the prior's log-sd 0.45 a factor of 6 either way, far
+        beyond any tyre of the type; such a value comes from a model that does not fit).
     initial_inflation : float
         Slip-error variance inflation assumed until :data:`~..window_correlation.MIN_BLOCKS`
         batch-means blocks have estimated it (2.0: the package's own simulated drive gave
@@ -116,6 +120,7 @@ class OnlineConfig(eqx.Module):
     min_slip_windows: int = 240
     min_excited_windows: int = 120
     excitation_force: float = 0.05
+    max_prior_z: float = 4.0
     initial_inflation: float = 2.0
     inflation_prior_blocks: float = 10.0
     mu_observed_contraction: float = 0.5

@@ -234,13 +234,16 @@ class OnlineEstimator(eqx.Module):
         )
         a = c_x_direction(state.mean.shape[0], mean_temperature, idx, state.mean.dtype)
         c_x = log_normal_summary(a @ state.mean, jnp.sqrt(a @ state.cov @ a))
-        ready, reason = readiness(c_x, state.n_slip_windows, state.n_excited_windows, self.config)
+        gain_i, offset_i, c_i = idx["log_force_gain"], idx["slip_offset"], idx["log_c_xr"]
+        prior_z = (state.mean[c_i] - self.prior.mean[c_i]) / jnp.sqrt(self.prior.cov[c_i, c_i])
+        ready, reason = readiness(
+            c_x, state.n_slip_windows, state.n_excited_windows, prior_z, self.config
+        )
         mu_i = idx["log_mu_max"]
         mu_contraction = 1.0 - sd[mu_i] / jnp.sqrt(self.prior.cov[mu_i, mu_i])
         mu_observed = (state.n_limit_windows > 0) & (
             mu_contraction >= self.config.mu_observed_contraction
         )
-        gain_i, offset_i, c_i = idx["log_force_gain"], idx["slip_offset"], idx["log_c_xr"]
         return OnlineSummary(
             time_s=state.time_s,
             c_x=c_x,

@@ -8,7 +8,9 @@ from its 90 % HDI), keyed ``hdi_90`` as every summary of the package.
 
 "Enough evidence" (``ready``) for C_x and C_xr: their 90 % interval lies within
 ±``ready_half_width`` of the mean AND the windows since the (re)start excite the tyre (enough
-slip windows, enough of them at a force away from zero). μ_max has its own rule: an ABS window
+slip windows, enough of them at a force away from zero) AND its C_xr lies within
+``max_prior_z`` type-prior sds of the type's median: a value beyond that says the model does not
+fit the windows, not what the tyre is. μ_max has its own rule: an ABS window
 was seen and the posterior sd of log μ_max has shrunk by half from the prior's. A value that is
 not ready is reported as missing, with the reason (:func:`summary_record`).
 """
@@ -25,11 +27,12 @@ from ...physics.thermal import REFERENCE_TEMPERATURE_C
 _Z90 = 1.6448536269514722
 
 # Reasons a C_x value is withheld (codes in OnlineSummary.reason, texts in summary_record).
-READY, TOO_LITTLE_EXCITATION, INTERVAL_TOO_WIDE = 0, 1, 2
+READY, TOO_LITTLE_EXCITATION, INTERVAL_TOO_WIDE, OUTSIDE_TYPE = 0, 1, 2, 3
 REASONS = {
     READY: "",
     TOO_LITTLE_EXCITATION: "too little excitation: too few windows pushing the tyre",
     INTERVAL_TOO_WIDE: "90 % interval of C_x wider than the readiness width",
+    OUTSIDE_TYPE: "C_xr far outside its tyre type's range: the model does not fit these windows",
 }
 
 
@@ -118,14 +121,22 @@ def c_x_direction(n_params: int, mean_temperature_c, index: dict, dtype=float):
     return a.at[index["temp_sensitivity"]].set(-(mean_temperature_c - REFERENCE_TEMPERATURE_C))
 
 
-def readiness(c_x: LogNormalSummary, n_slip, n_excited, config) -> tuple:
-    """(ready, reason) for C_x (module docstring)."""
+def readiness(c_x: LogNormalSummary, n_slip, n_excited, prior_z, config) -> tuple:
+    """(ready, reason) for C_x (module docstring); ``prior_z`` is the distance of log C_xr's
+    mean from the type prior's in prior sds."""
     narrow = (c_x.high <= (1.0 + config.ready_half_width) * c_x.mean) & (
         c_x.low >= (1.0 - config.ready_half_width) * c_x.mean
     )
-    excited = (n_slip >= config.min_slip_windows) & (n_excited >= config.min_excited_windows)
-    reason = jnp.where(~excited, TOO_LITTLE_EXCITATION, jnp.where(narrow, READY, INTERVAL_TOO_WIDE))
-    return excited & narrow, reason
+    excited = (jnp.asarray(n_slip) >= config.min_slip_windows) & (
+        jnp.asarray(n_excited) >= config.min_excited_windows
+    )
+    typical = jnp.abs(prior_z) <= config.max_prior_z
+    reason = jnp.where(
+        ~excited,
+        TOO_LITTLE_EXCITATION,
+        jnp.where(~typical, OUTSIDE_TYPE, jnp.where(narrow, READY, INTERVAL_TOO_WIDE)),
+    )
+    return excited & typical & narrow, reason
 
 
 def _value(s: LogNormalSummary, i) -> dict:
