@@ -20,10 +20,9 @@ One step (Särkkä 2013, ch. 5-6; module docstrings of the parts):
    tyre's and the drive's coordinates (:data:`~.parameters.TYRE_COORDINATES`,
    :data:`~.parameters.PER_DRIVE`) from the type prior, since in the steps before the alarm the
    drive's slip offset took up part of the change; the sensor's noise levels are kept. The
-   block that raised the alarm is left out:
-   its information was taken at the old tyre's mode, and carried from there to the prior as a
-   linear message it can land far outside the prior (a block of turning windows whose slips
-   sat 20 σ off sent C_x to zero);
+   block that raised the alarm is left out: its information was taken at the old tyre's mode,
+   and carried from there to the prior as a linear message it can land far outside the prior
+   (a block of turning windows whose slips sat far off the curve sent C_x to zero);
 5. the standardised residuals at the new mode feed the VIF estimate (:mod:`.inflation`).
 
 Examples
