@@ -197,27 +197,57 @@ def _front_rear_ratio(ratio: np.ndarray, sd: np.ndarray) -> tuple[float, float]:
     return float(value), float(value_sd)
 
 
-def _longitudinal_work(feats, ratios, ratio_sd4, drive, is_driven, valid, dt):
-    """(work [J], its sd, Ĉ_x, per-sample kernel ρ² F_z V dt (n, 2), usable mask (n, 2))."""
+class _WorkTerms(eqx.Module):
+    """What :func:`_longitudinal_work` needs that does not change with the radius ratios.
+
+    Per sample and axle, shape (n, 2): ``power_w`` F_x V [W] (NaN where F_x is), ``usable``
+    (valid, finite F_x, no spin), ``pushing`` (F_x > 0 on a driven axle), ``slip_sd`` [-],
+    ``kernel_j`` ρ² F_z |V| dt [J], not yet masked.
+    """
+
+    power_w: np.ndarray
+    usable: np.ndarray
+    pushing: np.ndarray
+    slip_sd: np.ndarray
+    kernel_j: np.ndarray
+
+
+def _work_terms(feats, is_driven, valid, dt) -> _WorkTerms:
     vx = feats.vx_mps
-    slip = _corrected_slip(feats, ratios, drive)
     fx, fz = feats.fx_axle_n, feats.fz_axle_n
-    slip_axle = np.column_stack([slip[:, :2].mean(axis=1), slip[:, 2:].mean(axis=1)])
     slip_axle_sd = np.column_stack(
         [
             np.hypot(feats.slip_sd[:, 0], feats.slip_sd[:, 1]) / 2,
             np.hypot(feats.slip_sd[:, 2], feats.slip_sd[:, 3]) / 2,
         ]
     )
-    use = valid[:, None] & np.isfinite(fx) & np.isfinite(slip_axle) & ~feats.spin[:, None]
-    traction = use & (fx > 0) & is_driven[None, :]
-    power = np.where(use, fx * vx[:, None], 0.0)  # F_x V [W]
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        return _WorkTerms(
+            power_w=fx * vx[:, None],
+            usable=valid[:, None] & np.isfinite(fx) & ~feats.spin[:, None],
+            pushing=(fx > 0) & is_driven[None, :],
+            slip_sd=slip_axle_sd,
+            kernel_j=(fx / fz) ** 2 * fz * np.abs(vx)[:, None] * dt,
+        )
+
+
+def _longitudinal_work(feats, ratios, ratio_sd4, drive, terms: _WorkTerms, dt):
+    """(work [J], its sd, Ĉ_x, per-sample kernel ρ² F_z V dt (n, 2), usable mask (n, 2)).
+
+    Only the slip changes with the radius ratios; the rest comes from ``terms``, computed once
+    for the iteration over ratios in :func:`drive_wear_evidence`.
+    """
+    slip = _corrected_slip(feats, ratios, drive)
+    slip_axle = np.column_stack([slip[:, :2].mean(axis=1), slip[:, 2:].mean(axis=1)])
+    use = terms.usable & np.isfinite(slip_axle)
+    traction = use & terms.pushing
+    power = np.where(use, terms.power_w, 0.0)  # F_x V [W]
     measured = np.where(traction, power * slip_axle, 0.0).sum(axis=0) * dt
     # Slip noise is correlated over the smoothing window: a sum of n samples has the variance
     # of n / window independent ones, each window-fold larger.
     window = max(1.0, feats.smoothing_s * feats.sample_rate_hz)
-    noise_var = np.where(traction, (power * slip_axle_sd) ** 2, 0.0).sum(axis=0) * dt**2 * window
-    kernel = np.where(use, (fx / fz) ** 2 * fz * np.abs(vx)[:, None], 0.0) * dt
+    noise_var = np.where(traction, (power * terms.slip_sd) ** 2, 0.0).sum(axis=0) * dt**2 * window
+    kernel = np.where(use, terms.kernel_j, 0.0)
     traction_kernel = np.where(traction, kernel, 0.0).sum()
     traction_energy = np.where(traction, power, 0.0).sum(axis=0) * dt
     _, ratio_sd = _front_rear_ratio(ratios, ratio_sd4)
@@ -284,9 +314,10 @@ def drive_wear_evidence(
     is_driven[driven] = True
     ratio_sd4 = np.asarray(feats.nuisances.radius_ratio_sd, dtype=float)
     c_hat = float("nan")
+    terms = _work_terms(feats, is_driven, valid, dt)
     for _ in range(4):
         ratios = _free_slip_ratios(feats, driven, c_hat)
-        work = _longitudinal_work(feats, ratios, ratio_sd4, vehicle.drive, is_driven, valid, dt)
+        work = _longitudinal_work(feats, ratios, ratio_sd4, vehicle.drive, terms, dt)
         c_hat = work[2]
     work_x, work_x_sd, c_hat, kernel, use = work
 
