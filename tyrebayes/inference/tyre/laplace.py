@@ -32,10 +32,26 @@ def _model_layout(priors_key: tuple, kind: str, obs_key: tuple):
     """The model for one data shape, a template of that shape and its median parameters.
 
     Returns ``(model, template, params)``; ``params`` are unconstrained, keyed by site, and fix
-    the flat layout (``ravel_pytree``) that the Laplace core and the NUTS runner share.
+    the flat layout (``ravel_pytree``) that the Laplace core and the NUTS runner share. They
+    depend on the drives and surfaces, not on the number of windows: the model has no latent
+    per-window site, and ``init_to_median`` draws from the priors only. The template therefore
+    has :data:`LAYOUT_WINDOWS` windows whatever the data's length, so that the layout (a
+    compilation of the model's potential, ~4 s and ~200 MB of a worker's memory per shape) is
+    made once per number of drives and surfaces, not once per padded length.
     """
+    _, n_drives, surfaces = obs_key
+    return _layout(priors_key, kind, n_drives, surfaces)
+
+
+# Windows of the template :func:`_model_layout` traces the model on (any length gives the same
+# parameters; tests/inference/tyre/test_laplace.py checks it).
+LAYOUT_WINDOWS = 256
+
+
+@functools.lru_cache(maxsize=16)
+def _layout(priors_key: tuple, kind: str, n_drives: int, surfaces: tuple):
     model = partial(tyre_model, priors=TyrePriors(*priors_key), kind=kind)
-    template = _template_observations(*obs_key)
+    template = _template_observations(LAYOUT_WINDOWS, n_drives, surfaces)
     # init_to_median draws a batch of prior samples; numpyro broadcasts it by rank promotion.
     with jax.numpy_rank_promotion("allow"):
         init = initialize_model(
