@@ -1,4 +1,4 @@
-"""The Laplace core's model layout does not depend on the number of windows it is traced on."""
+"""The Laplace core's model layout: independent of the number of windows it is traced on."""
 
 from __future__ import annotations
 
@@ -21,7 +21,8 @@ def test_layout_is_the_same_as_on_a_template_of_the_data_length():
     surfaces = ("dry", "snow")
     model, template, params = _model_layout(key, "brush", (4096, 2, surfaces))
     assert template.slip.shape == (LAYOUT_WINDOWS,)
-    # What the layout was before: initialised on a template of the data's own length.
+    # What the layout was before: initialised op by op on a template of the data's own length
+    # (the compiled initialisation agrees to round-off).
     with jax.numpy_rank_promotion("allow"):
         full = initialize_model(
             jax.random.PRNGKey(0),
@@ -31,6 +32,21 @@ def test_layout_is_the_same_as_on_a_template_of_the_data_length():
         ).param_info.z
     assert sorted(params) == sorted(full)
     for name in full:
-        np.testing.assert_array_equal(np.asarray(params[name]), np.asarray(full[name]))
+        np.testing.assert_allclose(
+            np.asarray(params[name]), np.asarray(full[name]), rtol=1e-12, atol=1e-12
+        )
     # Cached per drives and surfaces: another padded length reuses it.
     assert _model_layout(key, "brush", (8192, 2, surfaces))[2] is params
+
+
+def test_site_plates_name_the_drive_plate_of_per_drive_sites():
+    from functools import partial
+
+    from tyrebayes.inference.tyre.laplace import _site_plates
+    from tyrebayes.inference.tyre.model import tyre_model
+
+    model = partial(tyre_model, priors=TyrePriors(), kind="brush")
+    plates = _site_plates(model, _template_observations(LAYOUT_WINDOWS, 3, ("dry",)))
+    assert plates["c_xr"] == ()
+    assert "drive" in plates["slip_offset"] and "drive" in plates["force_gain"]
+    assert "surface" in plates["mu_max"] and "drive" not in plates["mu_max"]
