@@ -153,7 +153,7 @@ def _em(
         log_weights = jnp.log(weights)
         # One length-n vector per component (k is small and static): the sums over components
         # are then elementwise and fuse, where (n, k) arrays reduced over their short minor axis
-        # did not, and the step costs about a third less.
+        # did not, and each step costs less.
         comps = range(n_components)
         inverse = [1.0 / (variances[j] + noise2) for j in comps]
         offset = [x - means[j] for j in comps]

@@ -35,9 +35,9 @@ def _model_layout(priors_key: tuple, kind: str, obs_key: tuple):
     the flat layout (``ravel_pytree``) that the Laplace core and the NUTS runner share. They
     depend on the drives and surfaces, not on the number of windows: the model has no latent
     per-window site, and ``init_to_median`` draws from the priors only. The template therefore
-    has :data:`LAYOUT_WINDOWS` windows whatever the data's length, so that the layout (a
-    compilation of the model's potential, ~4 s and ~200 MB of a worker's memory per shape) is
-    made once per number of drives and surfaces, not once per padded length.
+    has :data:`LAYOUT_WINDOWS` windows whatever the data's length, so that the layout (numpyro's
+    initialisation, run op by op: seconds, and memory a fleet worker keeps) is made once per
+    number of drives and surfaces, not once per padded length.
     """
     _, n_drives, surfaces = obs_key
     return _layout(priors_key, kind, n_drives, surfaces)
@@ -59,10 +59,10 @@ def _layout(priors_key: tuple, kind: str, n_drives: int, surfaces: tuple):
             jax.random.PRNGKey(0), model, model_args=(template,), init_strategy=init_to_median
         )
     # Run op by op, the initialisation compiled a one-op program for each of its few hundred
-    # operations, which stay loaded under every later fit's peak; they are not needed again
-    # (a fresh worker's 16,384-window fit: peak 1,558 MB with this, 1,667 MB without). Compiled
-    # as one program instead, the medians moved by 1e-16, and fits started from them by up to
-    # 0.2 % of C_x on the external drives: left op by op, the results stay as they were.
+    # operations, which stay loaded under every later fit's peak; they are not needed again.
+    # Compiled as one program instead, the medians moved by round-off, and fits started from
+    # them moved far more than that on the external drives (the MAP search is sensitive to its
+    # start): left op by op, the results stay as they were.
     _drop_op_by_op_programs()
     return model, template, init.param_info.z
 
