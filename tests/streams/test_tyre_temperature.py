@@ -71,3 +71,30 @@ def test_simulated_drive_temperature_is_read_from_the_stream():
     assert np.corrcoef(estimate, true)[0, 1] > 0.98
     rise_ratio = (estimate[-1] - 15.0) / (true[-1] - 15.0)
     assert 0.5 < rise_ratio < 2.0
+
+
+def test_padding_the_scan_leaves_the_temperatures_as_they_are():
+    """The block scan runs padded to whole multiples of _PAD_BLOCKS; unpadded it gives the same."""
+    import jax.numpy as jnp
+
+    from tyrebayes.physics.thermal import simulate_tyre_temperature
+    from tyrebayes.streams import tyre_temperature as tt
+
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 1500.0, 0.1)  # 1,500 blocks: padded to 2,048
+    speed = 20.0 + rng.normal(0.0, 2.0, t.size)
+    load, power = np.full(t.size, 4500.0), np.abs(rng.normal(0.0, 300.0, t.size))
+    padded = driven_tyre_temperature(t, speed, load, power, ambient_c=12.0)
+
+    block = 10
+    means = [x.reshape(-1, block).mean(axis=1) for x in (speed, load, power)]
+    means[0] = np.abs(means[0])
+    t_blocks = t[0] + (np.arange(t.size // block) + 0.5) * block * 0.1
+    direct = np.asarray(
+        simulate_tyre_temperature(
+            ThermalParams(), jnp.asarray(t_blocks), *map(jnp.asarray, means), 12.0, 12.0
+        )
+    )
+    expected = np.interp(t, np.r_[t[0], t_blocks], np.r_[12.0, direct])
+    assert tt._PAD_BLOCKS < t_blocks.size < 2 * tt._PAD_BLOCKS
+    np.testing.assert_allclose(padded, expected, rtol=1e-12, atol=1e-12)

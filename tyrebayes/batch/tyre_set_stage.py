@@ -62,11 +62,14 @@ def _keep_one_shape(size: int) -> None:
     A worker keeps every compiled program of every shape it fitted (the fit's programs are
     hundreds of MB), and they count towards every later task's peak. The run submits the sets
     largest shape first (:func:`~.run.fleet_run`), so a worker meets each shape in one run and
-    this drops each shape once; reloading from the shared cache costs tracing only.
+    this drops each shape once; reloading from the shared cache costs tracing only. The first
+    fit of a process drops what came before it too: the per-drive stage's programs (EM and
+    temperature scans of several lengths, op-by-op programs), which the sets, submitted once
+    every drive is done, do not use.
     """
     import jax
 
-    if _LAST_SHAPE and _LAST_SHAPE[0] != size:
+    if not _LAST_SHAPE or _LAST_SHAPE[0] != size:
         jax.clear_caches()
     _LAST_SHAPE[:] = [size]
 

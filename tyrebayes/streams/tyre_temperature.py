@@ -40,6 +40,8 @@ from ..physics.thermal import ThermalParams, simulate_tyre_temperature
 _BLOCK_S = 1.0
 
 _scan = eqx.filter_jit(simulate_tyre_temperature)
+# Blocks per compiled length of the scan (~17 min at 1 s blocks; 10-60 min drives: 4 lengths).
+_PAD_BLOCKS = 1024
 
 
 def driven_tyre_temperature(
@@ -94,17 +96,23 @@ def driven_tyre_temperature(
     speed, load, power = (_hold_last(np.abs(m) if i == 0 else m) for i, m in enumerate(means))
     start = float(ambient_c if initial_c is None else initial_c)
     t_blocks = time_s[0] + (np.arange(n_blocks) + 0.5) * block * dt
+    # The scan is causal, so blocks appended at the end (the last inputs held, time running on)
+    # leave the first n_blocks temperatures as they are: padded to a multiple of _PAD_BLOCKS, one
+    # compiled scan serves every drive of similar length instead of one per drive.
+    padded = -(-n_blocks // _PAD_BLOCKS) * _PAD_BLOCKS
+    t_padded = time_s[0] + (np.arange(padded) + 0.5) * block * dt
     temps = np.asarray(
         _scan(
             ThermalParams() if params is None else params,
-            jnp.asarray(t_blocks),
-            jnp.asarray(speed),
-            jnp.asarray(load),
-            jnp.asarray(power),
+            jnp.asarray(t_padded),
+            *(
+                jnp.asarray(np.pad(x, (0, padded - n_blocks), mode="edge"))
+                for x in (speed, load, power)
+            ),
             float(ambient_c),
             start,
         )
-    )
+    )[:n_blocks]
     # Block means describe block centres; before the first centre the tyre is at its start.
     return np.interp(time_s, np.concatenate([[time_s[0]], t_blocks]), np.r_[start, temps])
 

@@ -197,32 +197,100 @@ def _front_rear_ratio(ratio: np.ndarray, sd: np.ndarray) -> tuple[float, float]:
     return float(value), float(value_sd)
 
 
-def _longitudinal_work(feats, ratios, ratio_sd4, drive, is_driven, valid, dt):
-    """(work [J], its sd, Ĉ_x, per-sample kernel ρ² F_z V dt (n, 2), usable mask (n, 2))."""
+class _WorkTerms(eqx.Module):
+    """What :func:`_longitudinal_work` needs that does not change with the radius ratios.
+
+    Per sample and axle, shape (n, 2): ``power_w`` F_x V [W] (NaN where F_x is), ``usable``
+    (valid, finite F_x, no spin), ``pushing`` (F_x > 0 on a driven axle), ``slip_sd`` [-],
+    ``kernel_j`` ρ² F_z |V| dt [J], not yet masked.
+    """
+
+    power_w: np.ndarray
+    usable: np.ndarray
+    pushing: np.ndarray
+    slip_sd: np.ndarray
+    kernel_j: np.ndarray
+
+
+def _work_terms(feats, is_driven, valid, dt) -> _WorkTerms:
     vx = feats.vx_mps
-    slip = _corrected_slip(feats, ratios, drive)
     fx, fz = feats.fx_axle_n, feats.fz_axle_n
-    slip_axle = np.column_stack([slip[:, :2].mean(axis=1), slip[:, 2:].mean(axis=1)])
     slip_axle_sd = np.column_stack(
         [
             np.hypot(feats.slip_sd[:, 0], feats.slip_sd[:, 1]) / 2,
             np.hypot(feats.slip_sd[:, 2], feats.slip_sd[:, 3]) / 2,
         ]
     )
-    use = valid[:, None] & np.isfinite(fx) & np.isfinite(slip_axle) & ~feats.spin[:, None]
-    traction = use & (fx > 0) & is_driven[None, :]
-    power = np.where(use, fx * vx[:, None], 0.0)  # F_x V [W]
-    measured = np.where(traction, power * slip_axle, 0.0).sum(axis=0) * dt
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        return _WorkTerms(
+            power_w=fx * vx[:, None],
+            usable=valid[:, None] & np.isfinite(fx) & ~feats.spin[:, None],
+            pushing=(fx > 0) & is_driven[None, :],
+            slip_sd=slip_axle_sd,
+            kernel_j=(fx / fz) ** 2 * fz * np.abs(vx)[:, None] * dt,
+        )
+
+
+class _MaskedSums(eqx.Module):
+    """The sums of :func:`_longitudinal_work` that depend on the usable samples, not the slip.
+
+    ``use`` (n, 2) the usable samples, ``traction`` (n, 2) those pushing on a driven axle,
+    ``power_w`` (n, 2) F_x V there [W] (0 elsewhere), ``kernel_j`` (n, 2) ρ² F_z |V| dt there
+    [J]; per axle ``noise_var_j2`` [J²], ``traction_energy_j`` [J], ``linear_kernel_j`` [J]
+    (the kernel of usable samples that do not push), and ``traction_kernel_j`` [J] in all.
+    """
+
+    use: np.ndarray
+    traction: np.ndarray
+    power_w: np.ndarray
+    kernel_j: np.ndarray
+    noise_var_j2: np.ndarray
+    traction_energy_j: np.ndarray
+    linear_kernel_j: np.ndarray
+    traction_kernel_j: float
+
+
+def _masked_sums(feats, terms: _WorkTerms, use: np.ndarray, dt: float) -> _MaskedSums:
+    traction = use & terms.pushing
+    power = np.where(use, terms.power_w, 0.0)  # F_x V [W]
     # Slip noise is correlated over the smoothing window: a sum of n samples has the variance
     # of n / window independent ones, each window-fold larger.
     window = max(1.0, feats.smoothing_s * feats.sample_rate_hz)
-    noise_var = np.where(traction, (power * slip_axle_sd) ** 2, 0.0).sum(axis=0) * dt**2 * window
-    kernel = np.where(use, (fx / fz) ** 2 * fz * np.abs(vx)[:, None], 0.0) * dt
-    traction_kernel = np.where(traction, kernel, 0.0).sum()
-    traction_energy = np.where(traction, power, 0.0).sum(axis=0) * dt
+    noise_var = np.where(traction, (power * terms.slip_sd) ** 2, 0.0).sum(axis=0) * dt**2 * window
+    kernel = np.where(use, terms.kernel_j, 0.0)
+    return _MaskedSums(
+        use=use,
+        traction=traction,
+        power_w=power,
+        kernel_j=kernel,
+        noise_var_j2=noise_var,
+        traction_energy_j=np.where(traction, power, 0.0).sum(axis=0) * dt,
+        linear_kernel_j=np.where(use & ~traction, kernel, 0.0).sum(axis=0),
+        traction_kernel_j=np.where(traction, kernel, 0.0).sum(),
+    )
+
+
+def _longitudinal_work(feats, ratios, ratio_sd4, drive, terms: _WorkTerms, dt, sums=None):
+    """(work [J], its sd, Ĉ_x, per-sample kernel ρ² F_z V dt (n, 2), usable mask (n, 2), sums).
+
+    Only the slip changes with the radius ratios; the rest comes from ``terms``, computed once
+    for the iteration over ratios in :func:`drive_wear_evidence`, and from ``sums`` (the
+    previous iteration's :class:`_MaskedSums`), reused while the usable samples are the same.
+    """
+    slip = _corrected_slip(feats, ratios, drive)
+    # The mean of each axle's two wheels, as (a + b) / 2 (what ndarray.mean gives for two).
+    slip_axle = np.empty((slip.shape[0], 2))
+    np.add(slip[:, 0], slip[:, 1], out=slip_axle[:, 0])
+    np.add(slip[:, 2], slip[:, 3], out=slip_axle[:, 1])
+    slip_axle /= 2.0
+    use = terms.usable & np.isfinite(slip_axle)
+    if sums is None or not np.array_equal(sums.use, use):
+        sums = _masked_sums(feats, terms, use, dt)
+    measured = np.where(sums.traction, sums.power_w * slip_axle, 0.0).sum(axis=0) * dt
+    noise_var, traction_kernel = sums.noise_var_j2, sums.traction_kernel_j
     _, ratio_sd = _front_rear_ratio(ratios, ratio_sd4)
     ratio_sd = ratio_sd if np.isfinite(ratio_sd) else 2e-3  # nominal radii: ~0.2 % unknown
-    offset_var = (traction_energy * ratio_sd) ** 2
+    offset_var = (sums.traction_energy_j * ratio_sd) ** 2
     measured_total = float(measured.sum())
     measured_sd = float(np.sqrt(noise_var.sum() + offset_var.sum()))
     if measured_total > 0 and traction_kernel > 0:
@@ -230,11 +298,11 @@ def _longitudinal_work(feats, ratios, ratio_sd4, drive, is_driven, valid, dt):
         rel_sd = measured_sd / measured_total
     else:
         c_hat, rel_sd = float("nan"), float("nan")
-    linear_part = np.where(use & ~traction, kernel, 0.0).sum(axis=0)
+    linear_part = sums.linear_kernel_j
     linear = linear_part / c_hat if np.isfinite(c_hat) else np.zeros(2)
     work_x = measured + linear
     work_x_sd = np.sqrt(noise_var + offset_var + (linear * np.nan_to_num(rel_sd)) ** 2)
-    return work_x, work_x_sd, c_hat, kernel, use
+    return work_x, work_x_sd, c_hat, sums.kernel_j, use, sums
 
 
 def drive_wear_evidence(
@@ -284,11 +352,12 @@ def drive_wear_evidence(
     is_driven[driven] = True
     ratio_sd4 = np.asarray(feats.nuisances.radius_ratio_sd, dtype=float)
     c_hat = float("nan")
+    terms, sums = _work_terms(feats, is_driven, valid, dt), None
     for _ in range(4):
         ratios = _free_slip_ratios(feats, driven, c_hat)
-        work = _longitudinal_work(feats, ratios, ratio_sd4, vehicle.drive, is_driven, valid, dt)
-        c_hat = work[2]
-    work_x, work_x_sd, c_hat, kernel, use = work
+        work = _longitudinal_work(feats, ratios, ratio_sd4, vehicle.drive, terms, dt, sums)
+        c_hat, sums = work[2], work[5]
+    work_x, work_x_sd, c_hat, kernel, use, _ = work
 
     # --- lateral work (single track, eq. 4.23b, c; quasi-steady samples only)
     ay, yaw, yaw_acc = feats.ay_mps2, feats.yaw_rate_radps, feats.yaw_acc_radps2

@@ -22,6 +22,7 @@ is handled window by window.
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import jax
@@ -144,34 +145,39 @@ def _em(
     tolerance, or after the step limit.
     """
     n_real = jnp.sum(mask)
-    weight = mask[:, None].astype(x.dtype)
+    weight = mask.astype(x.dtype)
+    n_components = means.shape[0]
 
     def step(state):
         weights, means, variances, previous, iterations, _ = state
-        # Windows × components; explicit broadcasting (the package runs with rank promotion
-        # raised as an error in its tests).
-        component_means, component_variances = means[None, :], variances[None, :]
-        total = component_variances + noise2[:, None]
-        inverse = 1.0 / total
-        offset = x[:, None] - component_means
+        log_weights = jnp.log(weights)
+        # One length-n vector per component (k is small and static): the sums over components
+        # are then elementwise and fuse, where (n, k) arrays reduced over their short minor axis
+        # did not, and each step costs less.
+        comps = range(n_components)
+        inverse = [1.0 / (variances[j] + noise2) for j in comps]
+        offset = [x - means[j] for j in comps]
         # log(w_k Normal) = log w_k − ½ δ²/t − ½ log t, evaluated as w_k t^(−½) exp(−½ δ²/t) times
-        # a per-window scale: one exp and one rsqrt per window and component instead of an exp
+        # a per-window scale: one exp and one sqrt per window and component instead of an exp
         # and a log (a log costs more than both), the same numbers up to round-off. The scale is
         # the smallest −log w_k + ½ δ²/t, so the largest term is at least t^(−½) (no underflow).
-        exponent = 0.5 * offset**2 * inverse - jnp.log(weights)[None, :]
-        scale = jnp.min(exponent, axis=1, keepdims=True)
-        scaled = jnp.exp(scale - exponent) * jax.lax.rsqrt(total)
-        norm = jnp.sum(scaled, axis=1, keepdims=True)
-        log_norm = jnp.log(norm[:, 0]) - scale[:, 0]
-        resp = scaled * (weight / norm)
+        exponent = [0.5 * offset[j] ** 2 * inverse[j] - log_weights[j] for j in comps]
+        scale = functools.reduce(jnp.minimum, exponent)
+        scaled = [jnp.exp(scale - exponent[j]) * jnp.sqrt(inverse[j]) for j in comps]
+        norm = functools.reduce(jnp.add, scaled)
+        log_norm = jnp.log(norm) - scale
+        per_window = weight / norm
+        resp = [scaled[j] * per_window for j in comps]
         # Each component's posterior of the true force of each window (mean, variance).
-        gain = component_variances * inverse
-        post_mean = component_means + gain * offset
-        post_var = component_variances * (1.0 - gain)
-        count = jnp.sum(resp, axis=0) + 1e-300
+        gain = [variances[j] * inverse[j] for j in comps]
+        post_mean = [means[j] + gain[j] * offset[j] for j in comps]
+        post_var = [variances[j] * (1.0 - gain[j]) for j in comps]
+        count = jnp.stack([jnp.sum(resp[j]) for j in comps]) + 1e-300
         new_weights = jnp.maximum(count / n_real, 1e-300)
-        new_means = jnp.sum(resp * post_mean, axis=0) / count
-        spread = jnp.sum(resp * ((post_mean - new_means[None, :]) ** 2 + post_var), axis=0)
+        new_means = jnp.stack([jnp.sum(resp[j] * post_mean[j]) for j in comps]) / count
+        spread = jnp.stack(
+            [jnp.sum(resp[j] * ((post_mean[j] - new_means[j]) ** 2 + post_var[j])) for j in comps]
+        )
         new_variances = jnp.maximum(spread / count, 1e-12)
         mean_log_lik = jnp.sum(jnp.where(mask, log_norm, 0.0)) / n_real
         converged = mean_log_lik - previous < tolerance

@@ -32,16 +32,48 @@ def _model_layout(priors_key: tuple, kind: str, obs_key: tuple):
     """The model for one data shape, a template of that shape and its median parameters.
 
     Returns ``(model, template, params)``; ``params`` are unconstrained, keyed by site, and fix
-    the flat layout (``ravel_pytree``) that the Laplace core and the NUTS runner share.
+    the flat layout (``ravel_pytree``) that the Laplace core and the NUTS runner share. They
+    depend on the drives and surfaces, not on the number of windows: the model has no latent
+    per-window site, and ``init_to_median`` draws from the priors only. The template therefore
+    has :data:`LAYOUT_WINDOWS` windows whatever the data's length, so that the layout (numpyro's
+    initialisation, run op by op: seconds, and memory a fleet worker keeps) is made once per
+    number of drives and surfaces, not once per padded length.
     """
+    _, n_drives, surfaces = obs_key
+    return _layout(priors_key, kind, n_drives, surfaces)
+
+
+# Windows of the template :func:`_model_layout` traces the model on (any length gives the same
+# parameters; tests/inference/tyre/test_laplace.py checks it).
+LAYOUT_WINDOWS = 256
+
+
+@functools.lru_cache(maxsize=16)
+def _layout(priors_key: tuple, kind: str, n_drives: int, surfaces: tuple):
     model = partial(tyre_model, priors=TyrePriors(*priors_key), kind=kind)
-    template = _template_observations(*obs_key)
+    template = _template_observations(LAYOUT_WINDOWS, n_drives, surfaces)
+
     # init_to_median draws a batch of prior samples; numpyro broadcasts it by rank promotion.
     with jax.numpy_rank_promotion("allow"):
         init = initialize_model(
             jax.random.PRNGKey(0), model, model_args=(template,), init_strategy=init_to_median
         )
+    # Run op by op, the initialisation compiled a one-op program for each of its few hundred
+    # operations, which stay loaded under every later fit's peak; they are not needed again.
+    # Compiled as one program instead, the medians moved by round-off, and fits started from
+    # them moved far more than that on the external drives (the MAP search is sensitive to its
+    # start): left op by op, the results stay as they were.
+    _drop_op_by_op_programs()
     return model, template, init.param_info.z
+
+
+def _drop_op_by_op_programs() -> None:
+    """Let JAX free the one-op programs its op-by-op dispatch has compiled (where it can say)."""
+    from jax._src import dispatch
+
+    clear = getattr(getattr(dispatch, "xla_primitive_callable", None), "cache_clear", None)
+    if clear is not None:
+        clear()
 
 
 @functools.lru_cache(maxsize=16)
@@ -215,6 +247,24 @@ def _start(flat_init, unravel, obs, priors, stiffness_factor, mu_sds):
     return ravel_pytree(start)[0]
 
 
+def _site_plates(model, template: TyreObservations) -> dict[str, tuple[str, ...]]:
+    """The plates each site of ``model`` sits in, by site name.
+
+    Read from a trace of the model made while JAX traces it abstractly (no operation runs: run
+    op by op on the template, the trace loaded a one-op program for each of its operations).
+    """
+    plates = {}
+
+    def record(template):
+        trace = handlers.trace(handlers.seed(model, 0)).get_trace(template)
+        plates.update({k: tuple(f.name for f in v["cond_indep_stack"]) for k, v in trace.items()})
+        return 0.0
+
+    with jax.numpy_rank_promotion("allow"):
+        jax.make_jaxpr(record)(template)
+    return plates
+
+
 def _block_hessian(model, template: TyreObservations, params: dict):
     """Hessian of a function of the flat parameters, using that drives do not interact.
 
@@ -228,12 +278,10 @@ def _block_hessian(model, template: TyreObservations, params: dict):
 
     Returns ``hessian_at(f, x)`` for ``f`` of the flat vector laid out like ``params``.
     """
-    with jax.numpy_rank_promotion("allow"):
-        trace = handlers.trace(handlers.seed(model, 0)).get_trace(template)
+    plates = _site_plates(model, template)
     drive_of = {}
     for name, value in params.items():
-        site = trace[name]
-        in_drive = any(f.name == "drive" for f in site["cond_indep_stack"])
+        in_drive = "drive" in plates[name]
         drive_of[name] = (
             np.broadcast_to(np.arange(template.n_drives), np.shape(value)).astype(float)
             if in_drive
