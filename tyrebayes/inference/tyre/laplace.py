@@ -69,8 +69,10 @@ def _layout(priors_key: tuple, kind: str, n_drives: int, surfaces: tuple):
 
 def _drop_op_by_op_programs() -> None:
     """Let JAX free the one-op programs its op-by-op dispatch has compiled (where it can say)."""
-    from jax._src import dispatch
-
+    try:
+        from jax._src import dispatch
+    except ImportError:  # a JAX without this private module: nothing to free
+        return
     clear = getattr(getattr(dispatch, "xla_primitive_callable", None), "cache_clear", None)
     if clear is not None:
         clear()
