@@ -7,6 +7,7 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pandas as pd
 
 from tyrebayes._io import atomic_path, atomic_write_bytes, sweep_stale_temporaries
@@ -59,3 +60,27 @@ def test_stream_writer_sweeps_too(tmp_path):
 
 def test_sweeping_a_missing_folder_is_a_no_op(tmp_path):
     assert sweep_stale_temporaries(tmp_path / "nope" / "fit.nc") == []
+
+
+def test_to_jsonable_writes_a_fits_diagnostics_as_their_dict():
+    import json
+
+    from tyrebayes._io import to_jsonable
+    from tyrebayes.inference.diagnostics import Diagnostics
+
+    diagnostics = Diagnostics(
+        method="fast",
+        n_chains=1,
+        n_draws=4000,
+        r_hat_max=float("nan"),
+        ess_bulk_min=4000.0,
+        ess_tail_min=4000.0,
+        divergences=0,
+        optimiser_result="successful",
+        converged=True,
+        reasons=(),
+    )
+    record = to_jsonable({"diagnostics": diagnostics, "x": np.float64("nan")})
+    assert record["diagnostics"] == to_jsonable(diagnostics.as_dict())
+    assert record["x"] is None
+    json.dumps(record)

@@ -19,7 +19,10 @@ import numpy as np
 
 
 def to_jsonable(value: Any) -> Any:
-    """``value`` with arrays as lists, NumPy scalars as Python numbers and NaN/inf as None."""
+    """``value`` with arrays as lists, NumPy scalars as Python numbers, NaN/inf as None and a
+    result object with ``as_dict`` (a fit's diagnostics) as its dict."""
+    if hasattr(value, "as_dict"):
+        return to_jsonable(value.as_dict())
     if isinstance(value, dict):
         return {str(k): to_jsonable(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
