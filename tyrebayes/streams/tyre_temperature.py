@@ -95,12 +95,12 @@ def driven_tyre_temperature(
     means = [_block_means(x, block, n_blocks) for x in (*channels, friction)]
     speed, load, power = (_hold_last(np.abs(m) if i == 0 else m) for i, m in enumerate(means))
     start = float(ambient_c if initial_c is None else initial_c)
-    t_blocks = time_s[0] + (np.arange(n_blocks) + 0.5) * block * dt
     # The scan is causal, so blocks appended at the end (the last inputs held, time running on)
     # leave the first n_blocks temperatures as they are: padded to a multiple of _PAD_BLOCKS, one
     # compiled scan serves every drive of similar length instead of one per drive.
     padded = -(-n_blocks // _PAD_BLOCKS) * _PAD_BLOCKS
     t_padded = time_s[0] + (np.arange(padded) + 0.5) * block * dt
+    t_blocks = t_padded[:n_blocks]
     temps = np.asarray(
         _scan(
             ThermalParams() if params is None else params,
