@@ -199,7 +199,7 @@ def main() -> None:
         2000,
     )
     t0 = time.perf_counter()
-    jax.block_until_ready(core(flat0, obs_b, jax.random.PRNGKey(1)))
+    jax.block_until_ready(core(flat0, obs_b, jax.random.PRNGKey(1), True))
     t_core = time.perf_counter() - t0
     res["fast_one_hour"] = {
         "with_compilation": first,

@@ -180,9 +180,9 @@ def fit_tyre_nuts(
     check_kind(kind)
     key_laplace, key_init, key_run, key_ppc = jax.random.split(jax.random.PRNGKey(seed), 4)
     core, flat0 = _laplace_core(_priors_key(priors), kind, _obs_key(obs), LAPLACE_DRAWS, 2000)
-    *_, first_draws = core(flat0, obs, key_laplace)
+    first_mode, *_, first_draws = core(flat0, obs, key_laplace, True)
     obs, inflation = _weighted_by_correlation(obs, first_draws, kind)
-    mode, _, _, scale, _ = core(flat0, obs, key_laplace)
+    mode, _, _, scale, _ = core(first_mode, obs, key_laplace, False)
     runner = _nuts_runner(
         _priors_key(priors), kind, _obs_key(obs), num_chains, num_warmup, num_samples
     )
@@ -212,7 +212,9 @@ def fit_tyre_fast(
     ``_search_stride``-th window and refines the best successful one on all windows: a long
     drive's posterior has spurious local modes. Each BFGS run works in parameters whitened by
     the Hessian at its start. Draws come from the Gaussian N(mode, H⁻¹) on the unconstrained
-    space, mapped through the model's constraints.
+    space, mapped through the model's constraints. The slips' weights (1/VIF) are then taken
+    from that first fit's residuals, and the weighted posterior's mode is found by one BFGS run
+    from the first mode (the search's basin kept; no second search).
     Convergence: the optimiser reports success within ``max_steps`` and H is positive definite.
     The solver, Hessian and draws are compiled once per data shape (padded bucket, number of
     drives, surfaces): new data of the same shape reuse them.
@@ -221,9 +223,9 @@ def fit_tyre_fast(
     check_kind(kind)
     key_draw, key_ppc = jax.random.split(jax.random.PRNGKey(seed))
     core, flat0 = _laplace_core(_priors_key(priors), kind, _obs_key(obs), num_draws, max_steps)
-    *_, first_draws = core(flat0, obs, key_draw)
+    first_mode, *_, first_draws = core(flat0, obs, key_draw, True)
     obs, inflation = _weighted_by_correlation(obs, first_draws, kind)
-    _, result, min_eig, _, draws = core(flat0, obs, key_draw)
+    _, result, min_eig, _, draws = core(first_mode, obs, key_draw, False)
     optimiser_ok = bool(result == optx.RESULTS.successful)
     positive_definite = bool(float(min_eig) > 0)
     samples = {k: np.asarray(v) for k, v in draws.items()}

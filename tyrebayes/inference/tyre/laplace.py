@@ -82,9 +82,14 @@ def _drop_op_by_op_programs() -> None:
 def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, max_steps: int):
     """Jitted MAP + Hessian + Laplace draws for one data shape (compiled once per shape).
 
-    Returns ``(core, flat0)``: ``core(flat0, obs, key)`` gives the mode, the optimiser result,
-    the smallest Hessian eigenvalue, the scale S with S S' = H⁻¹ (eigenvalues floored) and the
-    constrained draws (with deterministic sites).
+    Returns ``(core, flat0)``. ``core(start, obs, key, search)`` gives the mode, the optimiser
+    result, the smallest Hessian eigenvalue, the scale S with S S' = H⁻¹ (eigenvalues floored)
+    and the constrained draws (with deterministic sites). With ``search`` true the mode is
+    searched for from the starts of ``MAP_STARTS`` (``start`` is ``flat0``); false, it comes
+    from one BFGS run started at ``start``: for the second pass of a fit, whose slip weights
+    move the posterior's width and barely its centre, so the basin the search found is kept
+    and the search (four starts) is not paid again. Both are one program (``search`` is a
+    traced flag): a fleet worker traces the fit once per shape.
     """
     priors = TyrePriors(*priors_key)
     model, template, params = _model_layout(priors_key, kind, obs_key)
@@ -121,8 +126,7 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
 
     stride = _search_stride(obs_key[0])
 
-    @jax.jit
-    def core(flat_init, obs, key):
+    def searched(flat_init, obs):
         # Several starts on every stride-th window find the basin; the best successful one is
         # refined on all windows (module comment at MAP_STARTS).
         coarse = _every_nth_window(obs, stride)
@@ -134,25 +138,41 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
         ok = (results == optx.RESULTS.successful) & jnp.isfinite(energies)
         best = jnp.argmin(jnp.where(ok, energies, jnp.inf))
         best = jnp.where(ok.any(), best, jnp.argmin(jnp.nan_to_num(energies, nan=jnp.inf)))
-        mode, result = values[best], jax.tree.map(lambda r: r[best], results)
-        if stride > 1:
-            mode, result = minimise_from(mode, obs)
+        return values[best], jax.tree.map(lambda r: r[best], results)
+
+    @jax.jit
+    def core(start, obs, key, search):
+        mode, result = jax.lax.cond(
+            search, searched, lambda x, _: (x, optx.RESULTS.successful), start, obs
+        )
+        # The search on all windows (stride 1) ends at the mode already.
+        mode, result = jax.lax.cond(
+            search & (stride == 1),
+            lambda m, r, _: (m, r),
+            lambda m, _, o: minimise_from(m, o),
+            mode,
+            result,
+            obs,
+        )
+        return (mode, result, *laplace_at(mode, obs, key))
+
+    def laplace_at(mode, obs, key):
         hessian = hessian_at(lambda f: negative_log_posterior(f, obs), mode)
         eigenvalues, vectors = jnp.linalg.eigh(hessian)
         finite = jnp.all(jnp.isfinite(hessian))
         # A non-positive-definite Hessian still gives draws (eigenvalues floored) so that the
         # result can be inspected; it is flagged as not converged.
         floored = jnp.where(finite, jnp.maximum(eigenvalues, 1e-6), 1.0)
-        vectors = jnp.where(finite, vectors, jnp.eye(len(flat_init)))
+        vectors = jnp.where(finite, vectors, jnp.eye(len(mode)))
         # z = mode + S u with S S' = H⁻¹: the Laplace draws, and NUTS's whitening.
         scale = vectors / jnp.sqrt(floored)[None, :]
-        eps = jax.random.normal(key, (num_draws, len(flat_init)), dtype=mode.dtype)
+        eps = jax.random.normal(key, (num_draws, len(mode)), dtype=mode.dtype)
         z = mode[None, :] + eps @ scale.T
         draws = jax.vmap(
             lambda f: constrain_fn(model, (obs,), {}, unravel(f), return_deterministic=True)
         )(z)
         min_eig = jnp.where(finite, eigenvalues.min(), -jnp.inf)
-        return mode, result, min_eig, scale, draws
+        return min_eig, scale, draws
 
     return core, flat0
 
