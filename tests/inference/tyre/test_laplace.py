@@ -47,3 +47,41 @@ def test_site_plates_name_the_drive_plate_of_per_drive_sites():
     assert plates["c_xr"] == ()
     assert "drive" in plates["slip_offset"] and "drive" in plates["force_gain"]
     assert "surface" in plates["mu_max"] and "drive" not in plates["mu_max"]
+
+
+def test_a_refit_from_the_first_mode_reaches_the_weighted_posteriors_searched_mode():
+    # The fast fit's second pass (slip weights from the first pass's residuals) refits from
+    # the first pass's mode instead of searching again: it must end where a search would.
+    import dataclasses
+
+    import jax.numpy as jnp
+    import optimistix as optx
+
+    from tyrebayes.inference.tyre.data import stack_drives
+    from tyrebayes.inference.tyre.fit import LAPLACE_DRAWS
+    from tyrebayes.inference.tyre.laplace import _laplace_core
+    from tyrebayes.inference.tyre.model import DEFAULT_KIND
+    from tyrebayes.inference.tyre.predictive import _obs_key
+
+    from .test_model import PAD, linear_region_windows
+
+    obs = stack_drives([linear_region_windows(3)], ["dry"], pad_to=PAD)
+    # Same shape and settings as the fits of test_fit.py: no new compilation.
+    core, flat0 = _laplace_core(
+        _priors_key(TyrePriors()), DEFAULT_KIND, _obs_key(obs), LAPLACE_DRAWS, 2000
+    )
+    key = jax.random.PRNGKey(0)
+    first_mode = core(flat0, obs, key, True)[0]
+    weighted = dataclasses.replace(obs, slip_weight=jnp.full_like(obs.slip, 0.4))
+    searched = core(flat0, weighted, key, True)
+    refitted = core(first_mode, weighted, key, False)
+    assert int(refitted[1]._value) == int(optx.RESULTS.successful._value)
+    # The weights moved the mode (else the test shows nothing), and the refit followed.
+    scale = jnp.sqrt(jnp.sum(searched[3] ** 2, axis=1))  # posterior sds of the flat parameters
+    assert float(jnp.max(jnp.abs(searched[0] - first_mode) / scale)) > 0.1
+    np.testing.assert_array_less(jnp.abs(refitted[0] - searched[0]) / scale, 0.01)
+    # The same Laplace covariance S S' (S itself is defined up to its eigenvectors' signs).
+    cov_refitted, cov_searched = (s[3] @ s[3].T for s in (refitted, searched))
+    np.testing.assert_allclose(
+        cov_refitted, cov_searched, rtol=1e-3, atol=1e-3 * float(scale.min()) ** 2
+    )
