@@ -85,3 +85,27 @@ def test_a_refit_from_the_first_mode_reaches_the_weighted_posteriors_searched_mo
     np.testing.assert_allclose(
         cov_refitted, cov_searched, rtol=1e-3, atol=1e-3 * float(scale.min()) ** 2
     )
+
+
+def test_layout_medians_are_kept_beside_the_compilation_cache_and_read_back_equal(tmp_path):
+    from tyrebayes.inference.tyre.laplace import _layout, _stored_medians_path
+
+    key = (_priors_key(TyrePriors()), "brush", 2, ("dry",))
+    before = jax.config.jax_compilation_cache_dir
+    jax.config.update("jax_compilation_cache_dir", str(tmp_path))
+    try:
+        path = _stored_medians_path(key)
+        assert path.parent.parent == tmp_path and not path.exists()
+        computed = _layout.__wrapped__(*key)[2]  # no stored medians: computed, then kept
+        assert path.exists()
+        loaded = _layout.__wrapped__(*key)[2]
+        assert sorted(loaded) == sorted(computed)
+        for name in computed:
+            np.testing.assert_array_equal(np.asarray(loaded[name]), np.asarray(computed[name]))
+        # A file that is not what it claims is ignored, and written again.
+        path.write_bytes(b"not an npz")
+        again = _layout.__wrapped__(*key)[2]
+        np.testing.assert_array_equal(np.asarray(again["c_xr"]), np.asarray(computed["c_xr"]))
+        assert np.load(path)["c_xr"].shape == np.shape(computed["c_xr"])
+    finally:
+        jax.config.update("jax_compilation_cache_dir", before)

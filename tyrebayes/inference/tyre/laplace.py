@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import hashlib
+import io
 from functools import partial
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -21,6 +24,7 @@ from numpyro.distributions.transforms import biject_to
 from numpyro.infer import init_to_median
 from numpyro.infer.util import constrain_fn, initialize_model, potential_energy
 
+from ..._io import atomic_write_bytes
 from .data import TyreObservations
 from .model import (
     TyrePriors,
@@ -52,6 +56,10 @@ LAYOUT_WINDOWS = 256
 def _layout(priors_key: tuple, kind: str, n_drives: int, surfaces: tuple):
     model = partial(tyre_model, priors=TyrePriors(*priors_key), kind=kind)
     template = _template_observations(LAYOUT_WINDOWS, n_drives, surfaces)
+    stored = _stored_medians_path((priors_key, kind, n_drives, surfaces))
+    params = _read_medians(stored)
+    if params is not None:
+        return model, template, params
 
     # init_to_median draws a batch of prior samples; numpyro broadcasts it by rank promotion.
     with jax.numpy_rank_promotion("allow"):
@@ -64,7 +72,49 @@ def _layout(priors_key: tuple, kind: str, n_drives: int, surfaces: tuple):
     # them moved far more than that on the external drives (the MAP search is sensitive to its
     # start): left op by op, the results stay as they were.
     _drop_op_by_op_programs()
-    return model, template, init.param_info.z
+    params = init.param_info.z
+    _write_medians(stored, params)
+    return model, template, params
+
+
+def _stored_medians_path(key: tuple) -> Path | None:
+    """Where the layout's medians of ``key`` are kept: beside JAX's compilation cache, if on.
+
+    The op-by-op initialisation costs a new process about a second per number of drives and
+    surfaces (a fleet worker, every ``fit-tyre``); its result depends on ``key`` and on the
+    versions of the libraries that computed it, all in the file's name.
+    """
+    import numpyro
+
+    folder = jax.config.jax_compilation_cache_dir
+    if not folder:
+        return None
+    text = repr((key, jax.__version__, numpyro.__version__, jax.default_backend()))
+    name = hashlib.sha256(text.encode()).hexdigest()[:32]
+    return Path(folder) / "tyrebayes-layouts" / f"{name}.npz"
+
+
+def _read_medians(path: Path | None) -> dict | None:
+    """The medians kept at ``path`` as device arrays, or None (none kept, or unreadable)."""
+    if path is None or not path.exists():
+        return None
+    try:
+        with np.load(path) as stored:
+            return {name: jnp.asarray(stored[name]) for name in stored.files}
+    except (OSError, ValueError, KeyError):
+        return None
+
+
+def _write_medians(path: Path | None, params: dict) -> None:
+    """Keep ``params`` at ``path`` (atomically); a folder that cannot be written is skipped."""
+    if path is None:
+        return
+    try:
+        buffer = io.BytesIO()
+        np.savez(buffer, **{name: np.asarray(value) for name, value in params.items()})
+        atomic_write_bytes(path, buffer.getvalue())
+    except OSError:
+        pass
 
 
 def _drop_op_by_op_programs() -> None:
