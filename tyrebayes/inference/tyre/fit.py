@@ -17,13 +17,10 @@ import dataclasses
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 
 from .adequacy import Adequacy, assess_adequacy
 from .data import TyreObservations
-from .laplace import (
-    _laplace_core,
-)
+from .laplace import _laplace_core, optimiser_outcome
 from .model import (
     DEFAULT_KIND,
     TyrePriors,
@@ -226,14 +223,13 @@ def fit_tyre_fast(
     first_mode, *_, first_draws = core(flat0, obs, key_draw, True)
     obs, inflation = _weighted_by_correlation(obs, first_draws, kind)
     _, result, min_eig, _, draws = core(first_mode, obs, key_draw, False)
-    optimiser_ok = bool(result == optx.RESULTS.successful)
     positive_definite = bool(float(min_eig) > 0)
     samples = {k: np.asarray(v) for k, v in draws.items()}
     idata = _to_inference_data(samples, 1, obs, kind, key_ppc)
     diagnostics = _scalar_diagnostics(
         idata,
         "fast",
-        optimiser_result="successful" if optimiser_ok else str(optx.RESULTS[result]),
+        optimiser_result=optimiser_outcome(result),
         problems=() if positive_definite else ("Hessian at the mode is not positive definite",),
     )
     return _tyre_fit(idata, diagnostics, samples, priors, obs, kind, inflation)

@@ -25,6 +25,7 @@ from numpyro.infer import init_to_median
 from numpyro.infer.util import constrain_fn, initialize_model, potential_energy
 
 from ..._io import atomic_write_bytes
+from ...internal.stored_program import source_fingerprint, stored_program
 from .data import TyreObservations
 from .model import (
     TyrePriors,
@@ -81,15 +82,16 @@ def _stored_medians_path(key: tuple) -> Path | None:
     """Where the layout's medians of ``key`` are kept: beside JAX's compilation cache, if on.
 
     The op-by-op initialisation costs a new process about a second per number of drives and
-    surfaces (a fleet worker, every ``fit-tyre``); its result depends on ``key`` and on the
-    versions of the libraries that computed it, all in the file's name.
+    surfaces (a fleet worker, every ``fit-tyre``); its result depends on ``key``, on the
+    package's model code and on the versions of the libraries that computed it, all in the
+    file's name.
     """
     import numpyro
 
     folder = jax.config.jax_compilation_cache_dir
     if not folder:
         return None
-    text = repr((key, jax.__version__, numpyro.__version__, jax.default_backend()))
+    text = repr((key, source_fingerprint(), numpyro.__version__, jax.default_backend()))
     name = hashlib.sha256(text.encode()).hexdigest()[:32]
     return Path(folder) / "tyrebayes-layouts" / f"{name}.npz"
 
@@ -132,14 +134,16 @@ def _drop_op_by_op_programs() -> None:
 def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, max_steps: int):
     """Jitted MAP + Hessian + Laplace draws for one data shape (compiled once per shape).
 
-    Returns ``(core, flat0)``. ``core(start, obs, key, search)`` gives the mode, the optimiser
-    result, the smallest Hessian eigenvalue, the scale S with S S' = H⁻¹ (eigenvalues floored)
-    and the constrained draws (with deterministic sites). With ``search`` true the mode is
-    searched for from the starts of ``MAP_STARTS`` (``start`` is ``flat0``); false, it comes
-    from one BFGS run started at ``start``: for the second pass of a fit, whose slip weights
-    move the posterior's width and barely its centre, so the basin the search found is kept
-    and the search (four starts) is not paid again. Both are one program (``search`` is a
-    traced flag): a fleet worker traces the fit once per shape.
+    Returns ``(core, flat0)``. ``core(start, obs, key, search)`` gives the mode, the optimiser's
+    outcome (a code: :func:`optimiser_outcome`), the smallest Hessian eigenvalue, the scale S
+    with S S' = H⁻¹ (eigenvalues floored) and the constrained draws (with deterministic sites).
+    With ``search`` true the mode is searched for from the starts of ``MAP_STARTS`` (``start``
+    is ``flat0``); false, it comes from one BFGS run started at ``start``: for the second pass
+    of a fit, whose slip weights move the posterior's width and barely its centre, so the basin
+    the search found is kept and the search (four starts) is not paid again. Both are one
+    program (``search`` is a traced flag): a fleet worker traces the fit once per shape, or not
+    at all where the traced program is stored on disk
+    (:func:`~tyrebayes.internal.stored_program.stored_program`).
     """
     priors = TyrePriors(*priors_key)
     model, template, params = _model_layout(priors_key, kind, obs_key)
@@ -204,7 +208,7 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
             result,
             obs,
         )
-        return (mode, result, *laplace_at(mode, obs, key))
+        return (mode, _outcome_code(result), *laplace_at(mode, obs, key))
 
     def laplace_at(mode, obs, key):
         hessian = hessian_at(lambda f: negative_log_posterior(f, obs), mode)
@@ -224,7 +228,47 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
         min_eig = jnp.where(finite, eigenvalues.min(), -jnp.inf)
         return min_eig, scale, draws
 
-    return core, flat0
+    key = ("tyre-laplace-core", priors_key, kind, obs_key, num_draws, max_steps)
+    return stored_program(core, key), flat0
+
+
+# Outcomes of an optimistix solve by name, in the order of the codes the core returns.
+_OUTCOMES = tuple(
+    name
+    for name in (
+        "successful",
+        "max_steps_reached",
+        "nonlinear_max_steps_reached",
+        "nonlinear_divergence",
+        "singular",
+        "breakdown",
+        "stagnation",
+        "conlim",
+        "nonfinite_input",
+        "nonfinite",
+    )
+    if hasattr(optx.RESULTS, name)
+)
+
+
+def _outcome_code(result) -> jax.Array:
+    """An optimistix result as an integer (its place in ``_OUTCOMES``; one past it: another).
+
+    A plain integer crosses a stored program's boundary (:mod:`tyrebayes.internal.stored_program`),
+    where optimistix's result type would not.
+    """
+    hits = jnp.stack([result == getattr(optx.RESULTS, name) for name in _OUTCOMES])
+    return jnp.where(hits.any(), jnp.argmax(hits), len(_OUTCOMES))
+
+
+def optimiser_outcome(code) -> str:
+    """``"successful"`` or optimistix's message for an outcome code of the core."""
+    code = int(code)
+    if code == 0:
+        return "successful"
+    if code < len(_OUTCOMES):
+        return str(optx.RESULTS[getattr(optx.RESULTS, _OUTCOMES[code])])
+    return "the optimiser stopped with an outcome this package does not name"
 
 
 # Windows the multi-start search reads at most (about a quarter of a one-hour 100 Hz drive).

@@ -11,6 +11,7 @@ import numpy as np
 import numpyro.distributions as dist
 import xarray as xr
 
+from ...internal.stored_program import stored_program
 from ..result import Diagnostics, diagnose
 from .data import TyreObservations
 from .model import (
@@ -50,7 +51,6 @@ def _predictive_core(kind: str, obs_key: tuple, n_draws: int):
     (The true slip is integrated out, so the predictive force is not conditioned on the measured
     slip; slip_obs is drawn around the slip of the measured force.)
     """
-    del obs_key, n_draws  # part of the cache key: one compilation per shape
 
     def one_draw(params, obs, key):
         lik = window_likelihood(params, obs, kind)
@@ -83,7 +83,8 @@ def _predictive_core(kind: str, obs_key: tuple, n_draws: int):
             lambda args: one_draw(args[0], obs, args[1]), (samples, keys), batch_size=8
         )
 
-    return core
+    # Kept on disk once traced (a new process reads it instead of tracing the model again).
+    return stored_program(core, ("tyre-predictive-core", kind, obs_key, n_draws))
 
 
 def _to_inference_data(
