@@ -39,7 +39,6 @@ True
 from __future__ import annotations
 
 import dataclasses
-import warnings
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -57,6 +56,7 @@ from ..physics.vehicle import (
 )
 from .filters import nan_moving_average, smoothed_derivative, window_samples
 from .noise import local_noise_sd
+from .order_stats import median, nanmedian_columns
 from .nuisances import (
     ImuGainCorrection,
     StreamNuisances,
@@ -646,7 +646,7 @@ def _imu_calibration(
         ax_offset_sd = float(np.hypot(ax_offset_sd, GRAVITY_MPS2 * grade_mean_sd))
     lateral_kin = m.vx_safe * m.yaw
     ay_resid = (m.ay_raw - lateral_kin)[m.valid & np.isfinite(m.ay_raw)]
-    ay_offset = float(np.median(ay_resid)) if ay_resid.size else 0.0
+    ay_offset = median(ay_resid) if ay_resid.size else 0.0
     return _ImuCalibration(
         pitch_gain=pitch_gain,
         dvx_dt=dvx_dt,
@@ -870,9 +870,7 @@ def _summary(x: np.ndarray, window: int) -> float | np.ndarray:
     Local noise levels and loads change over seconds, so every (window//2)-th sample carries the
     information; the thinned median is the same number at a fraction of the cost on long logs.
     """
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN column: NaN, as documented
-        return np.nanmedian(x[:: max(1, window // 2)], axis=0)
+    return nanmedian_columns(x[:: max(1, window // 2)])  # all-NaN column: NaN, as documented
 
 
 def speed_error(

@@ -17,6 +17,8 @@ from __future__ import annotations
 import numpy as np
 from jaxtyping import Float
 
+from .order_stats import median, nanmedian_columns, quantile
+
 # Above this many values the quantisation estimate uses an evenly strided subset: the step is a
 # property of the encoding, 100 000 samples pin it down and keep np.unique cheap on 10 h logs.
 _MAX_VALUES = 100_000
@@ -54,10 +56,10 @@ def quantisation_step(x: Float[np.ndarray, "n"]) -> float:
     step = float(np.min(gaps))
     ratio = gaps / step
     off = np.abs(ratio - np.round(ratio))
-    if np.quantile(off, 0.95) > 0.1:
+    if quantile(off, 0.95) > 0.1:
         return 0.0
     unit_gaps = gaps[np.round(ratio) == 1]
-    return float(np.median(unit_gaps))
+    return median(unit_gaps)
 
 
 def white_noise_sd(x: Float[np.ndarray, "n"], quantisation: float = 0.0) -> float:
@@ -91,7 +93,7 @@ def white_noise_sd(x: Float[np.ndarray, "n"], quantisation: float = 0.0) -> floa
     d2 = d2[np.isfinite(d2)]
     if d2.size < 10:
         return float("nan")
-    mad = float(np.median(np.abs(d2 - np.median(d2))))
+    mad = median(np.abs(d2 - median(d2)))
     sd = 1.4826 * mad / np.sqrt(6.0)
     return float(np.sqrt(sd**2 + quantisation**2 / 12.0))
 
@@ -153,7 +155,7 @@ def local_noise_sd(
     # information: the robust scale and the ~10 s local mean run on that thinned view.
     step = max(1, window // 2)
     thin = smooth[::step]
-    scale = 1.4826 * np.nanmedian(np.abs(thin), axis=0)
+    scale = 1.4826 * nanmedian_columns(np.abs(thin))
     sq = np.minimum(thin**2, (clip * scale) ** 2)
     local = nan_moving_average(sq, max(1, span // step))
     n = x.shape[0]

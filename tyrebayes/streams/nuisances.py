@@ -20,6 +20,7 @@ import numpy as np
 from jaxtyping import Bool, Float
 
 from .filters import nan_moving_average
+from .order_stats import median
 
 # Effective number of independent samples: grade and vibration are correlated over about a
 # second, so a standard error from N samples at 100 Hz divides by sqrt(seconds), not sqrt(N).
@@ -87,8 +88,8 @@ def _robust_mean_se(x: np.ndarray, sample_rate_hz: float) -> tuple[float, float]
     """Median and its standard error with a one-second correlation time."""
     if x.size < 3:
         return float("nan"), float("nan")
-    med = float(np.median(x))
-    spread = 1.4826 * float(np.median(np.abs(x - med)))
+    med = median(x)
+    spread = 1.4826 * median(np.abs(x - med))
     n_eff = max(x.size / (sample_rate_hz * _CORRELATION_S), 1.0)
     return med, 1.2533 * spread / np.sqrt(n_eff)  # 1.2533: efficiency of the median
 

@@ -28,6 +28,7 @@ from jaxtyping import Float
 
 from .._errors import BadInputError
 from .filters import nan_moving_average, smoothed_derivative, window_samples
+from .order_stats import median, quantile
 
 #: Below this rate the 0.2 s smoothing of the features holds fewer than 4 samples: the derivatives
 #: and the slip noise estimate (measured at the smoothing scale) stop meaning what they say.
@@ -165,11 +166,11 @@ def check_steering_scale(
     ok = np.isfinite(steer) & np.isfinite(yaw) & np.isfinite(speed_mps) & (speed_mps > 5.0)
     if ok.sum() < 50:
         return
-    kinematic = speed_mps[ok] * (steer[ok] - np.median(steer[ok])) / (steering_ratio * wheelbase_m)
-    implied = float(np.quantile(np.abs(kinematic), 0.95))
+    kinematic = speed_mps[ok] * (steer[ok] - median(steer[ok])) / (steering_ratio * wheelbase_m)
+    implied = quantile(np.abs(kinematic), 0.95)
     # Gyro noise after smoothing is ~1e-3 rad/s: a floor so that a dead-straight drive with a
     # noiseless yaw channel cannot make any steering look large.
-    measured = max(float(np.quantile(np.abs(yaw[ok] - np.median(yaw[ok])), 0.95)), 1e-3)
+    measured = max(quantile(np.abs(yaw[ok] - median(yaw[ok])), 0.95), 1e-3)
     ratio = implied / measured
     if ratio > _STEER_DEGREES_RATIO:
         p99 = float(np.quantile(np.abs(steer_rad[np.isfinite(steer_rad)]), 0.99))
@@ -200,7 +201,7 @@ def dropped_fraction(time_s: Float[np.ndarray, "m"]) -> float:
     if time_s.size < 3:
         return 0.0
     steps = np.diff(time_s)
-    period = float(np.median(steps[steps <= 1.5 * np.quantile(steps, 0.25)]))
+    period = median(steps[steps <= 1.5 * quantile(steps, 0.25)])
     span = float(steps[steps < LONG_GAP_S].sum())
     if not (period > 0 and span > 0):
         return 0.0

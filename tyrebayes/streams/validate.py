@@ -35,6 +35,8 @@ from .._errors import BadInputError
 from ..physics.vehicle import Vehicle
 from .filters import nan_moving_average, smoothed_derivative, window_samples
 from .noise import quantisation_step, white_noise_sd
+from .order_stats import median as _median
+from .order_stats import nanmedian
 from .plausibility import (
     check_ax_sign,
     check_steering_scale,
@@ -240,7 +242,7 @@ def _fix_imu_frame(cols: dict[str, np.ndarray], notes: list[str]) -> None:
     az = cols.get("az")
     if az is None:
         return
-    median = float(np.nanmedian(az))
+    median = nanmedian(az)
     if median < -5.0:
         for name in ("ay", "yaw_rate", "az"):
             cols[name] = -cols[name]
@@ -260,7 +262,7 @@ def _median_interval(t: np.ndarray) -> float:
         return float("nan")
     # 100 000 intervals pin the median; striding keeps it O(1e5) for 10 h logs.
     start = np.arange(0, t.size - 1, (t.size - 1) // 100_000 + 1)
-    return float(np.median(t[start + 1] - t[start]))
+    return _median(t[start + 1] - t[start])
 
 
 def _resample_channel(
@@ -393,7 +395,7 @@ def _speed_scale_check(speed_wheels: np.ndarray, reference: np.ndarray, radius_m
     moving = np.isfinite(speed_wheels) & np.isfinite(reference) & (reference > 3.0)
     if moving.sum() < 50:
         return
-    scale = float(np.median(speed_wheels[moving] / reference[moving]))
+    scale = _median(speed_wheels[moving] / reference[moving])
     if abs(scale - 1.0) <= _SCALE_TOLERANCE:
         return
     raw_over_true = scale / radius_m  # raw wheel value per m/s of true speed
@@ -496,7 +498,7 @@ def _wheel_consistency_check(wheel: np.ndarray, speed_scale: float) -> None:
         ok = moving & np.isfinite(wheel[:, i])
         if ok.sum() < 50:
             continue
-        ratio = float(np.median(wheel[ok, i] / med[ok]))
+        ratio = _median(wheel[ok, i] / med[ok])
         # Radius differences and cruising slip stay within ~2 %; 5 % for a whole log is a unit,
         # channel or tyre-size mistake.
         if abs(ratio - 1.0) > 0.05:

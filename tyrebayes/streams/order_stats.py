@@ -1,0 +1,103 @@
+"""Medians and quantiles of long 1-D arrays by single-rank selection, equal to NumPy's.
+
+``np.median`` of an even-length array and ``np.quantile`` ask ``np.partition`` for two or three
+ranks at once, which falls back to a generic introselect: about 3.5 ms on 360 000 samples (one
+hour at 100 Hz), where a partition for one rank takes a SIMD selection of about 0.5 ms. The
+stream stage takes some fifty medians and quantiles of hour-long arrays, so here each is one
+single-rank partition plus a ``min``/``max`` for the neighbouring rank. The order statistics
+are exact and combined with NumPy's own arithmetic (the mean of the two middle values; its
+linear interpolation of the ``"linear"`` method), so the results are NumPy's to the last bit
+(``tests/streams/test_order_stats.py``).
+
+Examples
+--------
+>>> import numpy as np
+>>> x = np.random.default_rng(0).normal(size=10_000)
+>>> median(x) == np.median(x), quantile(x, 0.25) == np.quantile(x, 0.25)
+(True, True)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from jaxtyping import Float
+
+# Below this size NumPy's own call is as fast (its overhead dominates): use it.
+_SMALL = 2048
+
+
+def median(x: Float[np.ndarray, "n"]) -> float:
+    """``float(np.median(x))`` of a 1-D array (NaN if it holds a NaN or is empty).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Values; not modified.
+
+    Returns
+    -------
+    float
+    """
+    x = np.asarray(x, dtype=float)
+    if x.size < _SMALL or np.isnan(x).any():
+        return float(np.median(x))
+    half = x.size // 2
+    part = np.partition(x, half)
+    upper = part[half]
+    if x.size % 2:
+        return float(upper)
+    # np.median: the mean of the two middle values, (a + b) / 2.
+    return float((part[:half].max() + upper) / 2)
+
+
+def nanmedian(x: Float[np.ndarray, "n"]) -> float:
+    """``float(np.nanmedian(x))`` of a 1-D array (NaN if it holds no number), without a warning."""
+    x = np.asarray(x, dtype=float)
+    nan = np.isnan(x)
+    if nan.any():
+        x = x[~nan]
+    return median(x) if x.size else float("nan")
+
+
+def quantile(x: Float[np.ndarray, "n"], q: float) -> float:
+    """``float(np.quantile(x, q))`` of a 1-D array, NumPy's default ``"linear"`` method.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Values; not modified. NaN anywhere gives NaN, as in NumPy.
+    q : float
+        Probability in [0, 1].
+
+    Returns
+    -------
+    float
+    """
+    x = np.asarray(x, dtype=float)
+    if x.size < _SMALL or np.isnan(x).any() or not 0.0 <= q <= 1.0:
+        return float(np.quantile(x, q))
+    n = x.size
+    # NumPy's "linear" method: virtual index (n - 1) q between ranks i and i + 1.
+    virtual = (n - 1) * q
+    lower = math.floor(virtual)
+    if lower >= n - 1:
+        return float(x.max())
+    part = np.partition(x, lower)
+    a = part[lower]
+    b = part[lower + 1 :].min()
+    gamma = virtual - lower
+    diff = b - a
+    # NumPy's _lerp: from the nearer end, so that gamma 0 and 1 give a and b exactly.
+    if gamma >= 0.5:
+        return float(b - diff * (1 - gamma))
+    return float(a + diff * gamma)
+
+
+def nanmedian_columns(x: Float[np.ndarray, "n *k"]) -> float | Float[np.ndarray, " k"]:
+    """``np.nanmedian(x, axis=0)``: a float for 1-D ``x``, one value per column for 2-D."""
+    x = np.asarray(x, dtype=float)
+    if x.ndim == 1:
+        return nanmedian(x)
+    return np.array([nanmedian(column) for column in x.T])
