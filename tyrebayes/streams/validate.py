@@ -188,15 +188,26 @@ def _unit_hint(name: str, worst: float) -> str:
     return ""
 
 
-def _check_ranges(cols: dict[str, np.ndarray]) -> None:
-    for name, x in cols.items():
+def _finite_range(x: np.ndarray) -> tuple[float, float]:
+    """Smallest and largest finite value of ``x`` (NaN, NaN if it has none)."""
+    # fmin/fmax skip NaN in one pass each; only an infinity needs the finite values picked out.
+    lo, hi = float(np.fmin.reduce(x)), float(np.fmax.reduce(x))
+    if np.isinf(lo) or np.isinf(hi):
+        finite = x[np.isfinite(x)]
+        if finite.size == 0:
+            return float("nan"), float("nan")
+        lo, hi = float(finite.min()), float(finite.max())
+    return lo, hi
+
+
+def _check_ranges(cols: dict[str, np.ndarray], bounds: dict[str, tuple[float, float]]) -> None:
+    for name in cols:
         spec = CHANNELS.get(name)
         if spec is None or name == "time":
             continue
-        finite = x[np.isfinite(x)]
-        if finite.size == 0:
+        lo, hi = bounds[name]
+        if np.isnan(lo):
             continue
-        lo, hi = float(finite.min()), float(finite.max())
         if lo < spec.lo or hi > spec.hi:
             worst = hi if hi > spec.hi else lo
             raise BadInputError(
@@ -205,26 +216,28 @@ def _check_ranges(cols: dict[str, np.ndarray]) -> None:
             )
 
 
-def _check_channels(cols: dict[str, np.ndarray], notes: list[str]) -> None:
+def _check_channels(
+    cols: dict[str, np.ndarray], bounds: dict[str, tuple[float, float]], notes: list[str]
+) -> None:
     for name in REQUIRED_COLUMNS[1:]:
-        x = cols[name]
-        finite = x[np.isfinite(x)]
-        if finite.size == 0:
+        lo, hi = bounds[name]
+        if np.isnan(lo):
             raise BadInputError(f"column '{name}': expected measured values, got only NaN")
-        if np.all(finite == finite[0]):
+        if lo == hi:  # every finite value the same
+            first = float(cols[name][np.isfinite(cols[name])][0])
             if name == "steering_wheel_angle" and _drives_straight(cols["yaw_rate"]):
                 # A coarse CAN steering angle (0.5-1.5 degree steps) can stay on one step over a
                 # straight stretch: not a stuck sensor as long as the car does not turn either.
                 notes.append(
-                    f"steering_wheel_angle is constant ({finite[0]:.4g} rad) on a straight drive"
+                    f"steering_wheel_angle is constant ({first:.4g} rad) on a straight drive"
                 )
                 continue
             raise BadInputError(
-                f"column '{name}': expected a varying signal, got the constant {finite[0]:.6g} "
+                f"column '{name}': expected a varying signal, got the constant {first:.6g} "
                 "(stuck or unconnected sensor?)"
             )
     for name in OPTIONAL_COLUMNS:
-        if name in cols and not np.any(np.isfinite(cols[name])):
+        if name in cols and np.isnan(bounds[name][0]):
             del cols[name]
             notes.append(f"optional column '{name}' holds only NaN and was dropped")
 
@@ -253,8 +266,19 @@ def _fix_imu_frame(cols: dict[str, np.ndarray], notes: list[str]) -> None:
 
 
 def median_of_four(x: Float[np.ndarray, "n 4"]) -> Float[np.ndarray, "n"]:
-    """Row-wise median of four columns, (sum − min − max) / 2 (NaN if any is NaN)."""
-    return 0.5 * (x.sum(axis=1) - x.min(axis=1) - x.max(axis=1))
+    """Row-wise median of four columns, (sum − min − max) / 2 (NaN if any is NaN).
+
+    Column by column: a reduction along a row of four is ~10x slower in NumPy than the same
+    arithmetic on whole columns. The sum is taken in ``x.sum(axis=1)``'s order.
+    """
+    a, b, c, d = (x[:, i] for i in range(4))
+    total = a + b
+    total += c
+    total += d
+    total -= np.minimum(np.minimum(a, b), np.minimum(c, d))
+    total -= np.maximum(np.maximum(a, b), np.maximum(c, d))
+    total *= 0.5
+    return total
 
 
 def _median_interval(t: np.ndarray) -> float:
@@ -304,13 +328,21 @@ class _SharedSearch:
     def __init__(self, grid: np.ndarray, t: np.ndarray):
         # np.interp's interval: t[j] <= g < t[j + 1] (the last interval for g = t[-1]).
         self.j = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, t.size - 2)
+        self.j_next = self.j + 1
         t0 = t[self.j]
-        self.t0 = t0
-        self.span = t[self.j + 1] - t0
+        self.span = t[self.j_next] - t0
         self.offset = grid - t0
-        self.on_knot = self.offset == 0.0
-        self.at_end = grid == t[-1]
+        on_knot = self.offset == 0.0
+        at_end = grid == t[-1]
+        self.exact = on_knot | at_end
+        # Grid points on a file instant, and the last one: few, so kept as indices.
+        self.on_knot_index = np.flatnonzero(on_knot)
+        self.at_end_index = np.flatnonzero(at_end)
         self.inside = (grid >= t[0]) & (grid <= t[-1])
+        self.all_inside = bool(self.inside.all())
+        # The longest file interval: when it is within a channel's fill limit (or below its
+        # bridging threshold) that test holds for every grid point and needs no pass.
+        self.max_span = float(self.span.max())
 
 
 def _resample_shared(
@@ -333,17 +365,30 @@ def _resample_shared(
     if valid.sum() < 2:
         return _resample_channel(grid, t, x, max_fill_s)
     limit = max(max_fill_s, 1.5 * period)
-    j = shared.j
-    x0 = x[j]
     span = shared.span
-    values = (x[j + 1] - x0) / span * shared.offset + x0
-    np.copyto(values, x0, where=shared.on_knot)
-    np.copyto(values, x[-1], where=shared.at_end)
-    near_nan = ~np.isfinite(values) & shared.inside
-    exact = shared.on_knot | shared.at_end
-    ok = shared.inside & (exact | (span <= limit * (1 + 1e-9)))
-    out = np.where(ok, values, np.nan)
-    bridged = ok & ~exact & (span > 1.5 * period)
+    # np.interp's arithmetic, (x1 − x0) / span · offset + x0, in place.
+    x0 = x.take(shared.j)
+    values = x.take(shared.j_next)
+    values -= x0
+    values /= span
+    values *= shared.offset
+    values += x0
+    values[shared.on_knot_index] = x0[shared.on_knot_index]
+    values[shared.at_end_index] = x[-1]
+    del x0
+    near_nan = ~np.isfinite(values)
+    if not shared.all_inside:
+        near_nan &= shared.inside
+    exact = shared.exact
+    if shared.max_span <= limit * (1 + 1e-9):
+        ok = shared.inside  # every file interval within the fill limit
+    else:
+        ok = shared.inside & (exact | (span <= limit * (1 + 1e-9)))
+    out = values if ok is shared.inside and shared.all_inside else np.where(ok, values, np.nan)
+    if shared.max_span > 1.5 * period:
+        bridged = ok & ~exact & (span > 1.5 * period)
+    else:
+        bridged = np.zeros(span.shape, dtype=bool)  # no file interval is a bridged gap
     if near_nan.any():
         idx = np.flatnonzero(near_nan)
         out[idx], bridged[idx] = _resample_channel(grid[idx], t, x, max_fill_s)
@@ -556,7 +601,7 @@ def _unit_checks(data: dict[str, np.ndarray], vehicle: Vehicle | None, rate_hz: 
     radius = vehicle.wheel_radius_m if vehicle is not None else _DEFAULT_RADIUS_M
     wheelbase = vehicle.wheelbase_m if vehicle is not None else _DEFAULT_WHEELBASE_M
     ratio = vehicle.steering_ratio if vehicle is not None else _DEFAULT_STEERING_RATIO
-    wheel = np.column_stack([view[c] for c in WHEEL_COLUMNS])
+    wheel = np.array([view[c] for c in WHEEL_COLUMNS]).T  # columns contiguous
     speed = radius * median_of_four(wheel)  # median of four: robust to one spinning wheel
     _wheel_consistency_check(wheel, radius)
     if "speed_reference" in view:
@@ -606,20 +651,22 @@ def validate_stream(
     if t.size < min_samples:
         raise BadInputError(f"too few samples: expected at least {min_samples} rows, got {t.size}")
     _check_time(t)
-    _check_ranges(cols)
+    # Each channel's finite range, found once: the range and the stuck-sensor checks read it.
+    bounds = {name: _finite_range(x) for name, x in cols.items() if name != "time"}
+    _check_ranges(cols, bounds)
     notes: list[str] = []
-    _check_channels(cols, notes)
+    _check_channels(cols, bounds, notes)
+    # Each channel's valid instants and median interval, found once: the wheel counts, the
+    # wheel rate, the dropped fractions, the channel rates and the resampling all read them.
+    finite = {name: np.isfinite(x) for name, x in cols.items() if name != "time"}
     # Each wheel may come in its own CAN message (own instants in an MDF file): count and time
     # each wheel channel on its own samples.
-    wheel_counts = [int(np.isfinite(cols[c]).sum()) for c in WHEEL_COLUMNS]
+    wheel_counts = [int(finite[c].sum()) for c in WHEEL_COLUMNS]
     if min(wheel_counts) < min_samples:
         raise BadInputError(
             f"too few samples: expected at least {min_samples} values of each wheel speed, "
             f"got {min(wheel_counts)}"
         )
-    # Each channel's valid instants and median interval, found once: the wheel rate, the
-    # dropped fractions, the channel rates and the resampling all read them.
-    finite = {name: np.isfinite(x) for name, x in cols.items() if name != "time"}
     valid_time = {name: t if ok.all() else t[ok] for name, ok in finite.items()}
     interval = {name: _median_interval(tv) for name, tv in valid_time.items()}
     wheel_dt = float(np.median([interval[c] for c in WHEEL_COLUMNS]))
@@ -638,7 +685,9 @@ def validate_stream(
         quant["speed_reference"] = quantisation_step(cols["speed_reference"])
 
     noise = {
-        name: white_noise_sd(cols[name][np.isfinite(cols[name])], quant.get(name, 0.0))
+        name: white_noise_sd(
+            cols[name] if finite[name].all() else cols[name][finite[name]], quant.get(name, 0.0)
+        )
         for name in cols
         if name != "time" and name in CHANNELS
     }
@@ -667,7 +716,10 @@ def validate_stream(
     out = pd.DataFrame(block.T, columns=names, copy=False)
 
     _unit_checks(data, vehicle, rate_hz)
-    missing = ~np.all(np.isfinite(np.column_stack([data[c] for c in WHEEL_COLUMNS])), axis=1)
+    complete = np.isfinite(data[WHEEL_COLUMNS[0]])
+    for name in WHEEL_COLUMNS[1:]:
+        complete &= np.isfinite(data[name])
+    missing = ~complete
     gaps = _runs(grid, missing)
     flags = sampling_flags(rate_hz, gaps, dropped)
     return ValidatedStream(
