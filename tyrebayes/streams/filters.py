@@ -66,9 +66,14 @@ def nan_moving_average(x: Float[np.ndarray, "n *k"], window: int) -> Float[np.nd
     return total
 
 
+def _order(x: np.ndarray) -> str:
+    """Memory order that keeps ``x``'s columns contiguous if they are (a column-wise table)."""
+    return "F" if x.ndim > 1 and x.flags.f_contiguous and not x.flags.c_contiguous else "C"
+
+
 def _cumsum0(x: np.ndarray, dtype=np.float64) -> np.ndarray:
     """Cumulative sum along axis 0 with a zero row in front (shape n + 1)."""
-    out = np.empty((x.shape[0] + 1,) + x.shape[1:], dtype=dtype)
+    out = np.empty((x.shape[0] + 1,) + x.shape[1:], dtype=dtype, order=_order(x))
     out[0] = 0
     np.cumsum(x, axis=0, out=out[1:])
     return out
@@ -79,7 +84,7 @@ def _window_difference(csum: np.ndarray, n: int, half: int) -> np.ndarray:
     if n <= 2 * half:  # every window truncated: index arrays, cheap at this size
         idx = np.arange(n)
         return csum[np.minimum(idx + half + 1, n)] - csum[np.maximum(idx - half, 0)]
-    out = np.empty((n,) + csum.shape[1:], dtype=csum.dtype)
+    out = np.empty((n,) + csum.shape[1:], dtype=csum.dtype, order=_order(csum))
     np.subtract(csum[2 * half + 1 :], csum[: n - 2 * half], out=out[half : n - half])
     if half:
         out[:half] = csum[half + 1 : 2 * half + 1]  # minus csum[0] = 0

@@ -303,17 +303,21 @@ def estimate_radius_ratios(
     -------
     (ratio, sd, seconds)
     """
-    ok = free_straight & np.all(np.isfinite(wheel_vx_mps), axis=1)
+    columns = [wheel_vx_mps[:, i] for i in range(4)]
+    ok = free_straight.copy()
+    for column in columns:
+        ok &= np.isfinite(column)
     seconds = float(ok.sum() / sample_rate_hz)
     nan4 = np.full(4, np.nan)
     if seconds < min_seconds:
         return nan4, nan4.copy(), seconds
-    sub = wheel_vx_mps[ok]
+    sub = [column[ok] for column in columns]
     # A larger radius turns slower at the same ground speed: radius ratio = mean speed / speed.
-    rel = np.mean(sub, axis=1, keepdims=True) / sub
+    mean = ((sub[0] + sub[1]) + sub[2]) + sub[3]  # np.mean's order, column by column
+    mean /= 4
     ratio, sd = np.empty(4), np.empty(4)
     for i in range(4):
-        ratio[i], sd[i] = _robust_mean_se(rel[:, i], sample_rate_hz)
+        ratio[i], sd[i] = _robust_mean_se(mean / sub[i], sample_rate_hz)
     return ratio, sd, seconds
 
 
