@@ -366,11 +366,26 @@ def _spin_check(wheel_vx: np.ndarray, vx: np.ndarray, drive: str, threshold: flo
 _CHUNK = 65536
 
 
+class _AxleForces(eqx.Module):
+    """The force balance of every sample, for the IMU's a_x and for the traction a_x [N]."""
+
+    resistance: Float[np.ndarray, "n"]  # drag + rolling resistance
+    fx_front: Float[np.ndarray, "n"]  # traction split, or the brake balance under braking
+    fx_rear: Float[np.ndarray, "n"]
+    fz_front: Float[np.ndarray, "n"]
+    fz_rear: Float[np.ndarray, "n"]
+    fx_front_traction: Float[np.ndarray, "n"]  # traction a_x, traction split at every sample
+    fx_rear_traction: Float[np.ndarray, "n"]
+    fz_front_traction: Float[np.ndarray, "n"]
+    fz_rear_traction: Float[np.ndarray, "n"]
+
+
 @eqx.filter_jit
 def _force_balance_chunk(
     vehicle: Vehicle,
     braking_vehicle: Vehicle,
     ax: Float[Array, " c"],
+    ax_traction: Float[Array, " c"],
     ay: Float[Array, " c"],
     yaw_acc: Float[Array, " c"],
     steer: Float[Array, " c"],
@@ -381,47 +396,54 @@ def _force_balance_chunk(
     fxf_b, _, fxr_b, _ = single_track_inverse(braking_vehicle, ax, ay, yaw_acc, steer, resistance)
     braking = vehicle.mass_kg * ax + resistance < 0.0
     fz_front, fz_rear = axle_loads(vehicle, ax)
+    fxf_tt, _, fxr_tt, _ = single_track_inverse(
+        vehicle, ax_traction, ay, yaw_acc, steer, resistance
+    )
+    fzf_tt, fzr_tt = axle_loads(vehicle, ax_traction)
     return (
         resistance,
         jnp.where(braking, fxf_b, fxf_t),
         jnp.where(braking, fxr_b, fxr_t),
         fz_front,
         fz_rear,
-        fxf_t,
-        fxr_t,
+        fxf_tt,
+        fxr_tt,
+        fzf_tt,
+        fzr_tt,
     )
 
 
 def _force_balance(
     vehicle: Vehicle,
     ax: np.ndarray,
+    ax_traction: np.ndarray,
     ay: np.ndarray,
     yaw_acc: np.ndarray,
     steer: np.ndarray,
     speed: np.ndarray,
     brake_front_share: float,
-) -> tuple[np.ndarray, ...]:
-    """Resistance, axle forces (front, rear), axle loads (front, rear), traction-split forces [N].
+) -> _AxleForces:
+    """Resistance, axle forces and loads for two a_x signals on the same motion [N].
 
-    Eq. 4.23 inverted by :func:`single_track_inverse`: traction follows the drive's split,
-    braking the brake balance (front share), a property of the brake system, not of the drive.
-    The last two are the axle forces with the traction split at every sample.
+    Eq. 4.23 inverted by :func:`single_track_inverse`: with ``ax``, traction follows the drive's
+    split, braking the brake balance (front share), a property of the brake system, not of the
+    drive; with ``ax_traction``, the traction split at every sample. One pass over the chunks
+    serves both (the steering's sin/cos and the resistance are shared).
     """
     braking_vehicle = dataclasses.replace(
         vehicle, drive="awd", front_drive_fraction=float(brake_front_share)
     )
     n = ax.shape[0]
-    padded = -(-n // _CHUNK) * _CHUNK
-    inputs = [np.pad(a, (0, padded - n)) for a in (ax, ay, yaw_acc, steer, speed)]
-    parts = [
-        _force_balance_chunk(
-            vehicle, braking_vehicle, *(jnp.asarray(a[i : i + _CHUNK]) for a in inputs)
-        )
-        for i in range(0, padded, _CHUNK)
-    ]
-    return tuple(
-        np.concatenate([np.asarray(p[k]) for p in parts])[:n].astype(float) for k in range(7)
-    )
+    inputs = (ax, ax_traction, ay, yaw_acc, steer, speed)
+    out = np.empty((len(_AxleForces.__dataclass_fields__), n))
+    for i in range(0, n, _CHUNK):
+        size = min(_CHUNK, n - i)
+        # Only the last chunk is padded (with zeros) to the fixed length.
+        chunk = [np.pad(a[i : i + size], (0, _CHUNK - size)) for a in inputs]
+        parts = _force_balance_chunk(vehicle, braking_vehicle, *(jnp.asarray(c) for c in chunk))
+        for row, part in zip(out, parts, strict=True):
+            row[i : i + size] = np.asarray(part)[:size]
+    return _AxleForces(*out)
 
 
 def compute_features(
@@ -719,12 +741,20 @@ def _forces(
     m, window, span = motion, scales.window, scales.span
     speed_for_drag = np.where(np.isfinite(m.vx), np.maximum(m.vx, 0.0), 0.0)
     lateral = (np.nan_to_num(imu.ay), np.nan_to_num(imu.yaw_acc), np.nan_to_num(m.steer))
-    resistance, fx_front, fx_rear, fz_front, fz_rear, *_ = _force_balance(
-        vehicle, np.nan_to_num(imu.ax), *lateral, speed_for_drag, brake_front_share
-    )
+    ax_traction, ax_traction_sd = _traction_acceleration(
+        m.vx_safe, imu.ax, noise.wheel_vx_raw, vehicle.drive, scales.dt_s, window,
+        scales.rate_hz, span,
+    )  # fmt: skip
+    balance = _force_balance(
+        vehicle, np.nan_to_num(imu.ax), np.nan_to_num(ax_traction), *lateral, speed_for_drag,
+        brake_front_share,
+    )  # fmt: skip
+    resistance = balance.resistance
     has_force = m.valid & np.isfinite(imu.ax)
-    fx_axle = _columns(*(np.where(has_force, fx, np.nan) for fx in (fx_front, fx_rear)))
-    fz_axle = _columns(fz_front, fz_rear)
+    fx_axle = _columns(
+        *(np.where(has_force, fx, np.nan) for fx in (balance.fx_front, balance.fx_rear))
+    )
+    fz_axle = _columns(balance.fz_front, balance.fz_rear)
 
     def driven(per_axle: np.ndarray) -> np.ndarray:
         """The driven axle's column, or the sum of both for AWD."""
@@ -733,19 +763,14 @@ def _forces(
         return per_axle[:, 0 if vehicle.driven_axle == "front" else 1]
 
     fx_driven, fz_driven = driven(fx_axle), driven(fz_axle)
-    ax_traction, ax_traction_sd = _traction_acceleration(
-        m.vx_safe, imu.ax, noise.wheel_vx_raw, vehicle.drive, scales.dt_s, window,
-        scales.rate_hz, span,
-    )  # fmt: skip
-    traction = _force_balance(
-        vehicle, np.nan_to_num(ax_traction), *lateral, speed_for_drag, brake_front_share
-    )
-    fx_traction_driven = driven(_columns(*traction[5:7]))
-    fz_traction_driven = driven(_columns(*traction[3:5]))
+    fx_traction = (balance.fx_front_traction, balance.fx_rear_traction)
+    fz_traction = (balance.fz_front_traction, balance.fz_rear_traction)
+    fx_traction_driven = driven(_columns(*fx_traction))
+    fz_traction_driven = driven(_columns(*fz_traction))
     has_traction = m.valid & np.isfinite(ax_traction)
     rho_driven_traction = np.where(has_traction, fx_traction_driven / fz_traction_driven, np.nan)
     rho_total_traction = np.where(
-        has_traction, (traction[5] + traction[6]) / (traction[3] + traction[4]), np.nan
+        has_traction, (fx_traction[0] + fx_traction[1]) / (fz_traction[0] + fz_traction[1]), np.nan
     )
     pushing = rho_total_traction >= 0.0
     slip_driven_noise = local_noise_sd(

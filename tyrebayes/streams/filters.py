@@ -31,49 +31,101 @@ def nan_moving_average(x: Float[np.ndarray, "n *k"], window: int) -> Float[np.nd
     -------
     ndarray, same shape as ``x``
         Mean of the valid samples within ±window//2 of each sample; NaN where there are none.
-        Windows are truncated at the ends.
+        Windows are truncated at the ends. A 2-D result has contiguous columns.
     """
     if window < 1:
         raise ValueError(f"nan_moving_average: expected window >= 1, got {window}")
     x = np.asarray(x, dtype=float)
     half = window // 2
-    n = x.shape[0]
-    valid = np.isfinite(x)
-    all_valid = bool(valid.all())
-    # Cumulative sums of values (and counts) with a leading zero, so every window is one
-    # difference of two rows: O(n) for any window. Physical signals (|x| < 1e3) keep ~1e-6
-    # absolute precision over 1e7 samples in float64. The interior, where windows are whole, is
-    # two slices; only the 2·half end rows need their own (truncated) bounds.
-    csum = _cumsum0(x if all_valid else np.where(valid, x, 0.0))
-    total = _window_difference(csum, n, half)
-    if all_valid:
-        # Whole windows hold `window` samples: one in-place division, then rescale the ends.
-        total /= 2 * half + 1
-        if half and n > 2 * half:
-            edge = np.arange(half + 1, 2 * half + 1, dtype=float)  # counts of rows 0..half-1
-            scale = ((2 * half + 1) / edge).reshape((half,) + (1,) * (x.ndim - 1))
-            total[:half] *= scale
-            total[n - half :] *= scale[::-1]
-        elif half:
-            total *= (2 * half + 1) / _edge_counts(n, half, x.ndim)
+    if x.ndim == 1:
+        return PrefixSums.of(x).window_mean(half)
+    if x.ndim > 2:
+        return nan_moving_average(x.reshape(x.shape[0], -1), window).reshape(x.shape)
+    # Column by column (each contiguous, as the pipeline's tables are): columns with the same
+    # dropped samples (e.g. the four slip velocities, NaN where the car stands) share one
+    # cumulative count.
+    out = np.empty(x.shape[::-1]).T
+    previous = None
+    for j in range(x.shape[1]):
+        previous = PrefixSums.of(x[:, j], like=previous)
+        out[:, j] = previous.window_mean(half)
+    return out
+
+
+class PrefixSums:
+    """Zero-led cumulative sums of a signal's valid values and of its valid-sample counts.
+
+    Every window sum is then one difference of two entries: O(n) for any window. Physical
+    signals (|x| < 1e3) keep ~1e-6 absolute precision over 1e7 samples in float64. Counts are
+    integers (exact; a boolean's integer cumulative sum is the cheap one), and absent when
+    every sample is valid.
+
+    Attributes
+    ----------
+    values : ndarray, shape (n + 1,)
+    counts : ndarray of int32, shape (n + 1,), or None when no sample is NaN
+    valid : ndarray of bool, shape (n,), or None when no sample is NaN
+    """
+
+    __slots__ = ("values", "counts", "valid")
+
+    def __init__(self, values, counts, valid):
+        self.values, self.counts, self.valid = values, counts, valid
+
+    @classmethod
+    def of(cls, x: Float[np.ndarray, "n"], like: PrefixSums | None = None) -> PrefixSums:
+        """Prefix sums of a 1-D signal; the counts are taken from ``like`` when its valid
+        samples are the same (one comparison instead of a cumulative sum)."""
+        valid = np.isfinite(x)
+        if valid.all():
+            return cls(_cumsum0(x), None, None)
+        values = _cumsum0(np.where(valid, x, 0.0))
+        if like is not None and like.valid is not None and np.array_equal(valid, like.valid):
+            return cls(values, like.counts, like.valid)
+        return cls(values, _cumsum0(valid, np.int32), valid)
+
+    def window_mean(self, half: int, step: int = 1) -> Float[np.ndarray, "m"]:
+        """Mean of the valid samples in [i − half, i + half] for every ``step``-th sample i.
+
+        With ``step`` 1 the interior, where windows are whole, is two slices and only the
+        2·half end rows get their own (truncated) bounds; with a larger step the window sums
+        are gathered at the rows wanted. Both give the same numbers.
+        """
+        n = self.values.shape[0] - 1
+        if step == 1:
+            total = _window_difference(self.values, n, half)
+        else:
+            rows = np.arange(0, n, step)
+            total = _gathered_difference(self.values, rows, n, half)
+        if self.counts is None:
+            # Whole windows hold `window` samples: one in-place division, then rescale the ends.
+            total /= 2 * half + 1
+            if not half:
+                return total
+            if step == 1 and n > 2 * half:
+                edge = np.arange(half + 1, 2 * half + 1, dtype=float)  # counts of rows 0..half-1
+                scale = (2 * half + 1) / edge
+                total[:half] *= scale
+                total[n - half :] *= scale[::-1]
+                return total
+            rows = np.arange(n) if step == 1 else rows
+            count = (np.minimum(rows + half, n - 1) - np.maximum(rows - half, 0) + 1).astype(float)
+            truncated = count < 2 * half + 1
+            total[truncated] *= (2 * half + 1) / count[truncated]
+            return total
+        if step == 1:
+            count = _window_difference(self.counts, n, half)
+        else:
+            count = _gathered_difference(self.counts, rows, n, half)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            np.divide(total, count, out=total)
+        total[count == 0] = np.nan
         return total
-    # Counts in integers: exact, and a boolean's integer cumulative sum costs a third of a
-    # float one on (n, k) arrays.
-    count = _window_difference(_cumsum0(valid, np.int32), n, half)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        np.divide(total, count, out=total)
-    total[count == 0] = np.nan
-    return total
-
-
-def _order(x: np.ndarray) -> str:
-    """Memory order that keeps ``x``'s columns contiguous if they are (a column-wise table)."""
-    return "F" if x.ndim > 1 and x.flags.f_contiguous and not x.flags.c_contiguous else "C"
 
 
 def _cumsum0(x: np.ndarray, dtype=np.float64) -> np.ndarray:
     """Cumulative sum along axis 0 with a zero row in front (shape n + 1)."""
-    out = np.empty((x.shape[0] + 1,) + x.shape[1:], dtype=dtype, order=_order(x))
+    out = np.empty((x.shape[0] + 1,) + x.shape[1:], dtype=dtype)
     out[0] = 0
     np.cumsum(x, axis=0, out=out[1:])
     return out
@@ -84,7 +136,7 @@ def _window_difference(csum: np.ndarray, n: int, half: int) -> np.ndarray:
     if n <= 2 * half:  # every window truncated: index arrays, cheap at this size
         idx = np.arange(n)
         return csum[np.minimum(idx + half + 1, n)] - csum[np.maximum(idx - half, 0)]
-    out = np.empty((n,) + csum.shape[1:], dtype=csum.dtype, order=_order(csum))
+    out = np.empty((n,) + csum.shape[1:], dtype=csum.dtype)
     np.subtract(csum[2 * half + 1 :], csum[: n - 2 * half], out=out[half : n - half])
     if half:
         out[:half] = csum[half + 1 : 2 * half + 1]  # minus csum[0] = 0
@@ -92,11 +144,9 @@ def _window_difference(csum: np.ndarray, n: int, half: int) -> np.ndarray:
     return out
 
 
-def _edge_counts(n: int, half: int, ndim: int) -> np.ndarray:
-    """Number of samples in each truncated window, shaped to broadcast against (n, ...)."""
-    idx = np.arange(n)
-    count = (np.minimum(idx + half, n - 1) - np.maximum(idx - half, 0) + 1).astype(float)
-    return count.reshape((n,) + (1,) * (ndim - 1))
+def _gathered_difference(csum: np.ndarray, rows: np.ndarray, n: int, half: int) -> np.ndarray:
+    """:func:`_window_difference` at the given rows only (the same differences)."""
+    return csum[np.minimum(rows + half + 1, n)] - csum[np.maximum(rows - half, 0)]
 
 
 def smoothed_derivative(

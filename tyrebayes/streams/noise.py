@@ -138,28 +138,57 @@ def local_noise_sd(
     """
     from .filters import nan_moving_average  # sibling leaf module; avoids an import cycle
 
+    x = np.asarray(x, dtype=float)
+    if x.ndim > 2:
+        return local_noise_sd(x.reshape(x.shape[0], -1), window, span, ratio, clip).reshape(
+            x.shape
+        )
     long = ratio * window + (1 - (ratio * window) % 2)  # odd
-    # "Twicing" low-pass 2·MA − MA∘MA: flat to second order, so slow true signal (slip following
-    # the driver's torque) leaks ~10x less into the residual than with one moving average.
-    once = nan_moving_average(x, long)
-    resid = nan_moving_average(once, long)  # resid = x − (2·once − MA(once)), in place
+    # The smoothed residual changes over a window, so every (window//2)-th sample carries its
+    # information: it is formed at those samples only, and the robust scale and the ~10 s local
+    # mean run on that thinned series.
+    step = max(1, window // 2)
+    columns = [x] if x.ndim == 1 else [x[:, j] for j in range(x.shape[1])]
+    thin = [_thinned_residual(c, window, long, step) for c in columns]
+    finite = min(np.isfinite(t).sum() for t in thin)
+    if finite < 10 and min(_finite_smoothed(c, window, long) for c in columns) < 10:
+        return np.full(x.shape, np.nan)
+    thin = thin[0] if x.ndim == 1 else np.array(thin).T
+    scale = 1.4826 * nanmedian_columns(np.abs(thin))
+    sq = np.minimum(thin**2, (clip * scale) ** 2)
+    local = nan_moving_average(sq, max(1, span // step))
+    # sqrt(local · gain) on the thinned series, then each value repeated over its step.
+    return np.repeat(np.sqrt(local * _white_gain(window, long)), step, axis=0)[: x.shape[0]]
+
+
+def _residual_prefix(x: np.ndarray, long: int):
+    """Prefix sums of the high-passed signal x − (2·MA(x) − MA(MA(x))), MA over ``long``.
+
+    "Twicing" low-pass 2·MA − MA∘MA: flat to second order, so slow true signal (slip following
+    the driver's torque) leaks ~10x less into the residual than with one moving average.
+    """
+    from .filters import PrefixSums
+
+    prefix = PrefixSums.of(x)
+    once = prefix.window_mean(long // 2)
+    resid = PrefixSums.of(once).window_mean(long // 2)  # x − (2·once − MA(once)), in place
     once *= 2.0
     resid -= once
     del once
     resid += x
-    smooth = nan_moving_average(resid, window)
-    del resid
-    if np.isfinite(smooth).sum(axis=0).min() < 10:
-        return np.full(x.shape, np.nan)
-    # The smoothed residual changes over a window, so every (window//2)-th sample carries its
-    # information: the robust scale and the ~10 s local mean run on that thinned view.
-    step = max(1, window // 2)
-    thin = smooth[::step]
-    scale = 1.4826 * nanmedian_columns(np.abs(thin))
-    sq = np.minimum(thin**2, (clip * scale) ** 2)
-    local = nan_moving_average(sq, max(1, span // step))
-    n = x.shape[0]
-    return np.sqrt(np.repeat(local, step, axis=0)[:n] * _white_gain(window, long))
+    # The residual is NaN where x is (the low-pass has a value wherever x has one): the
+    # same counts, checked, not summed again.
+    return PrefixSums.of(resid, like=prefix)
+
+
+def _thinned_residual(x: np.ndarray, window: int, long: int, step: int) -> np.ndarray:
+    """The residual's ``window``-sample moving average at every ``step``-th sample of ``x``."""
+    return _residual_prefix(x, long).window_mean(window // 2, step)
+
+
+def _finite_smoothed(x: np.ndarray, window: int, long: int) -> int:
+    """Number of samples where the smoothed residual has a value (all samples, not thinned)."""
+    return int(np.isfinite(_residual_prefix(x, long).window_mean(window // 2)).sum())
 
 
 def _white_gain(window: int, long: int) -> float:
