@@ -149,7 +149,11 @@ def local_noise_sd(
     # mean run on that thinned series.
     step = max(1, window // 2)
     columns = [x] if x.ndim == 1 else [x[:, j] for j in range(x.shape[1])]
-    thin = [_thinned_residual(c, window, long, step) for c in columns]
+    thin, prefixes = [], None
+    for column in columns:
+        # Columns with the same dropped samples (the four slip velocities) share their counts.
+        prefixes = _residual_prefixes(column, long, like=prefixes)
+        thin.append(prefixes[2].window_mean(window // 2, step))
     finite = min(np.isfinite(t).sum() for t in thin)
     if finite < 10 and min(_finite_smoothed(c, window, long) for c in columns) < 10:
         return np.full(x.shape, np.nan)
@@ -158,37 +162,40 @@ def local_noise_sd(
     sq = np.minimum(thin**2, (clip * scale) ** 2)
     local = nan_moving_average(sq, max(1, span // step))
     # sqrt(local · gain) on the thinned series, then each value repeated over its step.
-    return np.repeat(np.sqrt(local * _white_gain(window, long)), step, axis=0)[: x.shape[0]]
+    root = np.sqrt(local * _white_gain(window, long))
+    if x.ndim == 1:
+        return np.repeat(root, step)[: x.shape[0]]
+    out = np.empty(x.shape[::-1])  # columns contiguous, like the pipeline's tables
+    for row, column in zip(out, root.T, strict=True):
+        row[:] = np.repeat(column, step)[: x.shape[0]]
+    return out.T
 
 
-def _residual_prefix(x: np.ndarray, long: int):
-    """Prefix sums of the high-passed signal x − (2·MA(x) − MA(MA(x))), MA over ``long``.
+def _residual_prefixes(x: np.ndarray, long: int, like: tuple | None = None) -> tuple:
+    """Prefix sums of x, of MA(x) and of the residual x − (2·MA(x) − MA(MA(x))), MA over ``long``.
 
     "Twicing" low-pass 2·MA − MA∘MA: flat to second order, so slow true signal (slip following
     the driver's torque) leaks ~10x less into the residual than with one moving average.
+    ``like``: another column's prefixes, whose counts are reused where the NaN agree.
     """
     from .filters import PrefixSums
 
-    prefix = PrefixSums.of(x)
+    prefix = PrefixSums.of(x, like=like[0] if like else None)
     once = prefix.window_mean(long // 2)
-    resid = PrefixSums.of(once).window_mean(long // 2)  # x − (2·once − MA(once)), in place
+    once_prefix = PrefixSums.of(once, like=like[1] if like else None)
+    resid = once_prefix.window_mean(long // 2)  # x − (2·once − MA(once)), in place
     once *= 2.0
     resid -= once
     del once
     resid += x
     # The residual is NaN where x is (the low-pass has a value wherever x has one): the
     # same counts, checked, not summed again.
-    return PrefixSums.of(resid, like=prefix)
-
-
-def _thinned_residual(x: np.ndarray, window: int, long: int, step: int) -> np.ndarray:
-    """The residual's ``window``-sample moving average at every ``step``-th sample of ``x``."""
-    return _residual_prefix(x, long).window_mean(window // 2, step)
+    return prefix, once_prefix, PrefixSums.of(resid, like=prefix)
 
 
 def _finite_smoothed(x: np.ndarray, window: int, long: int) -> int:
     """Number of samples where the smoothed residual has a value (all samples, not thinned)."""
-    return int(np.isfinite(_residual_prefix(x, long).window_mean(window // 2)).sum())
+    return int(np.isfinite(_residual_prefixes(x, long)[2].window_mean(window // 2)).sum())
 
 
 def _white_gain(window: int, long: int) -> float:

@@ -19,7 +19,7 @@ import equinox as eqx
 import numpy as np
 from jaxtyping import Bool, Float
 
-from .filters import nan_moving_average
+from .filters import PrefixSums
 from .order_stats import median
 
 # Effective number of independent samples: grade and vibration are correlated over about a
@@ -159,15 +159,19 @@ def estimate_ax_gain(
     short = max(1, int(round(_GAIN_LOWPASS_S * sample_rate_hz)))
     long = max(1, int(round(_GAIN_HIGHPASS_S * sample_rate_hz)))
 
-    def bandpass(v: np.ndarray) -> np.ndarray:
-        v = np.where(ok, v, np.nan)
-        return nan_moving_average(v, short) - nan_moving_average(v, long)
+    def bandpass(v: np.ndarray, like: PrefixSums | None) -> tuple[np.ndarray, PrefixSums]:
+        # Both moving averages (an even window is rounded up, as nan_moving_average does) from
+        # one set of prefix sums; both signals are NaN outside ``ok``, so they share counts.
+        prefix = PrefixSums.of(np.where(ok, v, np.nan), like=like)
+        return prefix.window_mean(short // 2) - prefix.window_mean(long // 2), prefix
 
-    x_all, y_all = bandpass(dvx_dt_mps2), bandpass(ax_mps2)
+    x_all, prefix = bandpass(dvx_dt_mps2, None)
+    y_all, _ = bandpass(ax_mps2, prefix)
     ok = ok & np.isfinite(x_all) & np.isfinite(y_all)
     block = np.floor(np.flatnonzero(ok) / (_GAIN_BLOCK_S * sample_rate_hz)).astype(int)
     x, y = x_all[ok], y_all[ok]
-    if x.size < 3 or np.unique(block).size < 2:
+    # ``block`` is sorted: fewer than two blocks when its first and last agree.
+    if x.size < 3 or block[0] == block[-1]:
         return float("nan"), float("nan")
     xc = x - x.mean()
     sxx = float(np.sum(xc**2))
