@@ -117,9 +117,10 @@ class PrefixSums:
             count = _window_difference(self.counts, n, half)
         else:
             count = _gathered_difference(self.counts, rows, n, half)
+        # A window without a valid sample sums exactly 0 (its cumulative sums are equal): 0/0
+        # makes it NaN with no pass of its own.
         with np.errstate(invalid="ignore", divide="ignore"):
             np.divide(total, count, out=total)
-        total[count == 0] = np.nan
         return total
 
 

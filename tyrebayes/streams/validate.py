@@ -290,25 +290,43 @@ def _median_interval(t: np.ndarray) -> float:
 
 
 def _resample_channel(
-    grid: np.ndarray, t: np.ndarray, x: np.ndarray, max_fill_s: float
+    grid: np.ndarray,
+    t: np.ndarray,
+    x: np.ndarray,
+    max_fill_s: float,
+    valid_time: np.ndarray | None = None,
+    period: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Linear interpolation of one channel onto ``grid``; NaN across gaps longer than the limit.
 
     Returns the resampled values and a mask of grid points that fall in a bridged gap (an
-    interval longer than 1.5 channel periods but within the fill limit).
+    interval longer than 1.5 channel periods but within the fill limit). ``valid_time`` (the
+    file instants where ``x`` has a value) and ``period`` (their median interval), when the
+    caller has them, spare the passes over the whole channel: only the valid samples around
+    the grid points are read.
     """
-    valid = np.isfinite(x)
     if grid is t:
-        return _fill_on_own_grid(t, x, valid, max_fill_s)
-    tv, xv = t[valid], x[valid]
+        return _fill_on_own_grid(t, x, np.isfinite(x), max_fill_s, period)
+    if valid_time is None:
+        valid = np.isfinite(x)
+        tv, xv = t[valid], x[valid]
+    else:
+        tv, xv = valid_time, None
     out = np.full(grid.shape, np.nan)
     bridged = np.zeros(grid.shape, dtype=bool)
     if tv.size < 2:
         return out, bridged
-    period = _median_interval(tv)
+    if period is None:
+        period = _median_interval(tv)
     limit = max(max_fill_s, 1.5 * period)
-    values = np.interp(grid, tv, xv)
     right = np.clip(np.searchsorted(tv, grid, side="left"), 1, tv.size - 1)
+    if xv is None:
+        # The valid instants around each grid point and their rows in the file: np.interp on
+        # these knots alone brackets every grid point as it would on all of them.
+        knots = np.unique(np.concatenate((right - 1, right)))
+        values = np.interp(grid, tv[knots], x[np.searchsorted(t, tv[knots])])
+    else:
+        values = np.interp(grid, tv, xv)
     span = tv[right] - tv[right - 1]
     exact = (tv[right] == grid) | (tv[right - 1] == grid)
     inside = (grid >= tv[0]) & (grid <= tv[-1])
@@ -352,6 +370,7 @@ def _resample_shared(
     max_fill_s: float,
     shared: _SharedSearch,
     period: float,
+    valid_time: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_resample_channel` on the file's intervals, the per-channel search only near NaN.
 
@@ -359,7 +378,7 @@ def _resample_shared(
     file's, so the value is ``np.interp``'s own arithmetic there (the same to the last bit) and
     the gap tests are the file's interval against the channel's period. The few grid points next
     to a dropped sample (NaN here) go through :func:`_resample_channel`, which searches the
-    channel's own valid instants. ``period`` is the channel's median interval.
+    channel's own valid instants (``valid_time``, with ``period`` their median interval).
     """
     valid = np.isfinite(x)
     if valid.sum() < 2:
@@ -391,12 +410,14 @@ def _resample_shared(
         bridged = np.zeros(span.shape, dtype=bool)  # no file interval is a bridged gap
     if near_nan.any():
         idx = np.flatnonzero(near_nan)
-        out[idx], bridged[idx] = _resample_channel(grid[idx], t, x, max_fill_s)
+        out[idx], bridged[idx] = _resample_channel(
+            grid[idx], t, x, max_fill_s, valid_time=valid_time, period=period
+        )
     return out, bridged
 
 
 def _fill_on_own_grid(
-    t: np.ndarray, x: np.ndarray, valid: np.ndarray, max_fill_s: float
+    t: np.ndarray, x: np.ndarray, valid: np.ndarray, max_fill_s: float, period: float | None
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_resample_channel` when the grid is the file's own time base (no search needed).
 
@@ -412,7 +433,8 @@ def _fill_on_own_grid(
     kept = np.flatnonzero(valid)
     if kept.size == 0:
         return out, bridged  # all NaN already
-    period = _median_interval(t[kept])
+    if period is None:
+        period = _median_interval(t[kept])
     limit = max(max_fill_s, 1.5 * period) if np.isfinite(period) else max_fill_s
     after = np.searchsorted(kept, missing)  # index into kept of the next valid sample
     inside = (after > 0) & (after < kept.size)
@@ -708,9 +730,13 @@ def validate_stream(
             row[:] = x
             continue
         if shared is None:
-            row[:], bridged = _resample_channel(grid, t, x, max_fill_s)
+            row[:], bridged = _resample_channel(
+                grid, t, x, max_fill_s, valid_time=valid_time[name], period=interval[name]
+            )
         else:
-            row[:], bridged = _resample_shared(grid, t, x, max_fill_s, shared, interval[name])
+            row[:], bridged = _resample_shared(
+                grid, t, x, max_fill_s, shared, interval[name], valid_time[name]
+            )
         if name in REQUIRED_COLUMNS:
             filled |= bridged
     out = pd.DataFrame(block.T, columns=names, copy=False)
