@@ -54,7 +54,7 @@ from ..physics.vehicle import (
     rolling_resistance_force,
     single_track_inverse,
 )
-from .filters import nan_moving_average, smoothed_derivative, window_samples
+from .filters import PrefixSums, nan_moving_average, smoothed_derivative, window_samples
 from .noise import local_noise_sd
 from .order_stats import median, nanmedian_columns
 from .nuisances import (
@@ -310,7 +310,7 @@ GRADE_LOWPASS_S = 10.0
 
 
 def _traction_acceleration(
-    vx: np.ndarray,
+    vx: PrefixSums,
     ax_imu: np.ndarray,
     wheel_vx_raw: np.ndarray,
     drive: str,
@@ -336,7 +336,7 @@ def _traction_acceleration(
     """
     if drive == "awd":
         return ax_imu, np.full_like(ax_imu, np.nan)
-    dvx_dt = smoothed_derivative(vx, dt, window)
+    dvx_dt = vx.smoothed_derivative(window // 2, dt)
     lowpass = window_samples(GRADE_LOWPASS_S, rate)
     grade_accel = nan_moving_average(ax_imu - dvx_dt, lowpass)
     probe = smoothed_derivative(_vx_noise_probe(wheel_vx_raw, drive), dt, window)
@@ -540,6 +540,9 @@ class _Motion(eqx.Module):
     yaw: Float[np.ndarray, "n"]  # smoothed yaw rate [rad/s]
     steer: Float[np.ndarray, "n"]  # front road-wheel angle [rad]
     ax_raw: Float[np.ndarray, "n"]  # smoothed IMU ax, uncorrected [m/s²]
+    # Prefix sums of the raw IMU ax and of V_x: later steps smooth them over other windows.
+    ax_prefix: PrefixSums
+    vx_prefix: PrefixSums
     ay_raw: Float[np.ndarray, "n"]  # smoothed IMU ay, uncorrected [m/s²]
     trig: tuple  # the front wheels' geometry terms (_front_terms)
     wheel_vx: Float[np.ndarray, "n 4"]  # [m/s]
@@ -567,7 +570,8 @@ def _motion(stream, vehicle, scales, spin_threshold, thresholds) -> _Motion:
         steer = smooth("wheel_angle_front")
     else:
         steer = smooth("steering_wheel_angle") / vehicle.steering_ratio
-    ax_raw, ay_raw = smooth("ax"), smooth("ay")
+    ax_prefix = PrefixSums.of(data["ax"].to_numpy(dtype=float))
+    ax_raw, ay_raw = ax_prefix.window_mean(scales.window // 2), smooth("ay")
 
     trig = _front_terms(yaw, steer, ay_raw, vehicle)
     wheel_vx = _wheel_to_vx(omega, yaw, vehicle, trig)
@@ -586,6 +590,8 @@ def _motion(stream, vehicle, scales, spin_threshold, thresholds) -> _Motion:
         yaw=yaw,
         steer=steer,
         ax_raw=ax_raw,
+        ax_prefix=ax_prefix,
+        vx_prefix=PrefixSums.of(vx_safe),
         ay_raw=ay_raw,
         trig=trig,
         wheel_vx=wheel_vx,
@@ -663,8 +669,8 @@ def _imu_calibration(
     # C_x with them (the model's force gain is centred at 1), and a drive that brakes more than
     # it accelerates would shift the offset.
     pitch_gain = float(body_pitch_gain(vehicle))
-    dvx_dt = smoothed_derivative(m.vx_safe, scales.dt_s, scales.deriv_window)
-    ax_smooth_d = nan_moving_average(data["ax"].to_numpy(dtype=float), scales.deriv_window)
+    dvx_dt = m.vx_prefix.smoothed_derivative(scales.deriv_window // 2, scales.dt_s)
+    ax_smooth_d = m.ax_prefix.window_mean(scales.deriv_window // 2)
     steady = m.valid & ~m.spin & (np.abs(dvx_dt) < 4.0)
     # The IMU's scale factor against the wheel speeds' dV_x/dt (which the pitch over-read is part
     # of): a calibrated IMU is left to the tyre model's force gain, a badly scaled one (a
@@ -742,7 +748,7 @@ def _forces(
     speed_for_drag = np.where(np.isfinite(m.vx), np.maximum(m.vx, 0.0), 0.0)
     lateral = (np.nan_to_num(imu.ay), np.nan_to_num(imu.yaw_acc), np.nan_to_num(m.steer))
     ax_traction, ax_traction_sd = _traction_acceleration(
-        m.vx_safe, imu.ax, noise.wheel_vx_raw, vehicle.drive, scales.dt_s, window,
+        m.vx_prefix, imu.ax, noise.wheel_vx_raw, vehicle.drive, scales.dt_s, window,
         scales.rate_hz, span,
     )  # fmt: skip
     balance = _force_balance(
@@ -791,7 +797,8 @@ def _forces(
     )
     # Per-sample noise of the smoothed ax, scaled by the axle's share of m·ax. The offset's
     # uncertainty is common to the whole log and reported apart (nuisances.rho_offset_sd).
-    ax_sd_local = local_noise_sd(stream.data["ax"].to_numpy(dtype=float), window, span) / (
+    ax_raw = stream.data["ax"].to_numpy(dtype=float)
+    ax_sd_local = local_noise_sd(ax_raw, window, span, prefix=m.ax_prefix) / (
         imu.pitch_gain * imu.imu_gain.applied
     )
     fx_total = np.abs(fx_axle[:, 0] + fx_axle[:, 1])

@@ -124,6 +124,11 @@ class PrefixSums:
         return total
 
 
+    def smoothed_derivative(self, half: int, dt_s: float) -> Float[np.ndarray, "n"]:
+        """:func:`smoothed_derivative` with a ``2·half + 1`` window, from these sums."""
+        return _derivative(self.window_mean(half), dt_s)
+
+
 def _cumsum0(x: np.ndarray, dtype=np.float64) -> np.ndarray:
     """Cumulative sum along axis 0 with a zero row in front (shape n + 1)."""
     out = np.empty((x.shape[0] + 1,) + x.shape[1:], dtype=dtype)
@@ -158,7 +163,10 @@ def smoothed_derivative(
     A boxcar followed by a central difference: the noise gain is about ``sd / (window dt)``
     instead of ``sd / dt`` for the raw difference.
     """
-    smooth = nan_moving_average(x, window)
+    return _derivative(nan_moving_average(x, window), dt_s)
+
+
+def _derivative(smooth: np.ndarray, dt_s: float) -> np.ndarray:
     if smooth.shape[0] < 2:
         return np.full_like(smooth, np.nan)
     return np.gradient(smooth, dt_s)

@@ -104,6 +104,7 @@ def local_noise_sd(
     span: int,
     ratio: int = 5,
     clip: float = 5.0,
+    prefix=None,
 ) -> Float[np.ndarray, "n *k"]:
     """Per-sample noise sd of a ``window``-sample moving average of ``x`` (coloured noise too).
 
@@ -124,6 +125,9 @@ def local_noise_sd(
         Smoothing window of the feature [samples].
     span : int
         Averaging span of the local RMS [samples].
+    prefix : PrefixSums, optional
+        :class:`~tyrebayes.streams.filters.PrefixSums` of a 1-D ``x``, when the caller has them
+        (they are not formed again).
 
     Returns
     -------
@@ -143,6 +147,8 @@ def local_noise_sd(
         return local_noise_sd(x.reshape(x.shape[0], -1), window, span, ratio, clip).reshape(
             x.shape
         )
+    if prefix is not None and x.ndim != 1:
+        raise ValueError(f"local_noise_sd: expected prefix sums with a 1-D x, got x.ndim {x.ndim}")
     long = ratio * window + (1 - (ratio * window) % 2)  # odd
     # The smoothed residual changes over a window, so every (window//2)-th sample carries its
     # information: it is formed at those samples only, and the robust scale and the ~10 s local
@@ -152,7 +158,7 @@ def local_noise_sd(
     thin, prefixes = [], None
     for column in columns:
         # Columns with the same dropped samples (the four slip velocities) share their counts.
-        prefixes = _residual_prefixes(column, long, like=prefixes)
+        prefixes = _residual_prefixes(column, long, like=prefixes, prefix=prefix)
         thin.append(prefixes[2].window_mean(window // 2, step))
     finite = min(np.isfinite(t).sum() for t in thin)
     if finite < 10 and min(_finite_smoothed(c, window, long) for c in columns) < 10:
@@ -171,16 +177,18 @@ def local_noise_sd(
     return out.T
 
 
-def _residual_prefixes(x: np.ndarray, long: int, like: tuple | None = None) -> tuple:
+def _residual_prefixes(x: np.ndarray, long: int, like: tuple | None = None, prefix=None) -> tuple:
     """Prefix sums of x, of MA(x) and of the residual x − (2·MA(x) − MA(MA(x))), MA over ``long``.
 
     "Twicing" low-pass 2·MA − MA∘MA: flat to second order, so slow true signal (slip following
     the driver's torque) leaks ~10x less into the residual than with one moving average.
-    ``like``: another column's prefixes, whose counts are reused where the NaN agree.
+    ``like``: another column's prefixes, whose counts are reused where the NaN agree;
+    ``prefix``: x's own, when the caller has them.
     """
     from .filters import PrefixSums
 
-    prefix = PrefixSums.of(x, like=like[0] if like else None)
+    if prefix is None:
+        prefix = PrefixSums.of(x, like=like[0] if like else None)
     once = prefix.window_mean(long // 2)
     once_prefix = PrefixSums.of(once, like=like[1] if like else None)
     resid = once_prefix.window_mean(long // 2)  # x − (2·once − MA(once)), in place
