@@ -28,7 +28,7 @@ from jaxtyping import Float
 
 from .._errors import BadInputError
 from .filters import nan_moving_average, smoothed_derivative, window_samples
-from .order_stats import median, quantile
+from .order_stats import median, median_at_most, quantile
 
 #: Below this rate the 0.2 s smoothing of the features holds fewer than 4 samples: the derivatives
 #: and the slip noise estimate (measured at the smoothing scale) stop meaning what they say.
@@ -201,11 +201,14 @@ def dropped_fraction(time_s: Float[np.ndarray, "m"]) -> float:
     if time_s.size < 3:
         return 0.0
     steps = np.diff(time_s)
-    period = median(steps[steps <= 1.5 * quantile(steps, 0.25)])
-    span = float(steps[steps < LONG_GAP_S].sum())
+    period = median_at_most(steps, 1.5 * quantile(steps, 0.25))
+    short = steps < LONG_GAP_S
+    count = int(np.count_nonzero(short))
+    # Without long gaps (the usual case) the short steps are all of them: no copy to sum.
+    span = float(steps.sum() if count == steps.size else steps[short].sum())
     if not (period > 0 and span > 0):
         return 0.0
-    return max(0.0, 1.0 - (steps < LONG_GAP_S).sum() * period / span)
+    return max(0.0, 1.0 - count * period / span)
 
 
 def sampling_flags(
