@@ -271,7 +271,11 @@ def _vehicle_speed(
 
 
 def _slip_noise_probe(
-    slip_velocity: np.ndarray, force_velocity: np.ndarray, pushing: np.ndarray, window: int
+    slip_velocity: np.ndarray,
+    slip_velocity_sums: PrefixSums,
+    force_velocity: np.ndarray,
+    pushing: np.ndarray,
+    window: int,
 ) -> np.ndarray:
     """The driven axle's slip velocity R·Ω − V_x less the part that follows the force.
 
@@ -283,13 +287,13 @@ def _slip_noise_probe(
     :func:`~tyrebayes.streams.noise.local_noise_sd` does; what is left is sensor noise and what
     the linear fit misses. Only where the tyres push: under braking the reference wheels brake
     too and the relation is another (NaN there; the caller takes the plain slip velocity's
-    noise where no pushing sample is near).
+    noise where no pushing sample is near). ``slip_velocity_sums`` are the slip velocity's
+    :class:`~tyrebayes.streams.filters.PrefixSums`, which the caller's noise estimate of the
+    same signal reads too.
     """
-
-    def high_pass(x):
-        return x - nan_moving_average(x, 5 * window)
-
-    s, r = high_pass(slip_velocity), high_pass(force_velocity)
+    half = (5 * window) // 2  # nan_moving_average's half-window for 5 * window samples
+    s = slip_velocity - slip_velocity_sums.window_mean(half)
+    r = force_velocity - nan_moving_average(force_velocity, 5 * window)
     ok = np.isfinite(s) & np.isfinite(r) & pushing
     denominator = float(np.sum(r[ok] ** 2))
     slope = float(np.sum(s[ok] * r[ok])) / denominator if denominator > 0 else 0.0
@@ -338,12 +342,16 @@ def _traction_acceleration(
         return ax_imu, np.full_like(ax_imu, np.nan)
     dvx_dt = vx.smoothed_derivative(window // 2, dt)
     lowpass = window_samples(GRADE_LOWPASS_S, rate)
-    grade_accel = nan_moving_average(ax_imu - dvx_dt, lowpass)
+    # The IMU's error with the motion removed (a_x − dV_x/dt): its low-pass is the grade term,
+    # its noise through the low-pass the IMU's share of the error (one set of prefix sums).
+    imu_error = ax_imu - dvx_dt
+    imu_error_sums = PrefixSums.of(imu_error)
+    grade_accel = imu_error_sums.window_mean(lowpass // 2)
     probe = smoothed_derivative(_vx_noise_probe(wheel_vx_raw, drive), dt, window)
     probe = probe - nan_moving_average(probe, span)
     derivative_sd = np.sqrt(nan_moving_average(probe**2, span))
-    # The IMU's error with the motion removed (a_x − dV_x/dt), through the low-pass.
-    imu_sd = local_noise_sd(ax_imu - dvx_dt, window, span) * np.sqrt(window / lowpass)
+    imu_sd = local_noise_sd(imu_error, window, span, prefix=imu_error_sums)
+    imu_sd *= np.sqrt(window / lowpass)
     return dvx_dt + grade_accel, np.hypot(derivative_sd, imu_sd)
 
 
@@ -779,17 +787,18 @@ def _forces(
         has_traction, (fx_traction[0] + fx_traction[1]) / (fz_traction[0] + fz_traction[1]), np.nan
     )
     pushing = rho_total_traction >= 0.0
+    velocity = PrefixSums.of(noise.slip_velocity_driven)
     slip_driven_noise = local_noise_sd(
-        np.column_stack(
-            [
-                _slip_noise_probe(
-                    noise.slip_velocity_driven, rho_driven_traction * m.vx_safe, pushing, window
-                ),
-                noise.slip_velocity_driven,
-            ]
+        _columns(
+            _slip_noise_probe(
+                noise.slip_velocity_driven, velocity, rho_driven_traction * m.vx_safe, pushing,
+                window,
+            ),
+            noise.slip_velocity_driven,
         ),
         window,
         span,
+        prefix=(None, velocity),
     )
     # Where the tyres brake (no slip window there) the plain slip velocity's noise stands in.
     slip_driven_noise = np.where(

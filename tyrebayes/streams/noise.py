@@ -125,9 +125,9 @@ def local_noise_sd(
         Smoothing window of the feature [samples].
     span : int
         Averaging span of the local RMS [samples].
-    prefix : PrefixSums, optional
-        :class:`~tyrebayes.streams.filters.PrefixSums` of a 1-D ``x``, when the caller has them
-        (they are not formed again).
+    prefix : PrefixSums or sequence of (PrefixSums or None), optional
+        :class:`~tyrebayes.streams.filters.PrefixSums` of a 1-D ``x`` (of each column of a 2-D
+        one, None where not at hand), when the caller has them: they are not formed again.
 
     Returns
     -------
@@ -147,18 +147,25 @@ def local_noise_sd(
         return local_noise_sd(x.reshape(x.shape[0], -1), window, span, ratio, clip).reshape(
             x.shape
         )
-    if prefix is not None and x.ndim != 1:
-        raise ValueError(f"local_noise_sd: expected prefix sums with a 1-D x, got x.ndim {x.ndim}")
+    columns = [x] if x.ndim == 1 else [x[:, j] for j in range(x.shape[1])]
+    if prefix is None or x.ndim == 1:
+        given = [prefix] * len(columns)
+    else:
+        given = list(prefix)
+        if len(given) != len(columns):
+            raise ValueError(
+                f"local_noise_sd: expected {len(columns)} prefix sums (one per column), "
+                f"got {len(given)}"
+            )
     long = ratio * window + (1 - (ratio * window) % 2)  # odd
     # The smoothed residual changes over a window, so every (window//2)-th sample carries its
     # information: it is formed at those samples only, and the robust scale and the ~10 s local
     # mean run on that thinned series.
     step = max(1, window // 2)
-    columns = [x] if x.ndim == 1 else [x[:, j] for j in range(x.shape[1])]
     thin, prefixes = [], None
-    for column in columns:
+    for column, own in zip(columns, given, strict=True):
         # Columns with the same dropped samples (the four slip velocities) share their counts.
-        prefixes = _residual_prefixes(column, long, like=prefixes, prefix=prefix)
+        prefixes = _residual_prefixes(column, long, like=prefixes, prefix=own)
         thin.append(prefixes[2].window_mean(window // 2, step))
     finite = min(np.isfinite(t).sum() for t in thin)
     if finite < 10 and min(_finite_smoothed(c, window, long) for c in columns) < 10:
