@@ -375,17 +375,16 @@ _CHUNK = 65536
 
 
 class _AxleForces(eqx.Module):
-    """The force balance of every sample, for the IMU's a_x and for the traction a_x [N]."""
+    """The force balance of every sample, for the IMU's a_x and for the traction a_x [N].
+
+    Per-axle pairs (front, rear) are (n, 2) views of one block, columns contiguous.
+    """
 
     resistance: Float[np.ndarray, "n"]  # drag + rolling resistance
-    fx_front: Float[np.ndarray, "n"]  # traction split, or the brake balance under braking
-    fx_rear: Float[np.ndarray, "n"]
-    fz_front: Float[np.ndarray, "n"]
-    fz_rear: Float[np.ndarray, "n"]
-    fx_front_traction: Float[np.ndarray, "n"]  # traction a_x, traction split at every sample
-    fx_rear_traction: Float[np.ndarray, "n"]
-    fz_front_traction: Float[np.ndarray, "n"]
-    fz_rear_traction: Float[np.ndarray, "n"]
+    fx_axle: Float[np.ndarray, "n 2"]  # traction split, or the brake balance under braking
+    fz_axle: Float[np.ndarray, "n 2"]
+    fx_traction: Float[np.ndarray, "n 2"]  # traction a_x, traction split at every sample
+    fz_traction: Float[np.ndarray, "n 2"]
 
 
 @eqx.filter_jit
@@ -443,15 +442,22 @@ def _force_balance(
     )
     n = ax.shape[0]
     inputs = (ax, ax_traction, ay, yaw_acc, steer, speed)
-    out = np.empty((len(_AxleForces.__dataclass_fields__), n))
+    out = np.empty((9, n))  # the chunk's outputs, a row each
     for i in range(0, n, _CHUNK):
         size = min(_CHUNK, n - i)
-        # Only the last chunk is padded (with zeros) to the fixed length.
-        chunk = [np.pad(a[i : i + size], (0, _CHUNK - size)) for a in inputs]
+        chunk = [a[i : i + size] for a in inputs]
+        if size < _CHUNK:  # the last chunk, padded with zeros to the fixed length
+            chunk = [np.pad(c, (0, _CHUNK - size)) for c in chunk]
         parts = _force_balance_chunk(vehicle, braking_vehicle, *(jnp.asarray(c) for c in chunk))
         for row, part in zip(out, parts, strict=True):
             row[i : i + size] = np.asarray(part)[:size]
-    return _AxleForces(*out)
+    return _AxleForces(
+        resistance=out[0],
+        fx_axle=out[1:3].T,
+        fz_axle=out[3:5].T,
+        fx_traction=out[5:7].T,
+        fz_traction=out[7:9].T,
+    )
 
 
 def compute_features(
@@ -763,12 +769,10 @@ def _forces(
         vehicle, np.nan_to_num(imu.ax), np.nan_to_num(ax_traction), *lateral, speed_for_drag,
         brake_front_share,
     )  # fmt: skip
-    resistance = balance.resistance
-    has_force = m.valid & np.isfinite(imu.ax)
-    fx_axle = _columns(
-        *(np.where(has_force, fx, np.nan) for fx in (balance.fx_front, balance.fx_rear))
-    )
-    fz_axle = _columns(balance.fz_front, balance.fz_rear)
+    resistance, fx_axle, fz_axle = balance.resistance, balance.fx_axle, balance.fz_axle
+    no_force = ~(m.valid & np.isfinite(imu.ax))
+    for i in range(2):
+        fx_axle[no_force, i] = np.nan
 
     def driven(per_axle: np.ndarray) -> np.ndarray:
         """The driven axle's column, or the sum of both for AWD."""
@@ -777,14 +781,14 @@ def _forces(
         return per_axle[:, 0 if vehicle.driven_axle == "front" else 1]
 
     fx_driven, fz_driven = driven(fx_axle), driven(fz_axle)
-    fx_traction = (balance.fx_front_traction, balance.fx_rear_traction)
-    fz_traction = (balance.fz_front_traction, balance.fz_rear_traction)
-    fx_traction_driven = driven(_columns(*fx_traction))
-    fz_traction_driven = driven(_columns(*fz_traction))
+    fx_traction, fz_traction = balance.fx_traction, balance.fz_traction
+    fx_traction_driven, fz_traction_driven = driven(fx_traction), driven(fz_traction)
     has_traction = m.valid & np.isfinite(ax_traction)
     rho_driven_traction = np.where(has_traction, fx_traction_driven / fz_traction_driven, np.nan)
     rho_total_traction = np.where(
-        has_traction, (fx_traction[0] + fx_traction[1]) / (fz_traction[0] + fz_traction[1]), np.nan
+        has_traction,
+        (fx_traction[:, 0] + fx_traction[:, 1]) / (fz_traction[:, 0] + fz_traction[:, 1]),
+        np.nan,
     )
     pushing = rho_total_traction >= 0.0
     velocity = PrefixSums.of(noise.slip_velocity_driven)
