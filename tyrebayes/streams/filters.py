@@ -79,7 +79,14 @@ class PrefixSums:
         valid = np.isfinite(x)
         if valid.all():
             return cls(_cumsum0(x), None, None)
-        values = _cumsum0(np.where(valid, x, 0.0))
+        # The dropped samples zeroed in the output buffer itself: no temporary the size of x
+        # (fresh memory costs page faults, often more than the arithmetic).
+        values = np.empty(x.shape[0] + 1)
+        values[0] = 0.0
+        body = values[1:]
+        np.copyto(body, x)
+        np.copyto(body, 0.0, where=~valid)
+        np.cumsum(body, out=body)
         if like is not None and like.valid is not None and np.array_equal(valid, like.valid):
             return cls(values, like.counts, like.valid)
         return cls(values, _cumsum0(valid, np.int32), valid)

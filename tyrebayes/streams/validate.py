@@ -358,6 +358,7 @@ class _SharedSearch:
         self.at_end_index = np.flatnonzero(at_end)
         self.inside = (grid >= t[0]) & (grid <= t[-1])
         self.all_inside = bool(self.inside.all())
+        self.scratch = np.empty(grid.shape)  # one channel's x0, reused channel after channel
         # The longest file interval: when it is within a channel's fill limit (or below its
         # bridging threshold) that test holds for every grid point and needs no pass.
         self.max_span = float(self.span.max())
@@ -371,7 +372,8 @@ def _resample_shared(
     shared: _SharedSearch,
     period: float,
     valid_time: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
+    out: np.ndarray,
+) -> np.ndarray | None:
     """:func:`_resample_channel` on the file's intervals, the per-channel search only near NaN.
 
     Where the channel has values at both file rows around a grid point its interval is the
@@ -379,22 +381,24 @@ def _resample_shared(
     the gap tests are the file's interval against the channel's period. The few grid points next
     to a dropped sample (NaN here) go through :func:`_resample_channel`, which searches the
     channel's own valid instants (``valid_time``, with ``period`` their median interval).
+
+    The values are written into ``out`` (the channel's row of the table); returns the bridged
+    mask, or None where no grid point is bridged.
     """
-    valid = np.isfinite(x)
-    if valid.sum() < 2:
-        return _resample_channel(grid, t, x, max_fill_s)
+    if valid_time.size < 2:
+        out[:], bridged = _resample_channel(grid, t, x, max_fill_s)
+        return bridged
     limit = max(max_fill_s, 1.5 * period)
     span = shared.span
-    # np.interp's arithmetic, (x1 − x0) / span · offset + x0, in place.
-    x0 = x.take(shared.j)
-    values = x.take(shared.j_next)
+    # np.interp's arithmetic, (x1 − x0) / span · offset + x0, in place in the output row.
+    values = np.take(x, shared.j_next, out=out, mode="clip")  # indices are in range
+    x0 = np.take(x, shared.j, out=shared.scratch, mode="clip")
     values -= x0
     values /= span
     values *= shared.offset
     values += x0
     values[shared.on_knot_index] = x0[shared.on_knot_index]
     values[shared.at_end_index] = x[-1]
-    del x0
     near_nan = ~np.isfinite(values)
     if not shared.all_inside:
         near_nan &= shared.inside
@@ -403,17 +407,19 @@ def _resample_shared(
         ok = shared.inside  # every file interval within the fill limit
     else:
         ok = shared.inside & (exact | (span <= limit * (1 + 1e-9)))
-    out = values if ok is shared.inside and shared.all_inside else np.where(ok, values, np.nan)
+    if not (ok is shared.inside and shared.all_inside):
+        np.copyto(values, np.nan, where=~ok)
+    bridged = None  # no file interval is a bridged gap
     if shared.max_span > 1.5 * period:
         bridged = ok & ~exact & (span > 1.5 * period)
-    else:
-        bridged = np.zeros(span.shape, dtype=bool)  # no file interval is a bridged gap
     if near_nan.any():
         idx = np.flatnonzero(near_nan)
-        out[idx], bridged[idx] = _resample_channel(
+        if bridged is None:
+            bridged = np.zeros(span.shape, dtype=bool)
+        values[idx], bridged[idx] = _resample_channel(
             grid[idx], t, x, max_fill_s, valid_time=valid_time, period=period
         )
-    return out, bridged
+    return bridged
 
 
 def _fill_on_own_grid(
@@ -734,10 +740,10 @@ def validate_stream(
                 grid, t, x, max_fill_s, valid_time=valid_time[name], period=interval[name]
             )
         else:
-            row[:], bridged = _resample_shared(
-                grid, t, x, max_fill_s, shared, interval[name], valid_time[name]
+            bridged = _resample_shared(
+                grid, t, x, max_fill_s, shared, interval[name], valid_time[name], out=row
             )
-        if name in REQUIRED_COLUMNS:
+        if name in REQUIRED_COLUMNS and bridged is not None:
             filled |= bridged
     out = pd.DataFrame(block.T, columns=names, copy=False)
 
