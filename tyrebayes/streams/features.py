@@ -94,9 +94,17 @@ def _columns(*columns: np.ndarray) -> np.ndarray:
     return out.T
 
 
-def _row_mean(x: np.ndarray, columns: tuple[int, ...]) -> np.ndarray:
+def _table(n: int, k: int) -> np.ndarray:
+    """An empty (n, k) array with contiguous columns, for results written column by column."""
+    return np.empty((k, n)).T
+
+
+def _row_mean(
+    x: np.ndarray, columns: tuple[int, ...], out: np.ndarray | None = None
+) -> np.ndarray:
     """``x[:, columns].mean(axis=1)`` column by column, summed in NumPy's order."""
-    total = x[:, columns[0]].copy()
+    total = np.empty(x.shape[0]) if out is None else out
+    np.copyto(total, x[:, columns[0]])
     for i in columns[1:]:
         total += x[:, i]
     total /= len(columns)
@@ -594,8 +602,13 @@ def _motion(stream, vehicle, scales, spin_threshold, thresholds) -> _Motion:
     valid = ~gap & np.isfinite(vx) & (vx > thresholds.min_speed_mps)
     vx_safe = np.where(valid, vx, np.nan)
 
-    slip = _columns(*((wheel_vx[:, i] - vx_safe) / vx_safe for i in range(4)))
-    slip_axle = _columns(_row_mean(slip, (0, 1)), _row_mean(slip, (2, 3)))
+    slip = _table(vx.shape[0], 4)
+    for i in range(4):
+        np.subtract(wheel_vx[:, i], vx_safe, out=slip[:, i])
+        slip[:, i] /= vx_safe
+    slip_axle = _table(vx.shape[0], 2)
+    _row_mean(slip, (0, 1), out=slip_axle[:, 0])
+    _row_mean(slip, (2, 3), out=slip_axle[:, 1])
     driven_wheels = {"front": (0, 1), "rear": (2, 3), "both": (0, 1, 2, 3)}[vehicle.driven_axle]
     slip_driven = _row_mean(slip, driven_wheels)
     return _Motion(
@@ -653,7 +666,7 @@ def _wheel_noise(motion: _Motion, vehicle, scales: _Scales, spin_threshold) -> _
         wheel_vx_raw=wheel_vx_raw,
         slip_velocity_driven=slip_velocity_driven,
         local_wheel=local_wheel,
-        slip_sd=_columns(*(local_wheel[:, i] / m.vx_safe for i in range(4))),
+        slip_sd=np.divide(local_wheel, m.vx_safe[:, None], out=_table(*local_wheel.shape)),
         vx_sd=probe_sd[:, 4],
     )
 
@@ -822,7 +835,7 @@ def _forces(
         resistance=resistance,
         fx_axle=fx_axle,
         fz_axle=fz_axle,
-        rho_axle=_columns(*(fx_axle[:, i] / fz_axle[:, i] for i in range(2))),
+        rho_axle=np.divide(fx_axle, fz_axle, out=_table(*fx_axle.shape)),
         fx_driven=fx_driven,
         fz_driven=fz_driven,
         rho_driven=fx_driven / fz_driven,
