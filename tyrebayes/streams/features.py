@@ -406,6 +406,12 @@ def _force_balance_chunk(
     steer: Float[Array, " c"],
     speed: Float[Array, " c"],
 ) -> tuple[Float[Array, " c"], ...]:
+    # Missing samples count as 0 (np.nan_to_num), a missing or negative speed as standstill
+    # for the drag; done here, fused into the chunk's one pass, not as copies of whole logs.
+    ax, ax_traction, ay, yaw_acc, steer = (
+        jnp.nan_to_num(a) for a in (ax, ax_traction, ay, yaw_acc, steer)
+    )
+    speed = jnp.where(jnp.isfinite(speed), jnp.maximum(speed, 0.0), 0.0)
     resistance = aero_drag(vehicle, speed) + rolling_resistance_force(vehicle)
     fxf_t, _, fxr_t, _ = single_track_inverse(vehicle, ax, ay, yaw_acc, steer, resistance)
     fxf_b, _, fxr_b, _ = single_track_inverse(braking_vehicle, ax, ay, yaw_acc, steer, resistance)
@@ -443,7 +449,8 @@ def _force_balance(
     Eq. 4.23 inverted by :func:`single_track_inverse`: with ``ax``, traction follows the drive's
     split, braking the brake balance (front share), a property of the brake system, not of the
     drive; with ``ax_traction``, the traction split at every sample. One pass over the chunks
-    serves both (the steering's sin/cos and the resistance are shared).
+    serves both (the steering's sin/cos and the resistance are shared). NaN in the inputs
+    counts as 0, and a missing or negative ``speed`` as standstill for the drag.
     """
     braking_vehicle = dataclasses.replace(
         vehicle, drive="awd", front_drive_fraction=float(brake_front_share)
@@ -772,15 +779,12 @@ def _forces(
     brake_front_share: float,
 ) -> _Forces:
     m, window, span = motion, scales.window, scales.span
-    speed_for_drag = np.where(np.isfinite(m.vx), np.maximum(m.vx, 0.0), 0.0)
-    lateral = (np.nan_to_num(imu.ay), np.nan_to_num(imu.yaw_acc), np.nan_to_num(m.steer))
     ax_traction, ax_traction_sd = _traction_acceleration(
         m.vx_prefix, imu.ax, noise.wheel_vx_raw, vehicle.drive, scales.dt_s, window,
         scales.rate_hz, span,
     )  # fmt: skip
     balance = _force_balance(
-        vehicle, np.nan_to_num(imu.ax), np.nan_to_num(ax_traction), *lateral, speed_for_drag,
-        brake_front_share,
+        vehicle, imu.ax, ax_traction, imu.ay, imu.yaw_acc, m.steer, m.vx, brake_front_share,
     )  # fmt: skip
     resistance, fx_axle, fz_axle = balance.resistance, balance.fx_axle, balance.fz_axle
     no_force = ~(m.valid & np.isfinite(imu.ax))
