@@ -953,9 +953,12 @@ def _assemble(
 
 def _max_abs_slip(slip: np.ndarray) -> np.ndarray:
     """Largest |σ_x| of the four wheels, NaN counted as 0 (``np.nan_to_num`` first, then max)."""
-    a, b, c, d = (np.abs(slip[:, i]) for i in range(4))
     # fmax skips NaN, so only a row of four NaN stays NaN: that row's 0 comes from nan_to_num.
-    return np.nan_to_num(np.fmax(np.fmax(a, b), np.fmax(c, d)), nan=0.0)
+    largest = np.abs(slip[:, 0])
+    wheel = np.empty_like(largest)
+    for i in range(1, 4):
+        np.fmax(largest, np.abs(slip[:, i], out=wheel), out=largest)
+    return np.nan_to_num(largest, nan=0.0, copy=False)
 
 
 def _summary(x: np.ndarray, window: int) -> float | np.ndarray:
