@@ -48,7 +48,7 @@ def nan_moving_average(x: Float[np.ndarray, "n *k"], window: int) -> Float[np.nd
     previous = None
     for j in range(x.shape[1]):
         previous = PrefixSums.of(x[:, j], like=previous)
-        out[:, j] = previous.window_mean(half)
+        previous.window_mean(half, out=out[:, j])
     return out
 
 
@@ -91,16 +91,19 @@ class PrefixSums:
             return cls(values, like.counts, like.valid)
         return cls(values, _cumsum0(valid, np.int32), valid)
 
-    def window_mean(self, half: int, step: int = 1) -> Float[np.ndarray, "m"]:
+    def window_mean(
+        self, half: int, step: int = 1, out: np.ndarray | None = None
+    ) -> Float[np.ndarray, "m"]:
         """Mean of the valid samples in [i − half, i + half] for every ``step``-th sample i.
 
         With ``step`` 1 the interior, where windows are whole, is two slices and only the
         2·half end rows get their own (truncated) bounds; with a larger step the window sums
-        are gathered at the rows wanted. Both give the same numbers.
+        are gathered at the rows wanted. Both give the same numbers. ``out``: where to write
+        them (step 1 only).
         """
         n = self.values.shape[0] - 1
         if step == 1:
-            total = _window_difference(self.values, n, half)
+            total = _window_difference(self.values, n, half, out=out)
         else:
             rows = np.arange(0, n, step)
             total = _gathered_difference(self.values, rows, n, half)
@@ -144,12 +147,17 @@ def _cumsum0(x: np.ndarray, dtype=np.float64) -> np.ndarray:
     return out
 
 
-def _window_difference(csum: np.ndarray, n: int, half: int) -> np.ndarray:
+def _window_difference(
+    csum: np.ndarray, n: int, half: int, out: np.ndarray | None = None
+) -> np.ndarray:
     """Sum over the window [i − half, i + half] ∩ [0, n) from a zero-led cumulative sum."""
     if n <= 2 * half:  # every window truncated: index arrays, cheap at this size
         idx = np.arange(n)
-        return csum[np.minimum(idx + half + 1, n)] - csum[np.maximum(idx - half, 0)]
-    out = np.empty((n,) + csum.shape[1:], dtype=csum.dtype)
+        return np.subtract(
+            csum[np.minimum(idx + half + 1, n)], csum[np.maximum(idx - half, 0)], out=out
+        )
+    if out is None:
+        out = np.empty((n,) + csum.shape[1:], dtype=csum.dtype)
     np.subtract(csum[2 * half + 1 :], csum[: n - 2 * half], out=out[half : n - half])
     if half:
         out[:half] = csum[half + 1 : 2 * half + 1]  # minus csum[0] = 0
