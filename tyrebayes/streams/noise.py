@@ -41,10 +41,16 @@ def quantisation_step(x: Float[np.ndarray, "n"]) -> float:
     float
         Step in the unit of ``x``; 0.0 if no step is found.
     """
-    values = x[np.isfinite(x)]
+    finite = np.isfinite(x)
+    values = x if finite.all() else x[finite]
     if values.size > _MAX_VALUES:
         values = values[:: values.size // _MAX_VALUES + 1]
-    distinct = np.unique(values)
+    # np.unique's distinct values (sorted, first of each run of equal ones) from one sort.
+    ordered = np.sort(values)
+    new = np.empty(ordered.shape, dtype=bool)
+    new[:1] = True
+    np.not_equal(ordered[1:], ordered[:-1], out=new[1:])
+    distinct = ordered[new]
     if distinct.size < 4:
         return 0.0
     gaps = np.diff(distinct)

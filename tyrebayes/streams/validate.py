@@ -708,14 +708,18 @@ def validate_stream(
     channel_rate = {
         name: float(1.0 / dt_c) if dt_c > 0 else float("nan") for name, dt_c in interval.items()
     }
-    quant = {name: quantisation_step(cols[name]) for name in REQUIRED_COLUMNS[1:]}
+    # Each channel's valid values, picked out once for the quantisation and noise estimates.
+    values = {
+        name: cols[name] if ok.all() else cols[name][ok]
+        for name, ok in finite.items()
+        if name in CHANNELS
+    }
+    quant = {name: quantisation_step(values[name]) for name in REQUIRED_COLUMNS[1:]}
     if "speed_reference" in cols:
-        quant["speed_reference"] = quantisation_step(cols["speed_reference"])
+        quant["speed_reference"] = quantisation_step(values["speed_reference"])
 
     noise = {
-        name: white_noise_sd(
-            cols[name] if finite[name].all() else cols[name][finite[name]], quant.get(name, 0.0)
-        )
+        name: white_noise_sd(values[name], quant.get(name, 0.0))
         for name in cols
         if name != "time" and name in CHANNELS
     }
