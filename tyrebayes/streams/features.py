@@ -324,7 +324,7 @@ GRADE_LOWPASS_S = 10.0
 def _traction_acceleration(
     vx: PrefixSums,
     ax_imu: np.ndarray,
-    wheel_vx_raw: np.ndarray,
+    vx_probe: np.ndarray,
     drive: str,
     dt: float,
     window: int,
@@ -355,9 +355,11 @@ def _traction_acceleration(
     imu_error = ax_imu - dvx_dt
     imu_error_sums = PrefixSums.of(imu_error)
     grade_accel = imu_error_sums.window_mean(lowpass // 2)
-    probe = smoothed_derivative(_vx_noise_probe(wheel_vx_raw, drive), dt, window)
-    probe = probe - nan_moving_average(probe, span)
-    derivative_sd = np.sqrt(nan_moving_average(probe**2, span))
+    probe = smoothed_derivative(vx_probe, dt, window)
+    probe_sums = PrefixSums.of(probe)
+    probe -= probe_sums.window_mean(span // 2)
+    # probe² has probe's NaN: the same counts.
+    derivative_sd = np.sqrt(PrefixSums.of(probe**2, like=probe_sums).window_mean(span // 2))
     imu_sd = local_noise_sd(imu_error, window, span, prefix=imu_error_sums)
     imu_sd *= np.sqrt(window / lowpass)
     return dvx_dt + grade_accel, np.hypot(derivative_sd, imu_sd)
@@ -643,11 +645,11 @@ def _motion(stream, vehicle, scales, spin_threshold, thresholds) -> _Motion:
 class _WheelNoise(eqx.Module):
     """Step 2: the wheel signals' noise at the smoothing scale, with the vehicle motion removed."""
 
-    wheel_vx_raw: Float[np.ndarray, "n 4"]  # unsmoothed wheel speeds as V_x [m/s]
     slip_velocity_driven: Float[np.ndarray, "n"]  # driven axle's R·Ω − V_x, unsmoothed [m/s]
     local_wheel: Float[np.ndarray, "n 4"]  # each wheel's slip-velocity noise [m/s]
     slip_sd: Float[np.ndarray, "n 4"]  # [-]
     vx_sd: Float[np.ndarray, "n"]  # [m/s]
+    vx_probe: Float[np.ndarray, "n"]  # the V_x wheels' zero-mean combination (_vx_noise_probe)
 
 
 def _wheel_noise(motion: _Motion, vehicle, scales: _Scales, spin_threshold) -> _WheelNoise:
@@ -670,11 +672,11 @@ def _wheel_noise(motion: _Motion, vehicle, scales: _Scales, spin_threshold) -> _
     probe_sd = local_noise_sd(probes, scales.window, scales.span)  # one pass over all five
     local_wheel = probe_sd[:, :4]
     return _WheelNoise(
-        wheel_vx_raw=wheel_vx_raw,
         slip_velocity_driven=slip_velocity_driven,
         local_wheel=local_wheel,
         slip_sd=np.divide(local_wheel, m.vx_safe[:, None], out=_table(*local_wheel.shape)),
         vx_sd=probe_sd[:, 4],
+        vx_probe=probes[:, 4],
     )
 
 
@@ -780,7 +782,7 @@ def _forces(
 ) -> _Forces:
     m, window, span = motion, scales.window, scales.span
     ax_traction, ax_traction_sd = _traction_acceleration(
-        m.vx_prefix, imu.ax, noise.wheel_vx_raw, vehicle.drive, scales.dt_s, window,
+        m.vx_prefix, imu.ax, noise.vx_probe, vehicle.drive, scales.dt_s, window,
         scales.rate_hz, span,
     )  # fmt: skip
     balance = _force_balance(
