@@ -40,6 +40,12 @@ def test_equal_to_numpy(kind):
     limit = float(np.quantile(x, 0.6))
     assert median_at_most(x, limit) == float(np.median(x[x <= limit]))
     np.testing.assert_array_equal(x, before)  # inputs are not modified
+    # Reordering a temporary in place gives the same numbers.
+    assert median(x.copy(), overwrite_input=True) == float(np.median(x))
+    assert quantile(x.copy(), 0.25, overwrite_input=True) == float(np.quantile(x, 0.25))
+    assert median_at_most(x.copy(), limit, overwrite_input=True) == float(
+        np.median(x[x <= limit])
+    )
 
 
 def test_nan_handling_as_numpy():

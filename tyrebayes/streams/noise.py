@@ -101,7 +101,7 @@ def white_noise_sd(x: Float[np.ndarray, "n"], quantisation: float = 0.0) -> floa
     d2 = d2[np.isfinite(d2)]
     if d2.size < 10:
         return float("nan")
-    mad = median(np.abs(d2 - median(d2)))
+    mad = median(np.abs(d2 - median(d2)), overwrite_input=True)
     sd = 1.4826 * mad / np.sqrt(6.0)
     return float(np.sqrt(sd**2 + quantisation**2 / 12.0))
 

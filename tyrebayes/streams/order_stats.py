@@ -28,13 +28,15 @@ from jaxtyping import Float
 _SMALL = 2048
 
 
-def median(x: Float[np.ndarray, "n"]) -> float:
+def median(x: Float[np.ndarray, "n"], overwrite_input: bool = False) -> float:
     """``float(np.median(x))`` of a 1-D array (NaN if it holds a NaN or is empty).
 
     Parameters
     ----------
     x : ndarray, shape (n,)
-        Values; not modified.
+        Values.
+    overwrite_input : bool
+        Let the selection reorder ``x`` in place instead of a copy (for a caller's temporary).
 
     Returns
     -------
@@ -43,21 +45,22 @@ def median(x: Float[np.ndarray, "n"]) -> float:
     x = np.asarray(x, dtype=float)
     if x.size < _SMALL or np.isnan(x).any():
         return float(np.median(x))
-    return _middle(x, x.size)
+    return _middle(x, x.size, overwrite_input)
 
 
-def median_at_most(x: Float[np.ndarray, "n"], limit: float) -> float:
+def median_at_most(
+    x: Float[np.ndarray, "n"], limit: float, overwrite_input: bool = False
+) -> float:
     """``float(np.median(x[x <= limit]))`` of a 1-D array, without forming ``x[x <= limit]``.
 
     The values at most ``limit`` are the smallest of ``x``, so their order statistics are
-    ``x``'s own.
+    ``x``'s own. ``overwrite_input`` as in :func:`median`.
     """
     x = np.asarray(x, dtype=float)
-    below = x <= limit
-    count = int(np.count_nonzero(below))
+    count = int(np.count_nonzero(x <= limit))
     if count < _SMALL or np.isnan(x).any():
-        return float(np.median(x[below]))
-    return _middle(x, count)
+        return float(np.median(x[x <= limit]))
+    return _middle(x, count, overwrite_input)
 
 
 def nanmedian(x: Float[np.ndarray, "n"]) -> float:
@@ -69,15 +72,17 @@ def nanmedian(x: Float[np.ndarray, "n"]) -> float:
     return median(x) if x.size else float("nan")
 
 
-def quantile(x: Float[np.ndarray, "n"], q: float) -> float:
+def quantile(x: Float[np.ndarray, "n"], q: float, overwrite_input: bool = False) -> float:
     """``float(np.quantile(x, q))`` of a 1-D array, NumPy's default ``"linear"`` method.
 
     Parameters
     ----------
     x : ndarray, shape (n,)
-        Values; not modified. NaN anywhere gives NaN, as in NumPy.
+        Values. NaN anywhere gives NaN, as in NumPy.
     q : float
         Probability in [0, 1].
+    overwrite_input : bool
+        As in :func:`median`.
 
     Returns
     -------
@@ -92,7 +97,7 @@ def quantile(x: Float[np.ndarray, "n"], q: float) -> float:
     lower = math.floor(virtual)
     if lower >= n - 1:
         return float(x.max())
-    a, b = _ranks(x, lower)
+    a, b = _ranks(x, lower, overwrite_input)
     gamma = virtual - lower
     diff = b - a
     # NumPy's _lerp: from the nearer end, so that gamma 0 and 1 give a and b exactly.
@@ -109,23 +114,31 @@ def nanmedian_columns(x: Float[np.ndarray, "n *k"]) -> float | Float[np.ndarray,
     return np.array([nanmedian(column) for column in x.T])
 
 
-def _middle(x: np.ndarray, count: int) -> float:
+def _middle(x: np.ndarray, count: int, overwrite_input: bool = False) -> float:
     """np.median of the ``count`` smallest values of ``x`` (no NaN)."""
     half = count // 2
     if count % 2:
-        return float(_ranks(x, half)[0])
-    a, b = _ranks(x, half - 1)
+        return float(_ranks(x, half, overwrite_input)[0])
+    a, b = _ranks(x, half - 1, overwrite_input)
     return float((a + b) / 2)  # np.median: the mean of the two middle values
 
 
-def _ranks(x: np.ndarray, k: int) -> tuple[float, float]:
+def _ranks(x: np.ndarray, k: int, overwrite_input: bool = False) -> tuple[float, float]:
     """The (k+1)-th and (k+2)-th smallest values of ``x`` (0-based ranks k and k + 1)."""
     if _repetitive(x):
         # Few distinct values (time steps of a uniform clock): the SIMD selection degrades
         # on ties (~3 ms on an hour) where a full sort takes ~0.5 ms.
-        ordered = np.sort(x)
+        if overwrite_input:
+            x.sort()
+            ordered = x
+        else:
+            ordered = np.sort(x)
         return ordered[k], ordered[min(k + 1, x.size - 1)]
-    part = np.partition(x, k)
+    if overwrite_input:
+        x.partition(k)
+        part = x
+    else:
+        part = np.partition(x, k)
     return part[k], (part[k + 1 :].min() if k + 1 < x.size else part[k])
 
 

@@ -201,11 +201,12 @@ def dropped_fraction(time_s: Float[np.ndarray, "m"]) -> float:
     if time_s.size < 3:
         return 0.0
     steps = np.diff(time_s)
-    period = median_at_most(steps, 1.5 * quantile(steps, 0.25))
     short = steps < LONG_GAP_S
     count = int(np.count_nonzero(short))
     # Without long gaps (the usual case) the short steps are all of them: no copy to sum.
     span = float(steps.sum() if count == steps.size else steps[short].sum())
+    # The order statistics reorder ``steps`` in place (summed above, in their own order).
+    period = median_at_most(steps, 1.5 * quantile(steps, 0.25, overwrite_input=True), True)
     if not (period > 0 and span > 0):
         return 0.0
     return max(0.0, 1.0 - count * period / span)
