@@ -347,23 +347,32 @@ class _SharedSearch:
 
     def __init__(self, grid: np.ndarray, t: np.ndarray):
         # np.interp's interval: t[j] <= g < t[j + 1] (the last interval for g = t[-1]).
-        self.j = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, t.size - 2)
-        self.j_next = self.j + 1
-        t0 = t[self.j]
-        self.span = t[self.j_next] - t0
-        self.offset = grid - t0
-        on_knot = self.offset == 0.0
-        at_end = grid == t[-1]
-        self.exact = on_knot | at_end
-        # Grid points on a file instant, and the last one: few, so kept as indices.
-        self.on_knot_index = np.flatnonzero(on_knot)
-        self.at_end_index = np.flatnonzero(at_end)
-        self.inside = (grid >= t[0]) & (grid <= t[-1])
-        self.all_inside = bool(self.inside.all())
+        j = np.searchsorted(t, grid, side="right")
+        j -= 1
+        self.j = np.clip(j, 0, t.size - 2, out=j)
+        t0 = t.take(self.j)
+        self.span = t[1:].take(self.j)  # t[j + 1], read through a shifted view
+        self.span -= t0
+        self.offset = np.subtract(grid, t0, out=t0)
+        # Grid points on a file instant, and those at its last instant: few, so kept as
+        # indices (the grid is sorted: the latter are one search).
+        self.on_knot_index = np.flatnonzero(self.offset == 0.0)
+        end = np.searchsorted(grid, t[-1], side="left"), np.searchsorted(grid, t[-1], "right")
+        self.at_end_index = np.arange(*end)
+        self.all_inside = bool(grid[0] >= t[0] and grid[-1] <= t[-1])
+        self.inside = self.all_inside or (grid >= t[0]) & (grid <= t[-1])
         self.scratch = np.empty(grid.shape)  # one channel's x0, reused channel after channel
         # The longest file interval: when it is within a channel's fill limit (or below its
         # bridging threshold) that test holds for every grid point and needs no pass.
         self.max_span = float(self.span.max())
+
+    @property
+    def exact(self) -> np.ndarray:
+        """Grid points on a file instant or at the last one (needed only where gaps are)."""
+        exact = np.zeros(self.span.shape, dtype=bool)
+        exact[self.on_knot_index] = True
+        exact[self.at_end_index] = True
+        return exact
 
 
 def _resample_shared(
@@ -393,7 +402,7 @@ def _resample_shared(
     limit = max(max_fill_s, 1.5 * period)
     span = shared.span
     # np.interp's arithmetic, (x1 − x0) / span · offset + x0, in place in the output row.
-    values = np.take(x, shared.j_next, out=out, mode="clip")  # indices are in range
+    values = np.take(x[1:], shared.j, out=out, mode="clip")  # x[j + 1]; indices in range
     x0 = np.take(x, shared.j, out=shared.scratch, mode="clip")
     values -= x0
     values /= span
@@ -404,16 +413,15 @@ def _resample_shared(
     near_nan = ~np.isfinite(values)
     if not shared.all_inside:
         near_nan &= shared.inside
-    exact = shared.exact
     if shared.max_span <= limit * (1 + 1e-9):
         ok = shared.inside  # every file interval within the fill limit
     else:
-        ok = shared.inside & (exact | (span <= limit * (1 + 1e-9)))
-    if not (ok is shared.inside and shared.all_inside):
+        ok = shared.inside & (shared.exact | (span <= limit * (1 + 1e-9)))
+    if ok is not True:  # True: every grid point inside, every interval within the limit
         np.copyto(values, np.nan, where=~ok)
     bridged = None  # no file interval is a bridged gap
     if shared.max_span > 1.5 * period:
-        bridged = ok & ~exact & (span > 1.5 * period)
+        bridged = ok & ~shared.exact & (span > 1.5 * period)
     if near_nan.any():
         idx = np.flatnonzero(near_nan)
         if bridged is None:
@@ -706,7 +714,8 @@ def validate_stream(
     _fix_imu_frame(cols, notes)  # sign flips only: the valid instants stay
     dropped = {name: dropped_fraction(valid_time[name]) for name in REQUIRED_COLUMNS[1:]}
 
-    nan_fraction = {name: float(np.mean(~ok)) for name, ok in finite.items()}
+    # np.mean(~ok) as a count: the same quotient of two whole numbers.
+    nan_fraction = {name: (ok.size - np.count_nonzero(ok)) / ok.size for name, ok in finite.items()}
     channel_rate = {
         name: float(1.0 / dt_c) if dt_c > 0 else float("nan") for name, dt_c in interval.items()
     }
