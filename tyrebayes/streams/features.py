@@ -589,9 +589,16 @@ class _Motion(eqx.Module):
 
 def _motion(stream, vehicle, scales, spin_threshold, thresholds) -> _Motion:
     data = stream.data
+    # Channels resampled onto one grid mostly share their gaps: each channel's prefix sums
+    # reuse the previous one's counts where the NaN agree.
+    last: list[PrefixSums | None] = [None]
+
+    def prefix(name: str) -> PrefixSums:
+        last[0] = PrefixSums.of(data[name].to_numpy(dtype=float), like=last[0])
+        return last[0]
 
     def smooth(name: str) -> np.ndarray:
-        return nan_moving_average(data[name].to_numpy(dtype=float), scales.window)
+        return prefix(name).window_mean(scales.window // 2)
 
     omega_raw = _columns(*(data[c].to_numpy(dtype=float) for c in WHEEL_COLUMNS))
     gap = ~np.all(np.isfinite(omega_raw), axis=1)
@@ -601,7 +608,7 @@ def _motion(stream, vehicle, scales, spin_threshold, thresholds) -> _Motion:
         steer = smooth("wheel_angle_front")
     else:
         steer = smooth("steering_wheel_angle") / vehicle.steering_ratio
-    ax_prefix = PrefixSums.of(data["ax"].to_numpy(dtype=float))
+    ax_prefix = prefix("ax")
     ax_raw, ay_raw = ax_prefix.window_mean(scales.window // 2), smooth("ay")
 
     trig = _front_terms(yaw, steer, ay_raw, vehicle)
@@ -885,7 +892,8 @@ def _assemble(
         m.wheel_vx, free_straight, rate
     )
     if "speed_reference" in data:
-        ref = nan_moving_average(data["speed_reference"].to_numpy(dtype=float), window)
+        reference = data["speed_reference"].to_numpy(dtype=float)
+        ref = PrefixSums.of(reference, like=m.ax_prefix).window_mean(window // 2)
         speed_scale, speed_scale_sd = estimate_speed_scale(m.vx_safe, ref, m.valid, rate)
     else:
         speed_scale, speed_scale_sd = float("nan"), float("nan")
