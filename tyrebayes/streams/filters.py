@@ -76,20 +76,34 @@ class PrefixSums:
     def of(cls, x: Float[np.ndarray, "n"], like: PrefixSums | None = None) -> PrefixSums:
         """Prefix sums of a 1-D signal; the counts are taken from ``like`` when its valid
         samples are the same (one comparison instead of a cumulative sum)."""
-        valid = np.isfinite(x)
-        if valid.all():
-            return cls(_cumsum0(x), None, None)
-        # The dropped samples zeroed in the output buffer itself: no temporary the size of x
-        # (fresh memory costs page faults, often more than the arithmetic).
-        values = np.empty(x.shape[0] + 1)
+        buffer = cls.buffer(x.shape[0])
+        np.copyto(buffer[1:], x)
+        return cls.in_place(buffer, like)
+
+    @staticmethod
+    def buffer(n: int) -> Float[np.ndarray, " m"]:
+        """A zero-led buffer for :meth:`in_place`: write the signal into ``buffer[1:]``."""
+        values = np.empty(n + 1)
         values[0] = 0.0
-        body = values[1:]
-        np.copyto(body, x)
+        return values
+
+    @classmethod
+    def in_place(cls, buffer: Float[np.ndarray, " m"], like: PrefixSums | None = None):
+        """Prefix sums of the signal in ``buffer[1:]``, formed in the buffer itself.
+
+        The dropped samples are zeroed and summed where they lie: no temporary the size of
+        the signal (fresh memory costs page faults, often more than the arithmetic).
+        """
+        body = buffer[1:]
+        valid = np.isfinite(body)
+        if valid.all():
+            np.cumsum(body, out=body)
+            return cls(buffer, None, None)
         np.copyto(body, 0.0, where=~valid)
         np.cumsum(body, out=body)
         if like is not None and like.valid is not None and np.array_equal(valid, like.valid):
-            return cls(values, like.counts, like.valid)
-        return cls(values, _cumsum0(valid, np.int32), valid)
+            return cls(buffer, like.counts, like.valid)
+        return cls(buffer, _cumsum0(valid, np.int32), valid)
 
     def window_mean(
         self, half: int, step: int = 1, out: np.ndarray | None = None

@@ -206,14 +206,16 @@ def _residual_prefixes(x: np.ndarray, long: int, like: tuple | None = None, pref
         prefix = PrefixSums.of(x, like=like[0] if like else None)
     once = prefix.window_mean(long // 2)
     once_prefix = PrefixSums.of(once, like=like[1] if like else None)
-    resid = once_prefix.window_mean(long // 2)  # x − (2·once − MA(once)), in place
+    # The residual x − (2·once − MA(once)), formed in its own prefix-sum buffer.
+    buffer = PrefixSums.buffer(x.shape[0])
+    resid = once_prefix.window_mean(long // 2, out=buffer[1:])
     once *= 2.0
     resid -= once
     del once
     resid += x
     # The residual is NaN where x is (the low-pass has a value wherever x has one): the
     # same counts, checked, not summed again.
-    return prefix, once_prefix, PrefixSums.of(resid, like=prefix)
+    return prefix, once_prefix, PrefixSums.in_place(buffer, like=prefix)
 
 
 def _finite_smoothed(x: np.ndarray, window: int, long: int) -> int:
