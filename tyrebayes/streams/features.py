@@ -208,6 +208,7 @@ def _wheel_to_vx(
     yaw: np.ndarray,
     vehicle: Vehicle,
     trig: tuple[np.ndarray, np.ndarray],
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """Each wheel's longitudinal speed translated to the CoG V_x.
 
@@ -220,7 +221,8 @@ def _wheel_to_vx(
     """
     inv_cos, yaw_l_sin = trig
     yaw_half = yaw * (0.5 * vehicle.track_width_m)
-    out = np.empty(wheel_radps.shape[::-1]).T  # columns contiguous
+    if out is None:
+        out = np.empty(wheel_radps.shape[::-1]).T  # columns contiguous
     radius = vehicle.wheel_radius_m
     for i, sign in enumerate((1.0, -1.0, 1.0, -1.0)):
         col = out[:, i]
@@ -665,16 +667,16 @@ def _wheel_noise(motion: _Motion, vehicle, scales: _Scales, spin_threshold) -> _
     # quantisation and changing road roughness included, unlike a white-noise / √window rule.
     # The probes use the unsmoothed wheel speeds: local_noise_sd applies the smoothing itself.
     m = motion
-    wheel_vx_raw = _wheel_to_vx(m.omega_raw, m.yaw, vehicle, m.trig)
+    # The four slip velocities and the V_x probe in one column-contiguous block: the wheels'
+    # V_x are written into it and turned into slip velocities in place.
+    probes = np.empty((5, m.vx.shape[0])).T
+    wheel_vx_raw = _wheel_to_vx(m.omega_raw, m.yaw, vehicle, m.trig, out=probes[:, :4])
     vx_raw = np.where(
         m.valid, _vehicle_speed(wheel_vx_raw, vehicle.drive, spin_threshold)[0], np.nan
     )
-    # The four slip velocities and the V_x probe in one column-contiguous block (no copies).
-    probes = np.empty((5, vx_raw.shape[0]))
+    probes[:, 4] = _vx_noise_probe(wheel_vx_raw, vehicle.drive)
     for i in range(4):
-        np.subtract(wheel_vx_raw[:, i], vx_raw, out=probes[i])
-    probes[4] = _vx_noise_probe(wheel_vx_raw, vehicle.drive)
-    probes = probes.T
+        probes[:, i] -= vx_raw
     slip_velocity_driven = _row_mean(probes, m.driven_wheels)
     probe_sd = local_noise_sd(probes, scales.window, scales.span)  # one pass over all five
     local_wheel = probe_sd[:, :4]
