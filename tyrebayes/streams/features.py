@@ -259,7 +259,12 @@ def _front_terms(
     """
     sin, cos = np.sin(steer), np.cos(steer)
     rear_slip_angle = ay / (GRAVITY_MPS2 * REAR_CORNERING_PER_RAD)
-    return 1.0 / (cos - rear_slip_angle * sin), yaw * vehicle.wheelbase_m * sin
+    # In place: 1/(cos − α_r sin) in the cosine's array, ψ̇ L sin in the sine's.
+    rear_slip_angle *= sin
+    cos -= rear_slip_angle
+    np.divide(1.0, cos, out=cos)
+    sin *= yaw * vehicle.wheelbase_m
+    return cos, sin
 
 
 def _vehicle_speed(
@@ -273,11 +278,18 @@ def _vehicle_speed(
         return median, np.zeros(wheel_vx.shape[0], dtype=bool)
     a, b = _NON_DRIVEN[drive]
     va, vb = wheel_vx[:, a], wheel_vx[:, b]
-    mean = 0.5 * (va + vb)
+    mean = np.add(va, vb)
+    mean *= 0.5
+    difference = np.subtract(va, vb)
+    np.abs(difference, out=difference)
+    limit = np.abs(mean)
+    limit *= spin_threshold
     with np.errstate(invalid="ignore", divide="ignore"):
-        disagree = np.abs(va - vb) > spin_threshold * np.abs(mean)
+        disagree = difference > limit
     # A non-driven wheel cannot spin up, only lock under braking: the faster one is closer to V.
-    return np.where(disagree, np.maximum(va, vb), mean), disagree
+    np.maximum(va, vb, out=limit)
+    np.copyto(mean, limit, where=disagree)
+    return mean, disagree
 
 
 def _slip_noise_probe(
@@ -370,15 +382,19 @@ def _traction_acceleration(
 def _spin_check(wheel_vx: np.ndarray, vx: np.ndarray, drive: str, threshold: float) -> np.ndarray:
     """Driven vs non-driven wheel on the same side differing by more than ``threshold``."""
     if drive == "awd":
-        left = np.abs(wheel_vx[:, 0] - wheel_vx[:, 2])
-        right = np.abs(wheel_vx[:, 1] - wheel_vx[:, 3])
+        pairs = ((0, 2), (1, 3))
     else:
         d = (0, 1) if drive == "fwd" else (2, 3)
         nd = _NON_DRIVEN[drive]
-        left = np.abs(wheel_vx[:, d[0]] - wheel_vx[:, nd[0]])
-        right = np.abs(wheel_vx[:, d[1]] - wheel_vx[:, nd[1]])
+        pairs = ((d[0], nd[0]), (d[1], nd[1]))
+    left, right = (np.subtract(wheel_vx[:, i], wheel_vx[:, j]) for i, j in pairs)
+    np.abs(left, out=left)
+    np.abs(right, out=right)
+    np.maximum(left, right, out=left)
+    limit = np.abs(vx)
+    limit *= threshold
     with np.errstate(invalid="ignore"):
-        return (np.maximum(left, right) > threshold * np.abs(vx)) & np.isfinite(vx)
+        return (left > limit) & np.isfinite(vx)
 
 
 # Fixed chunk length for the JAX force balance: one compilation per process serves logs of any
