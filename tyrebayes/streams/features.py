@@ -694,7 +694,8 @@ def _wheel_noise(motion: _Motion, vehicle, scales: _Scales, spin_threshold) -> _
     for i in range(4):
         probes[:, i] -= vx_raw
     slip_velocity_driven = _row_mean(probes, m.driven_wheels)
-    probe_sd = local_noise_sd(probes, scales.window, scales.span)  # one pass over all five
+    # The slip velocities are NaN where V_x is (not valid): V_x's counts serve them.
+    probe_sd = local_noise_sd(probes, scales.window, scales.span, like=m.vx_prefix)
     local_wheel = probe_sd[:, :4]
     return _WheelNoise(
         slip_velocity_driven=slip_velocity_driven,
@@ -835,7 +836,7 @@ def _forces(
         np.nan,
     )
     pushing = rho_total_traction >= 0.0
-    velocity = PrefixSums.of(noise.slip_velocity_driven)
+    velocity = PrefixSums.of(noise.slip_velocity_driven, like=m.vx_prefix)
     slip_driven_noise = local_noise_sd(
         _columns(
             _slip_noise_probe(

@@ -113,6 +113,7 @@ def local_noise_sd(
     ratio: int = 5,
     clip: float = 5.0,
     prefix=None,
+    like=None,
 ) -> Float[np.ndarray, "n *k"]:
     """Per-sample noise sd of a ``window``-sample moving average of ``x`` (coloured noise too).
 
@@ -136,6 +137,9 @@ def local_noise_sd(
     prefix : PrefixSums or sequence of (PrefixSums or None), optional
         :class:`~tyrebayes.streams.filters.PrefixSums` of a 1-D ``x`` (of each column of a 2-D
         one, None where not at hand), when the caller has them: they are not formed again.
+    like : PrefixSums, optional
+        Prefix sums of another signal with, most likely, the first column's NaN: its counts
+        are reused if the NaN agree (checked).
 
     Returns
     -------
@@ -170,7 +174,7 @@ def local_noise_sd(
     # information: it is formed at those samples only, and the robust scale and the ~10 s local
     # mean run on that thinned series.
     step = max(1, window // 2)
-    thin, prefixes = [], None
+    thin, prefixes = [], None if like is None else (like, None)
     for column, own in zip(columns, given, strict=True):
         # Columns with the same dropped samples (the four slip velocities) share their counts.
         prefixes = _residual_prefixes(column, long, like=prefixes, prefix=own)
