@@ -43,9 +43,7 @@ def test_equal_to_numpy(kind):
     # Reordering a temporary in place gives the same numbers.
     assert median(x.copy(), overwrite_input=True) == float(np.median(x))
     assert quantile(x.copy(), 0.25, overwrite_input=True) == float(np.quantile(x, 0.25))
-    assert median_at_most(x.copy(), limit, overwrite_input=True) == float(
-        np.median(x[x <= limit])
-    )
+    assert median_at_most(x.copy(), limit, overwrite_input=True) == float(np.median(x[x <= limit]))
 
 
 def test_nan_handling_as_numpy():

@@ -56,7 +56,6 @@ from ..physics.vehicle import (
 )
 from .filters import PrefixSums, nan_moving_average, smoothed_derivative, window_samples
 from .noise import local_noise_sd
-from .order_stats import median, nanmedian_columns
 from .nuisances import (
     ImuGainCorrection,
     StreamNuisances,
@@ -67,6 +66,7 @@ from .nuisances import (
     imu_gain_correction,
     mean_grade_sd,
 )
+from .order_stats import median, nanmedian_columns
 from .schema import WHEEL_COLUMNS
 from .segments import (
     DEFAULT_THRESHOLDS,
@@ -99,9 +99,7 @@ def _table(n: int, k: int) -> np.ndarray:
     return np.empty((k, n)).T
 
 
-def _row_mean(
-    x: np.ndarray, columns: tuple[int, ...], out: np.ndarray | None = None
-) -> np.ndarray:
+def _row_mean(x: np.ndarray, columns: tuple[int, ...], out: np.ndarray | None = None) -> np.ndarray:
     """``x[:, columns].mean(axis=1)`` column by column, summed in NumPy's order."""
     total = np.empty(x.shape[0]) if out is None else out
     np.copyto(total, x[:, columns[0]])
@@ -725,7 +723,7 @@ class _ImuCalibration(eqx.Module):
 def _imu_calibration(
     stream, vehicle, motion: _Motion, scales: _Scales, ax_offset_mps2, ax_gain
 ) -> _ImuCalibration:
-    m, data, rate = motion, stream.data, scales.rate_hz
+    m, rate = motion, scales.rate_hz
     # IMU offset against the wheel-speed derivative; the corrected ax keeps the road grade.
     # Squat and dive add g·k·a_x to the reading: left in, the forces read 1 + g·k ≈ 2 % high and
     # C_x with them (the model's force gain is centred at 1), and a drive that brakes more than
@@ -840,7 +838,10 @@ def _forces(
     slip_driven_noise = local_noise_sd(
         _columns(
             _slip_noise_probe(
-                noise.slip_velocity_driven, velocity, rho_driven_traction * m.vx_safe, pushing,
+                noise.slip_velocity_driven,
+                velocity,
+                rho_driven_traction * m.vx_safe,
+                pushing,
                 window,
             ),
             noise.slip_velocity_driven,

@@ -147,7 +147,6 @@ class PrefixSums:
             np.divide(total, count, out=total)
         return total
 
-
     def smoothed_derivative(self, half: int, dt_s: float) -> Float[np.ndarray, "n"]:
         """:func:`smoothed_derivative` with a ``2·half + 1`` window, from these sums."""
         return _derivative(self.window_mean(half), dt_s)

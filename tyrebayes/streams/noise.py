@@ -156,9 +156,7 @@ def local_noise_sd(
 
     x = np.asarray(x, dtype=float)
     if x.ndim > 2:
-        return local_noise_sd(x.reshape(x.shape[0], -1), window, span, ratio, clip).reshape(
-            x.shape
-        )
+        return local_noise_sd(x.reshape(x.shape[0], -1), window, span, ratio, clip).reshape(x.shape)
     columns = [x] if x.ndim == 1 else [x[:, j] for j in range(x.shape[1])]
     if prefix is None or x.ndim == 1:
         given = [prefix] * len(columns)

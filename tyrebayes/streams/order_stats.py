@@ -48,9 +48,7 @@ def median(x: Float[np.ndarray, "n"], overwrite_input: bool = False) -> float:
     return _middle(x, x.size, overwrite_input)
 
 
-def median_at_most(
-    x: Float[np.ndarray, "n"], limit: float, overwrite_input: bool = False
-) -> float:
+def median_at_most(x: Float[np.ndarray, "n"], limit: float, overwrite_input: bool = False) -> float:
     """``float(np.median(x[x <= limit]))`` of a 1-D array, without forming ``x[x <= limit]``.
 
     The values at most ``limit`` are the smallest of ``x``, so their order statistics are
