@@ -152,7 +152,8 @@ def local_noise_sd(
     >>> round(float(np.nanmedian(local_noise_sd(x, 25, 1000))), 1)  # 1/sqrt(25)
     0.2
     """
-    from .filters import nan_moving_average  # sibling leaf module; avoids an import cycle
+    # Sibling leaf module; avoids an import cycle.
+    from .filters import nan_moving_average, strided_window_mean
 
     x = np.asarray(x, dtype=float)
     if x.ndim > 2:
@@ -175,8 +176,8 @@ def local_noise_sd(
     thin, prefixes = [], None if like is None else (like, None)
     for column, own in zip(columns, given, strict=True):
         # Columns with the same dropped samples (the four slip velocities) share their counts.
-        prefixes = _residual_prefixes(column, long, like=prefixes, prefix=own)
-        thin.append(prefixes[2].window_mean(window // 2, step))
+        *prefixes, resid = _residual(column, long, like=prefixes, prefix=own)
+        thin.append(strided_window_mean(resid, window // 2, prefixes[0], overwrite_input=True))
     finite = min(np.isfinite(t).sum() for t in thin)
     if finite < 10 and min(_finite_smoothed(c, window, long) for c in columns) < 10:
         return np.full(x.shape, np.nan)
@@ -194,8 +195,8 @@ def local_noise_sd(
     return out.T
 
 
-def _residual_prefixes(x: np.ndarray, long: int, like: tuple | None = None, prefix=None) -> tuple:
-    """Prefix sums of x, of MA(x) and of the residual x − (2·MA(x) − MA(MA(x))), MA over ``long``.
+def _residual(x: np.ndarray, long: int, like: list | None = None, prefix=None) -> tuple:
+    """Prefix sums of x and of MA(x), and the residual x − (2·MA(x) − MA(MA(x))), MA over ``long``.
 
     "Twicing" low-pass 2·MA − MA∘MA: flat to second order, so slow true signal (slip following
     the driver's torque) leaks ~10x less into the residual than with one moving average.
@@ -208,21 +209,23 @@ def _residual_prefixes(x: np.ndarray, long: int, like: tuple | None = None, pref
         prefix = PrefixSums.of(x, like=like[0] if like else None)
     once = prefix.window_mean(long // 2)
     once_prefix = PrefixSums.of(once, like=like[1] if like else None)
-    # The residual x − (2·once − MA(once)), formed in its own prefix-sum buffer.
-    buffer = PrefixSums.buffer(x.shape[0])
-    resid = once_prefix.window_mean(long // 2, out=buffer[1:])
+    # The residual x − (2·once − MA(once)), in place; NaN where x is (the low-pass has a value
+    # wherever x has one), so x's counts serve its moving average.
+    resid = once_prefix.window_mean(long // 2)
     once *= 2.0
     resid -= once
     del once
     resid += x
-    # The residual is NaN where x is (the low-pass has a value wherever x has one): the
-    # same counts, checked, not summed again.
-    return prefix, once_prefix, PrefixSums.in_place(buffer, like=prefix)
+    return prefix, once_prefix, resid
 
 
 def _finite_smoothed(x: np.ndarray, window: int, long: int) -> int:
     """Number of samples where the smoothed residual has a value (all samples, not thinned)."""
-    return int(np.isfinite(_residual_prefixes(x, long)[2].window_mean(window // 2)).sum())
+    from .filters import PrefixSums
+
+    prefix, _, resid = _residual(x, long)
+    smooth = PrefixSums.of(resid, like=prefix).window_mean(window // 2)
+    return int(np.isfinite(smooth).sum())
 
 
 def _white_gain(window: int, long: int) -> float:
