@@ -195,7 +195,7 @@ def local_noise_sd(
     return out.T
 
 
-def _residual(x: np.ndarray, long: int, like: list | None = None, prefix=None) -> tuple:
+def _residual(x: np.ndarray, long: int, like: tuple | list | None = None, prefix=None) -> tuple:
     """Prefix sums of x and of MA(x), and the residual x − (2·MA(x) − MA(MA(x))), MA over ``long``.
 
     "Twicing" low-pass 2·MA − MA∘MA: flat to second order, so slow true signal (slip following
