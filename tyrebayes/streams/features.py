@@ -475,7 +475,10 @@ def _force_balance(
     )
     n = ax.shape[0]
     inputs = (ax, ax_traction, ay, yaw_acc, steer, speed)
-    out = np.empty((9, n))  # the chunk's outputs, a row each
+    # The chunk's outputs, a row each: the features keep the first block (resistance, axle
+    # forces and loads), the traction block is an intermediate, freed after the forces step.
+    kept, traction = np.empty((5, n)), np.empty((4, n))
+    out = [*kept, *traction]
     for i in range(0, n, _CHUNK):
         size = min(_CHUNK, n - i)
         chunk = [a[i : i + size] for a in inputs]
@@ -485,11 +488,11 @@ def _force_balance(
         for row, part in zip(out, parts, strict=True):
             row[i : i + size] = np.asarray(part)[:size]
     return _AxleForces(
-        resistance=out[0],
-        fx_axle=out[1:3].T,
-        fz_axle=out[3:5].T,
-        fx_traction=out[5:7].T,
-        fz_traction=out[7:9].T,
+        resistance=kept[0],
+        fx_axle=kept[1:3].T,
+        fz_axle=kept[3:5].T,
+        fx_traction=traction[:2].T,
+        fz_traction=traction[2:].T,
     )
 
 
