@@ -39,7 +39,6 @@ True
 from __future__ import annotations
 
 import dataclasses
-import warnings
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -55,7 +54,7 @@ from ..physics.vehicle import (
     rolling_resistance_force,
     single_track_inverse,
 )
-from .filters import nan_moving_average, smoothed_derivative, window_samples
+from .filters import PrefixSums, nan_moving_average, smoothed_derivative, window_samples
 from .noise import local_noise_sd
 from .nuisances import (
     ImuGainCorrection,
@@ -67,6 +66,7 @@ from .nuisances import (
     imu_gain_correction,
     mean_grade_sd,
 )
+from .order_stats import median, nanmedian_columns
 from .schema import WHEEL_COLUMNS
 from .segments import (
     DEFAULT_THRESHOLDS,
@@ -79,6 +79,34 @@ from .segments import (
 from .validate import ValidatedStream, median_of_four
 
 _NON_DRIVEN = {"fwd": (2, 3), "rwd": (0, 1), "awd": (0, 1, 2, 3)}
+
+
+def _columns(*columns: np.ndarray) -> np.ndarray:
+    """Columns side by side as an (n, k) array whose columns are contiguous (Fortran order).
+
+    The pipeline works on whole columns (one wheel, one axle); in NumPy a reduction across a
+    C-ordered row of four costs about ten column operations, and a moving average down a
+    column of a C-ordered table a quarter more than down a contiguous one.
+    """
+    out = np.empty((len(columns), columns[0].shape[0]))
+    for row, column in zip(out, columns, strict=True):
+        row[:] = column
+    return out.T
+
+
+def _table(n: int, k: int) -> np.ndarray:
+    """An empty (n, k) array with contiguous columns, for results written column by column."""
+    return np.empty((k, n)).T
+
+
+def _row_mean(x: np.ndarray, columns: tuple[int, ...], out: np.ndarray | None = None) -> np.ndarray:
+    """``x[:, columns].mean(axis=1)`` column by column, summed in NumPy's order."""
+    total = np.empty(x.shape[0]) if out is None else out
+    np.copyto(total, x[:, columns[0]])
+    for i in columns[1:]:
+        total += x[:, i]
+    total /= len(columns)
+    return total
 
 
 class StreamFeatures(eqx.Module):
@@ -178,6 +206,7 @@ def _wheel_to_vx(
     yaw: np.ndarray,
     vehicle: Vehicle,
     trig: tuple[np.ndarray, np.ndarray],
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """Each wheel's longitudinal speed translated to the CoG V_x.
 
@@ -190,7 +219,8 @@ def _wheel_to_vx(
     """
     inv_cos, yaw_l_sin = trig
     yaw_half = yaw * (0.5 * vehicle.track_width_m)
-    out = np.empty(wheel_radps.shape)
+    if out is None:
+        out = np.empty(wheel_radps.shape[::-1]).T  # columns contiguous
     radius = vehicle.wheel_radius_m
     for i, sign in enumerate((1.0, -1.0, 1.0, -1.0)):
         col = out[:, i]
@@ -227,7 +257,12 @@ def _front_terms(
     """
     sin, cos = np.sin(steer), np.cos(steer)
     rear_slip_angle = ay / (GRAVITY_MPS2 * REAR_CORNERING_PER_RAD)
-    return 1.0 / (cos - rear_slip_angle * sin), yaw * vehicle.wheelbase_m * sin
+    # In place: 1/(cos − α_r sin) in the cosine's array, ψ̇ L sin in the sine's.
+    rear_slip_angle *= sin
+    cos -= rear_slip_angle
+    np.divide(1.0, cos, out=cos)
+    sin *= yaw * vehicle.wheelbase_m
+    return cos, sin
 
 
 def _vehicle_speed(
@@ -241,15 +276,26 @@ def _vehicle_speed(
         return median, np.zeros(wheel_vx.shape[0], dtype=bool)
     a, b = _NON_DRIVEN[drive]
     va, vb = wheel_vx[:, a], wheel_vx[:, b]
-    mean = 0.5 * (va + vb)
+    mean = np.add(va, vb)
+    mean *= 0.5
+    difference = np.subtract(va, vb)
+    np.abs(difference, out=difference)
+    limit = np.abs(mean)
+    limit *= spin_threshold
     with np.errstate(invalid="ignore", divide="ignore"):
-        disagree = np.abs(va - vb) > spin_threshold * np.abs(mean)
+        disagree = difference > limit
     # A non-driven wheel cannot spin up, only lock under braking: the faster one is closer to V.
-    return np.where(disagree, np.maximum(va, vb), mean), disagree
+    np.maximum(va, vb, out=limit)
+    np.copyto(mean, limit, where=disagree)
+    return mean, disagree
 
 
 def _slip_noise_probe(
-    slip_velocity: np.ndarray, force_velocity: np.ndarray, pushing: np.ndarray, window: int
+    slip_velocity: np.ndarray,
+    slip_velocity_sums: PrefixSums,
+    force_velocity: np.ndarray,
+    pushing: np.ndarray,
+    window: int,
 ) -> np.ndarray:
     """The driven axle's slip velocity R·Ω − V_x less the part that follows the force.
 
@@ -261,13 +307,13 @@ def _slip_noise_probe(
     :func:`~tyrebayes.streams.noise.local_noise_sd` does; what is left is sensor noise and what
     the linear fit misses. Only where the tyres push: under braking the reference wheels brake
     too and the relation is another (NaN there; the caller takes the plain slip velocity's
-    noise where no pushing sample is near).
+    noise where no pushing sample is near). ``slip_velocity_sums`` are the slip velocity's
+    :class:`~tyrebayes.streams.filters.PrefixSums`, which the caller's noise estimate of the
+    same signal reads too.
     """
-
-    def high_pass(x):
-        return x - nan_moving_average(x, 5 * window)
-
-    s, r = high_pass(slip_velocity), high_pass(force_velocity)
+    half = (5 * window) // 2  # nan_moving_average's half-window for 5 * window samples
+    s = slip_velocity - slip_velocity_sums.window_mean(half)
+    r = force_velocity - nan_moving_average(force_velocity, 5 * window)
     ok = np.isfinite(s) & np.isfinite(r) & pushing
     denominator = float(np.sum(r[ok] ** 2))
     slope = float(np.sum(s[ok] * r[ok])) / denominator if denominator > 0 else 0.0
@@ -288,9 +334,9 @@ GRADE_LOWPASS_S = 10.0
 
 
 def _traction_acceleration(
-    vx: np.ndarray,
+    vx: PrefixSums,
     ax_imu: np.ndarray,
-    wheel_vx_raw: np.ndarray,
+    vx_probe: np.ndarray,
     drive: str,
     dt: float,
     window: int,
@@ -314,29 +360,39 @@ def _traction_acceleration(
     """
     if drive == "awd":
         return ax_imu, np.full_like(ax_imu, np.nan)
-    dvx_dt = smoothed_derivative(vx, dt, window)
+    dvx_dt = vx.smoothed_derivative(window // 2, dt)
     lowpass = window_samples(GRADE_LOWPASS_S, rate)
-    grade_accel = nan_moving_average(ax_imu - dvx_dt, lowpass)
-    probe = smoothed_derivative(_vx_noise_probe(wheel_vx_raw, drive), dt, window)
-    probe = probe - nan_moving_average(probe, span)
-    derivative_sd = np.sqrt(nan_moving_average(probe**2, span))
-    # The IMU's error with the motion removed (a_x − dV_x/dt), through the low-pass.
-    imu_sd = local_noise_sd(ax_imu - dvx_dt, window, span) * np.sqrt(window / lowpass)
+    # The IMU's error with the motion removed (a_x − dV_x/dt): its low-pass is the grade term,
+    # its noise through the low-pass the IMU's share of the error (one set of prefix sums).
+    imu_error = ax_imu - dvx_dt
+    imu_error_sums = PrefixSums.of(imu_error)
+    grade_accel = imu_error_sums.window_mean(lowpass // 2)
+    probe = smoothed_derivative(vx_probe, dt, window)
+    probe_sums = PrefixSums.of(probe)
+    probe -= probe_sums.window_mean(span // 2)
+    # probe² has probe's NaN: the same counts.
+    derivative_sd = np.sqrt(PrefixSums.of(probe**2, like=probe_sums).window_mean(span // 2))
+    imu_sd = local_noise_sd(imu_error, window, span, prefix=imu_error_sums)
+    imu_sd *= np.sqrt(window / lowpass)
     return dvx_dt + grade_accel, np.hypot(derivative_sd, imu_sd)
 
 
 def _spin_check(wheel_vx: np.ndarray, vx: np.ndarray, drive: str, threshold: float) -> np.ndarray:
     """Driven vs non-driven wheel on the same side differing by more than ``threshold``."""
     if drive == "awd":
-        left = np.abs(wheel_vx[:, 0] - wheel_vx[:, 2])
-        right = np.abs(wheel_vx[:, 1] - wheel_vx[:, 3])
+        pairs = ((0, 2), (1, 3))
     else:
         d = (0, 1) if drive == "fwd" else (2, 3)
         nd = _NON_DRIVEN[drive]
-        left = np.abs(wheel_vx[:, d[0]] - wheel_vx[:, nd[0]])
-        right = np.abs(wheel_vx[:, d[1]] - wheel_vx[:, nd[1]])
+        pairs = ((d[0], nd[0]), (d[1], nd[1]))
+    left, right = (np.subtract(wheel_vx[:, i], wheel_vx[:, j]) for i, j in pairs)
+    np.abs(left, out=left)
+    np.abs(right, out=right)
+    np.maximum(left, right, out=left)
+    limit = np.abs(vx)
+    limit *= threshold
     with np.errstate(invalid="ignore"):
-        return (np.maximum(left, right) > threshold * np.abs(vx)) & np.isfinite(vx)
+        return (left > limit) & np.isfinite(vx)
 
 
 # Fixed chunk length for the JAX force balance: one compilation per process serves logs of any
@@ -344,61 +400,99 @@ def _spin_check(wheel_vx: np.ndarray, vx: np.ndarray, drive: str, threshold: flo
 _CHUNK = 65536
 
 
+class _AxleForces(eqx.Module):
+    """The force balance of every sample, for the IMU's a_x and for the traction a_x [N].
+
+    Per-axle pairs (front, rear) are (n, 2) views of one block, columns contiguous.
+    """
+
+    resistance: Float[np.ndarray, "n"]  # drag + rolling resistance
+    fx_axle: Float[np.ndarray, "n 2"]  # traction split, or the brake balance under braking
+    fz_axle: Float[np.ndarray, "n 2"]
+    fx_traction: Float[np.ndarray, "n 2"]  # traction a_x, traction split at every sample
+    fz_traction: Float[np.ndarray, "n 2"]
+
+
 @eqx.filter_jit
 def _force_balance_chunk(
     vehicle: Vehicle,
     braking_vehicle: Vehicle,
     ax: Float[Array, " c"],
+    ax_traction: Float[Array, " c"],
     ay: Float[Array, " c"],
     yaw_acc: Float[Array, " c"],
     steer: Float[Array, " c"],
     speed: Float[Array, " c"],
 ) -> tuple[Float[Array, " c"], ...]:
+    # Missing samples count as 0 (np.nan_to_num), a missing or negative speed as standstill
+    # for the drag; done here, fused into the chunk's one pass, not as copies of whole logs.
+    ax, ax_traction, ay, yaw_acc, steer = (
+        jnp.nan_to_num(a) for a in (ax, ax_traction, ay, yaw_acc, steer)
+    )
+    speed = jnp.where(jnp.isfinite(speed), jnp.maximum(speed, 0.0), 0.0)
     resistance = aero_drag(vehicle, speed) + rolling_resistance_force(vehicle)
     fxf_t, _, fxr_t, _ = single_track_inverse(vehicle, ax, ay, yaw_acc, steer, resistance)
     fxf_b, _, fxr_b, _ = single_track_inverse(braking_vehicle, ax, ay, yaw_acc, steer, resistance)
     braking = vehicle.mass_kg * ax + resistance < 0.0
     fz_front, fz_rear = axle_loads(vehicle, ax)
+    fxf_tt, _, fxr_tt, _ = single_track_inverse(
+        vehicle, ax_traction, ay, yaw_acc, steer, resistance
+    )
+    fzf_tt, fzr_tt = axle_loads(vehicle, ax_traction)
     return (
         resistance,
         jnp.where(braking, fxf_b, fxf_t),
         jnp.where(braking, fxr_b, fxr_t),
         fz_front,
         fz_rear,
-        fxf_t,
-        fxr_t,
+        fxf_tt,
+        fxr_tt,
+        fzf_tt,
+        fzr_tt,
     )
 
 
 def _force_balance(
     vehicle: Vehicle,
     ax: np.ndarray,
+    ax_traction: np.ndarray,
     ay: np.ndarray,
     yaw_acc: np.ndarray,
     steer: np.ndarray,
     speed: np.ndarray,
     brake_front_share: float,
-) -> tuple[np.ndarray, ...]:
-    """Resistance, axle forces (front, rear), axle loads (front, rear), traction-split forces [N].
+) -> _AxleForces:
+    """Resistance, axle forces and loads for two a_x signals on the same motion [N].
 
-    Eq. 4.23 inverted by :func:`single_track_inverse`: traction follows the drive's split,
-    braking the brake balance (front share), a property of the brake system, not of the drive.
-    The last two are the axle forces with the traction split at every sample.
+    Eq. 4.23 inverted by :func:`single_track_inverse`: with ``ax``, traction follows the drive's
+    split, braking the brake balance (front share), a property of the brake system, not of the
+    drive; with ``ax_traction``, the traction split at every sample. One pass over the chunks
+    serves both (the steering's sin/cos and the resistance are shared). NaN in the inputs
+    counts as 0, and a missing or negative ``speed`` as standstill for the drag.
     """
     braking_vehicle = dataclasses.replace(
         vehicle, drive="awd", front_drive_fraction=float(brake_front_share)
     )
     n = ax.shape[0]
-    padded = -(-n // _CHUNK) * _CHUNK
-    inputs = [np.pad(a, (0, padded - n)) for a in (ax, ay, yaw_acc, steer, speed)]
-    parts = [
-        _force_balance_chunk(
-            vehicle, braking_vehicle, *(jnp.asarray(a[i : i + _CHUNK]) for a in inputs)
-        )
-        for i in range(0, padded, _CHUNK)
-    ]
-    return tuple(
-        np.concatenate([np.asarray(p[k]) for p in parts])[:n].astype(float) for k in range(7)
+    inputs = (ax, ax_traction, ay, yaw_acc, steer, speed)
+    # The chunk's outputs, a row each: the features keep the first block (resistance, axle
+    # forces and loads), the traction block is an intermediate, freed after the forces step.
+    kept, traction = np.empty((5, n)), np.empty((4, n))
+    out = [*kept, *traction]
+    for i in range(0, n, _CHUNK):
+        size = min(_CHUNK, n - i)
+        chunk = [a[i : i + size] for a in inputs]
+        if size < _CHUNK:  # the last chunk, padded with zeros to the fixed length
+            chunk = [np.pad(c, (0, _CHUNK - size)) for c in chunk]
+        parts = _force_balance_chunk(vehicle, braking_vehicle, *(jnp.asarray(c) for c in chunk))
+        for row, part in zip(out, parts, strict=True):
+            row[i : i + size] = np.asarray(part)[:size]
+    return _AxleForces(
+        resistance=kept[0],
+        fx_axle=kept[1:3].T,
+        fz_axle=kept[3:5].T,
+        fx_traction=traction[:2].T,
+        fz_traction=traction[2:].T,
     )
 
 
@@ -496,6 +590,9 @@ class _Motion(eqx.Module):
     yaw: Float[np.ndarray, "n"]  # smoothed yaw rate [rad/s]
     steer: Float[np.ndarray, "n"]  # front road-wheel angle [rad]
     ax_raw: Float[np.ndarray, "n"]  # smoothed IMU ax, uncorrected [m/s²]
+    # Prefix sums of the raw IMU ax and of V_x: later steps smooth them over other windows.
+    ax_prefix: PrefixSums
+    vx_prefix: PrefixSums
     ay_raw: Float[np.ndarray, "n"]  # smoothed IMU ay, uncorrected [m/s²]
     trig: tuple  # the front wheels' geometry terms (_front_terms)
     wheel_vx: Float[np.ndarray, "n 4"]  # [m/s]
@@ -511,11 +608,18 @@ class _Motion(eqx.Module):
 
 def _motion(stream, vehicle, scales, spin_threshold, thresholds) -> _Motion:
     data = stream.data
+    # Channels resampled onto one grid mostly share their gaps: each channel's prefix sums
+    # reuse the previous one's counts where the NaN agree.
+    last: list[PrefixSums | None] = [None]
+
+    def prefix(name: str) -> PrefixSums:
+        last[0] = PrefixSums.of(data[name].to_numpy(dtype=float), like=last[0])
+        return last[0]
 
     def smooth(name: str) -> np.ndarray:
-        return nan_moving_average(data[name].to_numpy(dtype=float), scales.window)
+        return prefix(name).window_mean(scales.window // 2)
 
-    omega_raw = np.column_stack([data[c].to_numpy(dtype=float) for c in WHEEL_COLUMNS])
+    omega_raw = _columns(*(data[c].to_numpy(dtype=float) for c in WHEEL_COLUMNS))
     gap = ~np.all(np.isfinite(omega_raw), axis=1)
     omega = nan_moving_average(omega_raw, scales.window)
     yaw = smooth("yaw_rate")
@@ -523,7 +627,8 @@ def _motion(stream, vehicle, scales, spin_threshold, thresholds) -> _Motion:
         steer = smooth("wheel_angle_front")
     else:
         steer = smooth("steering_wheel_angle") / vehicle.steering_ratio
-    ax_raw, ay_raw = smooth("ax"), smooth("ay")
+    ax_prefix = prefix("ax")
+    ax_raw, ay_raw = ax_prefix.window_mean(scales.window // 2), smooth("ay")
 
     trig = _front_terms(yaw, steer, ay_raw, vehicle)
     wheel_vx = _wheel_to_vx(omega, yaw, vehicle, trig)
@@ -532,16 +637,23 @@ def _motion(stream, vehicle, scales, spin_threshold, thresholds) -> _Motion:
     valid = ~gap & np.isfinite(vx) & (vx > thresholds.min_speed_mps)
     vx_safe = np.where(valid, vx, np.nan)
 
-    slip = (wheel_vx - vx_safe[:, None]) / vx_safe[:, None]
-    slip_axle = np.column_stack([slip[:, :2].mean(axis=1), slip[:, 2:].mean(axis=1)])
+    slip = _table(vx.shape[0], 4)
+    for i in range(4):
+        np.subtract(wheel_vx[:, i], vx_safe, out=slip[:, i])
+        slip[:, i] /= vx_safe
+    slip_axle = _table(vx.shape[0], 2)
+    _row_mean(slip, (0, 1), out=slip_axle[:, 0])
+    _row_mean(slip, (2, 3), out=slip_axle[:, 1])
     driven_wheels = {"front": (0, 1), "rear": (2, 3), "both": (0, 1, 2, 3)}[vehicle.driven_axle]
-    slip_driven = slip[:, list(driven_wheels)].mean(axis=1)
+    slip_driven = _row_mean(slip, driven_wheels)
     return _Motion(
         omega_raw=omega_raw,
         gap=gap,
         yaw=yaw,
         steer=steer,
         ax_raw=ax_raw,
+        ax_prefix=ax_prefix,
+        vx_prefix=PrefixSums.of(vx_safe),
         ay_raw=ay_raw,
         trig=trig,
         wheel_vx=wheel_vx,
@@ -559,11 +671,11 @@ def _motion(stream, vehicle, scales, spin_threshold, thresholds) -> _Motion:
 class _WheelNoise(eqx.Module):
     """Step 2: the wheel signals' noise at the smoothing scale, with the vehicle motion removed."""
 
-    wheel_vx_raw: Float[np.ndarray, "n 4"]  # unsmoothed wheel speeds as V_x [m/s]
     slip_velocity_driven: Float[np.ndarray, "n"]  # driven axle's R·Ω − V_x, unsmoothed [m/s]
     local_wheel: Float[np.ndarray, "n 4"]  # each wheel's slip-velocity noise [m/s]
     slip_sd: Float[np.ndarray, "n 4"]  # [-]
     vx_sd: Float[np.ndarray, "n"]  # [m/s]
+    vx_probe: Float[np.ndarray, "n"]  # the V_x wheels' zero-mean combination (_vx_noise_probe)
 
 
 def _wheel_noise(motion: _Motion, vehicle, scales: _Scales, spin_threshold) -> _WheelNoise:
@@ -572,21 +684,26 @@ def _wheel_noise(motion: _Motion, vehicle, scales: _Scales, spin_threshold) -> _
     # quantisation and changing road roughness included, unlike a white-noise / √window rule.
     # The probes use the unsmoothed wheel speeds: local_noise_sd applies the smoothing itself.
     m = motion
-    wheel_vx_raw = _wheel_to_vx(m.omega_raw, m.yaw, vehicle, m.trig)
+    # The four slip velocities and the V_x probe in one column-contiguous block: the wheels'
+    # V_x are written into it and turned into slip velocities in place.
+    probes = np.empty((5, m.vx.shape[0])).T
+    wheel_vx_raw = _wheel_to_vx(m.omega_raw, m.yaw, vehicle, m.trig, out=probes[:, :4])
     vx_raw = np.where(
         m.valid, _vehicle_speed(wheel_vx_raw, vehicle.drive, spin_threshold)[0], np.nan
     )
-    slip_velocity = wheel_vx_raw - vx_raw[:, None]
-    slip_velocity_driven = slip_velocity[:, list(m.driven_wheels)].mean(axis=1)
-    probes = np.column_stack([slip_velocity, _vx_noise_probe(wheel_vx_raw, vehicle.drive)])
-    probe_sd = local_noise_sd(probes, scales.window, scales.span)  # one pass over all five
+    probes[:, 4] = _vx_noise_probe(wheel_vx_raw, vehicle.drive)
+    for i in range(4):
+        probes[:, i] -= vx_raw
+    slip_velocity_driven = _row_mean(probes, m.driven_wheels)
+    # The slip velocities are NaN where V_x is (not valid): V_x's counts serve them.
+    probe_sd = local_noise_sd(probes, scales.window, scales.span, like=m.vx_prefix)
     local_wheel = probe_sd[:, :4]
     return _WheelNoise(
-        wheel_vx_raw=wheel_vx_raw,
         slip_velocity_driven=slip_velocity_driven,
         local_wheel=local_wheel,
-        slip_sd=local_wheel / m.vx_safe[:, None],
+        slip_sd=np.divide(local_wheel, m.vx_safe[:, None], out=_table(*local_wheel.shape)),
         vx_sd=probe_sd[:, 4],
+        vx_probe=probes[:, 4],
     )
 
 
@@ -609,14 +726,14 @@ class _ImuCalibration(eqx.Module):
 def _imu_calibration(
     stream, vehicle, motion: _Motion, scales: _Scales, ax_offset_mps2, ax_gain
 ) -> _ImuCalibration:
-    m, data, rate = motion, stream.data, scales.rate_hz
+    m, rate = motion, scales.rate_hz
     # IMU offset against the wheel-speed derivative; the corrected ax keeps the road grade.
     # Squat and dive add g·k·a_x to the reading: left in, the forces read 1 + g·k ≈ 2 % high and
     # C_x with them (the model's force gain is centred at 1), and a drive that brakes more than
     # it accelerates would shift the offset.
     pitch_gain = float(body_pitch_gain(vehicle))
-    dvx_dt = smoothed_derivative(m.vx_safe, scales.dt_s, scales.deriv_window)
-    ax_smooth_d = nan_moving_average(data["ax"].to_numpy(dtype=float), scales.deriv_window)
+    dvx_dt = m.vx_prefix.smoothed_derivative(scales.deriv_window // 2, scales.dt_s)
+    ax_smooth_d = m.ax_prefix.window_mean(scales.deriv_window // 2)
     steady = m.valid & ~m.spin & (np.abs(dvx_dt) < 4.0)
     # The IMU's scale factor against the wheel speeds' dV_x/dt (which the pitch over-read is part
     # of): a calibrated IMU is left to the tyre model's force gain, a badly scaled one (a
@@ -646,7 +763,7 @@ def _imu_calibration(
         ax_offset_sd = float(np.hypot(ax_offset_sd, GRAVITY_MPS2 * grade_mean_sd))
     lateral_kin = m.vx_safe * m.yaw
     ay_resid = (m.ay_raw - lateral_kin)[m.valid & np.isfinite(m.ay_raw)]
-    ay_offset = float(np.median(ay_resid)) if ay_resid.size else 0.0
+    ay_offset = median(ay_resid) if ay_resid.size else 0.0
     return _ImuCalibration(
         pitch_gain=pitch_gain,
         dvx_dt=dvx_dt,
@@ -691,15 +808,17 @@ def _forces(
     brake_front_share: float,
 ) -> _Forces:
     m, window, span = motion, scales.window, scales.span
-    speed_for_drag = np.where(np.isfinite(m.vx), np.maximum(m.vx, 0.0), 0.0)
-    lateral = (np.nan_to_num(imu.ay), np.nan_to_num(imu.yaw_acc), np.nan_to_num(m.steer))
-    resistance, fx_front, fx_rear, fz_front, fz_rear, *_ = _force_balance(
-        vehicle, np.nan_to_num(imu.ax), *lateral, speed_for_drag, brake_front_share
-    )
-    fx_axle = np.column_stack([fx_front, fx_rear])
-    fz_axle = np.column_stack([fz_front, fz_rear])
-    has_force = (m.valid & np.isfinite(imu.ax))[:, None]
-    fx_axle = np.where(has_force, fx_axle, np.nan)
+    ax_traction, ax_traction_sd = _traction_acceleration(
+        m.vx_prefix, imu.ax, noise.vx_probe, vehicle.drive, scales.dt_s, window,
+        scales.rate_hz, span,
+    )  # fmt: skip
+    balance = _force_balance(
+        vehicle, imu.ax, ax_traction, imu.ay, imu.yaw_acc, m.steer, m.vx, brake_front_share,
+    )  # fmt: skip
+    resistance, fx_axle, fz_axle = balance.resistance, balance.fx_axle, balance.fz_axle
+    no_force = ~(m.valid & np.isfinite(imu.ax))
+    for i in range(2):
+        fx_axle[no_force, i] = np.nan
 
     def driven(per_axle: np.ndarray) -> np.ndarray:
         """The driven axle's column, or the sum of both for AWD."""
@@ -708,32 +827,31 @@ def _forces(
         return per_axle[:, 0 if vehicle.driven_axle == "front" else 1]
 
     fx_driven, fz_driven = driven(fx_axle), driven(fz_axle)
-    ax_traction, ax_traction_sd = _traction_acceleration(
-        m.vx_safe, imu.ax, noise.wheel_vx_raw, vehicle.drive, scales.dt_s, window,
-        scales.rate_hz, span,
-    )  # fmt: skip
-    traction = _force_balance(
-        vehicle, np.nan_to_num(ax_traction), *lateral, speed_for_drag, brake_front_share
-    )
-    fx_traction_driven = driven(np.column_stack(traction[5:7]))
-    fz_traction_driven = driven(np.column_stack(traction[3:5]))
+    fx_traction, fz_traction = balance.fx_traction, balance.fz_traction
+    fx_traction_driven, fz_traction_driven = driven(fx_traction), driven(fz_traction)
     has_traction = m.valid & np.isfinite(ax_traction)
     rho_driven_traction = np.where(has_traction, fx_traction_driven / fz_traction_driven, np.nan)
     rho_total_traction = np.where(
-        has_traction, (traction[5] + traction[6]) / (traction[3] + traction[4]), np.nan
+        has_traction,
+        (fx_traction[:, 0] + fx_traction[:, 1]) / (fz_traction[:, 0] + fz_traction[:, 1]),
+        np.nan,
     )
     pushing = rho_total_traction >= 0.0
+    velocity = PrefixSums.of(noise.slip_velocity_driven, like=m.vx_prefix)
     slip_driven_noise = local_noise_sd(
-        np.column_stack(
-            [
-                _slip_noise_probe(
-                    noise.slip_velocity_driven, rho_driven_traction * m.vx_safe, pushing, window
-                ),
+        _columns(
+            _slip_noise_probe(
                 noise.slip_velocity_driven,
-            ]
+                velocity,
+                rho_driven_traction * m.vx_safe,
+                pushing,
+                window,
+            ),
+            noise.slip_velocity_driven,
         ),
         window,
         span,
+        prefix=(None, velocity),
     )
     # Where the tyres brake (no slip window there) the plain slip velocity's noise stands in.
     slip_driven_noise = np.where(
@@ -741,18 +859,19 @@ def _forces(
     )
     # Per-sample noise of the smoothed ax, scaled by the axle's share of m·ax. The offset's
     # uncertainty is common to the whole log and reported apart (nuisances.rho_offset_sd).
-    ax_sd_local = local_noise_sd(stream.data["ax"].to_numpy(dtype=float), window, span) / (
+    ax_raw = stream.data["ax"].to_numpy(dtype=float)
+    ax_sd_local = local_noise_sd(ax_raw, window, span, prefix=m.ax_prefix) / (
         imu.pitch_gain * imu.imu_gain.applied
     )
-    share = np.where(
-        np.abs(fx_axle.sum(axis=1)) > 0, np.abs(fx_driven) / np.abs(fx_axle.sum(axis=1)), 1.0
-    )
+    fx_total = np.abs(fx_axle[:, 0] + fx_axle[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.where(fx_total > 0, np.abs(fx_driven) / fx_total, 1.0)
     share = np.clip(np.nan_to_num(share, nan=1.0), 0.0, 1.0)
     return _Forces(
         resistance=resistance,
         fx_axle=fx_axle,
         fz_axle=fz_axle,
-        rho_axle=fx_axle / fz_axle,
+        rho_axle=np.divide(fx_axle, fz_axle, out=_table(*fx_axle.shape)),
         fx_driven=fx_driven,
         fz_driven=fz_driven,
         rho_driven=fx_driven / fz_driven,
@@ -786,7 +905,7 @@ def _assemble(
     label = label_samples(
         m.valid,
         f.rho_driven,
-        np.max(np.abs(np.nan_to_num(m.slip, nan=0.0)), axis=1),
+        _max_abs_slip(m.slip),
         m.spin,
         imu.lateral_kin,
         thresholds,
@@ -796,7 +915,8 @@ def _assemble(
         m.wheel_vx, free_straight, rate
     )
     if "speed_reference" in data:
-        ref = nan_moving_average(data["speed_reference"].to_numpy(dtype=float), window)
+        reference = data["speed_reference"].to_numpy(dtype=float)
+        ref = PrefixSums.of(reference, like=m.ax_prefix).window_mean(window // 2)
         speed_scale, speed_scale_sd = estimate_speed_scale(m.vx_safe, ref, m.valid, rate)
     else:
         speed_scale, speed_scale_sd = float("nan"), float("nan")
@@ -864,15 +984,23 @@ def _assemble(
     )
 
 
+def _max_abs_slip(slip: np.ndarray) -> np.ndarray:
+    """Largest |σ_x| of the four wheels, NaN counted as 0 (``np.nan_to_num`` first, then max)."""
+    # fmax skips NaN, so only a row of four NaN stays NaN: that row's 0 comes from nan_to_num.
+    largest = np.abs(slip[:, 0])
+    wheel = np.empty_like(largest)
+    for i in range(1, 4):
+        np.fmax(largest, np.abs(slip[:, i], out=wheel), out=largest)
+    return np.nan_to_num(largest, nan=0.0, copy=False)
+
+
 def _summary(x: np.ndarray, window: int) -> float | np.ndarray:
     """Median over the log of a quantity that is smooth over ``window`` samples (NaN ignored).
 
     Local noise levels and loads change over seconds, so every (window//2)-th sample carries the
     information; the thinned median is the same number at a fraction of the cost on long logs.
     """
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN column: NaN, as documented
-        return np.nanmedian(x[:: max(1, window // 2)], axis=0)
+    return nanmedian_columns(x[:: max(1, window // 2)])  # all-NaN column: NaN, as documented
 
 
 def speed_error(

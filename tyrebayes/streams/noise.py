@@ -17,6 +17,8 @@ from __future__ import annotations
 import numpy as np
 from jaxtyping import Float
 
+from .order_stats import median, nanmedian_columns, quantile
+
 # Above this many values the quantisation estimate uses an evenly strided subset: the step is a
 # property of the encoding, 100 000 samples pin it down and keep np.unique cheap on 10 h logs.
 _MAX_VALUES = 100_000
@@ -39,10 +41,16 @@ def quantisation_step(x: Float[np.ndarray, "n"]) -> float:
     float
         Step in the unit of ``x``; 0.0 if no step is found.
     """
-    values = x[np.isfinite(x)]
+    finite = np.isfinite(x)
+    values = x if finite.all() else x[finite]
     if values.size > _MAX_VALUES:
         values = values[:: values.size // _MAX_VALUES + 1]
-    distinct = np.unique(values)
+    # np.unique's distinct values (sorted, first of each run of equal ones) from one sort.
+    ordered = np.sort(values)
+    new = np.empty(ordered.shape, dtype=bool)
+    new[:1] = True
+    np.not_equal(ordered[1:], ordered[:-1], out=new[1:])
+    distinct = ordered[new]
     if distinct.size < 4:
         return 0.0
     gaps = np.diff(distinct)
@@ -54,10 +62,10 @@ def quantisation_step(x: Float[np.ndarray, "n"]) -> float:
     step = float(np.min(gaps))
     ratio = gaps / step
     off = np.abs(ratio - np.round(ratio))
-    if np.quantile(off, 0.95) > 0.1:
+    if quantile(off, 0.95) > 0.1:
         return 0.0
     unit_gaps = gaps[np.round(ratio) == 1]
-    return float(np.median(unit_gaps))
+    return median(unit_gaps)
 
 
 def white_noise_sd(x: Float[np.ndarray, "n"], quantisation: float = 0.0) -> float:
@@ -84,14 +92,16 @@ def white_noise_sd(x: Float[np.ndarray, "n"], quantisation: float = 0.0) -> floa
     if x.size > _MAX_VALUES + 2:
         # 100 000 differences pin the MAD-based sd to ~0.5 %: take them at evenly strided centres
         # instead of forming all n − 2 (and two medians over them) on a long log.
-        centre = np.arange(1, x.size - 1, (x.size - 2) // _MAX_VALUES + 1)
-        d2 = x[centre + 1] - 2.0 * x[centre] + x[centre - 1]
+        # Centres 1, 1 + s, 1 + 2s, ... as strided views (no index arrays).
+        stride = (x.size - 2) // _MAX_VALUES + 1
+        m = len(range(1, x.size - 1, stride))
+        d2 = x[2::stride][:m] - 2.0 * x[1::stride][:m] + x[::stride][:m]
     else:
         d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
     d2 = d2[np.isfinite(d2)]
     if d2.size < 10:
         return float("nan")
-    mad = float(np.median(np.abs(d2 - np.median(d2))))
+    mad = median(np.abs(d2 - median(d2)), overwrite_input=True)
     sd = 1.4826 * mad / np.sqrt(6.0)
     return float(np.sqrt(sd**2 + quantisation**2 / 12.0))
 
@@ -102,6 +112,8 @@ def local_noise_sd(
     span: int,
     ratio: int = 5,
     clip: float = 5.0,
+    prefix=None,
+    like=None,
 ) -> Float[np.ndarray, "n *k"]:
     """Per-sample noise sd of a ``window``-sample moving average of ``x`` (coloured noise too).
 
@@ -122,6 +134,12 @@ def local_noise_sd(
         Smoothing window of the feature [samples].
     span : int
         Averaging span of the local RMS [samples].
+    prefix : PrefixSums or sequence of (PrefixSums or None), optional
+        :class:`~tyrebayes.streams.filters.PrefixSums` of a 1-D ``x`` (of each column of a 2-D
+        one, None where not at hand), when the caller has them: they are not formed again.
+    like : PrefixSums, optional
+        Prefix sums of another signal with, most likely, the first column's NaN: its counts
+        are reused if the NaN agree (checked).
 
     Returns
     -------
@@ -134,30 +152,80 @@ def local_noise_sd(
     >>> round(float(np.nanmedian(local_noise_sd(x, 25, 1000))), 1)  # 1/sqrt(25)
     0.2
     """
-    from .filters import nan_moving_average  # sibling leaf module; avoids an import cycle
+    # Sibling leaf module; avoids an import cycle.
+    from .filters import nan_moving_average, strided_window_mean
 
+    x = np.asarray(x, dtype=float)
+    if x.ndim > 2:
+        return local_noise_sd(x.reshape(x.shape[0], -1), window, span, ratio, clip).reshape(x.shape)
+    columns = [x] if x.ndim == 1 else [x[:, j] for j in range(x.shape[1])]
+    if prefix is None or x.ndim == 1:
+        given = [prefix] * len(columns)
+    else:
+        given = list(prefix)
+        if len(given) != len(columns):
+            raise ValueError(
+                f"local_noise_sd: expected {len(columns)} prefix sums (one per column), "
+                f"got {len(given)}"
+            )
     long = ratio * window + (1 - (ratio * window) % 2)  # odd
-    # "Twicing" low-pass 2·MA − MA∘MA: flat to second order, so slow true signal (slip following
-    # the driver's torque) leaks ~10x less into the residual than with one moving average.
-    once = nan_moving_average(x, long)
-    resid = nan_moving_average(once, long)  # resid = x − (2·once − MA(once)), in place
+    # The smoothed residual changes over a window, so every (window//2)-th sample carries its
+    # information: it is formed at those samples only, and the robust scale and the ~10 s local
+    # mean run on that thinned series.
+    step = max(1, window // 2)
+    thin, prefixes = [], None if like is None else (like, None)
+    for column, own in zip(columns, given, strict=True):
+        # Columns with the same dropped samples (the four slip velocities) share their counts.
+        *prefixes, resid = _residual(column, long, like=prefixes, prefix=own)
+        thin.append(strided_window_mean(resid, window // 2, prefixes[0], overwrite_input=True))
+    finite = min(np.isfinite(t).sum() for t in thin)
+    if finite < 10 and min(_finite_smoothed(c, window, long) for c in columns) < 10:
+        return np.full(x.shape, np.nan)
+    thin = thin[0] if x.ndim == 1 else np.array(thin).T
+    scale = 1.4826 * nanmedian_columns(np.abs(thin))
+    sq = np.minimum(thin**2, (clip * scale) ** 2)
+    local = nan_moving_average(sq, max(1, span // step))
+    # sqrt(local · gain) on the thinned series, then each value repeated over its step.
+    root = np.sqrt(local * _white_gain(window, long))
+    if x.ndim == 1:
+        return np.repeat(root, step)[: x.shape[0]]
+    out = np.empty(x.shape[::-1])  # columns contiguous, like the pipeline's tables
+    for row, column in zip(out, root.T, strict=True):
+        row[:] = np.repeat(column, step)[: x.shape[0]]
+    return out.T
+
+
+def _residual(x: np.ndarray, long: int, like: tuple | list | None = None, prefix=None) -> tuple:
+    """Prefix sums of x and of MA(x), and the residual x − (2·MA(x) − MA(MA(x))), MA over ``long``.
+
+    "Twicing" low-pass 2·MA − MA∘MA: flat to second order, so slow true signal (slip following
+    the driver's torque) leaks ~10x less into the residual than with one moving average.
+    ``like``: another column's prefixes, whose counts are reused where the NaN agree;
+    ``prefix``: x's own, when the caller has them.
+    """
+    from .filters import PrefixSums
+
+    if prefix is None:
+        prefix = PrefixSums.of(x, like=like[0] if like else None)
+    once = prefix.window_mean(long // 2)
+    once_prefix = PrefixSums.of(once, like=like[1] if like else None)
+    # The residual x − (2·once − MA(once)), in place; NaN where x is (the low-pass has a value
+    # wherever x has one), so x's counts serve its moving average.
+    resid = once_prefix.window_mean(long // 2)
     once *= 2.0
     resid -= once
     del once
     resid += x
-    smooth = nan_moving_average(resid, window)
-    del resid
-    if np.isfinite(smooth).sum(axis=0).min() < 10:
-        return np.full(x.shape, np.nan)
-    # The smoothed residual changes over a window, so every (window//2)-th sample carries its
-    # information: the robust scale and the ~10 s local mean run on that thinned view.
-    step = max(1, window // 2)
-    thin = smooth[::step]
-    scale = 1.4826 * np.nanmedian(np.abs(thin), axis=0)
-    sq = np.minimum(thin**2, (clip * scale) ** 2)
-    local = nan_moving_average(sq, max(1, span // step))
-    n = x.shape[0]
-    return np.sqrt(np.repeat(local, step, axis=0)[:n] * _white_gain(window, long))
+    return prefix, once_prefix, resid
+
+
+def _finite_smoothed(x: np.ndarray, window: int, long: int) -> int:
+    """Number of samples where the smoothed residual has a value (all samples, not thinned)."""
+    from .filters import PrefixSums
+
+    prefix, _, resid = _residual(x, long)
+    smooth = PrefixSums.of(resid, like=prefix).window_mean(window // 2)
+    return int(np.isfinite(smooth).sum())
 
 
 def _white_gain(window: int, long: int) -> float:

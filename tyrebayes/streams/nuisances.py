@@ -19,7 +19,8 @@ import equinox as eqx
 import numpy as np
 from jaxtyping import Bool, Float
 
-from .filters import nan_moving_average
+from .filters import PrefixSums
+from .order_stats import median
 
 # Effective number of independent samples: grade and vibration are correlated over about a
 # second, so a standard error from N samples at 100 Hz divides by sqrt(seconds), not sqrt(N).
@@ -87,8 +88,8 @@ def _robust_mean_se(x: np.ndarray, sample_rate_hz: float) -> tuple[float, float]
     """Median and its standard error with a one-second correlation time."""
     if x.size < 3:
         return float("nan"), float("nan")
-    med = float(np.median(x))
-    spread = 1.4826 * float(np.median(np.abs(x - med)))
+    med = median(x)
+    spread = 1.4826 * median(np.abs(x - med))
     n_eff = max(x.size / (sample_rate_hz * _CORRELATION_S), 1.0)
     return med, 1.2533 * spread / np.sqrt(n_eff)  # 1.2533: efficiency of the median
 
@@ -158,15 +159,19 @@ def estimate_ax_gain(
     short = max(1, int(round(_GAIN_LOWPASS_S * sample_rate_hz)))
     long = max(1, int(round(_GAIN_HIGHPASS_S * sample_rate_hz)))
 
-    def bandpass(v: np.ndarray) -> np.ndarray:
-        v = np.where(ok, v, np.nan)
-        return nan_moving_average(v, short) - nan_moving_average(v, long)
+    def bandpass(v: np.ndarray, like: PrefixSums | None) -> tuple[np.ndarray, PrefixSums]:
+        # Both moving averages (an even window is rounded up, as nan_moving_average does) from
+        # one set of prefix sums; both signals are NaN outside ``ok``, so they share counts.
+        prefix = PrefixSums.of(np.where(ok, v, np.nan), like=like)
+        return prefix.window_mean(short // 2) - prefix.window_mean(long // 2), prefix
 
-    x_all, y_all = bandpass(dvx_dt_mps2), bandpass(ax_mps2)
+    x_all, prefix = bandpass(dvx_dt_mps2, None)
+    y_all, _ = bandpass(ax_mps2, prefix)
     ok = ok & np.isfinite(x_all) & np.isfinite(y_all)
     block = np.floor(np.flatnonzero(ok) / (_GAIN_BLOCK_S * sample_rate_hz)).astype(int)
     x, y = x_all[ok], y_all[ok]
-    if x.size < 3 or np.unique(block).size < 2:
+    # ``block`` is sorted: fewer than two blocks when its first and last agree.
+    if x.size < 3 or block[0] == block[-1]:
         return float("nan"), float("nan")
     xc = x - x.mean()
     sxx = float(np.sum(xc**2))
@@ -302,17 +307,21 @@ def estimate_radius_ratios(
     -------
     (ratio, sd, seconds)
     """
-    ok = free_straight & np.all(np.isfinite(wheel_vx_mps), axis=1)
+    columns = [wheel_vx_mps[:, i] for i in range(4)]
+    ok = free_straight.copy()
+    for column in columns:
+        ok &= np.isfinite(column)
     seconds = float(ok.sum() / sample_rate_hz)
     nan4 = np.full(4, np.nan)
     if seconds < min_seconds:
         return nan4, nan4.copy(), seconds
-    sub = wheel_vx_mps[ok]
+    sub = [column[ok] for column in columns]
     # A larger radius turns slower at the same ground speed: radius ratio = mean speed / speed.
-    rel = np.mean(sub, axis=1, keepdims=True) / sub
+    mean = ((sub[0] + sub[1]) + sub[2]) + sub[3]  # np.mean's order, column by column
+    mean /= 4
     ratio, sd = np.empty(4), np.empty(4)
     for i in range(4):
-        ratio[i], sd[i] = _robust_mean_se(rel[:, i], sample_rate_hz)
+        ratio[i], sd[i] = _robust_mean_se(mean / sub[i], sample_rate_hz)
     return ratio, sd, seconds
 
 

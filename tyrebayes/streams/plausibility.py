@@ -28,6 +28,7 @@ from jaxtyping import Float
 
 from .._errors import BadInputError
 from .filters import nan_moving_average, smoothed_derivative, window_samples
+from .order_stats import median, median_at_most, quantile
 
 #: Below this rate the 0.2 s smoothing of the features holds fewer than 4 samples: the derivatives
 #: and the slip noise estimate (measured at the smoothing scale) stop meaning what they say.
@@ -165,11 +166,11 @@ def check_steering_scale(
     ok = np.isfinite(steer) & np.isfinite(yaw) & np.isfinite(speed_mps) & (speed_mps > 5.0)
     if ok.sum() < 50:
         return
-    kinematic = speed_mps[ok] * (steer[ok] - np.median(steer[ok])) / (steering_ratio * wheelbase_m)
-    implied = float(np.quantile(np.abs(kinematic), 0.95))
+    kinematic = speed_mps[ok] * (steer[ok] - median(steer[ok])) / (steering_ratio * wheelbase_m)
+    implied = quantile(np.abs(kinematic), 0.95)
     # Gyro noise after smoothing is ~1e-3 rad/s: a floor so that a dead-straight drive with a
     # noiseless yaw channel cannot make any steering look large.
-    measured = max(float(np.quantile(np.abs(yaw[ok] - np.median(yaw[ok])), 0.95)), 1e-3)
+    measured = max(quantile(np.abs(yaw[ok] - median(yaw[ok])), 0.95), 1e-3)
     ratio = implied / measured
     if ratio > _STEER_DEGREES_RATIO:
         p99 = float(np.quantile(np.abs(steer_rad[np.isfinite(steer_rad)]), 0.99))
@@ -200,11 +201,15 @@ def dropped_fraction(time_s: Float[np.ndarray, "m"]) -> float:
     if time_s.size < 3:
         return 0.0
     steps = np.diff(time_s)
-    period = float(np.median(steps[steps <= 1.5 * np.quantile(steps, 0.25)]))
-    span = float(steps[steps < LONG_GAP_S].sum())
+    short = steps < LONG_GAP_S
+    count = int(np.count_nonzero(short))
+    # Without long gaps (the usual case) the short steps are all of them: no copy to sum.
+    span = float(steps.sum() if count == steps.size else steps[short].sum())
+    # The order statistics reorder ``steps`` in place (summed above, in their own order).
+    period = median_at_most(steps, 1.5 * quantile(steps, 0.25, overwrite_input=True), True)
     if not (period > 0 and span > 0):
         return 0.0
-    return max(0.0, 1.0 - (steps < LONG_GAP_S).sum() * period / span)
+    return max(0.0, 1.0 - count * period / span)
 
 
 def sampling_flags(

@@ -94,14 +94,15 @@ def label_samples(
     ndarray of int
         Index into :data:`SEGMENT_KINDS`.
     """
+    # Later assignments take priority; each is one masked write into the same array.
     label = np.full(valid.shape, FREE_ROLLING, dtype=np.int64)
-    label = np.where(rho_driven >= thresholds.rho_free, TRACTION, label)
-    label = np.where(rho_driven <= -thresholds.rho_free, BRAKING, label)
-    label = np.where(np.abs(lateral_mps2) > thresholds.lateral_mps2, CORNERING, label)
-    high = spin | (np.nan_to_num(max_abs_slip, nan=0.0) > thresholds.slip_high)
-    label = np.where(high, HIGH_SLIP, label)
-    undefined = ~np.isfinite(rho_driven) | ~np.isfinite(max_abs_slip)
-    return np.where(~valid | undefined, INVALID, label).astype(np.int64)
+    label[rho_driven >= thresholds.rho_free] = TRACTION
+    label[rho_driven <= -thresholds.rho_free] = BRAKING
+    label[np.abs(lateral_mps2) > thresholds.lateral_mps2] = CORNERING
+    # NaN slip compares False, as the 0 it counts for would; an infinite one stays high.
+    label[spin | (max_abs_slip > thresholds.slip_high)] = HIGH_SLIP
+    label[~(valid & np.isfinite(rho_driven) & np.isfinite(max_abs_slip))] = INVALID
+    return label
 
 
 def summarize_segments(

@@ -180,11 +180,42 @@ def _corrected_slip(feats: StreamFeatures, ratio: np.ndarray, drive: str) -> np.
     A wheel of true radius r_i R_nom reads wheel_vx_i = (1 + σ_i) V r_ref / r_i, where r_ref is
     the mean ratio of the wheels V_x comes from; hence σ_i = (1 + slip_i) r_i / r_ref − 1.
     """
-    if not np.all(np.isfinite(ratio)):
+    scale = _slip_scale(ratio, drive)
+    if scale is None:
         return feats.slip
+    return (1.0 + feats.slip) * scale[None, :] - 1.0
+
+
+def _slip_scale(ratio: np.ndarray, drive: str) -> np.ndarray | None:
+    """r_i / r_ref of :func:`_corrected_slip`, or None for nominal radii (a NaN ratio)."""
+    if not np.all(np.isfinite(ratio)):
+        return None
     ref = {"fwd": (2, 3), "rwd": (0, 1)}.get(drive, (0, 1, 2, 3))
-    r_ref = float(np.mean(ratio[list(ref)]))
-    return (1.0 + feats.slip) * (ratio / r_ref)[None, :] - 1.0
+    return ratio / float(np.mean(ratio[list(ref)]))
+
+
+def _corrected_slip_axle(feats: StreamFeatures, ratio: np.ndarray, drive: str) -> np.ndarray:
+    """Per-axle slip, (n, 2): the mean of its wheels' :func:`_corrected_slip`.
+
+    An axle's slip is (σ_a + σ_b) / 2 (what ndarray.mean gives for two), formed column by
+    column in the axle table itself with the same arithmetic as the (n, 4) table of σ_i: the
+    same numbers without its three temporaries of the whole table (four times a drive).
+    """
+    slip = feats.slip
+    scale = _slip_scale(ratio, drive)
+    out = np.empty((2, slip.shape[0])).T  # columns contiguous, like the features' tables
+    other = np.empty(slip.shape[0])
+    for axle, wheels in enumerate(((0, 1), (2, 3))):
+        for wheel, target in zip(wheels, (out[:, axle], other), strict=True):
+            if scale is None:
+                np.copyto(target, slip[:, wheel])
+            else:
+                np.add(slip[:, wheel], 1.0, out=target)
+                target *= scale[wheel]
+                target -= 1.0
+        out[:, axle] += other
+    out /= 2.0
+    return out
 
 
 def _front_rear_ratio(ratio: np.ndarray, sd: np.ndarray) -> tuple[float, float]:
@@ -277,12 +308,7 @@ def _longitudinal_work(feats, ratios, ratio_sd4, drive, terms: _WorkTerms, dt, s
     for the iteration over ratios in :func:`drive_wear_evidence`, and from ``sums`` (the
     previous iteration's :class:`_MaskedSums`), reused while the usable samples are the same.
     """
-    slip = _corrected_slip(feats, ratios, drive)
-    # The mean of each axle's two wheels, as (a + b) / 2 (what ndarray.mean gives for two).
-    slip_axle = np.empty((slip.shape[0], 2))
-    np.add(slip[:, 0], slip[:, 1], out=slip_axle[:, 0])
-    np.add(slip[:, 2], slip[:, 3], out=slip_axle[:, 1])
-    slip_axle /= 2.0
+    slip_axle = _corrected_slip_axle(feats, ratios, drive)
     use = terms.usable & np.isfinite(slip_axle)
     if sums is None or not np.array_equal(sums.use, use):
         sums = _masked_sums(feats, terms, use, dt)
