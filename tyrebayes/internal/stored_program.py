@@ -4,17 +4,18 @@ JAX's persistent compilation cache (:mod:`.jax_cache`) spares a new process the 
 a program it has compiled before, but not the Python tracing that comes first: seconds of
 every fleet worker's first fit of a data shape and of every ``fit-tyre`` (a new process's first
 fast fit of a one-hour drive: 8.0 s with the compiled programs alone, 2.9 s with the traced
-ones and the layout kept too; ``benchmarks/results/stored_program.json``). :func:`stored_program` keeps the traced program
-itself, exported as StableHLO (:mod:`jax.export`), in a folder beside that cache: a process
-that finds it deserialises it (milliseconds) and calls it, and the compilation cache then
-finds its compiled form as for any program.
+ones and the layout kept too; ``benchmarks/results/stored_program.json``).
+:func:`stored_program` keeps the traced program itself, exported as StableHLO
+(:mod:`jax.export`), in a folder beside that cache: a process that finds it deserialises it
+(milliseconds) and calls it, and the compilation cache then finds its compiled form as for
+any program.
 
 The file's name hashes the caller's key (what makes the program: model, data shape, settings),
 the structure of the arguments, the versions of JAX and jaxlib and the package's own source
-(:func:`source_fingerprint`: a program traced from other code is never read). Anything that does not
-match, cannot be read or cannot be written means the jitted function is called as it is: the
-store saves time, it never changes a result (the exported program is the one ``jax.jit`` would
-compile; a test checks that the results are equal).
+(:func:`source_fingerprint`: a program traced from other code is never read). Anything that
+does not match, cannot be read or cannot be written means the jitted function is called as it
+is: the store saves time, it never changes a result (the exported program is the one
+``jax.jit`` would compile; a test checks that the results are equal).
 """
 
 from __future__ import annotations

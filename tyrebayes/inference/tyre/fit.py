@@ -137,14 +137,28 @@ def _weighted_by_correlation(obs: TyreObservations, draws: dict, kind: str):
 
     Returns ``(obs, inflation)``. The weights change the posterior's width, not its centre
     (to first order), so a first fit with unit weights gives residuals good enough for them.
+    Where they are the weights ``obs`` has (every drive's VIF 1), ``obs`` itself is returned.
     """
     point = {k: jnp.mean(jnp.asarray(v), axis=0) for k, v in draws.items()}
     lik = window_likelihood(point, obs, kind)
     z = np.asarray((obs.slip - lik.slip_loc - lik.block_offset) / lik.slip_scale)
     slip_window = np.asarray(obs.mask & ~obs.at_limit)
     weights, inflation = slip_weights(z, slip_window, np.asarray(obs.drive_index), obs.n_drives)
+    if np.array_equal(weights, np.asarray(obs.slip_weight)):
+        return obs, inflation
     weighted = dataclasses.replace(obs, slip_weight=jnp.asarray(weights, dtype=obs.slip.dtype))
     return weighted, inflation
+
+
+def _second_pass(core, first: tuple, obs: TyreObservations, weighted: TyreObservations, key):
+    """The core's result on the weighted observations, refitted from the first pass's mode.
+
+    Unchanged weights give the same posterior: the first result is kept (a BFGS run started
+    exactly at its own optimum only wanders in round-off, for seconds).
+    """
+    if weighted is obs:
+        return first
+    return core(first[0], weighted, key, False)
 
 
 def fit_tyre_nuts(
@@ -177,9 +191,10 @@ def fit_tyre_nuts(
     check_kind(kind)
     key_laplace, key_init, key_run, key_ppc = jax.random.split(jax.random.PRNGKey(seed), 4)
     core, flat0 = _laplace_core(_priors_key(priors), kind, _obs_key(obs), LAPLACE_DRAWS, 2000)
-    first_mode, *_, first_draws = core(flat0, obs, key_laplace, True)
-    obs, inflation = _weighted_by_correlation(obs, first_draws, kind)
-    mode, _, _, scale, _ = core(first_mode, obs, key_laplace, False)
+    first = core(flat0, obs, key_laplace, True)
+    weighted, inflation = _weighted_by_correlation(obs, first[-1], kind)
+    mode, _, _, scale, _ = _second_pass(core, first, obs, weighted, key_laplace)
+    obs = weighted
     runner = _nuts_runner(
         _priors_key(priors), kind, _obs_key(obs), num_chains, num_warmup, num_samples
     )
@@ -220,9 +235,10 @@ def fit_tyre_fast(
     check_kind(kind)
     key_draw, key_ppc = jax.random.split(jax.random.PRNGKey(seed))
     core, flat0 = _laplace_core(_priors_key(priors), kind, _obs_key(obs), num_draws, max_steps)
-    first_mode, *_, first_draws = core(flat0, obs, key_draw, True)
-    obs, inflation = _weighted_by_correlation(obs, first_draws, kind)
-    _, result, min_eig, _, draws = core(first_mode, obs, key_draw, False)
+    first = core(flat0, obs, key_draw, True)
+    weighted, inflation = _weighted_by_correlation(obs, first[-1], kind)
+    _, result, min_eig, _, draws = _second_pass(core, first, obs, weighted, key_draw)
+    obs = weighted
     positive_definite = bool(float(min_eig) > 0)
     samples = {k: np.asarray(v) for k, v in draws.items()}
     idata = _to_inference_data(samples, 1, obs, kind, key_ppc)
