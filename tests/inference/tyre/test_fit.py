@@ -274,7 +274,7 @@ def test_the_warm_up_reveals_the_stiffness_temperature_sensitivity():
 
 
 def test_second_pass_keeps_the_first_result_when_the_weights_did_not_change():
-    # A BFGS run started exactly at its optimum wanders in round-off (2 s on a fleet tyre set
+    # A BFGS run started exactly at its optimum wanders in round-off (seconds on a fleet tyre set
     # whose drives all had VIF 1): unchanged weights keep the first pass's result instead.
     from tyrebayes.inference.tyre.fit import _second_pass
 
