@@ -86,3 +86,19 @@ def test_a_program_traced_from_other_source_is_not_read(cache_dir, monkeypatch):
     monkeypatch.setattr(module, "source_fingerprint", lambda: "other source")
     _same(stored_program(_function, ("source",))(*_args()), _function.__wrapped__(*_args()))
     assert len(list((cache_dir / "tyrebayes-programs").glob("*.jaxexport"))) == 2
+
+
+def test_results_mix_with_arrays_spread_over_several_devices(cache_dir):
+    # NUTS runs its chains on several devices and combines them with the Laplace core's
+    # results: an exported program's results come committed to one device, which must not leak.
+    from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+    for _ in range(2):  # exported, then read back
+        out = stored_program(_function, ("devices",))(*_args())
+        assert all(isinstance(leaf, np.ndarray) for leaf in jax.tree.leaves(out))
+        devices = jax.devices()
+        if len(devices) < 2:
+            continue
+        mesh = Mesh(np.asarray(devices[:2]), ("d",))
+        spread = jax.device_put(jnp.ones((2, 3)), NamedSharding(mesh, PartitionSpec("d")))
+        np.testing.assert_allclose(np.asarray(spread @ out[0]), np.full(2, 6.0))  # x·a = 0+2+4

@@ -73,7 +73,8 @@ def stored_program(function: Callable, key: tuple) -> Callable:
     Returns
     -------
     callable
-        Called like ``function``. The program is exported at the first call (where no file
+        Called like ``function``, it returns the same values as NumPy arrays (in the same
+        tuples, lists and dicts). The program is exported at the first call (where no file
         holds it) or read from its file, once per process and argument structure.
     """
     loaded: dict[str, Callable] = {}
@@ -90,7 +91,9 @@ def stored_program(function: Callable, key: tuple) -> Callable:
         if program is None:
             program = _load_or_export(function, key, structure, treedef, leaves)
             loaded[structure] = program
-        return program(*leaves)
+        # The exported program's results come committed to one device; as NumPy arrays (on the
+        # CPU a view) they mix, like a jitted function's, with arrays spread over several.
+        return jax.tree.map(np.asarray, program(*leaves))
 
     return call
 
