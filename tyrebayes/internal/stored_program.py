@@ -3,7 +3,7 @@
 JAX's persistent compilation cache (:mod:`.jax_cache`) spares a new process the compilation of
 a program it has compiled before, but not the Python tracing that comes first: seconds of
 every fleet worker's first fit of a data shape and of every ``fit-tyre`` (a new process's first
-fast fit of a one-hour drive: 8.0 s with the compiled programs alone, 2.9 s with the traced
+fast fit of a one-hour drive: 7.8 s with the compiled programs alone, 2.7 s with the traced
 ones and the layout kept too; ``benchmarks/results/stored_program.json``).
 :func:`stored_program` keeps the traced program itself, exported as StableHLO
 (:mod:`jax.export`), in a folder beside that cache: a process that finds it deserialises it
