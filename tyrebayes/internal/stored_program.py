@@ -50,12 +50,15 @@ def source_fingerprint() -> str:
     return digest.hexdigest()
 
 
-def _program_path(key: tuple, structure: str) -> Path | None:
-    folder = jax.config.jax_compilation_cache_dir
-    if not folder:
+def kept_file(folder: str, key: tuple, suffix: str) -> Path | None:
+    """Where a file made from ``key`` by this package's code is kept beside JAX's compilation
+    cache (``None`` when that cache is off): its name hashes ``key``, :func:`source_fingerprint`
+    and the JAX backend."""
+    cache = jax.config.jax_compilation_cache_dir
+    if not cache:
         return None
-    text = repr((key, structure, source_fingerprint(), jax.default_backend()))
-    return Path(folder) / _FOLDER / f"{hashlib.sha256(text.encode()).hexdigest()[:40]}.jaxexport"
+    text = repr((key, source_fingerprint(), jax.default_backend()))
+    return Path(cache) / folder / f"{hashlib.sha256(text.encode()).hexdigest()[:40]}{suffix}"
 
 
 def stored_program(function: Callable, key: tuple) -> Callable:
@@ -104,7 +107,7 @@ def _load_or_export(function, key, structure, treedef, leaves) -> Callable:
     def of_leaves(*values):
         return function(*jax.tree.unflatten(treedef, values))
 
-    path = _program_path(key, structure)
+    path = kept_file(_FOLDER, (key, structure), ".jaxexport")
     if path is None:
         return of_leaves
     try:

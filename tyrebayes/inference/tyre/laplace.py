@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import hashlib
 import io
 from functools import partial
 from pathlib import Path
@@ -25,7 +24,7 @@ from numpyro.infer import init_to_median
 from numpyro.infer.util import constrain_fn, initialize_model, potential_energy
 
 from ..._io import atomic_write_bytes
-from ...internal.stored_program import source_fingerprint, stored_program
+from ...internal.stored_program import kept_file, stored_program
 from .data import TyreObservations
 from .model import (
     TyrePriors,
@@ -81,19 +80,14 @@ def _layout(priors_key: tuple, kind: str, n_drives: int, surfaces: tuple):
 def _stored_medians_path(key: tuple) -> Path | None:
     """Where the layout's medians of ``key`` are kept: beside JAX's compilation cache, if on.
 
-    The op-by-op initialisation costs a new process about a second per number of drives and
-    surfaces (a fleet worker, every ``fit-tyre``); its result depends on ``key``, on the
-    package's model code and on the versions of the libraries that computed it, all in the
-    file's name.
+    The op-by-op initialisation is part of what a new process (a fleet worker, every
+    ``fit-tyre``) pays before its first fit of a number of drives and surfaces
+    (``benchmarks/results/stored_program.json`` measures it with the traced programs); its
+    result depends on ``key``, on the package's model code and on numpyro's version.
     """
     import numpyro
 
-    folder = jax.config.jax_compilation_cache_dir
-    if not folder:
-        return None
-    text = repr((key, source_fingerprint(), numpyro.__version__, jax.default_backend()))
-    name = hashlib.sha256(text.encode()).hexdigest()[:32]
-    return Path(folder) / "tyrebayes-layouts" / f"{name}.npz"
+    return kept_file("tyrebayes-layouts", (key, numpyro.__version__), ".npz")
 
 
 def _read_medians(path: Path | None) -> dict | None:
