@@ -8,8 +8,8 @@ Steps:
 
 1. simulate the drives (``simulate_tyre_set_drives``, compact FWD car; tyre types cycled
    winter / all-season / summer; surfaces cycled snow / dry / wet; durations uniform in
-   [10, 60] min) and write a manifest; default (reduced) size 12 drives of 4 tyre sets,
-   ``--full`` the issue's 200 drives of 50 sets;
+   [10, 60] min; two ABS stops in each set's first drive) and write a manifest; default
+   (reduced) size 12 drives of 4 tyre sets, ``--full`` the issue's 200 drives of 50 sets;
 2. a plain loop in this process (``process_drive`` per drive, ``fit_tyre_set`` per set,
    the fleet stage) with a cold JAX compilation cache: it compiles each padded fit shape once
    and fills the cache the workers then share, as a fleet run's first day does;
@@ -53,6 +53,7 @@ VEHICLES_PER_DAY = 100_000
 
 def make_drives(folder: Path, n_drives: int, n_sets: int, seed: int) -> tuple[Path, float]:
     from tyrebayes.simulate.drive_io import write_drive
+    from tyrebayes.simulate.profiles import ProfileOptions
     from tyrebayes.simulate.tyre_set import simulate_tyre_set_drives
 
     rng = np.random.default_rng(seed)
@@ -69,6 +70,9 @@ def make_drives(folder: Path, n_drives: int, n_sets: int, seed: int) -> tuple[Pa
             n_drives=int(per_set[k]),
             duration_s=list(durations),
             surfaces=surfaces,
+            # Each set's first drive has two ABS stops, so that its μ_max is observed and the
+            # fleet stage has sets to fit; the other drives are normal driving.
+            profile=[ProfileOptions(n_abs_events=2 if j == 0 else 0) for j in range(per_set[k])],
         )
         for j, (df, truth) in enumerate(drives):
             path = folder / f"set{k:03d}_{j}.parquet"

@@ -54,6 +54,7 @@ from .inference.tyre.data import windowed_observations as windowed_observations
 from .inference.tyre.fit import TyreFit as TyreFit
 from .inference.tyre.fit import fit_tyre as fit_tyre
 from .inference.tyre.model import TyrePriors as TyrePriors
+from .inference.tyre.predictive import with_pointwise as with_pointwise
 from .inference.wear import build_wear_data as build_wear_data
 from .inference.wear import fit_wear as fit_wear
 from .inference.online import OnlineConfig as OnlineConfig

@@ -142,6 +142,9 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
         row = sets[sets["tyre_id"] == rec["tyre_set_id"]].iloc[0]
         c_xr = np.asarray(fit.posterior["c_xr"]).mean()
         assert c_xr == pytest.approx(row["c_xr"], rel=1e-9)
+        # Compact by default: no per-window draws, but what recomputes them.
+        assert "posterior_predictive" not in fit.data.children
+        assert "rho_score" in fit.data["constant_data"].data_vars
         assert 10.0 < row["c_xr"] < 100.0
     failures = pd.read_csv(out / "failures.csv")
     assert sorted(failures["item"]) == ["drive", "drive", "tyre_set"]

@@ -43,6 +43,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--vehicle", help="vehicle of every log of a glob")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
+        "--pointwise",
+        action="store_true",
+        help="keep each tyre set's per-window log-likelihood and predictive draws in its fit "
+        "file (default: left out; criticize recomputes them)",
+    )
+    parser.add_argument(
         "--jax-cache",
         help="JAX compilation cache shared by the workers (default $TYREBAYES_JAX_CACHE or "
         "~/.cache/tyrebayes/jax; '' for none)",
@@ -66,6 +72,7 @@ def run(args: argparse.Namespace) -> int:
         method=args.method,
         model=args.model,
         seed=args.seed,
+        pointwise=args.pointwise,
         jax_cache=default_cache_dir() if args.jax_cache is None else args.jax_cache,
     )
     with dask_client(args.scheduler, args.workers, args.memory_limit) as client:

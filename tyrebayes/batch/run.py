@@ -1,9 +1,10 @@
 """A fleet run on dask.distributed: drives map over workers, tyre sets reduce, the fleet closes.
 
-:func:`fleet_run` submits one task per drive (:func:`~.drive_stage.process_drive`); once every
-drive has finished (done, failed or skipped) it submits each set's joint fit
-(:func:`~.tyre_set_stage.fit_tyre_set`), largest padded shape first, so that a worker compiles
-and keeps one fit shape at a time; when all sets are in, it writes the run's tables and
+:func:`fleet_run` submits one task per drive (:func:`~.drive_stage.process_drive`); once a set's
+drives have finished (done, failed or skipped) it submits the set's joint fit
+(:func:`~.tyre_set_stage.fit_tyre_set`) at a priority below every drive's, larger padded shapes
+higher, so that the sets fill the drive stage's idle tail and a worker keeps one fit shape at a
+time; when all sets are in, it writes the run's tables and
 runs the fleet stage (:func:`~.fleet_stage.run_fleet_stage`) on the client. Every item writes its
 own outputs atomically when it finishes, so a killed run loses only the items in flight, and a
 rerun skips what its records say is unchanged.
@@ -38,6 +39,8 @@ from .tyre_set_stage import fit_tyre_set, pad_size, set_file_name, tyre_set_tabl
 #: Memory limit of each local worker: a fast fit of a set of four 10-60 min drives held up to
 #: 3.2 GB at its peak (benchmarks/results/fleet_run.json, full size), the per-drive stage less.
 DEFAULT_MEMORY_LIMIT = "4GiB"
+# Tyre-set tasks' priorities are their padded shape minus this: below every drive task's 0.
+_SET_PRIORITY_OFFSET = 1 << 40
 
 # The tasks keep no data in the workers (they write files and return small records), so dask's
 # spilling and pausing only get in the way: memory that JAX and the allocator keep after a fit
@@ -212,33 +215,31 @@ def fleet_run(
     set_records: dict[str, dict] = {}
     completed = as_completed(list(futures))
 
-    def submit_sets() -> None:
-        # All drives are done: the sets go out largest padded shape first, so that each worker
-        # meets each compiled fit shape in one run (it keeps one shape's programs, not all:
-        # fit_tyre_set), and the longest fits start first.
-        finished = {
-            s: [
-                drive_records[d.drive_id]
-                for d in drives
-                if drive_records[d.drive_id].get("status") == "done"
-            ]
-            for s, drives in by_set.items()
-        }
-        order = sorted(by_set, key=lambda s: -pad_size(sum(r["windows"] for r in finished[s])))
-        for rank, s in enumerate(order):
-            fut = client.submit(
-                fit_tyre_set,
-                s,
-                set_type[s],
-                finished[s],
-                out_s,
-                settings,
-                key=f"tyre-set-{set_file_name(s)}",
-                pure=False,
-                priority=len(order) - rank,
-            )
-            futures[fut] = ("tyre_set", s)
-            completed.add(fut)
+    def submit_set(s: str) -> None:
+        # A set goes out once its last drive is done, below every drive: a worker takes it only
+        # when no drive is waiting, so the sets fill the drive stage's idle tail instead of
+        # waiting for it. Among waiting sets the largest padded shape goes first, so that a
+        # worker meets each compiled fit shape about once (it keeps one shape's programs, not
+        # all: fit_tyre_set) and the longest fits start first.
+        finished = [
+            drive_records[d.drive_id]
+            for d in by_set[s]
+            if drive_records[d.drive_id].get("status") == "done"
+        ]
+        size = pad_size(sum(r["windows"] for r in finished))
+        fut = client.submit(
+            fit_tyre_set,
+            s,
+            set_type[s],
+            finished,
+            out_s,
+            settings,
+            key=f"tyre-set-{set_file_name(s)}",
+            pure=False,
+            priority=size - _SET_PRIORITY_OFFSET,
+        )
+        futures[fut] = ("tyre_set", s)
+        completed.add(fut)
 
     for future in completed:
         kind, item = futures.pop(future)
@@ -255,8 +256,8 @@ def fleet_run(
         if kind == "drive":
             drive_records[item.drive_id] = record
             bar.update(item.drive_id)
-            if len(drive_records) == len(items):
-                submit_sets()
+            if all(d.drive_id in drive_records for d in by_set[item.tyre_set_id]):
+                submit_set(item.tyre_set_id)
         else:
             set_records[item] = record
             bar.update(f"set {item}")

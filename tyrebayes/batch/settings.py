@@ -24,6 +24,11 @@ class RunSettings:
         Randomness of the fits.
     window_s : float
         Window length of the windowed observations [s].
+    pointwise : bool
+        Keep each tyre set's per-window log-likelihood and posterior predictive draws in its fit
+        file. Off by default: they were most of a file (tens of MB per set) and a third of a
+        fast fit's time, and :func:`tyrebayes.inference.tyre.predictive.with_pointwise`
+        (what ``criticize`` calls) recomputes them from the file when wanted.
     jax_cache : str
         Folder of JAX's persistent compilation cache, shared by every worker ("" = none).
     """
@@ -32,6 +37,7 @@ class RunSettings:
     model: str = "magic"
     seed: int = 0
     window_s: float = 0.25
+    pointwise: bool = False
     jax_cache: str = ""
 
     def __post_init__(self):
@@ -50,6 +56,7 @@ class RunSettings:
             "method": self.method,
             "model": self.model,
             "seed": self.seed,
+            "pointwise": self.pointwise,
             "version": PACKAGE_VERSION,
         }
 

@@ -60,12 +60,12 @@ def _keep_one_shape(size: int) -> None:
     """Drop this process's compiled programs when the fit's padded shape changes.
 
     A worker keeps every compiled program of every shape it fitted (the fit's programs are
-    hundreds of MB), and they count towards every later task's peak. The run submits the sets
-    largest shape first (:func:`~.run.fleet_run`), so a worker meets each shape in one run and
-    this drops each shape once; reloading from the shared cache costs tracing only. The first
-    fit of a process drops what came before it too: the per-drive stage's programs (EM and
-    temperature scans of several lengths, op-by-op programs), which the sets, submitted once
-    every drive is done, do not use.
+    hundreds of MB), and they count towards every later task's peak. The run gives the sets
+    with the largest shape the highest priority (:func:`~.run.fleet_run`), so a worker meets
+    each shape about once and this drops each shape about once; reloading from the shared
+    cache and the kept traced programs is cheap. The first fit of a process drops what came
+    before it too: the per-drive stage's programs (EM and temperature scans of several lengths,
+    op-by-op programs), which the sets, run only once no drive is waiting, do not use.
     """
     import jax
 
@@ -175,7 +175,13 @@ def fit_tyre_set(
         n = int(len(table))
         _keep_one_shape(pad_size(n))
         obs = stack_drives(windows, surfaces, pad_to=pad_size(n))
-        fit = fit_tyre(obs, method=settings.method, kind=settings.model, seed=settings.seed)
+        fit = fit_tyre(
+            obs,
+            method=settings.method,
+            kind=settings.model,
+            seed=settings.seed,
+            pointwise=settings.pointwise,
+        )
         fit = _with_provenance(fit, provenance, tyre_set_id, drives, settings)
         fit.save(folder / f"{name}.fit.nc")
         row = tyre_set_row(tyre_set_id, tyre_type, fit, len(drives), n)

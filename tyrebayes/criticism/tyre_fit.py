@@ -32,6 +32,7 @@ import numpy as np
 from .._errors import BadInputError
 from ..inference.result import Fit
 from ..inference.tyre.data import BLOCK_S
+from ..inference.tyre.predictive import with_pointwise
 from .fleet_fit import _as_fit
 from .linear import loo_from_pointwise, psis_loo_pointwise
 from .permutation import DEFAULT_PERMUTATIONS
@@ -124,6 +125,8 @@ def criticize_tyre_fit(
     fit = _as_fit(fit, "tyre")
     if fit.kind != "tyre":
         raise BadInputError(f"fit: expected a tyre fit, got a {fit.kind} fit")
+    # A fit saved without its per-window draws (a fleet run's) gets them recomputed.
+    fit = with_pointwise(fit)
     const = fit.data["constant_data"]
     slip = np.asarray(fit.data["observed_data"]["slip_obs"], float)
     rho = np.asarray(fit.data["observed_data"]["rho_obs"], float)

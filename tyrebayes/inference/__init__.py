@@ -25,3 +25,5 @@ from .tyre.model import TyrePriors as TyrePriors
 from .tyre.model import WindowLikelihood as WindowLikelihood
 from .tyre.model import tyre_model as tyre_model
 from .tyre.model import window_likelihood as window_likelihood
+from .tyre.predictive import observations_from_fit as observations_from_fit
+from .tyre.predictive import with_pointwise as with_pointwise

@@ -1,7 +1,8 @@
 """Fitting the per-tyre model: full NUTS or a fast MAP + Laplace path, one result type.
 
 Both return a :class:`TyreFit` whose ``idata`` is ArviZ data (a ``DataTree``) with posterior,
-observed data, log-likelihood and posterior predictive groups, and whose ``diagnostics`` say
+observed data, constant data and (unless ``pointwise=False``) log-likelihood and posterior
+predictive groups, and whose ``diagnostics`` say
 whether the fit can be trusted. A fit that did not converge says so (``converged=False``); it is
 returned as data, never raised and never hidden.
 
@@ -171,6 +172,7 @@ def fit_tyre_nuts(
     num_samples: int = 1000,
     seed: int = 0,
     progress_bar: bool = False,
+    pointwise: bool = True,
 ) -> TyreFit:
     """Full NUTS fit (``num_chains`` chains, one per CPU device at a time) in whitened coordinates.
 
@@ -203,7 +205,13 @@ def fit_tyre_nuts(
     samples = {k: np.asarray(v) for k, v in samples.items()}
     diverging = np.asarray(diverging).reshape(num_chains, -1)
     idata = _to_inference_data(
-        samples, num_chains, obs, kind, key_ppc, sample_stats={"diverging": diverging}
+        samples,
+        num_chains,
+        obs,
+        kind,
+        key_ppc,
+        sample_stats={"diverging": diverging},
+        pointwise=pointwise,
     )
     diagnostics = _scalar_diagnostics(idata)
     return _tyre_fit(idata, diagnostics, samples, priors, obs, kind, inflation)
@@ -217,6 +225,7 @@ def fit_tyre_fast(
     num_draws: int = LAPLACE_DRAWS,
     seed: int = 0,
     max_steps: int = 2000,
+    pointwise: bool = True,
 ) -> TyreFit:
     """Fast path: MAP with optimistix BFGS on the unconstrained space plus a Laplace approximation.
 
@@ -241,7 +250,7 @@ def fit_tyre_fast(
     obs = weighted
     positive_definite = bool(float(min_eig) > 0)
     samples = {k: np.asarray(v) for k, v in draws.items()}
-    idata = _to_inference_data(samples, 1, obs, kind, key_ppc)
+    idata = _to_inference_data(samples, 1, obs, kind, key_ppc, pointwise=pointwise)
     diagnostics = _scalar_diagnostics(
         idata,
         "fast",
@@ -264,6 +273,7 @@ def fit_tyre(
     progress_bar: bool = False,
     num_draws: int = LAPLACE_DRAWS,
     max_steps: int = 2000,
+    pointwise: bool = True,
 ) -> TyreFit:
     """Fit the per-tyre model with ``method="nuts"`` or ``"fast"`` (MAP + Laplace).
 
@@ -279,6 +289,10 @@ def fit_tyre(
         NUTS settings (ignored by the fast path).
     num_draws, max_steps
         Fast-path settings: Laplace draws and BFGS steps (ignored by NUTS).
+    pointwise : bool
+        Keep the per-window log-likelihood and posterior predictive groups (200 draws × windows
+        each, most of a long fit's file). False leaves them out;
+        :func:`~.predictive.with_pointwise` recomputes them from the fit when wanted.
 
     Returns
     -------
@@ -301,9 +315,16 @@ def fit_tyre(
             num_samples=num_samples,
             seed=seed,
             progress_bar=progress_bar,
+            pointwise=pointwise,
         )
     if method == "fast":
         return fit_tyre_fast(
-            obs, priors=priors, kind=kind, num_draws=num_draws, seed=seed, max_steps=max_steps
+            obs,
+            priors=priors,
+            kind=kind,
+            num_draws=num_draws,
+            seed=seed,
+            max_steps=max_steps,
+            pointwise=pointwise,
         )
     raise ValueError(f"fit method: expected 'nuts' or 'fast', got {method!r}")

@@ -1,8 +1,16 @@
-"""The stored part of a per-tyre fit: per-window log-likelihood, posterior predictive, the data."""
+"""The stored part of a per-tyre fit: per-window log-likelihood, posterior predictive, the data.
+
+A fit keeps every window's observations (observed and constant data) and the key of its
+predictive draws, so that the per-window groups are a function of the stored fit: a fit made with
+``pointwise=False`` (the fleet run's, where those groups were most of a fit file's size and a
+third of its time) leaves them out and :func:`with_pointwise` recomputes them when criticism
+needs them, equal to the ones a ``pointwise=True`` fit stores.
+"""
 
 from __future__ import annotations
 
 import functools
+import json
 
 import arviz_base as azb
 import jax
@@ -11,9 +19,10 @@ import numpy as np
 import numpyro.distributions as dist
 import xarray as xr
 
+from ..._errors import BadInputError
 from ...internal.stored_program import stored_program
-from ..result import Diagnostics, diagnose
-from .data import TyreObservations
+from ..result import Diagnostics, Fit, diagnose
+from .data import TyreObservations, _bucket_size
 from .model import (
     TyrePriors,
     window_likelihood,
@@ -21,6 +30,24 @@ from .model import (
 
 # Posterior predictive draws kept (memory: draws × windows per observed site).
 MAX_PREDICTIVE_DRAWS = 200
+# The per-window fields of TyreObservations kept in a fit's constant data (slip and ρ are its
+# observed data): with them the observations, hence the per-window groups, can be rebuilt.
+WINDOW_FIELDS = (
+    "at_limit",
+    "temperature_c",
+    "drive_index",
+    "block_index",
+    "surface_index",
+    "slip_sd",
+    "rho_sd",
+    "neighbour_slip",
+    "slip_weight",
+    "imu_gain_log_sd",
+    "rho_score",
+    "rho_score_slope",
+)
+# data.attrs key of the predictive draws' PRNG key (JSON list of its uint32 words).
+_KEY_ATTR = "predictive_key"
 
 
 def _thin_index(total: int, n: int) -> np.ndarray:
@@ -88,13 +115,20 @@ def _predictive_core(kind: str, obs_key: tuple, n_draws: int):
 
 
 def _to_inference_data(
-    samples: dict, n_chains: int, obs: TyreObservations, kind: str, key, sample_stats=None
+    samples: dict,
+    n_chains: int,
+    obs: TyreObservations,
+    kind: str,
+    key,
+    sample_stats=None,
+    pointwise: bool = True,
 ) -> xr.DataTree:
     """ArviZ data with posterior, log-likelihood, posterior predictive, observed and constant data.
 
     Log-likelihood and posterior predictive use at most :data:`MAX_PREDICTIVE_DRAWS` draws per
     fit (evenly thinned within each chain), stored as float32: per-window arrays of a long drive
-    would otherwise dominate memory.
+    would otherwise dominate memory. ``pointwise=False`` leaves those two groups out
+    (:func:`with_pointwise` makes them from the rest).
     """
     mask = np.asarray(obs.mask)
 
@@ -103,7 +137,35 @@ def _to_inference_data(
         return x.reshape((n_chains, -1) + x.shape[1:])
 
     posterior = {k: by_chain(v) for k, v in samples.items()}
-    per_chain = next(iter(posterior.values())).shape[1]
+    coords = {"surface": list(obs.surfaces), "window": np.arange(int(mask.sum()))}
+    groups = {"posterior": posterior, "observed_data": _observed(obs)}
+    if sample_stats is not None:
+        groups["sample_stats"] = sample_stats
+    idata = azb.from_dict(groups, dims=_DIMS, coords=coords)
+    # Per-window conditions and likelihood inputs: criticism scans a saved fit's residuals
+    # against them, and with them the per-window groups can be recomputed.
+    window_data = {name: np.asarray(getattr(obs, name))[mask] for name in WINDOW_FIELDS}
+    constant = azb.from_dict(
+        {"constant_data": window_data},
+        dims={name: ["window"] for name in window_data},
+        coords=coords,
+    )
+    idata["constant_data"] = constant["constant_data"]
+    idata.attrs[_KEY_ATTR] = json.dumps([int(w) for w in np.asarray(key).ravel()])
+    if pointwise:
+        _attach_pointwise(idata, posterior, obs, kind, key)
+    return idata
+
+
+_DIMS = {"slip_obs": ["window"], "rho_obs": ["window"], "mu_max": ["surface"]}
+
+
+def _attach_pointwise(
+    idata: xr.DataTree, posterior: dict, obs: TyreObservations, kind: str, key
+) -> None:
+    """Add the log-likelihood and posterior predictive groups (thinned draws) to ``idata``."""
+    mask = np.asarray(obs.mask)
+    n_chains, per_chain = next(iter(posterior.values())).shape[:2]
     keep = _thin_index(per_chain, max(1, MAX_PREDICTIVE_DRAWS // n_chains))
     # Single precision, like the stored result (on ten one-hour drives it took 6.7 s against
     # 7.7 s in float64, measured with numpyro's log_likelihood and Predictive before
@@ -126,35 +188,79 @@ def _to_inference_data(
 
     loglik = {k: per_window(v) for k, v in loglik.items()}
     ppc = {k: per_window(v) for k, v in ppc.items()}
-    dims = {"slip_obs": ["window"], "rho_obs": ["window"], "mu_max": ["surface"]}
-    coords = {"surface": list(obs.surfaces), "window": np.arange(used)}
-    thin_coords = {**coords, "draw": keep}
-    at_limit = np.asarray(obs.at_limit)[mask]
-    groups = {"posterior": posterior, "observed_data": _observed(obs)}
-    if sample_stats is not None:
-        groups["sample_stats"] = sample_stats
-    idata = azb.from_dict(groups, dims=dims, coords=coords)
+    coords = {"surface": list(obs.surfaces), "window": np.arange(used), "draw": keep}
     # The thinned groups have their own draw coordinate, so they are built apart and attached.
     extra = azb.from_dict(
-        {"log_likelihood": loglik, "posterior_predictive": ppc}, dims=dims, coords=thin_coords
-    )
-    # Per-window conditions, so that criticism can scan a saved fit's residuals against them.
-    window_data = {
-        "at_limit": at_limit,
-        "temperature_c": np.asarray(obs.temperature_c, dtype=float)[mask],
-        "drive_index": np.asarray(obs.drive_index)[mask],
-        "block_index": np.asarray(obs.block_index)[mask],
-        "surface_index": np.asarray(obs.surface_index)[mask],
-    }
-    constant = azb.from_dict(
-        {"constant_data": window_data},
-        dims={name: ["window"] for name in window_data},
-        coords=coords,
+        {"log_likelihood": loglik, "posterior_predictive": ppc}, dims=_DIMS, coords=coords
     )
     for name in ("log_likelihood", "posterior_predictive"):
         idata[name] = extra[name]
-    idata["constant_data"] = constant["constant_data"]
-    return idata
+
+
+def observations_from_fit(fit: Fit) -> TyreObservations:
+    """The (weighted) observations a saved tyre fit was made from, padded as :func:`stack_drives`.
+
+    Raises
+    ------
+    BadInputError
+        The fit is not a tyre fit, or its file does not hold every window's likelihood inputs
+        (:data:`WINDOW_FIELDS`; files written before they were kept).
+    """
+    if fit.kind != "tyre":
+        raise BadInputError(f"fit: expected a tyre fit, got a {fit.kind} fit")
+    const = fit.data["constant_data"]
+    missing = [name for name in WINDOW_FIELDS if name not in const.data_vars]
+    if missing:
+        raise BadInputError(
+            f"tyre fit: expected its windows' likelihood inputs in constant_data to recompute "
+            f"the per-window draws, missing {missing[0]!r} (refit to get them)"
+        )
+    observed = fit.data["observed_data"]
+    n = int(observed["slip_obs"].shape[0])
+    size = _bucket_size(n)
+    fills = {"slip_sd": 1.0, "rho_sd": 1.0, "temperature_c": 20.0, "slip_weight": 1.0}
+
+    def padded(values, fill=0):
+        values = np.asarray(values)
+        return jnp.asarray(np.concatenate([values, np.full(size - n, fill, dtype=values.dtype)]))
+
+    fields = {name: padded(const[name], fills.get(name, 0)) for name in WINDOW_FIELDS}
+    return TyreObservations(
+        slip=padded(observed["slip_obs"]),
+        rho=padded(observed["rho_obs"]),
+        mask=jnp.asarray(np.arange(size) < n),
+        # The posterior's per-drive sites set the drive count (a drive may have no window).
+        n_drives=int(fit.data["posterior"]["slip_offset"].shape[-1]),
+        surfaces=tuple(fit.attr("surfaces")),
+        **fields,
+    )
+
+
+def with_pointwise(fit: Fit) -> Fit:
+    """``fit`` with its per-window log-likelihood and posterior predictive groups.
+
+    A fit that has them is returned as it is; one made with ``pointwise=False`` gets them
+    recomputed from its posterior, its windows (:func:`observations_from_fit`) and its stored
+    predictive key: the same draws its fit would have stored.
+
+    Examples
+    --------
+    >>> fit = with_pointwise(load_fit("set.fit.nc"))  # doctest: +SKIP
+    >>> fit.data["posterior_predictive"]["slip_obs"].shape  # doctest: +SKIP
+    (1, 200, 15395)
+    """
+    if "posterior_predictive" in fit.data.children and "log_likelihood" in fit.data.children:
+        return fit
+    obs = observations_from_fit(fit)
+    if _KEY_ATTR not in fit.data.attrs:
+        raise BadInputError("tyre fit: expected its predictive key in attrs, found none")
+    key = jnp.asarray(fit.attr(_KEY_ATTR), dtype=jnp.uint32)
+    posterior = {
+        name: np.asarray(fit.data["posterior"][name]) for name in fit.data["posterior"].data_vars
+    }
+    data = fit.data.copy()
+    _attach_pointwise(data, posterior, obs, str(fit.data.attrs["tyre_model"]), key)
+    return Fit(data=data, diagnostics=fit.diagnostics, kind=fit.kind, provenance=fit.provenance)
 
 
 def _scalar_diagnostics(

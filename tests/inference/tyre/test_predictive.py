@@ -1,0 +1,73 @@
+"""The stored per-window groups of a tyre fit, and their recomputation from a compact fit file."""
+
+import numpy as np
+import pytest
+
+from tyrebayes import BadInputError, load_fit
+from tyrebayes.inference.tyre.data import stack_drives
+from tyrebayes.inference.tyre.fit import fit_tyre
+from tyrebayes.inference.tyre.predictive import (
+    WINDOW_FIELDS,
+    observations_from_fit,
+    with_pointwise,
+)
+
+from .test_model import PAD, linear_region_windows
+
+
+@pytest.fixture(scope="module")
+def two_drive_fits(tmp_path_factory):
+    """One two-drive, two-surface set fitted with and without the per-window groups (one ABS
+    window, so at_limit is not all False), the compact one saved and read back."""
+    first, second = linear_region_windows(4, n=400), linear_region_windows(5, n=300)
+    second["at_limit"] = np.zeros(300, dtype=bool)
+    second["at_limit"][7] = True
+    obs = stack_drives([first, second], ["dry", "wet"], pad_to=PAD)
+    full = fit_tyre(obs, method="fast", seed=2).fit
+    compact = fit_tyre(obs, method="fast", seed=2, pointwise=False)
+    path = compact.save(tmp_path_factory.mktemp("fits") / "compact.fit.nc")
+    return obs, full, load_fit(path, kind="tyre")
+
+
+def test_compact_fit_leaves_out_only_the_per_window_groups(two_drive_fits):
+    _, full, compact = two_drive_fits
+    assert {"log_likelihood", "posterior_predictive"} <= set(full.data.children)
+    assert not {"log_likelihood", "posterior_predictive"} & set(compact.data.children)
+    for name in ("c_xr", "mu_max", "slip_offset"):
+        np.testing.assert_array_equal(compact.draws(name), full.draws(name))
+    assert set(WINDOW_FIELDS) <= set(compact.data["constant_data"].data_vars)
+
+
+def test_observations_are_rebuilt_from_the_file(two_drive_fits):
+    obs, _, compact = two_drive_fits
+    rebuilt = observations_from_fit(compact)
+    used = np.asarray(obs.mask)
+    assert rebuilt.n_drives == 2 and rebuilt.surfaces == obs.surfaces
+    assert int(np.asarray(rebuilt.mask).sum()) == int(used.sum())
+    n = int(used.sum())
+    for name in ("slip", "rho", *WINDOW_FIELDS):
+        np.testing.assert_array_equal(
+            np.asarray(getattr(rebuilt, name))[:n], np.asarray(getattr(obs, name))[used]
+        )
+
+
+def test_recomputed_groups_equal_the_stored_ones(two_drive_fits):
+    _, full, compact = two_drive_fits
+    recomputed = with_pointwise(compact)
+    for group in ("log_likelihood", "posterior_predictive"):
+        for name in ("slip_obs", "rho_obs"):
+            np.testing.assert_array_equal(
+                np.asarray(recomputed.data[group][name]), np.asarray(full.data[group][name])
+            )
+    assert with_pointwise(full) is full
+
+
+def test_a_file_without_the_windows_inputs_is_refused(two_drive_fits):
+    _, _, compact = two_drive_fits
+    data = compact.data.copy()
+    data["constant_data"] = data["constant_data"].to_dataset().drop_vars("rho_score")
+    old = type(compact)(
+        data=data, diagnostics=compact.diagnostics, kind="tyre", provenance=compact.provenance
+    )
+    with pytest.raises(BadInputError, match="missing 'rho_score'"):
+        with_pointwise(old)
