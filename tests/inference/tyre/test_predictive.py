@@ -17,12 +17,13 @@ from .test_model import PAD, linear_region_windows
 
 @pytest.fixture(scope="module")
 def two_drive_fits(tmp_path_factory):
-    """One two-drive, two-surface set fitted with and without the per-window groups (one ABS
-    window, so at_limit is not all False), the compact one saved and read back."""
-    first, second = linear_region_windows(4, n=400), linear_region_windows(5, n=300)
-    second["at_limit"] = np.zeros(300, dtype=bool)
-    second["at_limit"][7] = True
-    obs = stack_drives([first, second], ["dry", "wet"], pad_to=PAD)
+    """A drive fitted with and without the per-window groups (one ABS window, so at_limit is not
+    all False), the compact one saved and read back. The shape of test_model's shared fit: no
+    new compilation."""
+    windows = linear_region_windows(4)
+    windows["at_limit"] = np.zeros(len(windows["slip"]), dtype=bool)
+    windows["at_limit"][7] = True
+    obs = stack_drives([windows], ["dry"], pad_to=PAD)
     full = fit_tyre(obs, method="fast", seed=2).fit
     compact = fit_tyre(obs, method="fast", seed=2, pointwise=False)
     path = compact.save(tmp_path_factory.mktemp("fits") / "compact.fit.nc")
@@ -42,7 +43,7 @@ def test_observations_are_rebuilt_from_the_file(two_drive_fits):
     obs, _, compact = two_drive_fits
     rebuilt = observations_from_fit(compact)
     used = np.asarray(obs.mask)
-    assert rebuilt.n_drives == 2 and rebuilt.surfaces == obs.surfaces
+    assert rebuilt.n_drives == 1 and rebuilt.surfaces == obs.surfaces
     assert int(np.asarray(rebuilt.mask).sum()) == int(used.sum())
     n = int(used.sum())
     for name in ("slip", "rho", *WINDOW_FIELDS):
@@ -71,3 +72,16 @@ def test_a_file_without_the_windows_inputs_is_refused(two_drive_fits):
     )
     with pytest.raises(BadInputError, match="missing 'rho_score'"):
         with_pointwise(old)
+
+
+def test_a_compact_fit_is_criticised_as_the_full_one(two_drive_fits):
+    from tyrebayes.criticism import criticize_tyre_fit
+
+    _, full, compact = two_drive_fits
+    settings = {"n_draws": 50, "n_permutations": 20, "seed": 0}
+    a, b = criticize_tyre_fit(full, **settings), criticize_tyre_fit(compact, **settings)
+    assert a.baseline.elpd == b.baseline.elpd
+    assert a.ppc == b.ppc
+    assert [(c.covariate, c.p_value) for c in a.candidates] == [
+        (c.covariate, c.p_value) for c in b.candidates
+    ]
