@@ -97,6 +97,9 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
     settings = RunSettings(model=MODEL, jax_cache=default_cache_dir())
     with dask_client(workers=2) as client:
         assert len(client.scheduler_info()["workers"]) == 2
+        # The workers imported the package when they joined, before any task.
+        imported = client.run(lambda: "tyrebayes.inference.tyre.fit" in sys.modules)
+        assert list(imported.values()) == [True, True]
         summary = fleet_run(items, out, client, settings, progress=False)
 
     # Drives: the ones recorded before the kill were skipped, the rest ran now.

@@ -70,13 +70,17 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, memory
 
     The local cluster has ``workers`` processes (default: one per core), each single-threaded
     with ``memory_limit`` (default :data:`DEFAULT_MEMORY_LIMIT`). With an address the cluster's
-    own workers run the tasks (dask-jobqueue, Kubernetes, cloud: the same code).
+    own workers run the tasks (dask-jobqueue, Kubernetes, cloud: the same code). Either way the
+    workers import the package before their first task (:class:`.worker_plugin.ImportTasks`).
     """
     import dask
     from distributed import Client, LocalCluster
 
+    from .worker_plugin import ImportTasks
+
     if scheduler:
         with Client(scheduler) as client:
+            client.register_plugin(ImportTasks())
             yield client
         return
     n = workers or os.cpu_count() or 1
@@ -92,6 +96,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, memory
         ) as cluster,
         Client(cluster) as client,
     ):
+        client.register_plugin(ImportTasks())
         yield client
 
 

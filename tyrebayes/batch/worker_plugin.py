@@ -1,0 +1,24 @@
+"""The worker plugin of a fleet run: workers import the package when they join, not in a task.
+
+Without it a worker's first task pays the imports of the package, JAX and NumPyro (seconds),
+on every worker of every run; with it they are paid while the cluster starts, and a worker that
+joins a running cluster later pays them before it takes a task.
+"""
+
+from __future__ import annotations
+
+from distributed.diagnostics.plugin import WorkerPlugin
+
+
+class ImportTasks(WorkerPlugin):
+    """Imports the modules the fleet run's tasks use (registered by ``run.dask_client``)."""
+
+    name = "tyrebayes-import-tasks"
+
+    def setup(self, worker) -> None:
+        import tyrebayes.batch.drive_stage  # noqa: F401
+        import tyrebayes.batch.tyre_set_stage  # noqa: F401
+        import tyrebayes.inference.tyre.fit  # noqa: F401
+
+
+__all__ = ["ImportTasks"]
