@@ -277,16 +277,19 @@ def test_second_pass_keeps_the_first_result_when_the_weights_did_not_change():
     # A BFGS run started exactly at its optimum wanders in round-off (seconds on a fleet tyre set
     # whose drives all had VIF 1): unchanged weights keep the first pass's result instead.
     from tyrebayes.inference.tyre.fit import _second_pass
+    from tyrebayes.inference.tyre.laplace import LaplaceCore
 
     calls = []
 
-    def core(start, obs, key, search):
-        calls.append((start, obs, search))
-        return ("refitted",)
+    def mode(start, obs, whiten, search):
+        calls.append((start, obs, whiten, search))
+        return ("refitted", "code", "whiten", "point")
 
+    core = LaplaceCore(mode=mode, laplace=None, flat0=None)
     obs = stack_drives([linear_region_windows(3, n=50)], ["dry"])
-    first = ("mode", "result")
-    assert _second_pass(core, first, obs, obs, None) is first and calls == []
+    first = ("mode", "result", "whitening", "point")
+    assert _second_pass(core, first, obs, obs) == ("mode", "result") and calls == []
     weighted = dataclasses.replace(obs, slip_weight=0.5 * obs.slip_weight)
-    assert _second_pass(core, first, obs, weighted, None) == ("refitted",)
-    assert calls == [("mode", weighted, False)]
+    assert _second_pass(core, first, obs, weighted) == ("refitted", "code")
+    # From the first mode, in the first pass's whitened coordinates, without a search.
+    assert calls == [("mode", weighted, "whitening", False)]

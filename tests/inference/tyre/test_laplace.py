@@ -66,23 +66,25 @@ def test_a_refit_from_the_first_mode_reaches_the_weighted_posteriors_searched_mo
 
     obs = stack_drives([linear_region_windows(3)], ["dry"], pad_to=PAD)
     # Same shape and settings as the fits of test_fit.py: no new compilation.
-    core, flat0 = _laplace_core(
+    core = _laplace_core(
         _priors_key(TyrePriors()), DEFAULT_KIND, _obs_key(obs), LAPLACE_DRAWS, 2000
     )
-    key = jax.random.PRNGKey(0)
-    first_mode = core(flat0, obs, key, True)[0]
+    key, eye = jax.random.PRNGKey(0), jnp.eye(core.flat0.shape[0])
+    first_mode, _, whiten, _ = core.mode(core.flat0, obs, eye, True)
     weighted = dataclasses.replace(obs, slip_weight=jnp.full_like(obs.slip, 0.4))
-    searched = core(flat0, weighted, key, True)
-    refitted = core(first_mode, weighted, key, False)
-    assert optimiser_outcome(refitted[1]) == "successful"
+    searched = core.mode(core.flat0, weighted, eye, True)[0]
+    refitted, code, _, _ = core.mode(first_mode, weighted, whiten, False)
+    assert optimiser_outcome(code) == "successful"
     # The weights moved the mode (else the test shows nothing), and the refit followed.
-    scale = jnp.sqrt(jnp.sum(searched[3] ** 2, axis=1))  # posterior sds of the flat parameters
-    assert float(jnp.max(jnp.abs(searched[0] - first_mode) / scale)) > 0.1
-    np.testing.assert_array_less(jnp.abs(refitted[0] - searched[0]) / scale, 0.01)
+    _, scale_searched, _ = core.laplace(searched, weighted, key)
+    _, scale_refitted, _ = core.laplace(refitted, weighted, key)
+    sd = jnp.sqrt(jnp.sum(scale_searched**2, axis=1))  # posterior sds of the flat parameters
+    assert float(jnp.max(jnp.abs(searched - first_mode) / sd)) > 0.1
+    np.testing.assert_array_less(jnp.abs(refitted - searched) / sd, 0.01)
     # The same Laplace covariance S S' (S itself is defined up to its eigenvectors' signs).
-    cov_refitted, cov_searched = (s[3] @ s[3].T for s in (refitted, searched))
+    cov_refitted, cov_searched = (s @ s.T for s in (scale_refitted, scale_searched))
     np.testing.assert_allclose(
-        cov_refitted, cov_searched, rtol=1e-3, atol=1e-3 * float(scale.min()) ** 2
+        cov_refitted, cov_searched, rtol=1e-3, atol=1e-3 * float(sd.min()) ** 2
     )
 
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from .adequacy import Adequacy, assess_adequacy
 from .data import TyreObservations
-from .laplace import _laplace_core, optimiser_outcome
+from .laplace import LaplaceCore, _laplace_core, optimiser_outcome
 from .model import (
     DEFAULT_KIND,
     TyrePriors,
@@ -133,15 +133,15 @@ def _adequacy(obs: TyreObservations, samples: dict, kind: str, priors: TyrePrior
     )
 
 
-def _weighted_by_correlation(obs: TyreObservations, draws: dict, kind: str):
-    """``obs`` with each drive's slip weight 1/VIF from the residuals at the draws' mean.
+def _weighted_by_correlation(obs: TyreObservations, point: dict, kind: str):
+    """``obs`` with each drive's slip weight 1/VIF from the residuals at ``point``.
 
     Returns ``(obs, inflation)``. The weights change the posterior's width, not its centre
-    (to first order), so a first fit with unit weights gives residuals good enough for them.
-    Where they are the weights ``obs`` has (every drive's VIF 1), ``obs`` itself is returned.
+    (to first order), so the mode of a first fit with unit weights gives residuals good enough
+    for them. Where they are the weights ``obs`` has (every drive's VIF 1), ``obs`` itself is
+    returned.
     """
-    point = {k: jnp.mean(jnp.asarray(v), axis=0) for k, v in draws.items()}
-    lik = window_likelihood(point, obs, kind)
+    lik = window_likelihood({k: jnp.asarray(v) for k, v in point.items()}, obs, kind)
     z = np.asarray((obs.slip - lik.slip_loc - lik.block_offset) / lik.slip_scale)
     slip_window = np.asarray(obs.mask & ~obs.at_limit)
     weights, inflation = slip_weights(z, slip_window, np.asarray(obs.drive_index), obs.n_drives)
@@ -151,15 +151,28 @@ def _weighted_by_correlation(obs: TyreObservations, draws: dict, kind: str):
     return weighted, inflation
 
 
-def _second_pass(core, first: tuple, obs: TyreObservations, weighted: TyreObservations, key):
-    """The core's result on the weighted observations, refitted from the first pass's mode.
+def _second_pass(core: LaplaceCore, first: tuple, obs: TyreObservations, weighted):
+    """The mode and outcome code on the weighted observations, refitted from the first pass's.
 
-    Unchanged weights give the same posterior: the first result is kept (a BFGS run started
-    exactly at its own optimum only wanders in round-off, for seconds).
+    ``first`` is the first pass's ``core.mode`` result. Unchanged weights give the same
+    posterior: its mode and outcome are kept (a BFGS run started exactly at its own optimum
+    only wanders in round-off, for seconds).
     """
+    mode, code, whiten, _ = first
     if weighted is obs:
-        return first
-    return core(first[0], weighted, key, False)
+        return mode, code
+    return core.mode(mode, weighted, whiten, False)[:2]
+
+
+def _first_pass(core: LaplaceCore, obs: TyreObservations, kind: str):
+    """The searched mode with unit slip weights, and the weighted observations it gives.
+
+    Returns ``(first, weighted, inflation)``: ``first`` the ``core.mode`` result, ``weighted``
+    ``obs`` with each drive's slip weight 1/VIF (``obs`` itself where every VIF is 1).
+    """
+    first = core.mode(core.flat0, obs, jnp.eye(core.flat0.shape[0], dtype=core.flat0.dtype), True)
+    weighted, inflation = _weighted_by_correlation(obs, first[3], kind)
+    return first, weighted, inflation
 
 
 def fit_tyre_nuts(
@@ -192,15 +205,15 @@ def fit_tyre_nuts(
     priors = TyrePriors() if priors is None else priors
     check_kind(kind)
     key_laplace, key_init, key_run, key_ppc = jax.random.split(jax.random.PRNGKey(seed), 4)
-    core, flat0 = _laplace_core(_priors_key(priors), kind, _obs_key(obs), LAPLACE_DRAWS, 2000)
-    first = core(flat0, obs, key_laplace, True)
-    weighted, inflation = _weighted_by_correlation(obs, first[-1], kind)
-    mode, _, _, scale, _ = _second_pass(core, first, obs, weighted, key_laplace)
+    core = _laplace_core(_priors_key(priors), kind, _obs_key(obs), LAPLACE_DRAWS, 2000)
+    first, weighted, inflation = _first_pass(core, obs, kind)
+    mode, _ = _second_pass(core, first, obs, weighted)
     obs = weighted
+    _, scale, _ = core.laplace(mode, obs, key_laplace)
     runner = _nuts_runner(
         _priors_key(priors), kind, _obs_key(obs), num_chains, num_warmup, num_samples
     )
-    u_init = 2.0 * jax.random.normal(key_init, (num_chains, flat0.shape[0]), dtype=flat0.dtype)
+    u_init = 2.0 * jax.random.normal(key_init, (num_chains, mode.shape[0]), dtype=mode.dtype)
     samples, diverging = runner(key_run, obs, mode, scale, u_init, progress_bar)
     samples = {k: np.asarray(v) for k, v in samples.items()}
     diverging = np.asarray(diverging).reshape(num_chains, -1)
@@ -232,10 +245,11 @@ def fit_tyre_fast(
     The MAP search runs from the starts in ``MAP_STARTS`` at once (vectorised) on every
     ``_search_stride``-th window and refines the best successful one on all windows: a long
     drive's posterior has spurious local modes. Each BFGS run works in parameters whitened by
-    the Hessian at its start. Draws come from the Gaussian N(mode, H⁻¹) on the unconstrained
-    space, mapped through the model's constraints. The slips' weights (1/VIF) are then taken
-    from that first fit's residuals, and the weighted posterior's mode is found by one BFGS run
-    from the first mode (the search's basin kept; no second search).
+    the Hessian at its start. The slips' weights (1/VIF) are then taken from the residuals at
+    that mode, and the weighted posterior's mode is found by one BFGS run from the first mode
+    in the refinement's coordinates (the search's basin kept; no second search). Draws come
+    from the Gaussian N(mode, H⁻¹) there on the unconstrained space, mapped through the
+    model's constraints.
     Convergence: the optimiser reports success within ``max_steps`` and H is positive definite.
     The solver, Hessian and draws are compiled once per data shape (padded bucket, number of
     drives, surfaces): new data of the same shape reuse them.
@@ -243,11 +257,11 @@ def fit_tyre_fast(
     priors = TyrePriors() if priors is None else priors
     check_kind(kind)
     key_draw, key_ppc = jax.random.split(jax.random.PRNGKey(seed))
-    core, flat0 = _laplace_core(_priors_key(priors), kind, _obs_key(obs), num_draws, max_steps)
-    first = core(flat0, obs, key_draw, True)
-    weighted, inflation = _weighted_by_correlation(obs, first[-1], kind)
-    _, result, min_eig, _, draws = _second_pass(core, first, obs, weighted, key_draw)
+    core = _laplace_core(_priors_key(priors), kind, _obs_key(obs), num_draws, max_steps)
+    first, weighted, inflation = _first_pass(core, obs, kind)
+    mode, result = _second_pass(core, first, obs, weighted)
     obs = weighted
+    min_eig, _, draws = core.laplace(mode, obs, key_draw)
     positive_definite = bool(float(min_eig) > 0)
     samples = {k: np.asarray(v) for k, v in draws.items()}
     idata = _to_inference_data(samples, 1, obs, kind, key_ppc, pointwise=pointwise)

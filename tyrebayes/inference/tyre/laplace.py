@@ -9,8 +9,10 @@ from __future__ import annotations
 import dataclasses
 import functools
 import io
+from collections.abc import Callable
 from functools import partial
 from pathlib import Path
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -124,21 +126,36 @@ def _drop_op_by_op_programs() -> None:
         clear()
 
 
-@functools.lru_cache(maxsize=16)
-def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, max_steps: int):
-    """Jitted MAP + Hessian + Laplace draws for one data shape (compiled once per shape).
+class LaplaceCore(NamedTuple):
+    """The fast path's two compiled programs for one data shape (:func:`_laplace_core`).
 
-    Returns ``(core, flat0)``. ``core(start, obs, key, search)`` gives the mode, the optimiser's
-    outcome (a code: :func:`optimiser_outcome`), the smallest Hessian eigenvalue, the scale S
-    with S S' = H⁻¹ (eigenvalues floored) and the constrained draws (with deterministic sites).
-    With ``search`` true the mode is searched for from the starts of ``MAP_STARTS`` (``start``
-    is ``flat0``); false, it comes from one BFGS run started at ``start``: for the second pass
-    of a fit, whose slip weights move the posterior's width and barely its centre, so the basin
-    the search found is kept and the search (four starts) is not paid again. Both are one
-    program (``search`` is a traced flag): a fleet worker traces the fit once per shape, or not
-    at all where the traced program is stored on disk
+    ``mode(start, obs, whiten, search)`` gives the mode, the optimiser's outcome (a code:
+    :func:`optimiser_outcome`), the whitening W its last BFGS run used and the constrained
+    sites at the mode (deterministic sites included). With ``search`` true the mode is searched
+    for from the starts of ``MAP_STARTS`` (``start`` is ``flat0``, ``whiten`` unused); false, it
+    comes from one BFGS run started at ``start`` in the coordinates ``whiten`` gives: the second
+    pass of a fit, whose slip weights move the posterior's width and barely its centre, keeps
+    the basin the search found and the whitening of its refinement (a Hessian of every window
+    not paid again). ``search`` is a traced flag, so both passes are one program.
+
+    ``laplace(mode, obs, key)`` gives the smallest Hessian eigenvalue at the mode, the scale S
+    with S S' = H⁻¹ (eigenvalues floored) and the constrained Laplace draws. The first pass of
+    a fit needs none: its slip weights read the residuals at its mode.
+
+    Both are traced once per shape and kept on disk
     (:func:`~tyrebayes.internal.stored_program.stored_program`).
     """
+
+    mode: Callable
+    laplace: Callable
+    flat0: jax.Array
+
+
+@functools.lru_cache(maxsize=16)
+def _laplace_core(
+    priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, max_steps: int
+) -> LaplaceCore:
+    """The MAP search, refit and Laplace draws for one data shape (:class:`LaplaceCore`)."""
     priors = TyrePriors(*priors_key)
     model, template, params = _model_layout(priors_key, kind, obs_key)
     flat0, unravel = ravel_pytree(params)
@@ -147,7 +164,7 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
     def negative_log_posterior(flat, obs):
         return potential_energy(model, (obs,), {}, unravel(flat))
 
-    def minimise_from(flat_start, obs):
+    def whitening_at(flat, obs):
         # BFGS starts from the identity, but the posterior's scales differ by orders of magnitude
         # (a slip offset known to 1e-5, a force level to 1e-2) and its parameters are
         # correlated (C_xr with μ_max and the slip offsets). It works in y with
@@ -158,11 +175,12 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
         # shaped model became the default): one one-hour drive 45-56 and 40
         # (diagonal rescaling x = start + y/√|H_ii|: 69-74 and 84); ten stacked one-hour drives
         # 32-53 and 49 (79-83 and 103). Without any rescaling a one-hour drive took 240-360.
-        hessian = hessian_at(lambda f: negative_log_posterior(f, obs), flat_start)
+        hessian = hessian_at(lambda f: negative_log_posterior(f, obs), flat)
         finite = jnp.all(jnp.isfinite(hessian))
-        eigenvalues, vectors = jnp.linalg.eigh(jnp.where(finite, hessian, jnp.eye(len(flat_start))))
-        whiten = vectors / jnp.sqrt(jnp.maximum(jnp.abs(eigenvalues), 1.0))[None, :]
+        eigenvalues, vectors = jnp.linalg.eigh(jnp.where(finite, hessian, jnp.eye(len(flat))))
+        return vectors / jnp.sqrt(jnp.maximum(jnp.abs(eigenvalues), 1.0))[None, :]
 
+    def minimise_whitened(flat_start, obs, whiten):
         def rescaled(y, obs):
             return negative_log_posterior(flat_start + whiten @ y, obs)
 
@@ -170,41 +188,39 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
         sol = optx.minimise(
             rescaled, solver, jnp.zeros_like(flat_start), args=obs, max_steps=max_steps, throw=False
         )
-        return flat_start + whiten @ sol.value, sol.result
+        return flat_start + whiten @ sol.value, sol.result, whiten
+
+    def minimise_from(flat_start, obs):
+        return minimise_whitened(flat_start, obs, whitening_at(flat_start, obs))
 
     stride = _search_stride(obs_key[0])
 
-    def searched(flat_init, obs):
+    def searched(flat_init, obs, _):
         # Several starts on every stride-th window find the basin; the best successful one is
         # refined on all windows (module comment at MAP_STARTS).
         coarse = _every_nth_window(obs, stride)
         starts = jax.vmap(lambda c, m: _start(flat_init, unravel, coarse, priors, c, m))(
             *map(jnp.asarray, zip(*MAP_STARTS, strict=True))
         )
-        values, results = jax.vmap(minimise_from, (0, None))(starts, coarse)
+        values, results, whitens = jax.vmap(minimise_from, (0, None))(starts, coarse)
         energies = jax.vmap(negative_log_posterior, (0, None))(values, coarse)
         ok = (results == optx.RESULTS.successful) & jnp.isfinite(energies)
         best = jnp.argmin(jnp.where(ok, energies, jnp.inf))
         best = jnp.where(ok.any(), best, jnp.argmin(jnp.nan_to_num(energies, nan=jnp.inf)))
-        return values[best], jax.tree.map(lambda r: r[best], results)
+        mode, result = values[best], jax.tree.map(lambda r: r[best], results)
+        if stride == 1:
+            # The search on all windows ends at the mode already.
+            return mode, result, whitens[best]
+        return minimise_from(mode, obs)
 
     @jax.jit
-    def core(start, obs, key, search):
-        mode, result = jax.lax.cond(
-            search, searched, lambda x, _: (x, optx.RESULTS.successful), start, obs
-        )
-        # The search on all windows (stride 1) ends at the mode already.
-        mode, result = jax.lax.cond(
-            search & (stride == 1),
-            lambda m, r, _: (m, r),
-            lambda m, _, o: minimise_from(m, o),
-            mode,
-            result,
-            obs,
-        )
-        return (mode, _outcome_code(result), *laplace_at(mode, obs, key))
+    def mode_program(start, obs, whiten, search):
+        mode, result, whiten = jax.lax.cond(search, searched, minimise_whitened, start, obs, whiten)
+        point = constrain_fn(model, (obs,), {}, unravel(mode), return_deterministic=True)
+        return mode, _outcome_code(result), whiten, point
 
-    def laplace_at(mode, obs, key):
+    @jax.jit
+    def laplace_program(mode, obs, key):
         hessian = hessian_at(lambda f: negative_log_posterior(f, obs), mode)
         eigenvalues, vectors = jnp.linalg.eigh(hessian)
         finite = jnp.all(jnp.isfinite(hessian))
@@ -222,8 +238,12 @@ def _laplace_core(priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, 
         min_eig = jnp.where(finite, eigenvalues.min(), -jnp.inf)
         return min_eig, scale, draws
 
-    key = ("tyre-laplace-core", priors_key, kind, obs_key, num_draws, max_steps)
-    return stored_program(core, key), flat0
+    key = (priors_key, kind, obs_key, num_draws, max_steps)
+    return LaplaceCore(
+        mode=stored_program(mode_program, ("tyre-mode-core", *key)),
+        laplace=stored_program(laplace_program, ("tyre-laplace-core", *key)),
+        flat0=flat0,
+    )
 
 
 # Outcomes of an optimistix solve by name, in the order of the codes the core returns.
