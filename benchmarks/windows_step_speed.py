@@ -51,9 +51,13 @@ if em_steps:
 em_runs = []
 plain = force_density.deconvolve_forces
 
-def counted(*args, **kwargs):
-    mixture = plain(*args, **kwargs)
-    em_runs.append((int(mixture.iterations), bool(mixture.converged)))
+def counted(rho, noise_sd, *args, **kwargs):
+    mixture = plain(rho, noise_sd, *args, **kwargs)
+    total = mixture.variances + np.asarray(noise_sd)[:, None] ** 2
+    density = mixture.weights * np.exp(-0.5 * (np.asarray(rho)[:, None] - mixture.means) ** 2
+                                       / total) / np.sqrt(2 * np.pi * total)
+    log_lik = float(np.mean(np.log(np.sum(density, axis=1))))
+    em_runs.append((int(mixture.iterations), bool(mixture.converged), log_lik))
     return mixture
 
 force_density.deconvolve_forces = counted
@@ -70,7 +74,8 @@ for item in read_manifest(manifest):
     drives.append({"drive_id": item.drive_id, "duration_s": float(row["duration_s"]),
                    "windows": int(len(table)), "slip_windows": int(slip.sum()),
                    "first_cpu_s": cpu[0], "cpu_s": min(cpu[1:]) if repeats else cpu[0],
-                   "em_iterations": em_runs[-1][0], "em_converged": em_runs[-1][1]})
+                   "em_iterations": em_runs[-1][0], "em_converged": em_runs[-1][1],
+                   "em_mean_log_lik": em_runs[-1][2]})
 print(json.dumps({"drives": drives, "package": tyrebayes.__file__}))
 """
 
@@ -220,6 +225,19 @@ def main() -> int:
         results["speedup"] = (
             results["before"]["cpu_s_per_drive_hour"] / results["after"]["cpu_s_per_drive_hour"]
         )
+        results["mean_log_lik_below_reference"] = {
+            name: [
+                ref["em_mean_log_lik"] - d["em_mean_log_lik"]
+                for d, ref in zip(
+                    results[name]["drives"], results["reference"]["drives"], strict=True
+                )
+            ]
+            for name in ("before", "after")
+        }
+        gaps = results["mean_log_lik_below_reference"]
+        results["drives_after_at_least_as_likely_as_before"] = sum(
+            a <= b for a, b in zip(gaps["after"], gaps["before"], strict=True)
+        )
         results["score_difference_after_vs_before"] = _difference(
             folder / "after", folder / "before", drive_ids
         )
@@ -229,7 +247,12 @@ def main() -> int:
         results["score_difference_after_vs_reference"] = _difference(
             folder / "after", folder / "reference", drive_ids
         )
-    for key in ("speedup", *(k for k in results if k.startswith("score_difference"))):
+    summary = (
+        "speedup",
+        "mean_log_lik_below_reference",
+        "drives_after_at_least_as_likely_as_before",
+    )
+    for key in (*summary, *(k for k in results if k.startswith("score_difference"))):
         print(key, json.dumps(results[key]))
     atomic_write_bytes(RESULTS, json.dumps(results, indent=1).encode())
     print(f"saved {RESULTS}")

@@ -102,20 +102,18 @@ def _mean_log_lik(rho, noise_sd, weights, means, variances):
 def _skewed_drive(seed, n=6000):
     # A dense cruising cluster and a tail of accelerations, noise varying window by window.
     rng = np.random.default_rng(seed)
-    true = np.where(
-        rng.random(n) < 0.6, rng.normal(0.03, 0.01, n), 0.02 + rng.exponential(0.08, n)
-    )
+    true = np.where(rng.random(n) < 0.6, rng.normal(0.03, 0.01, n), 0.02 + rng.exponential(0.08, n))
     eta = rng.uniform(0.01, 0.03, n)
     return true + eta * rng.normal(size=n), eta
 
 
 def test_em_step_is_extreme_deconvolution_in_numpy():
     # One step of the compiled map against the textbook (windows × components) formulas.
-    from tyrebayes.inference.tyre.force_density import _em_step
-
     rho, eta = _skewed_drive(3, n=500)
-    weights, means, variances = np.array([0.5, 0.3, 0.2]), np.array([0.0, 0.05, 0.2]), np.full(
-        3, 1e-3
+    weights, means, variances = (
+        np.array([0.5, 0.3, 0.2]),
+        np.array([0.0, 0.05, 0.2]),
+        np.full(3, 1e-3),
     )
     total = variances + eta[:, None] ** 2
     density = weights * np.exp(-0.5 * (rho[:, None] - means) ** 2 / total) / np.sqrt(total)
@@ -167,9 +165,7 @@ def test_accelerated_em_never_lowers_the_likelihood(monkeypatch):
         monkeypatch.setattr(force_density, "_MAX_ITERATIONS", steps)
         mixture = deconvolve_forces(rho, eta)
         assert mixture.iterations == steps and not mixture.converged
-        log_liks.append(
-            _mean_log_lik(rho, eta, mixture.weights, mixture.means, mixture.variances)
-        )
+        log_liks.append(_mean_log_lik(rho, eta, mixture.weights, mixture.means, mixture.variances))
     assert np.all(np.diff(log_liks) >= -1e-12)
     k = force_density.N_COMPONENTS
     start = (

@@ -42,6 +42,8 @@ N_COMPONENTS = 8
 # The steps are most of the per-drive windowing cost: reported, not run on (ForceMixture.converged).
 _MAX_ITERATIONS = 200
 _TOLERANCE = 1e-6  # on the mean log-likelihood per window [nats]
+# Growth and shrinkage of the bound on the extrapolation's step length (SQUAREM's default).
+_STEP_FACTOR = 4.0
 
 
 class ForceMixture(NamedTuple):
@@ -219,14 +221,18 @@ def _em(
     Plain EM converges linearly, and slowly where components overlap (a drive's dense cruising
     cluster): most of its steps each gain little, and the stopping rule on the gain could fire
     while the mixture was still drifting. SQUAREM (Varadhan & Roland 2008, scheme S3) takes two
-    EM steps θ₁ = F(θ₀), θ₂ = F(θ₁), extrapolates along them, θ′ = θ₀ − 2α r + α² v with
-    r = θ₁ − θ₀, v = θ₂ − 2θ₁ + θ₀, α = −‖r‖/‖v‖ (at most −1; α = −1 gives θ₂), and takes one
-    EM step from θ′ to stabilise it. It has the same fixed points as EM (at one, r = v = 0).
+    EM steps θ₁ = F(θ₀), θ₂ = F(θ₁), extrapolates along them, θ′ = θ₀ + 2a r + a² v with
+    r = θ₁ − θ₀, v = θ₂ − 2θ₁ + θ₀, step length a = ‖r‖/‖v‖ (a = 1 gives θ₂), and takes one EM
+    step from θ′ to stabilise it. It has the same fixed points as EM (at one, r = v = 0).
     Monotone safeguard: when θ′'s log-likelihood is below θ₁'s (or not finite), the cycle's
     result is θ₂, the plain EM steps; otherwise F(θ′), whose log-likelihood is at least θ′'s.
-    Every cycle's mixture is therefore at least as likely as the last.
+    Every cycle's mixture is therefore at least as likely as the last. The step length is
+    bounded as in Varadhan & Roland's SQUAREM package: the bound starts at 1, grows by
+    ``_STEP_FACTOR`` whenever a step at the bound is accepted and shrinks by it (to no less than
+    1) when one is rejected: an unbounded long step overshoots along a flat ridge of the
+    likelihood and is rejected, wasting its stabilising EM step.
 
-    Extrapolation is in (log w, m, log τ²), so every θ′ is a valid mixture. ``max_iterations``
+    Extrapolation is in (log w, m / sd(ρ), log τ²), so every θ′ is a valid mixture. ``max_iterations``
     bounds the EM steps (three per cycle, so up to two more may be taken); the loop stops when a
     cycle's gain in mean log-likelihood per window is below ``tolerance``, returning the mixture
     one EM step on from the settled one, as plain EM stops on its own gain per step. A
@@ -245,32 +251,38 @@ def _em(
         return _em_step(x, noise2, weight, mixture)
 
     def extrapolated(state):
-        mixture, mixture1, iterations = state
+        mixture, mixture1, iterations, step_max = state
         mixture2, log_lik1 = em(mixture1)
         start, one, two = (_unconstrained(m, force_sd) for m in (mixture, mixture1, mixture2))
         r = jax.tree.map(jnp.subtract, one, start)
         v = jax.tree.map(lambda a, b, c: c - 2.0 * b + a, start, one, two)
         r2 = sum(jnp.sum(leaf**2) for leaf in jax.tree.leaves(r))
         v2 = sum(jnp.sum(leaf**2) for leaf in jax.tree.leaves(v))
-        alpha = jnp.where(v2 > 0, -jnp.sqrt(r2 / jnp.where(v2 > 0, v2, 1.0)), -1.0)
-        alpha = jnp.minimum(jnp.nan_to_num(alpha, nan=-1.0), -1.0)
-        point = jax.tree.map(lambda a, b, c: a - 2.0 * alpha * b + alpha**2 * c, start, r, v)
+        length = jnp.sqrt(r2 / jnp.where(v2 > 0, v2, 1.0))
+        length = jnp.clip(jnp.where(v2 > 0, jnp.nan_to_num(length, nan=1.0), 1.0), 1.0, step_max)
+        point = jax.tree.map(lambda a, b, c: a + 2.0 * length * b + length**2 * c, start, r, v)
         mixture3, log_lik_point = em(_constrained(point, force_sd))
         accept = jnp.isfinite(log_lik_point) & (log_lik_point >= log_lik1)
         chosen = jax.tree.map(lambda a, b: jnp.where(accept, a, b), mixture3, mixture2)
-        return chosen, iterations + 3
+        at_bound = length >= step_max
+        step_max = jnp.where(
+            accept,
+            jnp.where(at_bound, _STEP_FACTOR * step_max, step_max),
+            jnp.where(at_bound, jnp.maximum(1.0, step_max / _STEP_FACTOR), step_max),
+        )
+        return chosen, iterations + 3, step_max
 
     def cycle(state):
-        mixture, previous, iterations, _ = state
+        mixture, previous, iterations, _, step_max = state
         mixture1, log_lik = em(mixture)
         converged = log_lik - previous < tolerance
-        mixture, iterations = jax.lax.cond(
+        mixture, iterations, step_max = jax.lax.cond(
             converged,
-            lambda s: (s[1], s[2] + 1),
+            lambda s: (s[1], s[2] + 1, s[3]),
             extrapolated,
-            (mixture, mixture1, iterations),
+            (mixture, mixture1, iterations, step_max),
         )
-        return mixture, log_lik, iterations, converged
+        return mixture, log_lik, iterations, converged, step_max
 
     def running(state):
         return (state[2] < max_iterations) & ~state[3]
@@ -280,8 +292,9 @@ def _em(
         jnp.asarray(-jnp.inf),
         jnp.asarray(0),
         jnp.asarray(False),
+        jnp.asarray(1.0),
     )
-    mixture, _, iterations, converged = jax.lax.while_loop(running, cycle, init)
+    mixture, _, iterations, converged, _ = jax.lax.while_loop(running, cycle, init)
     return mixture.weights, mixture.means, mixture.variances, iterations, converged
 
 
