@@ -11,9 +11,12 @@ figure is its fastest repeat, the total is the sum over drives divided by the dr
 
 Results compared: E[ρ_true | ρ_obs] = ρ + η² s of every slip window (``rho_score`` of the
 windows table), after against before, as |difference| / η (the window's noise sd): max, 99th
-percentile and rms over windows, max per drive. Beside them the distance of each version from
-a longer plain-EM run of the before code (``--reference-steps`` EM steps, tolerance 1e-10): how
-far the step limit leaves either from the maximum-likelihood mixture both head for.
+percentile and rms over windows, max per drive; and the fast tyre fit of each drive's windows
+alone (``fit_tyre``, not timed), |ΔC_xr| in units of the before fit's posterior sd. Beside
+them the distance of each version from a longer plain-EM run of the before code
+(``--reference-steps`` EM steps, tolerance 1e-10): how far the step limit leaves either from
+the maximum-likelihood mixture both head for (E[ρ_true | ρ_obs] and the mean log-likelihood
+per window of each drive's mixture).
 
 Usage: ``python benchmarks/windows_step_speed.py [--before REV] [--drives N] [--repeats N]``.
 """
@@ -69,6 +72,7 @@ for item in read_manifest(manifest):
         table, row, steps = _windows_and_summary(item, settings)
         cpu.append(steps["windows_and_summary"])
     slip = ~table["at_limit"].to_numpy()
+    table.to_parquet(f"{out}/{item.drive_id}.windows.parquet")
     np.savez(f"{out}/{item.drive_id}.npz", **{
         c: table[c].to_numpy()[slip] for c in ("rho", "rho_sd", "rho_score", "time_s")})
     drives.append({"drive_id": item.drive_id, "duration_s": float(row["duration_s"]),
@@ -76,6 +80,23 @@ for item in read_manifest(manifest):
                    "first_cpu_s": cpu[0], "cpu_s": min(cpu[1:]) if repeats else cpu[0],
                    "em_iterations": em_runs[-1][0], "em_converged": em_runs[-1][1],
                    "em_mean_log_lik": em_runs[-1][2]})
+# The fast tyre fit of each drive's windows alone (not timed): what the score change does to C_xr.
+if not em_steps:
+    import pandas as pd
+    from tyrebayes.batch.settings import configure_jax
+    from tyrebayes.batch.tyre_set_stage import pad_size
+    from tyrebayes.batch.windows import drives_from_windows
+    from tyrebayes.inference.tyre.data import stack_drives
+    from tyrebayes.inference.tyre.fit import fit_tyre
+
+    configure_jax(sys.argv[5])
+    for drive in drives:
+        table = pd.read_parquet(f"{out}/{drive['drive_id']}.windows.parquet")
+        windows, surfaces = drives_from_windows(table)
+        obs = stack_drives(windows, surfaces, pad_to=pad_size(len(table)))
+        summary = fit_tyre(obs, method="fast", kind=settings.model, seed=settings.seed).summary()
+        drive["c_xr"] = float(summary["c_xr"]["mean"])
+        drive["c_xr_sd"] = float(summary["c_xr"]["sd"])
 print(json.dumps({"drives": drives, "package": tyrebayes.__file__}))
 """
 
@@ -87,14 +108,16 @@ _ENV = {
 }
 
 
-def _measure(manifest: Path, out: Path, code: Path | None, repeats: int, em_steps: int) -> dict:
+def _measure(
+    manifest: Path, out: Path, code: Path | None, repeats: int, em_steps: int, cache: Path
+) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     env = {**os.environ, **_ENV}
     env["PYTHONPATH"] = str(code or ROOT)
     load = os.getloadavg()
     start = time.perf_counter()
     result = subprocess.run(
-        [sys.executable, "-c", _CHILD, str(manifest), str(out), str(repeats), str(em_steps)],
+        [sys.executable, "-c", _CHILD, *map(str, (manifest, out, repeats, em_steps, cache))],
         capture_output=True,
         text=True,
         env=env,
@@ -216,7 +239,9 @@ def main() -> int:
             "reference": (before_code, 0, args.reference_steps),
         }
         for name, (code, repeats, em_steps) in runs.items():
-            results[name] = _measure(manifest, folder / name, code, repeats, em_steps)
+            results[name] = _measure(
+                manifest, folder / name, code, repeats, em_steps, folder / "jax_cache"
+            )
             print(name, json.dumps({k: v for k, v in results[name].items() if k != "drives"}))
         drive_ids = [d["drive_id"] for d in results["after"]["drives"]]
         results["reference"]["em_steps"] = args.reference_steps
@@ -238,6 +263,10 @@ def main() -> int:
         results["drives_after_at_least_as_likely_as_before"] = sum(
             a <= b for a, b in zip(gaps["after"], gaps["before"], strict=True)
         )
+        after, before = results["after"]["drives"], results["before"]["drives"]
+        results["c_xr_difference_after_vs_before_in_sd"] = [
+            abs(a["c_xr"] - b["c_xr"]) / b["c_xr_sd"] for a, b in zip(after, before, strict=True)
+        ]
         results["score_difference_after_vs_before"] = _difference(
             folder / "after", folder / "before", drive_ids
         )
@@ -251,6 +280,7 @@ def main() -> int:
         "speedup",
         "mean_log_lik_below_reference",
         "drives_after_at_least_as_likely_as_before",
+        "c_xr_difference_after_vs_before_in_sd",
     )
     for key in (*summary, *(k for k in results if k.startswith("score_difference"))):
         print(key, json.dumps(results[key]))

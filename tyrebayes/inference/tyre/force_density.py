@@ -34,12 +34,15 @@ from ..._errors import BadInputError
 
 N_COMPONENTS = 8
 # EM is stopped after this many EM steps. The likelihood is flat along a ridge towards mixtures
-# with ever narrower components (the maximum-likelihood mixing distribution of a deconvolution
-# is discrete), so on most simulated one-hour drives neither plain nor accelerated EM settles
-# within a few hundred steps, and where it stops moves E[ρ_true | ρ_obs] by up to about half a
-# window's noise sd (rms a few hundredths): benchmarks/results/windows_step_speed.json, which
-# compares this limit of accelerated EM with 400 plain EM steps, both against 10,000 plain steps.
-# The steps are most of the per-drive windowing cost: reported, not run on (ForceMixture.converged).
+# with ever narrower components (a deconvolution's maximum-likelihood mixing distribution is
+# discrete), so EM may still be drifting when its gain per step is small: on 10 simulated
+# one-hour drives (benchmarks/results/windows_step_speed.json) 10,000 plain EM steps moved
+# E[ρ_true | ρ_obs] from where 400 plain steps had left it by up to 1.07 window noise sds (rms
+# 0.06), and from where this limit of accelerated EM leaves it by up to 1.18 (rms 0.05). At this
+# limit every drive's mixture was at least as likely as after 400 plain steps (3 of 10 drives
+# reached it, 5 of 10 reached 400 plain steps), at 0.42 of the EM steps; the fast fit's C_xr of
+# each drive moved by at most 0.06 of its posterior sd. The steps are most of the per-drive
+# windowing cost: reported, not run on (ForceMixture.converged).
 _MAX_ITERATIONS = 200
 _TOLERANCE = 1e-6  # on the mean log-likelihood per window [nats]
 # Growth and shrinkage of the bound on the extrapolation's step length (SQUAREM's default).
@@ -232,12 +235,12 @@ def _em(
     1) when one is rejected: an unbounded long step overshoots along a flat ridge of the
     likelihood and is rejected, wasting its stabilising EM step.
 
-    Extrapolation is in (log w, m / sd(ρ), log τ²), so every θ′ is a valid mixture. ``max_iterations``
-    bounds the EM steps (three per cycle, so up to two more may be taken); the loop stops when a
-    cycle's gain in mean log-likelihood per window is below ``tolerance``, returning the mixture
-    one EM step on from the settled one, as plain EM stops on its own gain per step. A
-    cycle gains at least what plain EM's first step from the same mixture does, so wherever
-    this rule stops, plain EM's would have stopped too.
+    Extrapolation is in (log w, m / sd(ρ), log τ²), so every θ′ is a valid mixture.
+    ``max_iterations`` bounds the EM steps (three per cycle, so up to two more may be taken);
+    the loop stops when a cycle's gain in mean log-likelihood per window is below
+    ``tolerance``, returning the mixture one EM step on from the settled one, as plain EM stops
+    on its own gain per step. A cycle gains at least what plain EM's first step from the same
+    mixture does, so wherever this rule stops, plain EM's would have stopped too.
 
     One compiled loop: in numpy each step made a dozen passes over windows × components, the
     per-drive stage's largest cost; fused, the steps are the same arithmetic in fewer passes.
