@@ -90,7 +90,8 @@ def _plain_em(rho, noise_sd, mixture, steps):
 
         start = _Components(*(jnp.asarray(a) for a in mixture))
         final, log_liks = jax.jit(lambda s: jax.lax.scan(step, s, None, length=steps))(start)
-        return [np.asarray(a) for a in final], np.asarray(log_liks)
+        mixture = (final.weights, final.means, final.variances)
+        return [np.asarray(a) for a in mixture], np.asarray(log_liks)
 
 
 def _mean_log_lik(rho, noise_sd, weights, means, variances):

@@ -25,6 +25,7 @@ from __future__ import annotations
 import functools
 from typing import NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -134,7 +135,7 @@ def _padded_size(n: int) -> int:
     return int(-(-n // step) * step)
 
 
-class _Components(NamedTuple):
+class _Components(eqx.Module):
     """The mixture inside the compiled EM: w_k [-], m_k [-], τ_k² [-²]."""
 
     weights: Float[Array, "k"]
@@ -156,7 +157,7 @@ def _em_step(
     returned): it comes out of the E step at no extra cost.
     """
     n_real = jnp.sum(weight)
-    weights, means, variances = mixture
+    weights, means, variances = mixture.weights, mixture.means, mixture.variances
     log_weights = jnp.log(weights)
     # One length-n vector per component (k is small and static): the sums over components
     # are then elementwise and fuse, where (n, k) arrays reduced over their short minor axis
