@@ -18,7 +18,8 @@ them the distance of each version from a longer plain-EM run of the before code
 the maximum-likelihood mixture both head for (E[ρ_true | ρ_obs] and the mean log-likelihood
 per window of each drive's mixture).
 
-Usage: ``python benchmarks/windows_step_speed.py [--before REV] [--drives N] [--repeats N]``.
+Usage: ``python benchmarks/windows_step_speed.py [--before REV] [--drives N] [--repeats N]``
+(``--before`` defaults to ``main``; once this change is on main, name the revision before it).
 """
 
 from __future__ import annotations
