@@ -68,3 +68,111 @@ def test_em_that_runs_out_of_steps_says_so(monkeypatch):
     monkeypatch.setattr(force_density, "_MAX_ITERATIONS", 3)
     mixture = deconvolve_forces(rho, np.full(rho.size, 0.01))
     assert (mixture.iterations, mixture.converged) == (3, False)
+
+
+def _plain_em(rho, noise_sd, mixture, steps):
+    """Plain EM, ``steps`` steps from ``mixture``: the map the accelerated EM extrapolates.
+
+    Returns the mixture and the mean log-likelihood per window of every step's input.
+    """
+    import jax
+    import jax.numpy as jnp
+
+    from tyrebayes.inference.tyre.force_density import _Components, _em_step
+
+    with jax.enable_x64(True):
+        x, noise2 = jnp.asarray(rho), jnp.asarray(np.asarray(noise_sd) ** 2)
+        weight = jnp.ones_like(x)
+
+        def step(current, _):
+            following, log_lik = _em_step(x, noise2, weight, current)
+            return following, log_lik
+
+        start = _Components(*(jnp.asarray(a) for a in mixture))
+        final, log_liks = jax.jit(lambda s: jax.lax.scan(step, s, None, length=steps))(start)
+        mixture = (final.weights, final.means, final.variances)
+        return [np.asarray(a) for a in mixture], np.asarray(log_liks)
+
+
+def _mean_log_lik(rho, noise_sd, weights, means, variances):
+    total = variances + noise_sd[:, None] ** 2
+    density = weights * np.exp(-0.5 * (rho[:, None] - means) ** 2 / total) / np.sqrt(total)
+    return np.mean(np.log(np.sum(density, axis=1) / np.sqrt(2 * np.pi)))
+
+
+def _skewed_drive(seed, n=6000):
+    # A dense cruising cluster and a tail of accelerations, noise varying window by window.
+    rng = np.random.default_rng(seed)
+    true = np.where(rng.random(n) < 0.6, rng.normal(0.03, 0.01, n), 0.02 + rng.exponential(0.08, n))
+    eta = rng.uniform(0.01, 0.03, n)
+    return true + eta * rng.normal(size=n), eta
+
+
+def test_em_step_is_extreme_deconvolution_in_numpy():
+    # One step of the compiled map against the textbook (windows × components) formulas.
+    rho, eta = _skewed_drive(3, n=500)
+    weights, means, variances = (
+        np.array([0.5, 0.3, 0.2]),
+        np.array([0.0, 0.05, 0.2]),
+        np.full(3, 1e-3),
+    )
+    total = variances + eta[:, None] ** 2
+    density = weights * np.exp(-0.5 * (rho[:, None] - means) ** 2 / total) / np.sqrt(total)
+    resp = density / density.sum(axis=1, keepdims=True)
+    post_mean = means + variances / total * (rho[:, None] - means)
+    post_var = variances - variances**2 / total
+    count = resp.sum(axis=0)
+    new_means = (resp * post_mean).sum(axis=0) / count
+    new_variances = (resp * ((post_mean - new_means) ** 2 + post_var)).sum(axis=0) / count
+    (w, m, v), _ = _plain_em(rho, eta, (weights, means, variances), 1)
+    np.testing.assert_allclose(w, count / rho.size, rtol=1e-10)
+    np.testing.assert_allclose(m, new_means, rtol=1e-10)
+    np.testing.assert_allclose(v, new_variances, rtol=1e-10)
+
+
+def test_accelerated_em_reaches_the_plain_em_fixed_point():
+    # Three well-separated true components: plain EM converges (to round-off, in 3,000 steps)
+    # and the accelerated EM stops at the same mixture and the same E[ρ_true | ρ_obs], in far
+    # fewer EM steps, each cycle at least as likely as the last.
+    rng = np.random.default_rng(4)
+    n = 4000
+    true = rng.choice([-0.1, 0.05, 0.3], n, p=[0.2, 0.5, 0.3]) + rng.normal(0.0, 0.02, n)
+    eta = rng.uniform(0.01, 0.03, n)
+    rho = true + eta * rng.normal(size=n)
+    mixture = deconvolve_forces(rho, eta, n_components=3)
+    assert mixture.converged and mixture.iterations < 100
+    start = (np.full(3, 1 / 3), np.quantile(rho, [1 / 6, 1 / 2, 5 / 6]), np.full(3, 1e-3))
+    (w, m, v), log_liks = _plain_em(rho, eta, start, 3000)
+    assert log_liks[-1] - log_liks[-2] < 1e-13
+    order = np.argsort(mixture.means)
+    np.testing.assert_allclose(mixture.means[order], np.sort(m), atol=1e-4)
+    np.testing.assert_allclose(mixture.weights[order], w[np.argsort(m)], atol=1e-3)
+    np.testing.assert_allclose(mixture.variances[order], v[np.argsort(m)], rtol=0.02)
+    assert _mean_log_lik(rho, eta, mixture.weights, mixture.means, mixture.variances) > (
+        log_liks[-1] - 0.5 * np.log(2 * np.pi) - 1e-6
+    )
+
+
+def test_accelerated_em_never_lowers_the_likelihood(monkeypatch):
+    # Stopped after every number of cycles in turn, the mixture's log-likelihood never falls,
+    # and ends above plain EM's after the same number of EM steps (a skewed drive, where plain
+    # EM is slow).
+    import tyrebayes.inference.tyre.force_density as force_density
+
+    rho, eta = _skewed_drive(5)
+    monkeypatch.setattr(force_density, "_TOLERANCE", -1.0)  # never stop on the gain
+    log_liks = []
+    for steps in (3, 6, 9, 15, 30, 60, 120):
+        monkeypatch.setattr(force_density, "_MAX_ITERATIONS", steps)
+        mixture = deconvolve_forces(rho, eta)
+        assert mixture.iterations == steps and not mixture.converged
+        log_liks.append(_mean_log_lik(rho, eta, mixture.weights, mixture.means, mixture.variances))
+    assert np.all(np.diff(log_liks) >= -1e-12)
+    k = force_density.N_COMPONENTS
+    start = (
+        np.full(k, 1 / k),
+        np.quantile(rho, (np.arange(k) + 0.5) / k),
+        np.full(k, np.var(rho) / k**2),
+    )
+    (w, m, v), _ = _plain_em(rho, eta, start, 120)
+    assert log_liks[-1] > _mean_log_lik(rho, eta, w, m, v)
