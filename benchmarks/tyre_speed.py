@@ -200,8 +200,8 @@ def main() -> None:
         2000,
     )
     t0 = time.perf_counter()
-    first, weighted, _ = tyre_fit._first_pass(core, obs_b, DEFAULT_KIND)
-    mode, _ = tyre_fit._second_pass(core, first, obs_b, weighted)
+    first_pass, weighted, _ = tyre_fit._first_pass(core, obs_b, DEFAULT_KIND)
+    mode, _ = tyre_fit._second_pass(core, first_pass, obs_b, weighted)
     jax.block_until_ready(core.laplace(mode, weighted, jax.random.PRNGKey(1)))
     t_core = time.perf_counter() - t0
     res["fast_one_hour"] = {
