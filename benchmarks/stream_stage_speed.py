@@ -25,12 +25,14 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).parent))
+from _revisions import package_at, run_child  # noqa: E402
+
 RESULTS = ROOT / "benchmarks" / "results" / "stream_stage_speed.json"
 TARGET_CPU_S_PER_HOUR = 0.4
 
@@ -73,19 +75,7 @@ _ENV = {
 
 
 def _measure(path: Path, code: Path | None, repeats: int) -> dict:
-    env = {**os.environ, **_ENV}
-    if code is not None:
-        env["PYTHONPATH"] = str(code)
-    out = subprocess.run(
-        [sys.executable, "-c", _CHILD, str(path), str(repeats)],
-        capture_output=True,
-        text=True,
-        env=env,
-        cwd=str(code or ROOT),
-    )
-    if out.returncode != 0:
-        raise RuntimeError(f"measurement failed:\n{out.stderr}")
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return run_child(_CHILD, [path, repeats], code, _ENV)
 
 
 def _drives(folder: Path) -> dict[str, Path]:
@@ -126,15 +116,7 @@ def main() -> int:
         paths = _drives(Path(tmp))
         before_code = None
         if args.before:
-            before_code = Path(tmp) / "before"
-            before_code.mkdir()
-            archive = subprocess.run(
-                ["git", "archive", args.before, "tyrebayes", "models"],
-                cwd=ROOT,
-                capture_output=True,
-                check=True,
-            ).stdout
-            subprocess.run(["tar", "-x", "-C", str(before_code)], input=archive, check=True)
+            before_code = package_at(args.before, Path(tmp) / "before")
             results["before_revision"] = args.before
         for name, path in paths.items():
             entry = {"load_average_at_start": os.getloadavg()}

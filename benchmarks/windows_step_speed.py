@@ -36,6 +36,9 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).parent))
+from _revisions import package_at, run_child  # noqa: E402
+
 RESULTS = ROOT / "benchmarks" / "results" / "windows_step_speed.json"
 TYPES = ("winter", "all_season", "summer")
 SURFACES = ("dry", "wet", "snow")
@@ -113,20 +116,9 @@ def _measure(
     manifest: Path, out: Path, code: Path | None, repeats: int, em_steps: int, cache: Path
 ) -> dict:
     out.mkdir(parents=True, exist_ok=True)
-    env = {**os.environ, **_ENV}
-    env["PYTHONPATH"] = str(code or ROOT)
     load = os.getloadavg()
     start = time.perf_counter()
-    result = subprocess.run(
-        [sys.executable, "-c", _CHILD, *map(str, (manifest, out, repeats, em_steps, cache))],
-        capture_output=True,
-        text=True,
-        env=env,
-        cwd=str(code or ROOT),
-    )
-    if result.returncode != 0:
-        raise RuntimeError(f"measurement failed:\n{result.stderr}")
-    measured = json.loads(result.stdout.strip().splitlines()[-1])
+    measured = run_child(_CHILD, [manifest, out, repeats, em_steps, cache], code, _ENV)
     hours = sum(d["duration_s"] for d in measured["drives"]) / 3600.0
     measured |= {
         "drive_hours": hours,
@@ -225,15 +217,7 @@ def main() -> int:
         start = time.perf_counter()
         manifest = _make_drives(folder, args.drives, args.seed)
         results["simulate_seconds"] = time.perf_counter() - start
-        before_code = folder / "before"
-        before_code.mkdir()
-        archive = subprocess.run(
-            ["git", "archive", revision, "tyrebayes", "models"],
-            cwd=ROOT,
-            capture_output=True,
-            check=True,
-        ).stdout
-        subprocess.run(["tar", "-x", "-C", str(before_code)], input=archive, check=True)
+        before_code = package_at(revision, folder / "before")
         runs = {
             "after": (None, args.repeats, 0),
             "before": (before_code, args.repeats, 0),

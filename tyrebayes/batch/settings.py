@@ -26,9 +26,11 @@ class RunSettings:
         Window length of the windowed observations [s].
     pointwise : bool
         Keep each tyre set's per-window log-likelihood and posterior predictive draws in its fit
-        file. Off by default: they were most of a file (tens of MB per set) and a third of a
-        fast fit's time, and :func:`tyrebayes.inference.tyre.predictive.with_pointwise`
-        (what ``criticize`` calls) recomputes them from the file when wanted.
+        file. Off by default: they were most of a file (37-50 MB per set in
+        ``benchmarks/results/fleet_run_reduced_58b918d.json`` and ``fleet_run_mid_58b918d.json``)
+        and their computation part of every fit, and
+        :func:`tyrebayes.inference.tyre.predictive.with_pointwise` (what ``criticize`` calls)
+        recomputes them from the file when wanted.
     jax_cache : str
         Folder of JAX's persistent compilation cache, shared by every worker ("" = none).
     """

@@ -2,9 +2,9 @@
 
 A fit keeps every window's observations (observed and constant data) and the key of its
 predictive draws, so that the per-window groups are a function of the stored fit: a fit made with
-``pointwise=False`` (the fleet run's, where those groups were most of a fit file's size and a
-third of its time) leaves them out and :func:`with_pointwise` recomputes them when criticism
-needs them, equal to the ones a ``pointwise=True`` fit stores.
+``pointwise=False`` (the fleet run's, where those groups were most of a fit file's size and
+their computation part of every fit's time) leaves them out and :func:`with_pointwise`
+recomputes them when criticism needs them, equal to the ones a ``pointwise=True`` fit stores.
 """
 
 from __future__ import annotations
