@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from tyrebayes.batch.records import peak_rss_mb
+from tyrebayes.batch.worker_memory import peak_rss_mb
 
 RESULTS = Path(__file__).resolve().parent / "results" / "fleet_run.json"
 TARGET_DRIVE_HOURS_PER_CORE_HOUR = 5000.0
@@ -101,8 +101,8 @@ def plain_loop(items, out: Path, settings, traced_drives: bool = False) -> dict:
     ``traced_drives``: run the per-drive stage once into a scratch folder first (not timed), so
     that the timed pass finds the per-drive programs (the force-density EM of each padded
     length, the temperature scans) traced in this process: a tyre-set fit drops every compiled
-    program of the process (``_keep_one_shape``), and a long-lived worker traces each drive
-    shape once, not once per drive.
+    program of the process (``ProgramBudget.keep_one_fit_shape``), and a long-lived worker
+    traces each drive shape once, not once per drive.
     """
     from tyrebayes.batch.drive_stage import process_drive
     from tyrebayes.batch.fleet_stage import run_fleet_stage
@@ -207,7 +207,7 @@ def _compiled_programs_mb() -> float:
     """Resident memory [MB] this process frees when JAX drops its compiled programs."""
     import jax
 
-    from tyrebayes.batch.records import release_free_memory
+    from tyrebayes.batch.worker_memory import release_free_memory
 
     release_free_memory()
     before = _rss_mb()

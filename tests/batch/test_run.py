@@ -149,6 +149,14 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
         assert "posterior_predictive" not in fit.data.children
         assert "rho_score" in fit.data["constant_data"].data_vars
         assert 10.0 < row["c_xr"] < 100.0
+    # Each task's memory as it ran: what it started with, its peak, whether its worker dropped
+    # its compiled programs first; a worker's first fit drops the drive stage's programs.
+    ran = [*records.values(), *_records(out, "tyre_sets").values()]
+    assert len(ran) == 6 + 3
+    assert all(0 < r["rss_mb_at_start"] <= r["peak_rss_mb"] for r in ran)
+    assert all(isinstance(r["programs_dropped"], bool) for r in ran)
+    assert any(r["programs_dropped"] for r in ran if r["item"] == "tyre_set")
+    assert summary["tyre_sets"]["programs_dropped"] >= 1
     failures = pd.read_csv(out / "failures.csv")
     assert sorted(failures["item"]) == ["drive", "drive", "tyre_set"]
 

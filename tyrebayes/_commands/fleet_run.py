@@ -38,6 +38,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--memory-limit", default=None, help="per local worker (default 4GiB; dask syntax)"
     )
+    parser.add_argument(
+        "--memory-budget",
+        type=float,
+        default=1536.0,
+        metavar="MB",
+        help="peak a worker keeps each task under by dropping programs compiled for earlier "
+        "tasks (default 1536)",
+    )
     parser.add_argument("--method", choices=("fast", "nuts"), default="fast")
     parser.add_argument("--model", choices=MODEL_CHOICES, default=MODEL_CHOICES[0])
     parser.add_argument("--vehicle", help="vehicle of every log of a glob")
@@ -68,7 +76,10 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise BadInputError(f"--out: expected a folder, got the file '{out}'")
+    if not args.memory_budget > 0:
+        raise BadInputError(f"--memory-budget: expected > 0 MB, got {args.memory_budget}")
     settings = RunSettings(
+        memory_budget_mb=args.memory_budget,
         method=args.method,
         model=args.model,
         seed=args.seed,

@@ -21,11 +21,8 @@ from .drive_summary import drive_summary
 from .manifest import DriveItem
 from .records import (
     file_hash,
-    peak_rss_mb,
     read_record,
     record_path,
-    release_free_memory,
-    reset_peak_rss,
     unchanged,
     value_hash,
     write_parquet,
@@ -33,6 +30,7 @@ from .records import (
 )
 from .settings import RunSettings, configure_jax
 from .windows import windows_table
+from .worker_memory import WORKER, release_free_memory
 
 DRIVES_DIR = "drives"
 
@@ -138,9 +136,11 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
     record with the same input hash and settings was reused), ``reason`` (one line, failed
     only), ``windows_hash`` (content hash of the windows table, what the tyre-set stage keys
     on), ``seconds`` and ``cpu_seconds`` of this call (``step_cpu_seconds``: read, validate,
-    features, windows and summary), ``peak_rss_mb`` of the worker process.
+    features, windows and summary), ``peak_rss_mb`` of the worker process, the
+    ``rss_mb_at_start`` and ``programs_dropped`` (the worker dropped its compiled programs
+    first to keep within ``settings.memory_budget_mb``: :mod:`.worker_memory`).
     """
-    reset_peak_rss()
+    rss_at_start, dropped = WORKER.start("drive", settings.memory_budget_mb)
     start, cpu = time.perf_counter(), time.process_time()
     configure_jax(settings.jax_cache)
     folder = Path(out_dir) / DRIVES_DIR
@@ -178,7 +178,9 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
     record |= {
         "seconds": time.perf_counter() - start,
         "cpu_seconds": time.process_time() - cpu,
-        "peak_rss_mb": peak_rss_mb(),
+        "peak_rss_mb": WORKER.finish("drive", rss_at_start, dropped),
+        "rss_mb_at_start": rss_at_start,
+        "programs_dropped": dropped,
     }
     write_record(rec_path, record)
     release_free_memory()  # the worker idles, or starts its next task, without it

@@ -21,7 +21,6 @@ from .._domain import SURFACES, TYRE_TYPES
 from .._errors import BadInputError
 from .drive_stage import one_line
 from .records import (
-    peak_rss_mb,
     read_record,
     record_path,
     unchanged,
@@ -30,6 +29,7 @@ from .records import (
     write_record,
 )
 from .settings import RunSettings, configure_jax
+from .worker_memory import peak_rss_mb
 
 FLEET_DIR = "fleet"
 #: Surface of the per-set predictions and warnings (the thesis' question: winter suitability).

@@ -37,60 +37,6 @@ def value_hash(value) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def peak_rss_mb() -> float:
-    """This process's peak resident memory [MB] (VmHWM on Linux).
-
-    ``getrusage``'s ``ru_maxrss`` survives ``execve`` on Linux, so a worker spawned by a large
-    process would report its parent's peak; the kernel's VmHWM is the process's own.
-    """
-    try:
-        with open("/proc/self/status") as fh:
-            for line in fh:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    import resource
-
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
-def release_free_memory() -> None:
-    """Give the memory the allocator holds but no object uses back to the system (glibc).
-
-    A worker's tasks free what they allocate, but glibc keeps freed heap below chunks still in
-    use: after a tyre-set fit most of a worker's resident memory can be such free heap, and it
-    counts towards the worker's limit and every later task's peak (``fleet_run.json`` has the
-    per-task peaks). No-op where there is no glibc.
-    """
-    import ctypes
-
-    # No gc.collect() here: arrays go when their last reference does, and a full collection
-    # walks every object of a worker that has traced fits. With one before and after each task
-    # the full-size benchmark spent 1.5 CPU s per drive-hour outside the drive stage's steps
-    # (fleet_run.json), 0.1 s without (fleet_run_reduced.json).
-    try:
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):
-        pass
-
-
-def reset_peak_rss() -> None:
-    """Start a new peak-memory count for this process (Linux: ``5`` to ``/proc/self/clear_refs``).
-
-    A worker runs many tasks; resetting at the start of each makes its record's
-    ``peak_rss_mb`` that task's own peak, on top of the memory still in use (free memory the
-    allocator kept is released first: :func:`release_free_memory`). Where the file cannot be
-    written the count goes on.
-    """
-    release_free_memory()
-    try:
-        with open("/proc/self/clear_refs", "w") as fh:
-            fh.write("5")
-    except OSError:
-        pass
-
-
 def record_path(folder: Path, name: str) -> Path:
     return Path(folder) / f"{name}.record.json"
 

@@ -32,9 +32,10 @@ from .._io import atomic_write_bytes, to_jsonable
 from .drive_stage import DRIVES_DIR, process_drive
 from .fleet_stage import run_fleet_stage
 from .manifest import DriveItem
-from .records import peak_rss_mb, write_parquet
+from .records import write_parquet
 from .settings import RunSettings
 from .tyre_set_stage import fit_tyre_set, pad_size, set_file_name, tyre_set_table
+from .worker_memory import peak_rss_mb
 
 #: Memory limit of each local worker: a fast fit of a set of four 10-60 min drives held up to
 #: 1.8 GB at its peak, a drive task up to 1.9 GB (benchmarks/results/fleet_run.json, full size;
@@ -92,7 +93,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, memory
             threads_per_worker=1,
             processes=True,
             memory_limit=memory_limit or DEFAULT_MEMORY_LIMIT,
-            dashboard_address=None,
+            dashboard_address=":0",  # any free port: two runs on one machine must not clash
             env=_WORKER_ENV,
         ) as cluster,
         Client(cluster) as client,
@@ -126,7 +127,8 @@ class _Progress:
 def _stage_stats(records: list[dict]) -> dict:
     """Counts and costs of one stage: ``done`` (ran now and succeeded), ``skipped`` (an earlier
     record was reused, whatever its status), ``failed`` (failed now or earlier: still failed),
-    ``failed_now``; seconds, CPU seconds and peak RSS over the items that ran now."""
+    ``failed_now``; seconds, CPU seconds, peak RSS and the number that started by dropping
+    their worker's compiled programs (:mod:`.worker_memory`) over the items that ran now."""
     ran = [r for r in records if not r.get("skipped")]
     return {
         "items": len(records),
@@ -137,6 +139,7 @@ def _stage_stats(records: list[dict]) -> dict:
         "seconds": sum(float(r.get("seconds", 0.0)) for r in ran),
         "cpu_seconds": sum(float(r.get("cpu_seconds", 0.0)) for r in ran),
         "peak_rss_mb_max": max((float(r.get("peak_rss_mb", 0.0)) for r in ran), default=0.0),
+        "programs_dropped": sum(bool(r.get("programs_dropped")) for r in ran),
     }
 
 

@@ -33,6 +33,11 @@ class RunSettings:
         recomputes them from the file when wanted.
     jax_cache : str
         Folder of JAX's persistent compilation cache, shared by every worker ("" = none).
+    memory_budget_mb : float
+        What a worker aims to keep each task's peak memory under [MB]: it drops the programs it
+        compiled for earlier tasks when keeping them would take the next task past this
+        (:mod:`.worker_memory`). The issue's 1.5 GB per worker by default. Results do not
+        depend on it.
     """
 
     method: str = "fast"
@@ -41,12 +46,15 @@ class RunSettings:
     window_s: float = 0.25
     pointwise: bool = False
     jax_cache: str = ""
+    memory_budget_mb: float = 1536.0
 
     def __post_init__(self):
         if self.method not in METHODS:
             raise ValueError(f"method: expected one of {METHODS}, got {self.method!r}")
         if not self.window_s > 0:
             raise ValueError(f"window_s: expected > 0, got {self.window_s}")
+        if not self.memory_budget_mb > 0:
+            raise ValueError(f"memory_budget_mb: expected > 0, got {self.memory_budget_mb}")
 
     def drive_settings(self) -> dict:
         """What a drive's outputs depend on (the fit method does not change them)."""

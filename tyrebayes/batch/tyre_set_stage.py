@@ -20,11 +20,8 @@ from .._domain import SURFACES
 from .._errors import BadInputError
 from .drive_stage import DRIVES_DIR, one_line
 from .records import (
-    peak_rss_mb,
     read_record,
     record_path,
-    release_free_memory,
-    reset_peak_rss,
     unchanged,
     value_hash,
     write_parquet,
@@ -32,6 +29,7 @@ from .records import (
 )
 from .settings import RunSettings, configure_jax
 from .windows import drives_from_windows
+from .worker_memory import WORKER, release_free_memory
 
 TYRE_SETS_DIR = "tyre_sets"
 
@@ -51,27 +49,6 @@ def pad_size(n: int) -> int:
     cache); powers of two bound a fleet's lengths to a handful, at most doubling the work.
     """
     return max(256, 1 << max(0, int(n - 1).bit_length()))
-
-
-_LAST_SHAPE: list[int] = []
-
-
-def _keep_one_shape(size: int) -> None:
-    """Drop this process's compiled programs when the fit's padded shape changes.
-
-    A worker keeps every compiled program of every shape it fitted (the fit's programs are
-    hundreds of MB), and they count towards every later task's peak. The run gives the sets
-    with the largest shape the highest priority (:func:`~.run.fleet_run`), so a worker meets
-    each shape about once and this drops each shape about once; reloading from the shared
-    cache and the kept traced programs is cheap. The first fit of a process drops what came
-    before it too: the per-drive stage's programs (EM and temperature scans of several lengths,
-    op-by-op programs), which the sets, run only once no drive is waiting, do not use.
-    """
-    import jax
-
-    if not _LAST_SHAPE or _LAST_SHAPE[0] != size:
-        jax.clear_caches()
-    _LAST_SHAPE[:] = [size]
 
 
 def tyre_set_row(tyre_set_id: str, tyre_type: str, fit, n_drives: int, n_windows: int) -> dict:
@@ -134,7 +111,7 @@ def fit_tyre_set(
         The run's output folder.
     settings : RunSettings
     """
-    reset_peak_rss()
+    rss_at_start, dropped = WORKER.start("tyre_set", settings.memory_budget_mb)
     start, cpu = time.perf_counter(), time.process_time()
     configure_jax(settings.jax_cache)
     name = set_file_name(tyre_set_id)
@@ -173,7 +150,7 @@ def fit_tyre_set(
         )
         windows, surfaces = drives_from_windows(table)
         n = int(len(table))
-        _keep_one_shape(pad_size(n))
+        dropped |= WORKER.keep_one_fit_shape(pad_size(n))
         obs = stack_drives(windows, surfaces, pad_to=pad_size(n))
         fit = fit_tyre(
             obs,
@@ -197,7 +174,9 @@ def fit_tyre_set(
     record |= {
         "seconds": time.perf_counter() - start,
         "cpu_seconds": time.process_time() - cpu,
-        "peak_rss_mb": peak_rss_mb(),
+        "peak_rss_mb": WORKER.finish("tyre_set", rss_at_start, dropped),
+        "rss_mb_at_start": rss_at_start,
+        "programs_dropped": dropped,
     }
     write_record(rec_path, record)
     release_free_memory()  # the worker idles, or starts its next task, without it

@@ -1,0 +1,93 @@
+"""A worker's memory between tasks: release, peak count, and the bound on compiled programs."""
+
+import sys
+
+import jax
+import pytest
+
+from tyrebayes.batch.worker_memory import (
+    ProgramBudget,
+    must_drop,
+    peak_rss_mb,
+    release_free_memory,
+    reset_peak_rss,
+)
+
+
+def _rss_mb() -> float:
+    with open("/proc/self/status") as fh:
+        return next(int(line.split()[1]) / 1024.0 for line in fh if line.startswith("VmRSS:"))
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc and /proc only")
+def test_freed_heap_goes_back_and_the_peak_restarts_from_live_memory():
+    # 200 MB of malloc'd blocks, freed but for every thousandth: the heap cannot shrink past
+    # the survivors on its own, so the freed memory stays resident until it is released.
+    blocks = [bytes(2000) for _ in range(100_000)]
+    survivors = blocks[::1000]
+    del blocks
+    held = _rss_mb()
+    release_free_memory()
+    assert _rss_mb() < held - 100.0
+    reset_peak_rss()
+    assert peak_rss_mb() < held - 100.0
+    assert len(survivors) == 100
+
+
+def test_programs_are_dropped_at_the_first_fit_and_when_the_shape_changes(monkeypatch):
+    cleared = []
+    monkeypatch.setattr(jax, "clear_caches", lambda: cleared.append(True))
+    budget = ProgramBudget()
+    assert not budget.keep_one_fit_shape(32_768)  # a new process: nothing to drop
+    budget.last_fit_shape, budget.dirty = None, True  # as after drive tasks
+    dropped = []
+    for size in (32_768, 32_768, 16_384, 16_384, 32_768):
+        dropped.append(budget.keep_one_fit_shape(size))
+        budget.dirty = True  # the fit ran
+    # The first fit drops the drive stage's programs; then 32k -> 16k and 16k -> 32k.
+    assert dropped == [True, False, True, False, True]
+    assert len(cleared) == 3
+    assert budget.last_fit_shape == 32_768
+    assert budget.floor_mb is not None
+
+
+@pytest.mark.parametrize(
+    ("rss", "need", "floor", "expected"),
+    [
+        (1000.0, 400.0, None, False),  # fits the budget
+        (1200.0, 400.0, None, True),  # over, never dropped: drop
+        (1200.0, 400.0, 700.0, True),  # over, 500 MB above the floor
+        (1200.0, 400.0, 1150.0, False),  # over, but a drop would free little
+    ],
+)
+def test_a_drop_comes_only_when_the_next_task_would_pass_the_budget(rss, need, floor, expected):
+    assert must_drop(rss, need, floor, 1536.0) is expected
+
+
+def _task(budget, kind, budget_mb, mb):
+    """One task that holds ``mb`` MB of its own (written, so resident) at its peak."""
+    start, dropped = budget.start(kind, budget_mb)
+    blocks = [bytes(range(256)) * 4096 for _ in range(mb)]
+    peak = budget.finish(kind, start, dropped)
+    del blocks
+    return start, dropped, peak
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc only")
+def test_a_worker_learns_each_task_kinds_need_and_drops_its_programs_before_it_runs_over(
+    monkeypatch,
+):
+    cleared = []
+    monkeypatch.setattr(jax, "clear_caches", lambda: cleared.append(True))
+    budget = ProgramBudget()
+    # The first task of a kind loads its programs: its rise is not what keeping them adds to.
+    start, dropped, peak = _task(budget, "drive", 1e9, 200)
+    assert not dropped and peak >= start + 150.0 and "drive" not in budget.need_mb
+    start, dropped, _ = _task(budget, "drive", 1e9, 200)
+    assert not dropped and budget.need_mb["drive"] >= 150.0
+    # A budget the next drive's need would pass: the worker drops its programs first.
+    start, dropped, _ = _task(budget, "drive", start + 100.0, 10)
+    assert dropped and cleared == [True]
+    # Little above the floor since: no second drop; the task runs over and its record says so.
+    _, dropped, _ = _task(budget, "drive", start + 100.0, 10)
+    assert not dropped and cleared == [True]

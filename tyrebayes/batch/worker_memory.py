@@ -1,0 +1,205 @@
+"""What a fleet worker keeps between tasks: its memory counts and a bound on its compiled programs.
+
+A worker is one long-lived process that runs drive tasks and tyre-set fits in turn. Two things
+stay resident after a task and count towards every later task's peak:
+
+* heap that glibc keeps after the task freed it (:func:`release_free_memory` gives it back);
+* the programs JAX compiled: a fit's programs of one padded shape take a few hundred MB, and
+  each padded drive length adds its force-density EM and temperature scan. Keeping them is what
+  makes the next task of the same shape fast (reloading a fit's programs from the shared cache
+  costs 1-3 s), so they are dropped only when keeping them would take the next task past the
+  worker's memory budget (:class:`ProgramBudget`), and when a fit's padded shape changes
+  (:func:`keep_one_fit_shape`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+#: A drop is worth its reloads only when the programs hold at least this much [MB] above what
+#: the process held right after its last drop (its floor): below, nothing much would be freed.
+MIN_DROP_MB = 100.0
+
+
+def rss_mb() -> float:
+    """This process's resident memory now [MB] (VmRSS on Linux; its peak elsewhere)."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return peak_rss_mb()
+
+
+def peak_rss_mb() -> float:
+    """This process's peak resident memory [MB] (VmHWM on Linux).
+
+    ``getrusage``'s ``ru_maxrss`` survives ``execve`` on Linux, so a worker spawned by a large
+    process would report its parent's peak; the kernel's VmHWM is the process's own.
+    """
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def release_free_memory() -> None:
+    """Give the memory the allocator holds but no object uses back to the system (glibc).
+
+    A worker's tasks free what they allocate, but glibc keeps freed heap below chunks still in
+    use: after a tyre-set fit most of a worker's resident memory can be such free heap, and it
+    counts towards the worker's limit and every later task's peak (``fleet_run.json`` has the
+    per-task peaks). No-op where there is no glibc.
+    """
+    import ctypes
+
+    # No gc.collect() here: arrays go when their last reference does, and a full collection
+    # walks every object of a worker that has traced fits. With one before and after each task
+    # the full-size benchmark spent 1.5 CPU s per drive-hour outside the drive stage's steps
+    # (fleet_run.json), 0.1 s without (fleet_run_reduced.json).
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):
+        pass
+
+
+def reset_peak_rss() -> None:
+    """Start a new peak-memory count for this process (Linux: ``5`` to ``/proc/self/clear_refs``).
+
+    A worker runs many tasks; resetting at the start of each makes its record's
+    ``peak_rss_mb`` that task's own peak, on top of the memory still in use (free memory the
+    allocator kept is released first: :func:`release_free_memory`). Where the file cannot be
+    written the count goes on.
+    """
+    release_free_memory()
+    try:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+    except OSError:
+        pass
+
+
+def drop_compiled_programs() -> None:
+    """Drop every program JAX compiled or traced in this process, and the heap they held."""
+    import jax
+
+    jax.clear_caches()
+    release_free_memory()
+
+
+def must_drop(rss: float, need: float, floor: float | None, budget: float) -> bool:
+    """Whether to drop the compiled programs before a task (all in MB).
+
+    Drop when the memory held now (``rss``) plus the most a task of this kind has needed above
+    its start (``need``) would pass ``budget``, unless the process holds less than
+    :data:`MIN_DROP_MB` above its ``floor`` (what it held right after its last drop; None: no
+    drop yet): then a drop would cost reloads and free little, and the task runs over budget,
+    which its record shows.
+
+    Examples
+    --------
+    >>> must_drop(1200.0, 400.0, 700.0, 1536.0), must_drop(1000.0, 400.0, 700.0, 1536.0)
+    (True, False)
+    >>> must_drop(1200.0, 400.0, 1150.0, 1536.0)
+    False
+    """
+    if rss + need <= budget:
+        return False
+    return floor is None or rss - floor >= MIN_DROP_MB
+
+
+@dataclasses.dataclass
+class ProgramBudget:
+    """A worker's bound on what it carries into a task: one instance per process.
+
+    Attributes
+    ----------
+    need_mb : dict
+        Per task kind (``"drive"``, ``"tyre_set"``), the largest rise of a task's peak above the
+        memory it started with [MB], over this process's tasks that found the programs of
+        earlier ones kept: the rise that keeping them adds to. A task that started by dropping
+        them, or the first of its kind in the process, reloads its programs and rises more;
+        counting those would make every later task drop, and reload, again.
+    floor_mb : float or None
+        Resident memory right after this process's last drop [MB].
+    last_fit_shape : int or None
+        Padded number of windows of the last tyre-set fit.
+    dirty : bool
+        Whether a task ran since the last drop (there are programs to drop).
+    """
+
+    need_mb: dict[str, float] = dataclasses.field(default_factory=dict)
+    floor_mb: float | None = None
+    last_fit_shape: int | None = None
+    dirty: bool = False
+    _seen: set[str] = dataclasses.field(default_factory=set)
+
+    def start(self, kind: str, budget_mb: float) -> tuple[float, bool]:
+        """Before a task: release free heap, drop the programs if :func:`must_drop` says so,
+        and start the task's peak count. Returns the resident memory the task starts with [MB]
+        and whether the programs were dropped."""
+        release_free_memory()
+        rss = rss_mb()
+        need = self.need_mb.get(kind, 0.0)
+        dropped = self.dirty and must_drop(rss, need, self.floor_mb, budget_mb)
+        if dropped:
+            self._drop()
+            rss = rss_mb()
+        reset_peak_rss()
+        return rss, dropped
+
+    def finish(self, kind: str, start_mb: float, dropped: bool) -> float:
+        """After a task: its peak [MB], which also updates what a task of its kind needs
+        (``dropped``: whether the task started by dropping the programs, or dropped them)."""
+        peak = peak_rss_mb()
+        if not dropped and kind in self._seen:
+            self.need_mb[kind] = max(self.need_mb.get(kind, 0.0), peak - start_mb)
+        self._seen.add(kind)
+        self.dirty = True
+        return peak
+
+    def keep_one_fit_shape(self, size: int) -> bool:
+        """Drop the compiled programs when a fit's padded shape changes; True if dropped.
+
+        A fit's programs are hundreds of MB per shape. The run gives the sets with the largest
+        shape the highest priority (:func:`~.run.fleet_run`), so a worker meets each shape about
+        once and this drops each shape about once; reloading from the shared cache and the kept
+        traced programs is cheap. The first fit of a process drops what came before it too: the
+        per-drive stage's programs, which a fit does not use.
+        """
+        drop = self.dirty and self.last_fit_shape != size
+        if drop:
+            self._drop()
+        self.last_fit_shape = size
+        return drop
+
+    def _drop(self) -> None:
+        drop_compiled_programs()
+        self.floor_mb = rss_mb()
+        self.last_fit_shape = None
+        self.dirty = False
+
+
+#: This process's budget state (a dask worker is one process running one task at a time).
+WORKER = ProgramBudget()
+
+
+__all__ = [
+    "MIN_DROP_MB",
+    "WORKER",
+    "ProgramBudget",
+    "drop_compiled_programs",
+    "must_drop",
+    "peak_rss_mb",
+    "release_free_memory",
+    "reset_peak_rss",
+    "rss_mb",
+]
