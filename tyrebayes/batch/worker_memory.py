@@ -134,13 +134,15 @@ class ProgramBudget:
         Padded number of windows of the last tyre-set fit.
     dirty : bool
         Whether a task ran since the last drop (there are programs to drop).
+    seen_kinds : set of str
+        The task kinds this process has run.
     """
 
     need_mb: dict[str, float] = dataclasses.field(default_factory=dict)
     floor_mb: float | None = None
     last_fit_shape: int | None = None
     dirty: bool = False
-    _seen: set[str] = dataclasses.field(default_factory=set)
+    seen_kinds: set[str] = dataclasses.field(default_factory=set)
 
     def start(self, kind: str, budget_mb: float) -> tuple[float, bool]:
         """Before a task: release free heap, drop the programs if :func:`must_drop` says so,
@@ -160,9 +162,9 @@ class ProgramBudget:
         """After a task: its peak [MB], which also updates what a task of its kind needs
         (``dropped``: whether the task started by dropping the programs, or dropped them)."""
         peak = peak_rss_mb()
-        if not dropped and kind in self._seen:
+        if not dropped and kind in self.seen_kinds:
             self.need_mb[kind] = max(self.need_mb.get(kind, 0.0), peak - start_mb)
-        self._seen.add(kind)
+        self.seen_kinds.add(kind)
         self.dirty = True
         return peak
 
