@@ -263,7 +263,7 @@ def main() -> None:
         "vmapped_fleet": fleet,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "machine": machine(),
-        "previous": "online_speed_df9f71f.json: same drive, before this revision, XLA on two threads",
+        "previous": "online_speed_df9f71f.json: the same drive before this revision (two threads)",
     }
     Path(args.out).write_text(json.dumps(result, indent=2))
 

@@ -15,7 +15,9 @@ fixed set of shorter ones (0 included, so a step never makes the objective worse
 most of an iteration's cost, is taken again only after a step longer than
 :data:`_REFRESH_SD` posterior sds: a settled filter's first step from the predicted mean is a
 fraction of an sd, over which the block's curvature barely changes, so its update costs one
-Hessian (a chord step confirms the mode). The loop is a ``lax.while_loop``: the update vmaps over
+Hessian (a chord step confirms the mode). The Hessian at the predicted mean comes from the same
+forward-over-reverse pass as the objective and gradient there, and the Newton matrix is inverted
+once per Hessian, not once per iteration. The loop is a ``lax.while_loop``: the update vmaps over
 cars (running as many iterations as the slowest car needs) and scans over time.
 """
 
