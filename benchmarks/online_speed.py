@@ -2,9 +2,14 @@
 
 One simulated one-hour drive (compact_fwd, Magic Formula truth) through the stream pipeline
 gives the windows (steps of 30 s, padded to 121 windows). Timed after compilation, median of
-``--reps`` runs, on one CPU thread (XLA's intra-op threads set to 1 before JAX starts):
+``--reps`` runs, on one core: the process is pinned to one CPU before JAX starts
+(``os.sched_setaffinity``), so XLA's CPU client sizes its thread pool to it. XLA_FLAGS alone did
+not do that: ``online_speed_df9f71f.json`` was taken with them and two threads shared the work.
 
 * one car-hour per model kind (target ≤ 40 ms, i.e. ≥ 10^5× real time);
+* where a Magic Formula car-hour's time goes: the block log-likelihood's Hessian, its value and
+  gradient, and its value alone, each timed over the hour's steps, and how many Hessians the
+  filter took (counted in a separate, untimed run);
 * ``--cars`` copies of that car-hour vmapped in one call, the time per car-hour;
 * ``--fleet-cars`` (10^4, the issue's number) cars in one compiled call over the first
   ``--fleet-steps`` steps of the drive (each car's own copy of the windows; one hour each would
@@ -30,6 +35,9 @@ os.environ["XLA_FLAGS"] = (
     os.environ.get("XLA_FLAGS", "")
     + " --xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
 )
+# One core (module docstring): the last CPU this process may run on.
+CORE = max(os.sched_getaffinity(0))
+os.sched_setaffinity(0, {CORE})
 
 import argparse  # noqa: E402
 import json  # noqa: E402
@@ -50,13 +58,16 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).parent))
 from _online_common import machine, simulated_windows  # noqa: E402
 
+import tyrebayes.inference.online.laplace_update as laplace_module  # noqa: E402
 from tyrebayes.inference.online import OnlineEstimator, run_online, stream_steps  # noqa: E402
+from tyrebayes.inference.online.block_likelihood import block_log_likelihood  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "online_speed.json"
 KINDS = ("magic", "shaped", "brush", "linear")
 
 
 def timed(fn, reps):
+    """(compile and first run, median of ``reps`` runs after it, fastest of them) [s]."""
     t0 = time.perf_counter()
     jax.block_until_ready(fn())
     first = time.perf_counter() - t0
@@ -65,7 +76,58 @@ def timed(fn, reps):
         t0 = time.perf_counter()
         jax.block_until_ready(fn())
         walls.append(time.perf_counter() - t0)
-    return first, float(np.median(walls))
+    return first, float(np.median(walls)), float(np.min(walls))
+
+
+def where_the_time_goes(steps, reps) -> dict:
+    """The Magic Formula block log-likelihood's passes, each scanned over the hour's steps at the
+    type prior's mean (per step, ms), and the Hessians one car-hour takes."""
+    est = OnlineEstimator.create(kind="magic")
+    theta = est.prior.mean
+    weight = jnp.asarray(0.5)
+
+    def scanned(make):
+        def over(blocks):
+            def one(carry, block):
+                def nll(t):
+                    return -block_log_likelihood(t, block, weight, "magic", est.priors)
+
+                return carry, make(nll)(theta)
+
+            return jax.lax.scan(one, 0.0, blocks)[1]
+
+        fn = jax.jit(over)
+        return timed(lambda: fn(steps), reps)[1] / steps.n_blocks * 1e3
+
+    passes = {
+        "hessian_ms": scanned(lambda f: jax.jacfwd(jax.grad(f))),
+        "value_and_gradient_ms": scanned(jax.value_and_grad),
+        "value_ms": scanned(lambda f: f),
+    }
+    # Hessians counted in an untimed run: a host callback at each of the update's
+    # eigendecompositions of a Hessian (laplace_update._informations, once per Hessian).
+    counted = []
+    informations = laplace_module._informations
+
+    def counting(curvature):
+        jax.debug.callback(lambda: counted.append(1))
+        return informations(curvature)
+
+    laplace_module._informations = counting
+    try:
+        probe = OnlineEstimator.create(kind="magic", config=est.config)
+        jax.block_until_ready(jax.jit(lambda s, b: probe.run(s, b))(probe.init(), steps))
+    finally:
+        laplace_module._informations = informations
+    hessians = len(counted)
+    return {
+        "kind": "magic",
+        "per_step": passes,
+        "hessians_per_car_hour": hessians,
+        "steps_per_car_hour": steps.n_blocks,
+        "hessian_share_of_car_hour_estimate": None,  # filled by main with the car-hour time
+        "note": "each pass timed alone over the hour's steps at the type prior mean (jit, scan)",
+    }
 
 
 def fleet_call(args, steps) -> dict:
@@ -78,7 +140,7 @@ def fleet_call(args, steps) -> dict:
     fn = eqx.filter_jit(
         lambda cars: jax.lax.map(lambda b: est.run(init, b), cars, batch_size=args.chunk)
     )
-    first, wall = timed(lambda: fn(cars), 1)
+    first, wall, _ = timed(lambda: fn(cars), 1)
     return {
         "kind": "magic",
         "n_cars": args.fleet_cars,
@@ -141,6 +203,7 @@ def main() -> None:
     parser.add_argument("--fleet-only", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--out", default=str(RESULTS))
     args = parser.parse_args()
+    load_at_start = os.getloadavg()[0]
     windows, _, _ = simulated_windows(0, 3600.0)
     steps = stream_steps(windows)
     if args.fleet_only:
@@ -150,25 +213,32 @@ def main() -> None:
     rows = []
     for kind in KINDS:
         est = OnlineEstimator.create(kind=kind)
-        first, wall = timed(lambda est=est: run_online(est, est.init(), steps), args.reps)
+        first, wall, fastest = timed(lambda est=est: run_online(est, est.init(), steps), args.reps)
         rows.append(
             {
                 "kind": kind,
                 "compile_and_first_run_s": first,
                 "car_hour_s": wall / hours,
+                "car_hour_fastest_s": fastest / hours,
                 "target_s": 0.040,
                 "target_met": bool(wall / hours <= 0.040),
                 "real_time_factor": 3600.0 / (wall / hours),
             }
         )
         print(json.dumps(rows[-1]), flush=True)
+    profile = where_the_time_goes(steps, args.reps)
+    magic_s = next(r["car_hour_s"] for r in rows if r["kind"] == "magic") * hours
+    profile["hessian_share_of_car_hour_estimate"] = (
+        profile["hessians_per_car_hour"] * profile["per_step"]["hessian_ms"] * 1e-3 / magic_s
+    )
+    print(json.dumps(profile), flush=True)
     vmapped = []
     for kind in ("magic", "linear"):
         est = OnlineEstimator.create(kind=kind)
         cars = jax.tree.map(lambda x: jnp.broadcast_to(x, (args.cars, *x.shape)), steps)
         states = jax.tree.map(lambda x: jnp.broadcast_to(x, (args.cars, *x.shape)), est.init())
         fn = eqx.filter_jit(jax.vmap(lambda s, b, est=est: est.run(s, b)))
-        first, wall = timed(lambda fn=fn, cars=cars, states=states: fn(states, cars), 1)
+        first, wall, _ = timed(lambda fn=fn, cars=cars, states=states: fn(states, cars), 1)
         vmapped.append(
             {
                 "kind": kind,
@@ -188,12 +258,15 @@ def main() -> None:
         "steps_per_car_hour": steps.n_blocks / hours,
         "step_width": int(steps.slip.shape[1]),
         "hours_per_run": hours,
-        "threads": "XLA intra-op threads 1 (one core)",
+        "threads": f"one core: process pinned to CPU {CORE} (os.sched_setaffinity) before JAX "
+        "started; the vmapped and fleet calls too",
         "single_car": rows,
+        "where_the_time_goes": profile,
         "vmapped": vmapped,
         "vmapped_fleet": fleet,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
-        "machine": machine(),
+        "machine": {**machine(), "load_average_1min_at_start": load_at_start},
+        "previous": "online_speed_df9f71f.json: the same drive before this revision (two threads)",
     }
     Path(args.out).write_text(json.dumps(result, indent=2))
 

@@ -42,3 +42,26 @@ def test_convex_wrong_way_likelihood_does_not_grow_the_covariance():
     u = laplace_update(lambda t: 0.1 * t[0] ** 2, jnp.zeros(2), cov, 2)
     assert np.all(np.linalg.eigvalsh(np.asarray(cov - u.cov)) >= -1e-12)
     assert np.all(np.isfinite(u.mean))
+
+
+def test_one_newton_step_uses_the_hessian_at_the_predicted_mean():
+    # The first iteration's Hessian comes from the pass that also gives the objective and
+    # gradient there: one step must be m − (P⁻¹ + |H|)⁻¹ g with H = ∇²(−ℓ) at m, and the
+    # covariance (P⁻¹ + H)⁻¹ (H positive definite here), as from jax.hessian directly.
+    import jax
+
+    target = jnp.asarray([0.3, -0.2, 0.5])
+
+    def log_likelihood(theta):
+        return -jnp.sum(jnp.cosh(theta - target)) - 0.5 * (theta[0] * theta[1] - 0.1) ** 2
+
+    mean = jnp.asarray([0.1, 0.2, -0.1])
+    cov = jnp.asarray([[0.5, 0.1, 0.0], [0.1, 0.4, 0.05], [0.0, 0.05, 0.3]])
+    hessian = np.asarray(jax.hessian(lambda t: -log_likelihood(t))(mean))
+    gradient = np.asarray(jax.grad(lambda t: -log_likelihood(t))(mean))
+    assert np.all(np.linalg.eigvalsh(hessian) > 0)
+    precision = np.linalg.inv(np.asarray(cov))
+    newton = precision + hessian
+    u = laplace_update(log_likelihood, mean, cov, 1)
+    np.testing.assert_allclose(u.mean, mean - np.linalg.solve(newton, gradient), rtol=1e-10)
+    np.testing.assert_allclose(u.cov, np.linalg.inv(newton), rtol=1e-10)

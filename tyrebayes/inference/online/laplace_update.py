@@ -15,7 +15,9 @@ fixed set of shorter ones (0 included, so a step never makes the objective worse
 most of an iteration's cost, is taken again only after a step longer than
 :data:`_REFRESH_SD` posterior sds: a settled filter's first step from the predicted mean is a
 fraction of an sd, over which the block's curvature barely changes, so its update costs one
-Hessian (a chord step confirms the mode). The loop is a ``lax.while_loop``: the update vmaps over
+Hessian (a chord step confirms the mode). The Hessian at the predicted mean comes from the same
+forward-over-reverse pass as the objective and gradient there, and the Newton matrix is inverted
+once per Hessian, not once per iteration. The loop is a ``lax.while_loop``: the update vmaps over
 cars (running as many iterations as the slowest car needs) and scans over time.
 """
 
@@ -144,6 +146,13 @@ def laplace_update(
     value_and_gradient = jax.value_and_grad(negative_log_likelihood)
     hessian = jax.jacfwd(jax.grad(negative_log_likelihood))
     lengths = jnp.asarray(_STEP_LENGTHS, dtype=mean.dtype)
+    basis = jnp.eye(mean.shape[0], dtype=mean.dtype)
+
+    def newton_factors(curvature):
+        # The informations of a Hessian and the inverse of the Newton matrix they give: all
+        # that changes when the Hessian is taken again, so iterations in between reuse them.
+        information, absolute = _informations(curvature)
+        return information, absolute, _floored_inverse(precision + absolute)
 
     def evaluated(theta):
         # The objective and its gradient at θ from one pass (the gradient is the next
@@ -154,12 +163,13 @@ def laplace_update(
         return jnp.where(jnp.isfinite(value), value, jnp.inf), precision @ d + g
 
     def newton(carry):
-        i, theta, value, g, information, absolute, refresh, _ = carry
-        information, absolute = jax.lax.cond(
-            refresh, lambda: _informations(hessian(theta)), lambda: (information, absolute)
+        i, theta, value, g, information, absolute, inverse, refresh, _ = carry
+        information, absolute, inverse = jax.lax.cond(
+            refresh,
+            lambda: newton_factors(hessian(theta)),
+            lambda: (information, absolute, inverse),
         )
-        newton_matrix = precision + absolute
-        step = _floored_inverse(newton_matrix) @ g
+        step = inverse @ g
         step = jnp.where(jnp.all(jnp.isfinite(step)), step, 0.0)
         full_value, full_gradient = evaluated(theta - step)
 
@@ -174,17 +184,43 @@ def laplace_update(
             shorter,
         )
         moved = taken * step
+        newton_matrix = precision + absolute
         length = jnp.sqrt(jnp.abs(moved @ newton_matrix @ moved))
         refresh = length > _REFRESH_SD
-        return i + 1, theta - moved, new_value, new_gradient, information, absolute, refresh, length
+        return (
+            i + 1,
+            theta - moved,
+            new_value,
+            new_gradient,
+            information,
+            absolute,
+            inverse,
+            refresh,
+            length,
+        )
 
     def more(carry):
         i, length = carry[0], carry[-1]
         return (i < newton_steps) & ((i == 0) | (length >= tolerance))
 
-    zeros, inf = jnp.zeros_like(cov), jnp.asarray(jnp.inf, mean.dtype)
-    start = (jnp.zeros((), jnp.int32), mean, *evaluated(mean), zeros, zeros, jnp.array(True), inf)
-    _, mode, value, _, information, _, _, _ = jax.lax.while_loop(more, newton, start)
+    # The first iteration's Hessian is taken at the predicted mean, in the same pass as the
+    # objective and gradient there (forward over reverse: the Hessian's columns are the
+    # directional derivatives of the gradient, whose primal is the gradient itself).
+    (nll, g), (_, rows) = jax.vmap(
+        lambda e: jax.jvp(value_and_gradient, (mean,), (e,)), out_axes=(None, 0)
+    )(basis)
+    value = jnp.where(jnp.isfinite(nll), nll, jnp.inf)
+    inf = jnp.asarray(jnp.inf, mean.dtype)
+    start = (
+        jnp.zeros((), jnp.int32),
+        mean,
+        value,
+        g,
+        *newton_factors(rows.T),
+        jnp.array(False),
+        inf,
+    )
+    _, mode, value, _, information, _, _, _, _ = jax.lax.while_loop(more, newton, start)
     post_cov = _floored_inverse(precision + information)
     _, log_det_ratio = jnp.linalg.slogdet(post_cov @ precision)
     log_evidence = -value + 0.5 * log_det_ratio
