@@ -37,9 +37,10 @@ from .settings import RunSettings
 from .tyre_set_stage import fit_tyre_set, pad_size, set_file_name, tyre_set_table
 from .worker_memory import peak_rss_mb
 
-#: Memory limit of each local worker: a fast fit of a set of four 10-60 min drives held up to
-#: 1.8 GB at its peak, a drive task up to 1.9 GB (benchmarks/results/fleet_run.json, full size;
-#: 3.2 GB for a set in an earlier run).
+#: Memory limit of each local worker, the hard stop above the tasks' budget
+#: (``RunSettings.memory_budget_mb``): without the budget a fast fit of a set of four 10-60 min
+#: drives held up to 1.8 GB at its peak and a drive task up to 1.9 GB
+#: (benchmarks/results/fleet_run_df9f71f.json, full size; 3.2 GB for a set in an earlier run).
 DEFAULT_MEMORY_LIMIT = "4GiB"
 # Tyre-set tasks' priorities are their padded shape minus this: below every drive task's 0.
 _SET_PRIORITY_OFFSET = 1 << 40

@@ -56,15 +56,15 @@ def release_free_memory() -> None:
 
     A worker's tasks free what they allocate, but glibc keeps freed heap below chunks still in
     use: after a tyre-set fit most of a worker's resident memory can be such free heap, and it
-    counts towards the worker's limit and every later task's peak (``fleet_run.json`` has the
-    per-task peaks). No-op where there is no glibc.
+    counts towards the worker's limit and every later task's peak (``fleet_run*.json`` have
+    the per-task peaks). No-op where there is no glibc.
     """
     import ctypes
 
     # No gc.collect() here: arrays go when their last reference does, and a full collection
     # walks every object of a worker that has traced fits. With one before and after each task
     # the full-size benchmark spent 1.5 CPU s per drive-hour outside the drive stage's steps
-    # (fleet_run.json), 0.1 s without (fleet_run_reduced.json).
+    # (fleet_run_full_gc.json), 0.1 s without (fleet_run_reduced_58b918d.json).
     try:
         ctypes.CDLL("libc.so.6").malloc_trim(0)
     except (OSError, AttributeError):
