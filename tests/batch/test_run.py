@@ -150,13 +150,20 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
         assert "rho_score" in fit.data["constant_data"].data_vars
         assert 10.0 < row["c_xr"] < 100.0
     # Each task's memory as it ran: what it started with, its peak, whether its worker dropped
-    # its compiled programs first; a worker's first fit drops the drive stage's programs.
-    ran = [*records.values(), *_records(out, "tyre_sets").values()]
+    # its compiled programs (which tasks drop depends on the scheduling: the rule itself is
+    # tested in test_worker_memory.py; a set that drops them at a new fit shape can peak below
+    # its start); the summary counts the drops of this run's sets.
+    set_records = _records(out, "tyre_sets").values()
+    ran = [*records.values(), *set_records]
     assert len(ran) == 6 + 3
-    assert all(0 < r["rss_mb_at_start"] <= r["peak_rss_mb"] for r in ran)
+    assert all(r["rss_mb_at_start"] > 0 and r["peak_rss_mb"] > 0 for r in ran)
+    assert all(
+        r["rss_mb_at_start"] <= r["peak_rss_mb"] + 1.0 for r in ran if not r["programs_dropped"]
+    )
     assert all(isinstance(r["programs_dropped"], bool) for r in ran)
-    assert any(r["programs_dropped"] for r in ran if r["item"] == "tyre_set")
-    assert summary["tyre_sets"]["programs_dropped"] >= 1
+    assert summary["tyre_sets"]["programs_dropped"] == sum(
+        r["programs_dropped"] for r in set_records
+    )
     failures = pd.read_csv(out / "failures.csv")
     assert sorted(failures["item"]) == ["drive", "drive", "tyre_set"]
 

@@ -149,14 +149,14 @@ class ProgramBudget:
         and start the task's peak count. Returns the resident memory the task starts with [MB]
         and whether the programs were dropped."""
         release_free_memory()
-        rss = rss_mb()
         need = self.need_mb.get(kind, 0.0)
-        dropped = self.dirty and must_drop(rss, need, self.floor_mb, budget_mb)
+        dropped = self.dirty and must_drop(rss_mb(), need, self.floor_mb, budget_mb)
         if dropped:
             self._drop()
-            rss = rss_mb()
+        # The peak count restarts from what is resident now, so a task's peak is never below
+        # its start unless the task itself drops programs (a fit at a new shape).
         reset_peak_rss()
-        return rss, dropped
+        return rss_mb(), dropped
 
     def finish(self, kind: str, start_mb: float, dropped: bool) -> float:
         """After a task: its peak [MB], which also updates what a task of its kind needs
