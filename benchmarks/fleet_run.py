@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from tyrebayes.batch.worker_memory import peak_rss_mb
+from tyrebayes.batch.worker_memory import peak_rss_mb, rss_mb
 
 RESULTS = Path(__file__).resolve().parent / "results" / "fleet_run.json"
 TARGET_DRIVE_HOURS_PER_CORE_HOUR = 5000.0
@@ -140,7 +140,7 @@ def plain_loop(items, out: Path, settings, traced_drives: bool = False) -> dict:
         "drives_done": sum(r["status"] == "done" for r in drives.values()),
         "sets_done": sum(r["status"] == "done" for r in set_records),
         "tyre_set_fit_seconds": [r["seconds"] for r in set_records],
-        "peak_rss_mb": peak_rss_mb(),
+        "peak_rss_mb": peakrss_mb(),
         "load_average_at_start": load,
         "load_average_at_end": os.getloadavg(),
     }
@@ -205,20 +205,12 @@ def _as_a_worker() -> None:
 
 def _compiled_programs_mb() -> float:
     """Resident memory [MB] this process frees when JAX drops its compiled programs."""
-    import jax
-
-    from tyrebayes.batch.worker_memory import release_free_memory
+    from tyrebayes.batch.worker_memory import drop_compiled_programs, release_free_memory
 
     release_free_memory()
-    before = _rss_mb()
-    jax.clear_caches()
-    release_free_memory()
-    return before - _rss_mb()
-
-
-def _rss_mb() -> float:
-    with open("/proc/self/status") as fh:
-        return next(int(line.split()[1]) / 1024.0 for line in fh if line.startswith("VmRSS:"))
+    before = rss_mb()
+    drop_compiled_programs()
+    return before - rss_mb()
 
 
 def main() -> int:

@@ -4,12 +4,13 @@ A worker is one long-lived process that runs drive tasks and tyre-set fits in tu
 stay resident after a task and count towards every later task's peak:
 
 * heap that glibc keeps after the task freed it (:func:`release_free_memory` gives it back);
-* the programs JAX compiled: a fit's programs of one padded shape take a few hundred MB, and
-  each padded drive length adds its force-density EM and temperature scan. Keeping them is what
-  makes the next task of the same shape fast (reloading a fit's programs from the shared cache
-  costs 1-3 s), so they are dropped only when keeping them would take the next task past the
-  worker's memory budget (:class:`ProgramBudget`), and when a fit's padded shape changes
-  (:func:`keep_one_fit_shape`).
+* the programs JAX compiled: a fit's programs of one padded shape and each padded drive
+  length's force-density EM and temperature scan (747 MB in one process at the end of the warm
+  loop of ``benchmarks/results/fleet_run.json``). Keeping them is what makes the next task of
+  the same shape fast (a dropped program is reloaded from the shared cache), so they are dropped
+  only when keeping them would take the next task past the worker's memory budget
+  (:class:`ProgramBudget`), and when a fit's padded shape changes
+  (:meth:`ProgramBudget.keep_one_fit_shape`).
 """
 
 from __future__ import annotations
@@ -21,16 +22,22 @@ import dataclasses
 MIN_DROP_MB = 100.0
 
 
-def rss_mb() -> float:
-    """This process's resident memory now [MB] (VmRSS on Linux; its peak elsewhere)."""
+def _status_mb(field: str) -> float | None:
+    """A memory field of ``/proc/self/status`` (``VmRSS``, ``VmHWM``) [MB]; None without it."""
     try:
         with open("/proc/self/status") as fh:
             for line in fh:
-                if line.startswith("VmRSS:"):
+                if line.startswith(f"{field}:"):
                     return int(line.split()[1]) / 1024.0
     except OSError:
         pass
-    return peak_rss_mb()
+    return None
+
+
+def rss_mb() -> float:
+    """This process's resident memory now [MB] (VmRSS on Linux; its peak elsewhere)."""
+    now = _status_mb("VmRSS")
+    return peak_rss_mb() if now is None else now
 
 
 def peak_rss_mb() -> float:
@@ -39,13 +46,9 @@ def peak_rss_mb() -> float:
     ``getrusage``'s ``ru_maxrss`` survives ``execve`` on Linux, so a worker spawned by a large
     process would report its parent's peak; the kernel's VmHWM is the process's own.
     """
-    try:
-        with open("/proc/self/status") as fh:
-            for line in fh:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
+    peak = _status_mb("VmHWM")
+    if peak is not None:
+        return peak
     import resource
 
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
