@@ -178,6 +178,9 @@ def main() -> None:
     parser.add_argument("--before", type=float, default=600.0)
     parser.add_argument("--after", type=float, default=360.0)
     parser.add_argument("--cars", type=int, default=100)
+    parser.add_argument(
+        "--max-step-s", type=float, default=None, help="pack sparse driving (window_blocks)"
+    )
     parser.add_argument("--out", default=str(RESULTS))
     args = parser.parse_args()
     start = time.perf_counter()
@@ -186,7 +189,7 @@ def main() -> None:
 
     def run_pair(i: int, factor: float) -> dict:
         windows = swap_drive(i, args.before, args.after, factor)
-        steps = stream_steps(windows)
+        steps = stream_steps(windows, max_step_s=args.max_step_s)
         n = steps.n_blocks
         _, traj = run_online(estimator, estimator.init(), pad_steps(steps, n_steps))
         times = np.asarray(traj.time_s)[:n]
@@ -218,14 +221,16 @@ def main() -> None:
 
     template, _, _ = simulated_windows(0, 3600.0, abs_events=0)
     per_car = [model_windows(template, seed) for seed in range(args.cars)]
-    steps = [stream_steps(w) for w in per_car]
+    steps = [stream_steps(w, max_step_s=args.max_step_s) for w in per_car]
     width = max(s.slip.shape[1] for s in steps)
     longest = max(s.n_blocks for s in steps)
     padded = []
     for w in per_car:
         from tyrebayes.inference.online import window_blocks
 
-        padded.append(pad_steps(window_blocks(w, "dry", width=width), longest))
+        padded.append(
+            pad_steps(window_blocks(w, "dry", width=width, max_step_s=args.max_step_s), longest)
+        )
     cars = jax.tree.map(lambda *x: jnp.stack(x), *padded)
     fn = eqx.filter_jit(jax.vmap(lambda s, b: estimator.run(s, b)))
     # Cars in chunks of CHUNK_CARS per call: one call over all 100 hung in XLA's CPU runtime
@@ -307,6 +312,7 @@ def main() -> None:
             },
             "how": "windows drawn from the per-tyre model at a fixed θ (module docstring)",
         },
+        "steps": {"step_s": 30.0, "max_step_s": args.max_step_s or 30.0},
         "wall_s": time.perf_counter() - start,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "machine": machine(),

@@ -42,6 +42,7 @@ def test_online_json_trajectory(short_stream, capsys):
             assert lo < r["c_x"]["mean"] < hi
     assert payload["alarms_s"] == [r["time_s"] for r in trajectory if r["alarm"]]
     assert "whole stream" in payload["note"]
+    assert payload["step_s"] == payload["max_step_s"] == 30.0
 
 
 def test_online_text_and_bad_input(short_stream, capsys, tmp_path):
@@ -53,3 +54,8 @@ def test_online_text_and_bad_input(short_stream, capsys, tmp_path):
     bad = ["online", str(short_stream), "--vehicle", "compact_fwd", "--figure", "x.txt"]
     assert main(bad) == 2
     assert "--figure" in capsys.readouterr().err
+    packed = ["online", str(short_stream), "--vehicle", "compact_fwd", "--max-step-s", "25"]
+    assert main(packed) == 2
+    err = capsys.readouterr().err.strip()
+    assert "max_step_s: expected a whole multiple of 5.0 s ≥ step_s = 30.0" in err
+    assert len(err.splitlines()) == 1

@@ -33,8 +33,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="the tyre posterior updated online, step by step, with change alarms",
         description=(
             "Run the in-car estimator over a stream: the per-tyre posterior of C_x updated every "
-            "30 s of driving, with its 90 %% interval, an 'enough evidence' flag (values withheld "
-            "until then) and alarms when C_x changes abruptly (tyre swap, puncture)."
+            "30 s of driving (or packed up to --max-step-s), with its 90 %% interval, an "
+            "'enough evidence' flag (values withheld until then) and alarms when C_x changes "
+            "abruptly (tyre swap, puncture)."
         ),
     )
     parser.add_argument(
@@ -51,6 +52,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--figure", help="write a PNG of the trajectory against the batch posterior (fast fit)"
+    )
+    parser.add_argument(
+        "--max-step-s",
+        type=float,
+        default=None,
+        metavar="S",
+        help=(
+            "pack sparse driving into steps of up to S seconds (a multiple of 5, ≥ 30, e.g. "
+            "60): fewer updates for a replay of logs, later alarms; default 30 s steps on the "
+            "clock"
+        ),
     )
     add_can_arguments(parser)
     parser.add_argument("--json", action="store_true", help="machine-readable output")
@@ -96,6 +108,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..inference.online import online_estimate, stream_steps, stream_windows
     from ..inference.online.summary import summary_record
+    from ..inference.online.windows import STEP_S
 
     with stream_file(args, args.vehicle) as path:
         windows = stream_windows(
@@ -105,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
             temperature_c=args.temperature,
             ambient_c=args.ambient,
         )
-    steps = stream_steps(windows, args.surface)
+    steps = stream_steps(windows, args.surface, max_step_s=args.max_step_s)
     imu = float(np.max(windows.get("imu_gain_log_sd", np.zeros(1)), initial=0.0))
     _, trajectory = online_estimate(steps, kind=args.model, imu_gain_log_sd=imu)
     records = [summary_record(trajectory, i) for i in range(steps.n_blocks)]
@@ -114,7 +127,8 @@ def run(args: argparse.Namespace) -> int:
         "vehicle": args.vehicle,
         "surface": args.surface,
         "model": args.model,
-        "step_s": float(np.diff(np.asarray(steps.time_s)).min()) if steps.n_blocks > 1 else None,
+        "step_s": STEP_S,
+        "max_step_s": STEP_S if args.max_step_s is None else args.max_step_s,
         "trajectory": records,
         "final": records[-1],
         "alarms_s": [r["time_s"] for r in records if r["alarm"]],

@@ -24,13 +24,15 @@ Page's recursion S± ← max(0, S± + g±) alarms when either exceeds h; with ex
 ratios the run length to a false alarm is at least e^h steps per side (Wald's inequality), which
 sets h (:data:`~.config.CHANGE_THRESHOLD`).
 
-One step's ratio counts at most h/(k − ½), so that an alarm takes k steps
-(:attr:`~.config.OnlineConfig.change_min_steps`, 3). A change of C_xr persists, while a single
+One step's ratio counts at most h/(k − ½) per STEP_S of driving the step spans (at least one;
+a step packed from sparse driving spans up to PACKED_STEP_S, :mod:`.windows`), so that an alarm
+takes k STEP_S of driving (:attr:`~.config.OnlineConfig.change_min_steps`, 3: 90 s) and more
+than one step. A change of C_xr persists, while a single
 block the model cannot explain (a transient it lacks: a pothole, a feature error in a tight
 turn) moves the update far, and its ratio then speaks of the misfit rather than of C_xr.
 Capping an increment from above keeps exp(S) a supermartingale under the model, so the bound
-stands; a change whose blocks each carry more than the cap is found after k steps instead of
-fewer.
+stands (the cap is known before the step's ratio); a change whose blocks each carry more than
+the cap is found after k STEP_S of driving instead of fewer.
 
 The slips count with the filter's weight 1/VIF, so correlated slip errors do not read as
 evidence. While the estimate itself is still moving (posterior sd of log C_xr above the gate)
@@ -94,7 +96,7 @@ def cusum_step(
     *,
     armed: Bool[Array, ""],
     threshold: float,
-    max_increment: float = jnp.inf,
+    max_increment: float | Float[Array, ""] = jnp.inf,
 ) -> tuple[Float[Array, ""], Float[Array, ""], Bool[Array, ""]]:
     """Page's two-sided recursion on one step's ratios, each capped at ``max_increment``
     (module docstring).

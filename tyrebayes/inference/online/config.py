@@ -33,14 +33,15 @@ DRIFT_PER_SQRT_S = {
 # The C_xr step the change detector is designed for: a tyre swap or a pressure loss moves C_xr by
 # 20 % or more (the test case; winter against summer tyres differ by more).
 CHANGE_LOG_SHIFT = math.log(1.2)
-# At most one false alarm per 100 hours, half of it for each detector. The mid-drive CUSUM: at
-# one step per STEP_S (30 s) at most, 120 steps an hour; a one-sided CUSUM of exact
-# log-likelihood ratios has an average run length to false alarm of at least e^h steps (Wald's
-# inequality; Siegmund 1985, ch. II.6), two sides at least e^h/2, so h = log(2 · 120 / 0.005)
-# = 10.8. The drive-start swap test: at most e^-h per drive start (Ville's inequality,
-# :mod:`.swap`); drives of 15 minutes or longer start at most 4 times an hour, so
-# h = log(4 / 0.005) = 6.7. Both hold when the likelihood is right (benchmarks/online_change.py
-# counts the alarms on windows drawn from it and on simulated drives).
+# At most one false alarm per 100 hours, half of it for each detector. The mid-drive CUSUM:
+# steps start at least STEP_S (30 s) apart (:mod:`.windows`), so at most 120 an hour; a
+# one-sided CUSUM of exact log-likelihood ratios has an average run length to false alarm of at
+# least e^h steps (Wald's inequality; Siegmund 1985, ch. II.6), two sides at least e^h/2, so
+# h = log(2 · 120 / 0.005) = 10.8. The drive-start swap test: at most e^-h per drive start
+# (Ville's inequality, :mod:`.swap`); drives of 15 minutes or longer start at most 4 times an
+# hour, so h = log(4 / 0.005) = 6.7. Both hold when the likelihood is right
+# (benchmarks/online_change.py counts the alarms on windows drawn from it and on simulated
+# drives).
 FALSE_ALARMS_PER_HOUR = 0.01
 MAX_STEPS_PER_HOUR = 3600.0 / STEP_S
 MAX_DRIVE_STARTS_PER_HOUR = 4.0
@@ -70,13 +71,16 @@ class OnlineConfig(eqx.Module):
     change_threshold : float
         CUSUM alarm level [nats] (:data:`CHANGE_THRESHOLD`: ≤ 0.5 false alarms per 100 h).
     change_min_steps : int
-        One step adds at most ``change_threshold / (change_min_steps − ½)`` to the CUSUM, so an
-        alarm needs this many steps of evidence (3: 90 s; :mod:`.change`).
+        A step adds at most ``change_threshold / (change_min_steps − ½)`` to the CUSUM per
+        STEP_S it spans (at least one), so an alarm needs this many STEP_S of driving (3:
+        90 s) and, with steps of at most PACKED_STEP_S = 60 s, two steps at least
+        (:mod:`.change`).
     swap_threshold : float
         Log Bayes factor of a swap at the drive start that raises an alarm [nats]
         (:data:`SWAP_THRESHOLD`: ≤ 0.5 false alarms per 100 h).
     swap_window_steps : int
-        Steps after a drive start that the swap test runs (20: ten minutes; the challenger
+        Steps after a drive start that the swap test runs (20: ten minutes of steps that start
+        30 s apart, more where steps pack sparse driving, :mod:`.windows`; the challenger
         filter costs a second update per step while it runs).
     change_gate_log_sd : float
         The CUSUM accumulates only while the posterior sd of log C_xr is below this: before

@@ -55,7 +55,7 @@ from .parameters import (
 from .state import FilterState
 from .summary import OnlineSummary, c_x_direction, log_normal_summary, readiness
 from .swap import either, swap_step
-from .windows import WindowBlocks
+from .windows import STEP_S, WindowBlocks
 
 
 class OnlineEstimator(eqx.Module):
@@ -178,7 +178,10 @@ class OnlineEstimator(eqx.Module):
             state.cusum_down,
             armed=~swapped & (jnp.sqrt(predicted[1][c_index, c_index]) <= cfg.change_gate_log_sd),
             threshold=cfg.change_threshold,
-            max_increment=cfg.change_threshold / (cfg.change_min_steps - 0.5),
+            # Per STEP_S of the step's span: a packed step carries more windows (.windows).
+            max_increment=cfg.change_threshold
+            / (cfg.change_min_steps - 0.5)
+            * jnp.maximum(block.span_s / STEP_S, 1.0),
         )
         alarm = swapped | shifted
         restarted = reset_to_prior(self.prior, *predicted, TYRE_COORDINATES + PER_DRIVE, shifted)

@@ -38,16 +38,20 @@ def stream_windows(
     return windows
 
 
-def stream_steps(windows: dict[str, np.ndarray], surface: str = "dry") -> WindowBlocks:
-    """The windows in steps of :data:`STEP_S`, padded to the width of a full step.
+def stream_steps(
+    windows: dict[str, np.ndarray], surface: str = "dry", *, max_step_s: float | None = None
+) -> WindowBlocks:
+    """The windows in steps (:func:`~.windows.window_blocks`), padded to the width of
+    :data:`STEP_S` of windows.
 
-    A full step of 0.25 s windows holds STEP_S / 0.25 of them; every stream then shares one
-    compiled filter (per number of steps).
+    STEP_S of 0.25 s windows holds STEP_S / 0.25 + 1 of them at most; every stream then shares
+    one compiled filter (per number of steps). ``max_step_s`` packs sparse driving into
+    fewer steps (:func:`~.windows.window_blocks`).
     """
     times = np.asarray(windows["time_s"], dtype=float)
     spacing = float(np.median(np.diff(np.sort(times)))) if times.size > 1 else 0.25
     width = int(np.ceil(STEP_S / max(spacing, 1e-3))) + 1
-    return window_blocks(windows, surface, width=width)
+    return window_blocks(windows, surface, width=width, max_step_s=max_step_s)
 
 
 __all__ = ["stream_steps", "stream_windows"]

@@ -1,17 +1,28 @@
 """Windowed observations as the online estimator consumes them: one step's windows at a time.
 
 A stream's windows (:func:`~tyrebayes.inference.tyre.data.observations_from_features`) are
-grouped into steps of :data:`STEP_S` seconds, and within a step into the blocks of
-:data:`~tyrebayes.inference.tyre.data.BLOCK_S` seconds whose slips share one offset in the
-per-tyre model. A step holds whole blocks, so each block's offset is integrated out exactly
-within the step (:func:`~tyrebayes.inference.tyre.model.block_offsets`), as in the batch
-likelihood, and the filter's state carries nothing per block. Steps without windows are
-skipped; the time between the steps that remain sets the process noise.
+grouped into the blocks of :data:`~tyrebayes.inference.tyre.data.BLOCK_S` seconds whose slips
+share one offset in the per-tyre model, and consecutive blocks of one drive into steps. A step
+holds whole blocks, so each block's offset is integrated out exactly within the step
+(:func:`~tyrebayes.inference.tyre.model.block_offsets`), as in the batch likelihood, and the
+filter's state carries nothing per block. Blocks without windows are skipped; the time between
+the steps sets the process noise.
 
-Why steps of several blocks: a step's cost is mostly fixed (a Hessian of θ, a few Newton
-iterations), hardly its windows' (they are vectorised), so a step per 30 s costs a sixth of a
-step per 5 s block for the same answer (the update is sequential Bayes either way; only the
-linearisation points differ).
+Why steps of several blocks: besides its windows' share (the block likelihood's Hessian and
+gradients, which grow with the padded width) a step has a fixed cost (eigendecompositions of θ's
+matrices, the Newton loop, the change tests), and the update is sequential Bayes either way:
+only the linearisation points differ.
+
+Steps are cut on a STEP_S clock by default: an update, and an alarm, at most STEP_S after its
+windows. A step's cost grows with its padded width, windows or padding alike, and normal
+driving fills a clock-cut step only partly (cruising, stops and turns give no slip windows),
+so a replay of logged drives, where the alarms' latency matters less than the compute, can
+pack sparse driving: with ``max_step_s`` above STEP_S a step takes further whole blocks after
+its STEP_S while its windows fit the width and it spans at most ``max_step_s``
+(:data:`PACKED_STEP_S`, ``tyrebayes online --max-step-s``; ``benchmarks/online_speed.py`` and
+``benchmarks/online_change.py`` measure what it saves and what it costs the alarms). Either
+way a drive's steps start at least STEP_S apart (at most 3600/STEP_S an hour, which the change
+detector's false-alarm bound counts on, :mod:`.config`).
 
 The windows' force-density scores (``rho_score``, for E[ρ_true | ρ_obs]) are taken as the stream
 pipeline gives them: estimated over the stream that the windows come from. In a car that is the
@@ -29,8 +40,12 @@ from jaxtyping import Array, Bool, Float, Int
 from ..._errors import BadInputError
 from ..tyre.data import BLOCK_S, SURFACES, TyreObservations
 
-#: Length of one filter step [s]: whole blocks of BLOCK_S (module docstring).
+#: Length of a filter step on the clock [s], and the least time between two steps' starts:
+#: whole blocks of BLOCK_S.
 STEP_S = 30.0
+#: Longest step when sparse driving is packed (module docstring): under 2.5 STEP_S, so that a
+#: change alarm still needs two steps (:mod:`.change`).
+PACKED_STEP_S = 60.0
 
 # Fields of a block that are per window, with their padding value.
 _WINDOW_FIELDS = {
@@ -58,11 +73,16 @@ class WindowBlocks(eqx.Module):
     at_limit : Bool[Array, "*b w"]
         ABS windows.
     block_index : Int[Array, "*b w"]
-        Which BLOCK_S block of its step each window lies in (0 …).
+        Which of its step's blocks each window lies in, numbered 0 … in time order over the
+        blocks that hold windows (so always below the width).
     mask : Bool[Array, "*b w"]
         False for padding.
     time_s : Float[Array, "*b"]
-        End of each block [s] (drive time; the process noise grows with its differences).
+        End of each step [s]: STEP_S after its start or the end of its last block, whichever
+        is later (drive time; the process noise grows with its differences).
+    span_s : Float[Array, "*b"]
+        From each step's start to its end [s] (0 for an empty step): the change detector caps
+        a step's evidence per STEP_S it spans.
     drive_start : Bool[Array, "*b"]
         The first step of a drive: the per-drive nuisances (slip offset, force gain) start
         again from their prior there, as they are per drive in the batch model.
@@ -81,6 +101,7 @@ class WindowBlocks(eqx.Module):
     block_index: Int[Array, "*b w"]
     mask: Bool[Array, "*b w"]
     time_s: Float[Array, "*b"]
+    span_s: Float[Array, "*b"]
     drive_start: Bool[Array, "*b"]
     surface: str = eqx.field(static=True)
 
@@ -117,12 +138,52 @@ class WindowBlocks(eqx.Module):
         )
 
 
+def _pack_steps(
+    drive: Int[np.ndarray, "k"],
+    block: Int[np.ndarray, "k"],
+    count: Int[np.ndarray, "k"],
+    width: int,
+    blocks_per_step: int,
+    max_blocks_per_step: int,
+) -> tuple[Int[np.ndarray, "k"], Int[np.ndarray, "s"]]:
+    """The step of each of a stream's non-empty blocks (time order), numbered 0 …, and the
+    block each step starts at (module docstring).
+
+    A step starts at the ``blocks_per_step`` clock boundary at or before its first block, but
+    not before the last step of the same drive ends, nor within ``blocks_per_step`` of its
+    start. It takes every block up to ``blocks_per_step`` from its start, then more while
+    they fit ``width`` windows and lie within ``max_blocks_per_step`` of it, and ends
+    ``blocks_per_step`` after its start or with its last block, whichever is later. It never
+    holds two drives. With ``max_blocks_per_step == blocks_per_step`` the steps are the
+    clock's.
+    """
+    step = np.empty(block.size, dtype=np.int64)
+    starts: list[int] = []
+    fill, end = 0, 0
+    for i in range(block.size):
+        same_drive = i > 0 and drive[i] == drive[i - 1]
+        span = block[i] - starts[-1] + 1 if starts else 0
+        if same_drive and (
+            span <= blocks_per_step or (fill + count[i] <= width and span <= max_blocks_per_step)
+        ):
+            fill += count[i]
+        else:
+            clock = block[i] // blocks_per_step * blocks_per_step
+            start = max(clock, starts[-1] + blocks_per_step, end) if same_drive else clock
+            starts.append(start)
+            fill = count[i]
+        end = max(block[i] + 1, starts[-1] + blocks_per_step)
+        step[i] = len(starts) - 1
+    return step, np.asarray(starts, dtype=np.int64)
+
+
 def window_blocks(
     windows: dict[str, np.ndarray],
     surface: str = "dry",
     *,
     width: int | None = None,
     step_s: float = STEP_S,
+    max_step_s: float | None = None,
     time_offset_s: float = 0.0,
 ) -> WindowBlocks:
     """Group one stream's windows into time-ordered steps for the online estimator.
@@ -138,21 +199,32 @@ def window_blocks(
     surface : str
         Road surface.
     width : int, optional
-        Windows per step after padding; default the fullest step's count. Streams padded to
-        one width share one compiled filter.
+        Windows per step after padding; default the most that ``step_s`` of the stream holds.
+        Streams padded to one width share one compiled filter.
     step_s : float
-        Step length [s], a whole number of BLOCK_S blocks.
+        Length of a clock step [s], a whole number of BLOCK_S blocks.
+    max_step_s : float, optional
+        Longest span of a step [s], a whole number of BLOCK_S blocks ≥ ``step_s``: a step
+        takes further blocks up to this while their windows fit ``width`` (module docstring).
+        Default ``step_s``: steps cut on the clock.
     time_offset_s : float
         Added to the windows' times (to join drives end to end).
 
     Raises
     ------
     BadInputError
-        No windows, or a step fuller than ``width``.
+        No windows, or ``step_s`` of the stream holding more than ``width`` windows.
     """
+    max_step_s = step_s if max_step_s is None else max_step_s
     blocks_per_step = step_s / BLOCK_S
+    max_blocks = max_step_s / BLOCK_S
     if not (blocks_per_step >= 1 and float(blocks_per_step).is_integer()):
         raise ValueError(f"step_s: expected a whole multiple of {BLOCK_S} s, got {step_s}")
+    if not (max_blocks >= blocks_per_step and float(max_blocks).is_integer()):
+        raise BadInputError(
+            f"max_step_s: expected a whole multiple of {BLOCK_S} s ≥ step_s = {step_s}, "
+            f"got {max_step_s}"
+        )
     if surface not in SURFACES:
         raise BadInputError(f"surface: expected one of {SURFACES}, got {surface!r}")
     time = np.asarray(windows["time_s"], dtype=float) + time_offset_s
@@ -168,22 +240,44 @@ def window_blocks(
     time = time[order]
     drive = np.asarray(windows.get("drive", np.zeros(len(finite))), dtype=np.int64)[order]
     block = np.floor(time / BLOCK_S).astype(np.int64)
-    step = block // int(blocks_per_step)
-    # One key per (drive, step), in time order: a drive boundary inside a step splits it.
+    # One key per (drive, block), in time order: a drive boundary inside a block splits it.
+    # Drives are spaced apart in the keys by more than a step's span.
     new_drive = np.concatenate([[True], drive[1:] != drive[:-1]])
     drive_number = np.cumsum(new_drive) - 1
-    keys = drive_number * (int(step.max()) + 1) + step
-    ids, first, inverse, counts = np.unique(
+    keys = drive_number * (int(block.max()) + 1 + int(max_blocks)) + block
+    block_keys, first, window_key, block_counts = np.unique(
         keys, return_index=True, return_inverse=True, return_counts=True
     )
-    step_of_key, drive_of_key = step[first], drive_number[first]
-    width = int(counts.max()) if width is None else int(width)
+    if width is None:
+        # The most windows that any step_s of the stream holds (the step's forced span).
+        total = np.concatenate([[0], np.cumsum(block_counts)])
+        ends = np.searchsorted(block_keys, block_keys + int(blocks_per_step))
+        width = int(np.max(total[ends] - total[:-1]))
+    width = int(width)
+    step_of_block, start_block = _pack_steps(
+        drive_number[first],
+        block[first],
+        block_counts,
+        width,
+        int(blocks_per_step),
+        int(max_blocks),
+    )
+    inverse = step_of_block[window_key]
+    counts = np.bincount(inverse)
     if counts.max() > width:
         raise BadInputError(
             f"online estimator: expected at most {width} windows per step, got {counts.max()}"
         )
-    slot = np.arange(time.size) - np.concatenate([[0], np.cumsum(counts)[:-1]])[inverse]
-    n = len(ids)
+    step_start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    slot = np.arange(time.size) - step_start[inverse]
+    # Each window's block, numbered within its step over the blocks that hold windows.
+    first_block_of_step = np.searchsorted(step_of_block, np.arange(counts.size))
+    block_in_step = np.arange(block_counts.size) - first_block_of_step[step_of_block]
+    last_block = block[first][np.r_[first_block_of_step[1:], block_counts.size] - 1]
+    # A step ends STEP_S after its start or with its last block, whichever is later.
+    end_block = np.maximum(last_block + 1, start_block + int(blocks_per_step))
+    step_drive = drive_number[first][first_block_of_step]
+    n = counts.size
     arrays = {}
     for name, fill in _WINDOW_FIELDS.items():
         values = windows.get(name)
@@ -198,14 +292,15 @@ def window_blocks(
     mask = np.zeros((n, width), dtype=bool)
     mask[inverse, slot] = True
     block_index = np.zeros((n, width), dtype=np.int32)
-    block_index[inverse, slot] = block - step * int(blocks_per_step)
+    block_index[inverse, slot] = block_in_step[window_key]
     return WindowBlocks(
         **arrays,
         at_limit=jnp.asarray(at_limit),
         block_index=jnp.asarray(block_index),
         mask=jnp.asarray(mask),
-        time_s=jnp.asarray((step_of_key + 1) * step_s, dtype=float),
-        drive_start=jnp.asarray(np.concatenate([[True], np.diff(drive_of_key) != 0])),
+        time_s=jnp.asarray(end_block * BLOCK_S, dtype=float),
+        span_s=jnp.asarray((end_block - start_block) * BLOCK_S, dtype=float),
+        drive_start=jnp.asarray(np.concatenate([[True], np.diff(step_drive) != 0])),
         surface=surface,
     )
 
@@ -233,9 +328,10 @@ def pad_steps(blocks: WindowBlocks, n_steps: int) -> WindowBlocks:
         block_index=pad(blocks.block_index, 0),
         mask=pad(blocks.mask, False),
         time_s=pad(blocks.time_s, blocks.time_s[-1]),
+        span_s=pad(blocks.span_s, 0.0),
         drive_start=pad(blocks.drive_start, False),
         surface=blocks.surface,
     )
 
 
-__all__ = ["STEP_S", "WindowBlocks", "pad_steps", "window_blocks"]
+__all__ = ["PACKED_STEP_S", "STEP_S", "WindowBlocks", "pad_steps", "window_blocks"]
