@@ -23,7 +23,8 @@
   posterior sds. No detector with a bounded false-alarm rate finds a swap that the batch
   posterior of the same windows cannot tell from no swap.
 
-Usage: ``python benchmarks/online_change.py [--swaps N] [--cars N]``.
+Usage: ``python benchmarks/online_change.py [--swaps N] [--cars N] [--max-step-s S] [--out PATH]``
+(``--max-step-s``: sparse driving packed into fewer steps, ``window_blocks``).
 """
 
 from __future__ import annotations

@@ -6,7 +6,10 @@ gives the windows (steps of 30 s, padded to 121 windows). Timed after compilatio
 (``os.sched_setaffinity``), so XLA's CPU client sizes its thread pool to it. XLA_FLAGS alone did
 not do that: ``online_speed_df9f71f.json`` was taken with them and two threads shared the work.
 
-* one car-hour per model kind (target ≤ 40 ms, i.e. ≥ 10^5× real time);
+* one car-hour per model kind (target ≤ 40 ms, i.e. ≥ 10^5× real time), in the default 30 s
+  clock steps and with sparse driving packed into steps of up to ``PACKED_STEP_S``
+  (``window_blocks``' ``max_step_s``: fewer, fuller steps; ``online_change.py --max-step-s``
+  measures what it costs the alarms);
 * where a Magic Formula car-hour's time goes: the block log-likelihood's Hessian, its value and
   gradient, and its value alone, each timed over the hour's steps, and how many Hessians the
   filter took (counted in a separate, untimed run);
@@ -61,6 +64,7 @@ from _online_common import machine, simulated_windows  # noqa: E402
 import tyrebayes.inference.online.laplace_update as laplace_module  # noqa: E402
 from tyrebayes.inference.online import OnlineEstimator, run_online, stream_steps  # noqa: E402
 from tyrebayes.inference.online.block_likelihood import block_log_likelihood  # noqa: E402
+from tyrebayes.inference.online.windows import PACKED_STEP_S, STEP_S  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "online_speed.json"
 KINDS = ("magic", "shaped", "brush", "linear")
@@ -211,37 +215,51 @@ def main() -> None:
         return
     hours = float(steps.time_s[-1] - 0.0) / 3600.0
     rows = []
+    packed = stream_steps(windows, max_step_s=PACKED_STEP_S)
     for kind in KINDS:
         est = OnlineEstimator.create(kind=kind)
-        first, wall, fastest = timed(lambda est=est: run_online(est, est.init(), steps), args.reps)
-        rows.append(
-            {
-                "kind": kind,
-                "compile_and_first_run_s": first,
-                "car_hour_s": wall / hours,
-                "car_hour_fastest_s": fastest / hours,
-                "target_s": 0.040,
-                "target_met": bool(wall / hours <= 0.040),
-                "real_time_factor": 3600.0 / (wall / hours),
-            }
-        )
-        print(json.dumps(rows[-1]), flush=True)
+        for max_step_s, these in ((STEP_S, steps), (PACKED_STEP_S, packed)):
+            first, wall, fastest = timed(
+                lambda est=est, these=these: run_online(est, est.init(), these), args.reps
+            )
+            rows.append(
+                {
+                    "kind": kind,
+                    "max_step_s": max_step_s,
+                    "steps_per_car_hour": these.n_blocks / hours,
+                    "compile_and_first_run_s": first,
+                    "car_hour_s": wall / hours,
+                    "car_hour_fastest_s": fastest / hours,
+                    "target_s": 0.040,
+                    "target_met": bool(wall / hours <= 0.040),
+                    "real_time_factor": 3600.0 / (wall / hours),
+                }
+            )
+            print(json.dumps(rows[-1]), flush=True)
     profile = where_the_time_goes(steps, args.reps)
-    magic_s = next(r["car_hour_s"] for r in rows if r["kind"] == "magic") * hours
+    magic_s = (
+        next(r["car_hour_s"] for r in rows if r["kind"] == "magic" and r["max_step_s"] == STEP_S)
+        * hours
+    )
     profile["hessian_share_of_car_hour_estimate"] = (
         profile["hessians_per_car_hour"] * profile["per_step"]["hessian_ms"] * 1e-3 / magic_s
     )
     print(json.dumps(profile), flush=True)
     vmapped = []
-    for kind in ("magic", "linear"):
+    for kind, max_step_s, these in (
+        ("magic", STEP_S, steps),
+        ("magic", PACKED_STEP_S, packed),
+        ("linear", STEP_S, steps),
+    ):
         est = OnlineEstimator.create(kind=kind)
-        cars = jax.tree.map(lambda x: jnp.broadcast_to(x, (args.cars, *x.shape)), steps)
+        cars = jax.tree.map(lambda x: jnp.broadcast_to(x, (args.cars, *x.shape)), these)
         states = jax.tree.map(lambda x: jnp.broadcast_to(x, (args.cars, *x.shape)), est.init())
         fn = eqx.filter_jit(jax.vmap(lambda s, b, est=est: est.run(s, b)))
         first, wall, _ = timed(lambda fn=fn, cars=cars, states=states: fn(states, cars), 1)
         vmapped.append(
             {
                 "kind": kind,
+                "max_step_s": max_step_s,
                 "n_cars": args.cars,
                 "compile_and_first_run_s": first,
                 "wall_s": wall,
@@ -266,7 +284,7 @@ def main() -> None:
         "vmapped_fleet": fleet,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "machine": {**machine(), "load_average_1min_at_start": load_at_start},
-        "previous": "online_speed_df9f71f.json: the same drive before this revision (two threads)",
+        "previous": "online_speed_779f035.json: the same benchmark before packed steps existed",
     }
     Path(args.out).write_text(json.dumps(result, indent=2))
 
