@@ -140,7 +140,7 @@ def plain_loop(items, out: Path, settings, traced_drives: bool = False) -> dict:
         "drives_done": sum(r["status"] == "done" for r in drives.values()),
         "sets_done": sum(r["status"] == "done" for r in set_records),
         "tyre_set_fit_seconds": [r["seconds"] for r in set_records],
-        "peak_rss_mb": peakrss_mb(),
+        "peak_rss_mb": peak_rss_mb(),
         "load_average_at_start": load,
         "load_average_at_end": os.getloadavg(),
     }

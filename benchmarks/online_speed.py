@@ -62,9 +62,14 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _online_common import machine, simulated_windows  # noqa: E402
 
 import tyrebayes.inference.online.laplace_update as laplace_module  # noqa: E402
-from tyrebayes.inference.online import OnlineEstimator, run_online, stream_steps  # noqa: E402
+from tyrebayes.inference.online import (  # noqa: E402
+    PACKED_STEP_S,
+    STEP_S,
+    OnlineEstimator,
+    run_online,
+    stream_steps,
+)
 from tyrebayes.inference.online.block_likelihood import block_log_likelihood  # noqa: E402
-from tyrebayes.inference.online.windows import PACKED_STEP_S, STEP_S  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "online_speed.json"
 KINDS = ("magic", "shaped", "brush", "linear")

@@ -106,9 +106,8 @@ def run(args: argparse.Namespace) -> int:
     jax.config.update("jax_enable_x64", True)
     import numpy as np
 
-    from ..inference.online import online_estimate, stream_steps, stream_windows
+    from ..inference.online import STEP_S, online_estimate, stream_steps, stream_windows
     from ..inference.online.summary import summary_record
-    from ..inference.online.windows import STEP_S
 
     with stream_file(args, args.vehicle) as path:
         windows = stream_windows(

@@ -24,6 +24,8 @@ from .stream import stream_steps as stream_steps
 from .stream import stream_windows as stream_windows
 from .summary import OnlineSummary as OnlineSummary
 from .summary import summary_record as summary_record
+from .windows import PACKED_STEP_S as PACKED_STEP_S
+from .windows import STEP_S as STEP_S
 from .windows import WindowBlocks as WindowBlocks
 from .windows import pad_steps as pad_steps
 from .windows import window_blocks as window_blocks
