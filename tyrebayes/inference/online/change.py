@@ -25,11 +25,12 @@ ratios the run length to a false alarm is at least e^h steps per side (Wald's in
 sets h (:data:`~.config.CHANGE_THRESHOLD`).
 
 One step's ratio counts at most h/(k − ½) per STEP_S of driving the step spans (at least one;
-a step packed from sparse driving spans up to PACKED_STEP_S, :mod:`.windows`), so that an alarm
-takes k STEP_S of driving (:attr:`~.config.OnlineConfig.change_min_steps`, 3: 90 s) and more
-than one step. A change of C_xr persists, while a single
-block the model cannot explain (a transient it lacks: a pothole, a feature error in a tight
-turn) moves the update far, and its ratio then speaks of the misfit rather than of C_xr.
+a step packed from sparse driving spans up to ``max_step_s``, :mod:`.windows`), so that an
+alarm takes k STEP_S of driving (:attr:`~.config.OnlineConfig.change_min_steps`, 3: 90 s), and
+more than one step while steps span less than (k − ½) STEP_S (PACKED_STEP_S, 60 s, does). A
+change of C_xr persists, while a single block the model cannot explain (a transient it lacks:
+a pothole, a feature error in a tight turn) moves the update far, and its ratio then speaks of
+the misfit rather than of C_xr.
 Capping an increment from above keeps exp(S) a supermartingale under the model, so the bound
 stands (the cap is known before the step's ratio); a change whose blocks each carry more than
 the cap is found after k STEP_S of driving instead of fewer.
