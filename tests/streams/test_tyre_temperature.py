@@ -98,3 +98,18 @@ def test_padding_the_scan_leaves_the_temperatures_as_they_are():
     expected = np.interp(t, np.r_[t[0], t_blocks], np.r_[12.0, direct])
     assert tt._PAD_BLOCKS < t_blocks.size < 2 * tt._PAD_BLOCKS
     np.testing.assert_allclose(padded, expected, rtol=1e-12, atol=1e-12)
+
+
+def test_each_drives_ambient_does_not_compile_a_scan_of_its_own():
+    # A fleet worker sees thousands of drives, each at its own ambient: a scan compiled per
+    # value would cost a compile (or cache load) per drive and stay in memory.
+    from tyrebayes.streams import tyre_temperature as module
+
+    t = np.arange(0.0, 600.0, 0.1)
+    inputs = (np.full(t.size, 20.0), np.full(t.size, 4000.0), np.zeros(t.size))
+    module.driven_tyre_temperature(t, *inputs, ambient_c=5.0)
+    before = module._scan._cached._cache_size()
+    for ambient, start in ((12.5, None), (-3.0, 30.0), (21.0, 21.5)):
+        temp = module.driven_tyre_temperature(t, *inputs, ambient_c=ambient, initial_c=start)
+        assert temp[0] == (ambient if start is None else start)
+    assert module._scan._cached._cache_size() == before

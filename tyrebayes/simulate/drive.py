@@ -210,8 +210,9 @@ def _temperatures(
             jnp.asarray(speed_b),
             jnp.asarray(means(fz)),
             jnp.asarray(means(friction_w)),
-            float(ambient_c),
-            float(initial_c),
+            # Arrays, not floats: a float is a static argument of filter_jit (one scan per value).
+            jnp.asarray(float(ambient_c)),
+            jnp.asarray(float(initial_c)),
         )
     )
     if nb == 1:

@@ -39,6 +39,8 @@ from ..physics.thermal import ThermalParams, simulate_tyre_temperature
 # at 100 km/h), so 1 s block means lose nothing and keep the scan 100× shorter than at 100 Hz.
 _BLOCK_S = 1.0
 
+# The ambient and start temperatures go in as arrays: a Python float would be a static argument
+# of filter_jit, and every drive's own ambient would compile (and keep) a scan of its own.
 _scan = eqx.filter_jit(simulate_tyre_temperature)
 # Blocks per compiled length of the scan (~17 min at 1 s blocks; 10-60 min drives: 4 lengths).
 _PAD_BLOCKS = 1024
@@ -109,8 +111,8 @@ def driven_tyre_temperature(
                 jnp.asarray(np.pad(x, (0, padded - n_blocks), mode="edge"))
                 for x in (speed, load, power)
             ),
-            float(ambient_c),
-            start,
+            jnp.asarray(float(ambient_c)),
+            jnp.asarray(start),
         )
     )[:n_blocks]
     # Block means describe block centres; before the first centre the tyre is at its start.
