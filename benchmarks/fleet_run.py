@@ -10,10 +10,9 @@ Steps:
    winter / all-season / summer; surfaces cycled snow / dry / wet; durations uniform in
    [10, 60] min; two ABS stops in each set's first drive) and write a manifest; default
    (reduced) size 12 drives of 4 tyre sets, ``--full`` the issue's 200 drives of 50 sets;
-2. a plain loop in this process, pinned to one core as a local worker is (``process_drive``
-   per drive, ``fit_tyre_set`` per set, the fleet stage) with a cold JAX compilation cache: it
-   compiles each padded fit shape once and fills the cache the workers then share, as a fleet
-   run's first day does;
+2. a plain loop in this process (``process_drive`` per drive, ``fit_tyre_set`` per set,
+   the fleet stage) with a cold JAX compilation cache: it compiles each padded fit shape once
+   and fills the cache the workers then share, as a fleet run's first day does;
 3. ``fleet_run`` on a LocalCluster of 1 worker, then of 2 workers, each into a fresh output
    folder with the warm cache (workers still trace each shape once per process);
 4. a second plain loop with the warm cache: the same work without dask, for comparison, its
@@ -42,7 +41,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from tyrebayes.batch.worker_core import pin_to_one_core, set_process_cpus
 from tyrebayes.batch.worker_memory import peak_rss_mb, rss_mb
 
 RESULTS = Path(__file__).resolve().parent / "results" / "fleet_run.json"
@@ -193,10 +191,9 @@ def _per_drive_hour(seconds: float, hours: float) -> float:
 def _as_a_worker() -> None:
     """Re-run this script with a worker's environment unless it has it already.
 
-    One thread (OMP, BLAS, XLA's Eigen kernels; XLA's own pool by pinning, in ``main``), so that
-    the plain loops' CPU seconds are one core's, and the workers' XLA flags, which are part of
-    JAX's compilation-cache key: the cold loop then fills the cache with the programs the
-    workers look up.
+    One thread (OMP, BLAS, XLA), so that the plain loops' CPU seconds are one core's, and the
+    workers' XLA flags, which are part of JAX's compilation-cache key: the cold loop then fills
+    the cache with the programs the workers look up.
     """
     import sys
 
@@ -249,18 +246,12 @@ def main() -> int:
         items = read_manifest(manifest)
         settings = RunSettings(method="fast", jax_cache=str(work / "jax_cache"))
 
-        # The plain loops run on one core, as a local worker does (batch/worker_core.py); the
-        # clusters' workers are started with the process's own CPUs and pin themselves.
-        allowed = os.sched_getaffinity(0)
-        pin_to_one_core(0)
         cold = plain_loop(items, work / "plain_cold", settings)
         print(f"plain loop (cold cache): {cold['wall_seconds']:.1f} s", flush=True)
-        set_process_cpus(allowed)
         one = cluster_run(items, work / "one", settings, 1)
         print(f"1 worker: {one['run_wall_seconds']:.1f} s", flush=True)
         two = cluster_run(items, work / "two", settings, 2, noop_tasks=200)
         print(f"2 workers: {two['run_wall_seconds']:.1f} s", flush=True)
-        pin_to_one_core(0)
         warm = plain_loop(items, work / "plain_warm", settings, traced_drives=True)
         print(f"plain loop (warm cache): {warm['wall_seconds']:.1f} s", flush=True)
         programs_mb = _compiled_programs_mb()

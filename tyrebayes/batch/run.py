@@ -71,12 +71,10 @@ _WORKER_ENV = {
 def dask_client(scheduler: str | None = None, workers: int | None = None, memory_limit=None):
     """A dask ``Client``: on the cluster at ``scheduler``, or on a new ``LocalCluster``.
 
-    The local cluster has ``workers`` processes (default: one per core), each single-threaded,
-    pinned to a core of its own (:mod:`.worker_core`; more workers than cores share them in
-    turn) and with ``memory_limit`` (default :data:`DEFAULT_MEMORY_LIMIT`). With an address the
-    cluster's own workers run the tasks (dask-jobqueue, Kubernetes, cloud: the same code), placed
-    as that cluster places them. Either way the workers import the package before their first
-    task (:class:`.worker_plugin.ImportTasks`).
+    The local cluster has ``workers`` processes (default: one per core), each single-threaded
+    with ``memory_limit`` (default :data:`DEFAULT_MEMORY_LIMIT`). With an address the cluster's
+    own workers run the tasks (dask-jobqueue, Kubernetes, cloud: the same code). Either way the
+    workers import the package before their first task (:class:`.worker_plugin.ImportTasks`).
     """
     import dask
     from distributed import Client, LocalCluster
@@ -101,7 +99,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, memory
         ) as cluster,
         Client(cluster) as client,
     ):
-        client.register_plugin(ImportTasks(pin=True))
+        client.register_plugin(ImportTasks())
         yield client
 
 
