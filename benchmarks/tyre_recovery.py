@@ -73,10 +73,10 @@ from tyrebayes._domain import load_vehicle  # noqa: E402
 from tyrebayes._errors import BadInputError  # noqa: E402
 from tyrebayes.inference.tyre.data import observations_from_features, stack_drives  # noqa: E402
 from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
-from tyrebayes.simulate.drive import seed_sequence, simulate_drive  # noqa: E402
+from tyrebayes.simulate.drive import drawn_curve, simulate_drive  # noqa: E402
 from tyrebayes.simulate.profiles import ProfileOptions  # noqa: E402
 from tyrebayes.simulate.sensors import SensorModel, scale_noise  # noqa: E402
-from tyrebayes.simulate.tyre_spec import TyreSpec, draw_database_curve  # noqa: E402
+from tyrebayes.simulate.tyre_spec import TyreSpec  # noqa: E402
 from tyrebayes.simulate.vehicle_truth import (  # noqa: E402
     ThermalSpread,
     VehicleSpread,
@@ -129,14 +129,10 @@ def tls_slope(x: np.ndarray, y: np.ndarray, x_sd: np.ndarray, y_sd: np.ndarray) 
 
 
 def _without_load_dependence(seed: int, tyre_type: str) -> TyreSpec:
-    """The tyre ``simulate_drive(seed, ..., tyre_type)`` draws, its load dependences set to 0.
-
-    The simulator draws a type's curve from the fifth stream of the seed
-    (:func:`~tyrebayes.simulate.drive.simulate_drive`); the same stream gives the same shape.
-    """
+    """The tyre ``simulate_drive(seed, ..., tyre_type)`` draws, its load dependences set to 0."""
     import equinox as eqx
 
-    curve = draw_database_curve(np.random.default_rng(seed_sequence(seed).spawn(5)[4]))
+    curve = drawn_curve(seed)
     flat = eqx.tree_at(
         lambda c: (c.pkx2, c.pkx3, c.pdx2, c.pex2, c.pex3), curve, (0.0, 0.0, 0.0, 0.0, 0.0)
     )

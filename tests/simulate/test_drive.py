@@ -21,7 +21,7 @@ from tyrebayes.physics.vehicle import (
     rolling_resistance_force,
     wheel_loads,
 )
-from tyrebayes.simulate.drive import simulate_drive, wheel_loads_np
+from tyrebayes.simulate.drive import drawn_curve, simulate_drive, wheel_loads_np
 from tyrebayes.simulate.drive_io import read_drive_truth, truth_paths, write_drive
 from tyrebayes.simulate.profiles import LONG_LABELS, ProfileOptions
 from tyrebayes.simulate.sensors import SensorModel
@@ -236,6 +236,14 @@ def test_sensor_model_resembles_real_log(noisy_drive):
     # GNSS is held at 20 Hz: runs of ~5 equal values at 100 Hz.
     ref = df["speed_reference"].dropna().to_numpy()
     assert 0.15 < np.mean(np.diff(ref) != 0) < 0.25
+
+
+def test_drawn_curve_is_the_curve_a_tyre_type_gets():
+    """A benchmark that changes the drawn curve (tyre_recovery.py) simulates the same drive."""
+    by_type, _ = simulate_drive(7, "compact_fwd", "winter", duration_s=DUR)
+    spec = TyreSpec.from_type("winter", magic_formula=drawn_curve(7))
+    given, _ = simulate_drive(7, "compact_fwd", spec, duration_s=DUR)
+    np.testing.assert_array_equal(by_type.to_numpy(), given.to_numpy())
 
 
 def test_seed_streams_are_independent():

@@ -51,6 +51,7 @@ from ..physics.thermal import (
     simulate_tyre_temperature,
     temperature_sensitivity,
 )
+from ..physics.tyre import MagicFormulaLongitudinal
 from ..physics.vehicle import AIR_DENSITY_KGPM3, GRAVITY_MPS2, Vehicle
 from .profiles import LONG_LABELS, DriveProfile, ProfileOptions, make_profile
 from .sensors import SensorModel, SensorTruth, draw_sensor_truth, measure, sample_times
@@ -76,6 +77,15 @@ def seed_sequence(key_or_seed) -> np.random.SeedSequence:
     if jax.dtypes.issubdtype(key.dtype, jax.dtypes.prng_key):
         key = jax.random.key_data(key)
     return np.random.SeedSequence(np.asarray(key, dtype=np.uint32).ravel().tolist())
+
+
+def drawn_curve(key_or_seed) -> MagicFormulaLongitudinal:
+    """The Magic Formula shape :func:`simulate_drive` draws for a tyre given by its type.
+
+    From the fifth of the seed's five streams, as :func:`simulate_drive` does: a benchmark can
+    change this curve (its load dependences, say) and simulate the same drive with it.
+    """
+    return draw_database_curve(np.random.default_rng(seed_sequence(key_or_seed).spawn(5)[4]))
 
 
 def _seed_int(key_or_seed) -> int:
