@@ -95,22 +95,19 @@ TYRES = ("winter", "all_season", "summer")
 # Magic Formula truths draw each drive's curve shape from the shipped database of measured
 # tyres (simulate_drive with a tyre type); the brush truth is a curve outside the model's family
 # (it bends from the first newton, no measured tyre does), kept to show what the fit does then.
-SETTINGS = (
+_MAIN_SETTINGS = (
     {"name": "magic_formula_abs", "truth": "magic_formula", "abs_events": 2, "noise": 1.0},
     {"name": "magic_formula_no_abs", "truth": "magic_formula", "abs_events": 0, "noise": 1.0},
     {"name": "magic_formula_abs_noise_x2", "truth": "magic_formula", "abs_events": 2, "noise": 2.0},
     {"name": "brush_abs", "truth": "brush", "abs_events": 2, "noise": 1.0},
-    # A diagnosis, not a default: the same drives as magic_formula_abs (same seeds, the same
-    # curve shapes) with the curves' load dependences (PKX2-3, PDX2, PEX2-3) set to zero, as
-    # the independent generator's tyres have none. The model has one C_x at every load.
-    {
-        "name": "magic_formula_abs_no_load",
-        "truth": "magic_formula",
-        "abs_events": 2,
-        "noise": 1.0,
-        "load_dependence": False,
-        "diagnostic": True,
-    },
+)
+# Diagnoses, not defaults: the same drives as the Magic Formula settings (same seeds, the same
+# curve shapes) with the curves' load dependences (PKX2-3, PDX2, PEX2-3) set to zero, as the
+# independent generator's tyres have none. The model has one C_x at every load.
+SETTINGS = _MAIN_SETTINGS + tuple(
+    {**st, "name": f"{st['name']}_no_load", "load_dependence": False, "diagnostic": True}
+    for st in _MAIN_SETTINGS
+    if st["truth"] == "magic_formula"
 )
 
 
@@ -410,7 +407,8 @@ def format_summary(name: str, s: dict) -> str:
 def payload(results: dict, duration: float, note: str, reps: int, wall: float) -> dict:
     return {
         "description": __doc__.splitlines()[0],
-        "method": "fast path (MAP + Laplace) for every rep; default (shaped) and brush models",
+        "method": "fast path (MAP + Laplace) for every rep; default (Magic Formula) and brush "
+        "models",
         "vehicle": "compact_fwd",
         "drive_duration_s": duration,
         "duration_note": note,
@@ -425,6 +423,32 @@ def payload(results: dict, duration: float, note: str, reps: int, wall: float) -
         },
         "results": results,
         "pooled_c_x_coverage": pooled_coverage(results),
+        **load_dependence_diagnosis(results),
+    }
+
+
+def load_dependence_diagnosis(results: dict) -> dict:
+    """Pooled C_x coverage of the no-load diagnostic settings beside the settings they repeat.
+
+    Empty unless both a diagnostic setting and its counterpart are in ``results``.
+    """
+    pairs = [
+        (name.removesuffix("_no_load"), name)
+        for name in results
+        if name.endswith("_no_load") and name.removesuffix("_no_load") in results
+    ]
+    if not pairs:
+        return {}
+
+    def pooled(names):
+        return pooled_coverage({n: {**results[n], "setting": {}} for n in names})
+
+    return {
+        "load_dependence_diagnosis": {
+            "settings": [base for base, _ in pairs],
+            "with_load_dependence": pooled([base for base, _ in pairs]),
+            "without_load_dependence": pooled([diag for _, diag in pairs]),
+        }
     }
 
 
