@@ -356,7 +356,8 @@ def main() -> int:
             "note": "shared 2-core machine (other helpers' jobs ran alongside): wall times, "
             "CPU seconds and the scaling figure include their contention (load averages "
             "recorded per run); throughput counts wall time x workers, everything included; "
-            "the plain loops run with a worker's environment (one thread, same XLA flags)",
+            "the plain loops run with a worker's environment (one task thread, the same XLA "
+            "flags)",
         }
         print(json.dumps({k: v for k, v in results.items() if k not in (
             "plain_loop_cold_cache", "plain_loop_warm_cache", "one_worker", "two_workers")},

@@ -56,7 +56,9 @@ _WORKER_MEMORY_CONFIG = {
     "distributed.worker.memory.terminate": 0.95,
 }
 
-# One thread per worker and no hidden thread pools: a worker is one core.
+# One task thread per worker, and OpenMP, BLAS and XLA's Eigen kernels without thread pools of
+# their own (XLA's CPU runtime still runs independent parts of a program in parallel; pinning a
+# worker to one core to stop that cost more wall time than it saved: README, fleet runs).
 _WORKER_ENV = {
     "OMP_NUM_THREADS": "1",
     "OPENBLAS_NUM_THREADS": "1",
@@ -71,8 +73,8 @@ _WORKER_ENV = {
 def dask_client(scheduler: str | None = None, workers: int | None = None, memory_limit=None):
     """A dask ``Client``: on the cluster at ``scheduler``, or on a new ``LocalCluster``.
 
-    The local cluster has ``workers`` processes (default: one per core), each single-threaded
-    with ``memory_limit`` (default :data:`DEFAULT_MEMORY_LIMIT`). With an address the cluster's
+    The local cluster has ``workers`` processes (default: one per core), each with one task thread
+    and ``memory_limit`` (default :data:`DEFAULT_MEMORY_LIMIT`). With an address the cluster's
     own workers run the tasks (dask-jobqueue, Kubernetes, cloud: the same code). Either way the
     workers import the package before their first task (:class:`.worker_plugin.ImportTasks`).
     """
