@@ -40,9 +40,10 @@ and of μ_max for the posterior, and the coverage of its central 50 % and 90 % i
 * With Magic Formula truth neither model curve has the right shape after the peak: μ_max
   coverage there also tests the shared ABS force ratio's prior.
 
-The diagnostic setting ``magic_formula_abs_no_load`` (run only when named) repeats
-``magic_formula_abs`` drive for drive with the curves' load dependences set to zero: what the
-model's single C_x at every load costs against real tyres' load-dependent stiffness.
+The diagnostic settings ``<setting>_no_load`` (run only when named) repeat each Magic Formula
+setting drive for drive with the curves' load dependences set to zero: what the model's single
+C_x at every load costs against real tyres' load-dependent stiffness (``--merge`` of both runs
+reports the pooled coverage with and without, ``load_dependence_diagnosis``).
 
 Drives last one hour by default, as the issue asks (``--duration`` for shorter ones), 100 per
 setting (the issue asks for at least 50; at 50 one binomial sd of a coverage share is 7 points at
