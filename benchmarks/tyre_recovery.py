@@ -441,27 +441,23 @@ def load_dependence_diagnosis(results: dict) -> dict:
     if not pairs:
         return {}
 
-    def pooled(names):
-        return pooled_coverage({n: {**results[n], "setting": {}} for n in names})
-
     return {
         "load_dependence_diagnosis": {
             "settings": [base for base, _ in pairs],
-            "with_load_dependence": pooled([base for base, _ in pairs]),
-            "without_load_dependence": pooled([diag for _, diag in pairs]),
+            "with_load_dependence": _coverage(results, [base for base, _ in pairs]),
+            "without_load_dependence": _coverage(results, [diag for _, diag in pairs]),
         }
     }
 
 
 def pooled_coverage(results: dict) -> dict:
     """C_x coverage over the converged drives of every setting but the diagnostic ones."""
-    rows = [
-        r
-        for res in results.values()
-        if not res["setting"].get("diagnostic")
-        for r in res["drives"]
-        if r["converged"]
-    ]
+    return _coverage(results, [n for n, r in results.items() if not r["setting"].get("diagnostic")])
+
+
+def _coverage(results: dict, names: list[str]) -> dict:
+    """C_x coverage over the converged drives of the settings ``names``, together."""
+    rows = [r for n in names for r in results[n]["drives"] if r["converged"]]
     return {
         "n": len(rows),
         "coverage_50": _share(rows, "c_x_cover50"),

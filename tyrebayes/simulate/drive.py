@@ -82,8 +82,8 @@ def seed_sequence(key_or_seed) -> np.random.SeedSequence:
 def drawn_curve(key_or_seed) -> MagicFormulaLongitudinal:
     """The Magic Formula shape :func:`simulate_drive` draws for a tyre given by its type.
 
-    From the fifth of the seed's five streams, as :func:`simulate_drive` does: a benchmark can
-    change this curve (its load dependences, say) and simulate the same drive with it.
+    From the fifth of the seed's five streams (:func:`simulate_drive` calls this): a benchmark
+    can change this curve (its load dependences, say) and simulate the same drive with it.
     """
     return draw_database_curve(np.random.default_rng(seed_sequence(key_or_seed).spawn(5)[4]))
 
@@ -418,13 +418,14 @@ def simulate_drive(
         float(ambient_c),
     )
     seq = seed_sequence(key_or_seed)
-    rng_profile, rng_offsets, rng_sensor, rng_abs, rng_curve = (
-        np.random.default_rng(s) for s in seq.spawn(5)
+    # The fifth stream is the curve's (drawn_curve).
+    rng_profile, rng_offsets, rng_sensor, rng_abs = (
+        np.random.default_rng(s) for s in seq.spawn(5)[:4]
     )
     if tyre_given_by_type:
         # A tyre named by its type gets a curve shape drawn from the measured tyres' database
         # (its own stream of the seed: the route and the sensors stay as they were).
-        tyre = eqx.tree_at(lambda t: t.magic_formula, tyre, draw_database_curve(rng_curve))
+        tyre = eqx.tree_at(lambda t: t.magic_formula, tyre, drawn_curve(key_or_seed))
     mu = tyre.mu_on(surface)
     g = GRAVITY_MPS2
     thermal = thermal or ThermalParams(rolling_resistance=vehicle.rolling_resistance)
