@@ -126,6 +126,16 @@ def tls_slope(x: np.ndarray, y: np.ndarray, x_sd: np.ndarray, y_sd: np.ndarray) 
     )
 
 
+def _load_sensitivity_true(seed: int, setting: dict) -> float | None:
+    """PKX2/PKX1 + PKX3 of the curve the drive's tyres have (0 without load dependence)."""
+    if setting["truth"] != "magic_formula":
+        return None
+    if not setting.get("load_dependence", True):
+        return 0.0
+    curve = drawn_curve(seed)
+    return float(curve.pkx2 / curve.pkx1 + curve.pkx3)
+
+
 def _without_load_dependence(seed: int, tyre_type: str) -> TyreSpec:
     """The tyre ``simulate_drive(seed, ..., tyre_type)`` draws, its load dependences set to 0."""
     import equinox as eqx
@@ -191,6 +201,7 @@ def one_drive(seed: int, setting: dict, duration_s: float, vehicle, pad_to: int)
     slip_w = ~windows["at_limit"]
     x, y = windows["slip"][slip_w], windows["rho"][slip_w]
     c_x_true = float(np.mean(truth.c_x))
+    load_draws = np.asarray(fit.draws("load_sensitivity"))
 
     def covers(draws, true, p):
         lo, hi = np.quantile(draws, [0.5 - p / 2, 0.5 + p / 2])
@@ -217,6 +228,11 @@ def one_drive(seed: int, setting: dict, duration_s: float, vehicle, pad_to: int)
         "c_x_sd": float(np.std(c_x_draws)),
         "mu_sd": float(np.std(mu_draws)),
         "mu_observed": bool(fit.mu_observed["dry"]),
+        # q = d ln C_x / d(ΔF_z/F_z) at the static load, where the simulator's curve has its
+        # nominal load (None for the brush truth, which has no load dependence).
+        "load_sensitivity_true": _load_sensitivity_true(seed, setting),
+        "load_sensitivity_post": float(np.mean(load_draws)),
+        "load_sensitivity_sd": float(np.std(load_draws)),
         "curve_shape": float(np.mean(fit.draws("curve_shape_c"))),
         "curve_curvature": float(np.mean(fit.draws("curve_curvature_e"))),
         "adequate": bool(fit.adequacy.adequate),
@@ -248,6 +264,25 @@ def _rel(rows: list[dict], est: str, true: str) -> dict:
 
 def _share(rows: list[dict], key: str) -> float | None:
     return float(np.mean([r[key] for r in rows])) if rows else None
+
+
+def _load_sensitivity_summary(rows: list[dict]) -> dict | None:
+    """The posterior of q against the drawn tyres' (Magic Formula truths only)."""
+    rows = [r for r in rows if r.get("load_sensitivity_true") is not None]
+    if not rows:
+        return None
+    true = np.array([r["load_sensitivity_true"] for r in rows])
+    post = np.array([r["load_sensitivity_post"] for r in rows])
+    sd = np.array([r["load_sensitivity_sd"] for r in rows])
+    return {
+        "n": len(rows),
+        "true_mean": float(true.mean()),
+        "post_mean": float(post.mean()),
+        "rmse": float(np.sqrt(np.mean((post - true) ** 2))),
+        "post_sd_mean": float(sd.mean()),
+        # Normal 90 % interval of the Laplace posterior.
+        "coverage_90": float(np.mean(np.abs(post - true) <= 1.645 * sd)),
+    }
 
 
 def summarise(rows: list[dict]) -> dict:
@@ -283,6 +318,7 @@ def summarise(rows: list[dict]) -> dict:
         # Over all converged drives: for a no-ABS setting this should be ~0.
         "mu_observed_share": _share(ok, "mu_observed"),
         "curve_shape_mean": float(np.mean([r["curve_shape"] for r in ok])) if ok else None,
+        "load_sensitivity": _load_sensitivity_summary(ok),
         "brush": {
             "n_converged": len(ok_brush),
             "c_x_posterior": _rel(ok_brush, "c_x_brush", "c_x_true"),

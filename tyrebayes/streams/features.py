@@ -135,6 +135,9 @@ class StreamFeatures(eqx.Module):
     rho_driven_traction_sd : noise of ``rho_driven_traction`` at the smoothing scale [-]
     rho_total_traction : ΣF_x/ΣF_z with the same a_x as ``rho_driven_traction`` [-]: whether the
         tyres push or brake
+    load_change_driven : ΔF_z/F_z,static of the driven axle with the same a_x [-]: the
+        longitudinal load transfer m a_x h / L over the axle's static load (0 for AWD, whose
+        two axles' transfers cancel), which the tyre model's load sensitivity reads
     friction_power_w : |F_x V_x σ_x| of the driven axle, eq. 4.19a [W]
     ax_mps2 : IMU ax minus the estimated offset (includes road grade) [m/s²]
     ay_mps2 : IMU ay minus its offset [m/s²]
@@ -169,6 +172,7 @@ class StreamFeatures(eqx.Module):
     rho_driven_traction: Float[np.ndarray, "n"]
     rho_driven_traction_sd: Float[np.ndarray, "n"]
     rho_total_traction: Float[np.ndarray, "n"]
+    load_change_driven: Float[np.ndarray, "n"]
     friction_power_w: Float[np.ndarray, "n"]
     ax_mps2: Float[np.ndarray, "n"]
     ay_mps2: Float[np.ndarray, "n"]
@@ -793,6 +797,7 @@ class _Forces(eqx.Module):
     rho_driven_traction: Float[np.ndarray, "n"]
     rho_driven_traction_sd: Float[np.ndarray, "n"]
     rho_total_traction: Float[np.ndarray, "n"]
+    load_change_driven: Float[np.ndarray, "n"]  # ΔF_z/F_z,static, traction a_x
     slip_driven_noise: Float[np.ndarray, "n"]  # driven slip-velocity noise [m/s]
     slip_driven_sd: Float[np.ndarray, "n"]
     ax_sd_local: Float[np.ndarray, "n"]  # noise of the smoothed, corrected ax [m/s²]
@@ -836,6 +841,11 @@ def _forces(
         (fx_traction[:, 0] + fx_traction[:, 1]) / (fz_traction[:, 0] + fz_traction[:, 1]),
         np.nan,
     )
+    static_front, static_rear = (float(v) for v in axle_loads(vehicle, 0.0))
+    static_driven = {"front": static_front, "rear": static_rear}.get(
+        vehicle.driven_axle, static_front + static_rear
+    )
+    load_change_driven = np.where(has_traction, fz_traction_driven / static_driven - 1.0, np.nan)
     pushing = rho_total_traction >= 0.0
     velocity = PrefixSums.of(noise.slip_velocity_driven, like=m.vx_prefix)
     slip_driven_noise = local_noise_sd(
@@ -883,6 +893,7 @@ def _forces(
             / fz_traction_driven
         ),
         rho_total_traction=rho_total_traction,
+        load_change_driven=load_change_driven,
         slip_driven_noise=slip_driven_noise,
         slip_driven_sd=slip_driven_noise / m.vx_safe,
         ax_sd_local=ax_sd_local,
@@ -959,6 +970,7 @@ def _assemble(
         rho_driven_traction=f.rho_driven_traction,
         rho_driven_traction_sd=f.rho_driven_traction_sd,
         rho_total_traction=f.rho_total_traction,
+        load_change_driven=f.load_change_driven,
         friction_power_w=np.abs(f.fx_driven * m.vx_safe * m.slip_driven),
         ax_mps2=imu.ax,
         ay_mps2=imu.ay,

@@ -25,6 +25,8 @@ def test_tyre_priors_match_the_derivation():
         ("curve_shape_excess_log_sd", prior.shape_excess_log_sd),
         ("curve_curvature_log_mean", prior.curvature_log_mean),
         ("curve_curvature_log_sd", prior.curvature_log_sd),
+        ("load_sensitivity_mean", prior.load_sensitivity_mean),
+        ("load_sensitivity_sd", prior.load_sensitivity_sd),
     ):
         assert getattr(defaults, field) == pytest.approx(value, abs=1e-3), field
 
@@ -37,6 +39,16 @@ def test_prior_covers_every_passenger_set():
     z_c = (np.log(sets["C"] - 1) - prior.shape_excess_log_mean) / prior.shape_excess_log_sd
     z_e = (np.log(1 - sets["E_traction"]) - prior.curvature_log_mean) / prior.curvature_log_sd
     assert np.all(np.abs(z_c) < 2.5) and np.all(np.abs(z_e) < 2.5)
+    q = sets["PKX2"] / sets["PKX1"] + sets["PKX3"]
+    z_q = (q - prior.load_sensitivity_mean) / prior.load_sensitivity_sd
+    assert np.all(np.abs(z_q) < 2.5)
+
+
+def test_load_sensitivity_of_the_tno_tyre():
+    """Pacejka's 205/60R15: PKX1 21.69, PKX2 13.774, PKX3 −0.4119 give q = 0.223."""
+    sets = distinct_passenger_sets()
+    tno = sets[sets["tyre"].str.contains("TNO_car205_60R15")].iloc[0]
+    assert tno["PKX2"] / tno["PKX1"] + tno["PKX3"] == pytest.approx(0.2231, abs=1e-4)
 
 
 def test_too_few_sets_is_an_error():

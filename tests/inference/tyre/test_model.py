@@ -155,3 +155,41 @@ def test_skewed_force_distribution_does_not_read_as_curvature():
     # Tolerance 5 % on C_x (posterior sd ~2 %); a Gaussian force population gives ~+20 %.
     assert abs(summary["c_x"]["mean"] / C_X_TRUE - 1.0) < 0.05
     assert summary["mu_max"]["mean"] > 0.8
+
+
+def load_transfer_windows(seed: int, load_sensitivity: float, n: int = 900) -> dict:
+    """A front-driven axle that unloads as it pushes: ΔF_z/F_z = −0.5 ρ, as for a compact car
+    (h/l_r ≈ 0.5). Slips follow a straight line whose slope C_x exp(q ΔF_z/F_z) falls with the
+    force for q > 0 (no curvature of its own: the linear model's fit sees only the load's)."""
+    rng = np.random.default_rng(seed)
+    rho_true = np.clip(rng.gamma(2.0, 0.06, n), 0.02, 0.5)
+    load_change = -0.5 * rho_true
+    stiffness = C_X_TRUE * np.exp(load_sensitivity * load_change)
+    slip_true = rho_true / stiffness + SLIP_OFFSET_TRUE
+    return {
+        "slip": slip_true + rng.normal(0.0, 1e-4, n),
+        "rho": rho_true + rng.normal(0.0, 0.004, n),
+        "slip_sd": np.full(n, 1e-4),
+        "rho_sd": np.full(n, 0.004),
+        "temperature_c": np.full(n, 20.0),
+        "load_change": load_change,
+        "neighbour_slip": slip_true,
+    }
+
+
+@pytest.mark.parametrize("truth", [0.0, 0.8])
+def test_load_sensitivity_is_found_and_c_x_is_at_the_static_load(truth):
+    """The prior of q is Normal(0.263, 0.246) (the measured tyres); the data hold q = 0 or the
+    database's largest, 0.8. The posterior moves to the truth and C_x, the slope at the static
+    load, is recovered either way."""
+    obs = stack_drives([load_transfer_windows(5, truth)], ["dry"], pad_to=PAD)
+    fit = fit_tyre(obs, method="fast", kind="linear", seed=5)
+    assert fit.diagnostics.converged, fit.diagnostics.reason
+    summary = fit.summary()
+    q = np.asarray(fit.draws("load_sensitivity"))
+    low, high = np.quantile(q, [0.05, 0.95])
+    assert low < truth < high
+    assert abs(np.mean(q) - truth) < 0.12
+    c_x = summary["c_x"]
+    assert c_x["hdi_90"][0] < C_X_TRUE < c_x["hdi_90"][1]
+    assert abs(c_x["mean"] / C_X_TRUE - 1.0) < 0.03

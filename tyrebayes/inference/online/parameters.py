@@ -22,7 +22,13 @@ from jaxtyping import Array, Bool, Float
 from ..tyre.model import TyrePriors, check_kind
 
 # Site names in θ order. "log_" sites are positive in the model (θ = log of the site).
-_COMMON_HEAD = ("log_c_xr", "temp_sensitivity", "log_mu_max", "abs_force_ratio")
+_COMMON_HEAD = (
+    "log_c_xr",
+    "temp_sensitivity",
+    "load_sensitivity",
+    "log_mu_max",
+    "abs_force_ratio",
+)
 _SHAPE = {
     "magic": ("log_curve_shape_excess", "log_curve_curvature_gap"),
     "shaped": ("log_curve_bend",),
@@ -45,6 +51,7 @@ PER_DRIVE = ("slip_offset", "log_force_gain")
 TYRE_COORDINATES = (
     "log_c_xr",
     "temp_sensitivity",
+    "load_sensitivity",
     "log_mu_max",
     "abs_force_ratio",
     "log_curve_shape_excess",
@@ -114,7 +121,7 @@ def type_prior(
     --------
     >>> prior = type_prior(kind="brush")
     >>> prior.mean.shape
-    (9,)
+    (10,)
     """
     priors = TyrePriors() if priors is None else priors
     check_kind(kind)
@@ -125,6 +132,7 @@ def type_prior(
     moments = {
         "log_c_xr": (np.log(priors.c_xr_median), priors.c_xr_log_sd),
         "temp_sensitivity": (priors.temp_sensitivity_mean, priors.temp_sensitivity_sd),
+        "load_sensitivity": (priors.load_sensitivity_mean, priors.load_sensitivity_sd),
         "log_mu_max": (
             float(np.log(priors.mu_median((surface,))[0])),
             float(priors.mu_log_sd((surface,))[0]),
@@ -164,6 +172,7 @@ def model_sites(theta: Float[Array, "p"], kind: str, priors: TyrePriors | None =
     sites = {
         "c_xr": jnp.exp(value["log_c_xr"]),
         "temp_sensitivity": value["temp_sensitivity"],
+        "load_sensitivity": value["load_sensitivity"],
         "mu_max": one * jnp.exp(value["log_mu_max"]),
         "abs_force_ratio": value["abs_force_ratio"],
         "slip_offset": one * value["slip_offset"],

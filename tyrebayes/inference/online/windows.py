@@ -54,6 +54,7 @@ _WINDOW_FIELDS = {
     "slip_sd": 1.0,
     "rho_sd": 1.0,
     "temperature_c": 20.0,
+    "load_change": 0.0,
     "rho_score": 0.0,
     "rho_score_slope": 0.0,
 }
@@ -68,6 +69,8 @@ class WindowBlocks(eqx.Module):
         As :class:`~tyrebayes.inference.tyre.data.TyreObservations` [-].
     temperature_c : Float[Array, "*b w"]
         Tyre temperature of each window [°C].
+    load_change : Float[Array, "*b w"]
+        The driven axle's ΔF_z/F_z,static in each window [-] (0 where not given).
     rho_score, rho_score_slope : Float[Array, "*b w"]
         Force-density score and its slope at each window's force (module docstring).
     at_limit : Bool[Array, "*b w"]
@@ -95,6 +98,7 @@ class WindowBlocks(eqx.Module):
     slip_sd: Float[Array, "*b w"]
     rho_sd: Float[Array, "*b w"]
     temperature_c: Float[Array, "*b w"]
+    load_change: Float[Array, "*b w"]
     rho_score: Float[Array, "*b w"]
     rho_score_slope: Float[Array, "*b w"]
     at_limit: Bool[Array, "*b w"]
@@ -123,6 +127,7 @@ class WindowBlocks(eqx.Module):
             slip_sd=self.slip_sd,
             rho_sd=self.rho_sd,
             temperature_c=self.temperature_c,
+            load_change=self.load_change,
             neighbour_slip=jnp.zeros_like(self.slip),
             slip_weight=jnp.broadcast_to(slip_weight, self.slip.shape).astype(self.slip.dtype),
             imu_gain_log_sd=jnp.zeros_like(self.slip),
@@ -193,7 +198,8 @@ def window_blocks(
     windows : dict of ndarray
         :func:`~tyrebayes.inference.tyre.data.observations_from_features` output (``time_s``,
         ``slip``, ``rho``, the noise sds, ``temperature_c``, ``at_limit``; ``rho_score`` and
-        ``rho_score_slope`` if present, else 0: no force-noise correction; ``drive`` if
+        ``rho_score_slope`` if present, else 0: no force-noise correction; ``load_change`` if
+        present, else 0 (the static load); ``drive`` if
         present, an integer per window that changes where a new drive begins, else one drive).
         Steps never straddle two drives.
     surface : str

@@ -49,6 +49,10 @@ class TyreObservations(eqx.Module):
         Standard deviation of the measurement noise of each window mean [-].
     temperature_c : Float[Array, "n"]
         Tyre temperature estimate for the window [°C].
+    load_change : Float[Array, "n"]
+        The driven axle's load over its static load, minus 1 [-] (window mean of
+        :attr:`tyrebayes.streams.StreamFeatures.load_change_driven`; 0 where not known): the
+        model's C_x follows it through the tyre's load sensitivity.
     at_limit : Bool[Array, "n"]
         The window is an ABS (force-at-the-limit) window: its slip is not measurable (all four
         wheels cycle) and its force observes μ_max directly.
@@ -91,6 +95,7 @@ class TyreObservations(eqx.Module):
     slip_sd: Float[Array, "n"]
     rho_sd: Float[Array, "n"]
     temperature_c: Float[Array, "n"]
+    load_change: Float[Array, "n"]
     neighbour_slip: Float[Array, "n"]
     slip_weight: Float[Array, "n"]
     imu_gain_log_sd: Float[Array, "n"]
@@ -287,7 +292,8 @@ def observations_from_features(
     Returns
     -------
     dict
-        As :func:`windowed_observations`, plus ``at_limit`` (bool per window) and ``rho_score``,
+        As :func:`windowed_observations`, plus ``load_change`` (the driven axle's
+        ΔF_z/F_z,static), ``at_limit`` (bool per window) and ``rho_score``,
         ``rho_score_slope`` (:func:`force_density_score` over all the drive's windows, 0 for ABS).
     """
     from ...streams.segments import BRAKING, FREE_ROLLING, TRACTION
@@ -313,7 +319,10 @@ def observations_from_features(
         usable=usable,
         window_s=window_s,
         correlation_samples=correlation,
-        also={"rho_total": features.rho_total_traction},
+        also={
+            "rho_total": features.rho_total_traction,
+            "load_change": features.load_change_driven,
+        },
     )
     # The density of the measured forces (for E[ρ_true | ρ_obs], tyre_model) is that of every
     # window: estimated on the kept ones only, it would fall off artificially at the cut.
@@ -345,6 +354,7 @@ def observations_from_features(
     sample_temperature = np.broadcast_to(np.asarray(temperature_c, dtype=float), valid.shape)
     limit_temperature, _ = window_means(sample_temperature, np.ones_like(valid), window)
     limit_time = window_centres(features.time_s, window, len(rho_mean))
+    limit_load, _ = window_means(np.nan_to_num(features.load_change_driven), valid, window)
     enough = counts >= 0.8 * window
     baseline = np.nanmedian(np.where(enough, oscillation, np.nan)) if enough.any() else np.nan
     candidate = (
@@ -362,6 +372,7 @@ def observations_from_features(
         "slip_sd": np.ones(m),
         "rho_sd": np.nan_to_num(rho_sd[at_limit], nan=0.01) * factor,
         "temperature_c": limit_temperature[at_limit],
+        "load_change": limit_load[at_limit],
         "time_s": limit_time[at_limit],
         "neighbour_slip": np.zeros(m),
         "rho_score": np.zeros(m),
@@ -418,7 +429,16 @@ def stack_drives(
     if unknown:
         raise BadInputError(f"surface: expected one of {SURFACES}, got {unknown[0]!r}")
     used_surfaces = tuple(s for s in SURFACES if s in surfaces)
-    keys = ("slip", "rho", "slip_sd", "rho_sd", "temperature_c", "neighbour_slip", "at_limit")
+    keys = (
+        "slip",
+        "rho",
+        "slip_sd",
+        "rho_sd",
+        "temperature_c",
+        "load_change",
+        "neighbour_slip",
+        "at_limit",
+    )
     parts = {k: [] for k in (*keys, "rho_score", "rho_score_slope", "imu_gain_log_sd")}
     drive_idx, surface_idx, block_idx = [], [], []
     n_blocks = 0
@@ -429,7 +449,14 @@ def stack_drives(
         blocks = np.unique(np.floor(times / BLOCK_S).astype(np.int64), return_inverse=True)[1]
         block_idx.append(n_blocks + blocks.reshape(-1))
         n_blocks += int(blocks.max()) + 1 if m else 0
-        drive = {"at_limit": np.zeros(m, dtype=bool), "imu_gain_log_sd": np.zeros(m), **drive}
+        # Hand-made drives may leave out what the stream pipeline measures: no ABS windows, no
+        # IMU rescaling, the static load.
+        drive = {
+            "at_limit": np.zeros(m, dtype=bool),
+            "imu_gain_log_sd": np.zeros(m),
+            "load_change": np.zeros(m),
+            **drive,
+        }
         parts["imu_gain_log_sd"].append(np.asarray(drive["imu_gain_log_sd"], dtype=float))
         for k in keys:
             parts[k].append(np.asarray(drive[k], dtype=bool if k == "at_limit" else float))
@@ -460,6 +487,7 @@ def stack_drives(
         slip_sd=jnp.asarray(pad(cat["slip_sd"], 1.0)),
         rho_sd=jnp.asarray(pad(cat["rho_sd"], 1.0)),
         temperature_c=jnp.asarray(pad(cat["temperature_c"], 20.0)),
+        load_change=jnp.asarray(pad(cat["load_change"], 0.0)),
         neighbour_slip=jnp.asarray(pad(cat["neighbour_slip"], 0.0)),
         slip_weight=jnp.ones(size),
         imu_gain_log_sd=jnp.asarray(pad(cat["imu_gain_log_sd"], 0.0)),

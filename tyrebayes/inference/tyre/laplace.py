@@ -463,6 +463,7 @@ def _template_observations(size: int, n_drives: int, surfaces: tuple) -> TyreObs
         slip_sd=jnp.ones(size),
         rho_sd=jnp.ones(size),
         temperature_c=jnp.full(size, 20.0),
+        load_change=zeros,
         neighbour_slip=zeros,
         slip_weight=jnp.ones(size),
         imu_gain_log_sd=zeros,

@@ -6,7 +6,7 @@ Measurement model for window i of drive d on surface s (all quantities normalise
     ρ_obs,i   = g_d ρ_true,i + ε_ρ,    ε_ρ ~ Normal(0, λ_ρ sρ_i)
     σ_obs,i   = f⁻¹(ρ_true,i; C_x(T_i), μ_s) + s0_d + b_k + ε_σ,   ε_σ ~ Normal(0, λ_σ sσ_i)
     b_k       ~ Normal(0, τ)                               (one offset per 5 s block k)
-    C_x(T)    = C_xr exp(−κ (T − 20 °C))                  (stiffness temperature compensation)
+    C_x,i     = C_xr exp(−κ (T_i − 20 °C)) exp(q ΔF_z,i/F_z)  (temperature, load sensitivity)
 
 with f⁻¹ the inverse of the tyre curve in adhesion: by default the Magic Formula (Pacejka 2006,
 4.E9–E18; slope C_x at zero, peak μ) with its shape C and curvature E unknown and their prior the
@@ -58,6 +58,19 @@ of independent information, which the fits estimate from a first fit's residuals
 window, which the pipeline estimates from the drive's speed and loads
 (:mod:`tyrebayes.streams.tyre_temperature`); so κ is inferred from the drive's warm-up.
 
+C_x(T) = C_xr exp(−κ (T − 20 °C)) compensates the temperature (the reported ``c_x`` is at the
+mean tyre temperature and the static load). Real tyres are also stiffer per unit load at more
+load, or less: q = d ln C_x / d(ΔF_z/F_z) is 0 to 0.80 over the shipped car/SUV tyres (PKX2/PKX1 +
+PKX3, :mod:`.curve_prior`), and the driven axle's load moves with the force the drive applies
+(load transfer m a_x h/L: a front-driven axle unloads as it pushes). With one C_x at every load
+the model read that as the curve's bending and its C_x intervals were too narrow on simulated
+drives with the measured tyres' load dependences (90 % coverage 0.78 pooled over 36 drives,
+0.94 with the load dependences removed: ``benchmarks/results/tyre_recovery_load_dependence.json``).
+So each window's C_x follows its axle's load change ΔF_z,i/F_z (``obs.load_change``, from the
+features' force balance) through q, whose prior is the measured tyres' spread. q is read from
+how the slip-force relation bends with load; a drive that cannot tell it from the curve's shape
+carries the tyres' range of q into C_x.
+
 ABS windows observe the total normalised force ρ_obs = −g_d r μ_s + ε with r the ratio of an ABS
 window's mean force to the peak, one parameter shared by all windows: it is a property of the
 ABS controller and of the curve's shape after the peak, so it does not average out over windows.
@@ -105,6 +118,10 @@ class TyrePriors(eqx.Module):
     temp_sensitivity_mean, temp_sensitivity_sd : float
         κ in C_x(T) = C_xr exp(−κ(T − 20)) [1/K]; rubber stiffness falls ~0.5–1 %/K around
         room temperature, so 0.008 ± 0.006.
+    load_sensitivity_mean, load_sensitivity_sd : float
+        Normal prior of q in C_x ∝ exp(q ΔF_z/F_z) [-]: the mean and widened sd of PKX2/PKX1 +
+        PKX3 over the 9 distinct car/SUV sets of the shipped tyre database
+        (:func:`~tyrebayes.inference.tyre.curve_prior.curve_shape_prior`; 0 to 0.80 among them).
     slip_offset_sd : float
         Per-drive slip at zero force [-]: rolling radii differ by fractions of a percent
         (DESIGN.md physics notes), the driven-minus-reference difference has sd ~0.004.
@@ -171,6 +188,8 @@ class TyrePriors(eqx.Module):
     c_xr_log_sd: float = 0.45
     temp_sensitivity_mean: float = 0.008
     temp_sensitivity_sd: float = 0.006
+    load_sensitivity_mean: float = 0.263
+    load_sensitivity_sd: float = 0.246
     slip_offset_sd: float = 0.004
     force_gain_log_sd: float = 0.025
     force_spread_scale: float = 0.3
@@ -268,6 +287,9 @@ def tyre_model(
     kappa = numpyro.sample(
         "temp_sensitivity", dist.Normal(priors.temp_sensitivity_mean, priors.temp_sensitivity_sd)
     )
+    load_sensitivity = numpyro.sample(
+        "load_sensitivity", dist.Normal(priors.load_sensitivity_mean, priors.load_sensitivity_sd)
+    )
     with numpyro.plate("surface", n_surfaces):
         mu = numpyro.sample(
             "mu_max",
@@ -326,6 +348,7 @@ def tyre_model(
     params = dict(
         c_xr=c_xr,
         temp_sensitivity=kappa,
+        load_sensitivity=load_sensitivity,
         mu_max=mu,
         abs_force_ratio=abs_ratio,
         **curve,
@@ -412,7 +435,7 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     """The windows' likelihood terms of :func:`tyre_model` (see the module docstring).
 
     ``params`` holds the model's sampled sites by name (``c_xr``, ``temp_sensitivity``,
-    ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale``,
+    ``load_sensitivity``, ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale``,
     ``slip_drift_sd``, the curve's shape sites of ``kind`` and the per-drive ``slip_offset``,
     ``force_gain``, ``force_level``, ``force_spread``); other keys are ignored, so a posterior
     draw can be passed as it is. The model and the posterior predictive share it.
@@ -430,7 +453,9 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     noise2 = rho_noise**2
     rho_hat = (obs.rho + noise2 * obs.rho_score) / gain
     rho_var = noise2 / gain**2 * jnp.clip(1.0 + noise2 * obs.rho_score_slope, 0.05, 1.0)
-    c_x = stiffness_with_sensitivity(params["c_xr"], obs.temperature_c, params["temp_sensitivity"])
+    c_x = stiffness_with_sensitivity(
+        params["c_xr"], obs.temperature_c, params["temp_sensitivity"]
+    ) * jnp.exp(params["load_sensitivity"] * obs.load_change)
     mu_window = params["mu_max"][obs.surface_index]
     slip, slip_slope = _slip_and_slope(kind, rho_hat, c_x, mu_window, params)
     slip_scale = jnp.sqrt((params["slip_noise_scale"] * obs.slip_sd) ** 2 + slip_slope**2 * rho_var)

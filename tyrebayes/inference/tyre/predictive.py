@@ -35,6 +35,7 @@ MAX_PREDICTIVE_DRAWS = 200
 WINDOW_FIELDS = (
     "at_limit",
     "temperature_c",
+    "load_change",
     "drive_index",
     "block_index",
     "surface_index",
