@@ -6,9 +6,10 @@ windows tables without reading its logs again (:func:`drives_from_windows` gives
 :func:`tyrebayes.inference.stack_drives` its input).
 
 Columns (SI, per window): ``drive_id``, ``tyre_set_id``, ``surface``, ``time_s`` [s, window
-centre], ``slip``, ``slip_sd``, ``rho``, ``rho_sd`` [-], ``temperature_c`` [°C],
-``load_change`` [-, the driven axle's ΔF_z/F_z,static], ``neighbour_slip`` [-], ``rho_score``, ``rho_score_slope`` (force-density score), ``at_limit``
-(an ABS window: its ``rho`` observes μ_max), ``imu_gain_log_sd`` [-].
+centre], ``slip``, ``slip_sd``, ``rho``, ``rho_sd`` [-], ``temperature_c`` [°C], ``load_change``
+[-, the driven axle's ΔF_z/F_z,static], ``neighbour_slip`` [-], ``rho_score``,
+``rho_score_slope`` (force-density score), ``at_limit`` (an ABS window: its ``rho`` observes
+μ_max), ``imu_gain_log_sd`` [-].
 
 Examples
 --------

@@ -435,10 +435,11 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     """The windows' likelihood terms of :func:`tyre_model` (see the module docstring).
 
     ``params`` holds the model's sampled sites by name (``c_xr``, ``temp_sensitivity``,
-    ``load_sensitivity``, ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale``,
-    ``slip_drift_sd``, the curve's shape sites of ``kind`` and the per-drive ``slip_offset``,
-    ``force_gain``, ``force_level``, ``force_spread``); other keys are ignored, so a posterior
-    draw can be passed as it is. The model and the posterior predictive share it.
+    ``load_sensitivity``, ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``,
+    ``slip_noise_scale``, ``slip_drift_sd``, the curve's shape sites of ``kind`` and the
+    per-drive ``slip_offset``, ``force_gain``, ``force_level``, ``force_spread``); other keys are
+    ignored, so a posterior draw can be passed as it is. The model and the posterior predictive
+    share it.
     """
     d = obs.drive_index
     gain, level, spread = (params[k][d] for k in ("force_gain", "force_level", "force_spread"))
