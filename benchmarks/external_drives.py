@@ -128,7 +128,7 @@ def fit_row(fit, c_x_true: float, mu_true: float) -> dict:
         "mu_cover_50": interval_covers(mu, mu_true, 0.5),
         "mu_cover_90": interval_covers(mu, mu_true, 0.9),
     }
-    for key in ("adequate", "adequacy_reasons", "identified"):
+    for key in ("adequate", "adequacy_reasons", "identified", "load_sensitivity"):
         if key in summary:
             row[key] = summary[key]
     return row

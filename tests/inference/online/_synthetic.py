@@ -17,14 +17,21 @@ def linear_windows(
     slip_sd: float = 2e-4,
     rho_sd: float = 0.005,
     start_s: float = 0.0,
+    load_sensitivity: float = 0.0,
 ) -> dict:
-    """Windows every 0.25 s: slip = ρ/C_x + offset + noise, force uniform in ``force_range``."""
+    """Windows every 0.25 s: slip = ρ/C_x + offset + noise, force uniform in ``force_range``.
+
+    The driven axle unloads as it pushes, ΔF_z/F_z = −0.5 ρ, and C_x follows it through
+    ``load_sensitivity`` (C_x exp(q ΔF_z/F_z)).
+    """
     rng = np.random.default_rng(seed)
     t = start_s + 0.125 + 0.25 * np.arange(int(duration_s / 0.25))
     rho_true = rng.uniform(*force_range, t.size)
     stiffness = np.full(t.size, c_x)
     if c_x_after is not None:
         stiffness[t >= change_s] = c_x_after
+    load_change = -0.5 * rho_true
+    stiffness = stiffness * np.exp(load_sensitivity * load_change)
     n = t.size
     return {
         "time_s": t,
@@ -33,5 +40,6 @@ def linear_windows(
         "slip_sd": np.full(n, slip_sd),
         "rho_sd": np.full(n, rho_sd),
         "temperature_c": np.full(n, 20.0),
+        "load_change": load_change,
         "at_limit": np.zeros(n, dtype=bool),
     }

@@ -17,6 +17,7 @@ from tyrebayes.inference.online import (
     summary_record,
     window_blocks,
 )
+from tyrebayes.inference.tyre.model import TyrePriors
 
 from ._synthetic import linear_windows
 
@@ -135,3 +136,16 @@ def test_not_ready_without_excitation(estimator):
     assert record["c_x"] is None and record["c_xr"] is None
     assert "excitation" in record["reason"]
     assert record["mu_max"] is None and "not observed" in record["mu_max_reason"]
+
+
+def test_load_sensitivity_is_tracked_where_the_priors_have_it():
+    """With the measured tyres' prior on q the filter carries it as θ's last coordinate and
+    reads a load sensitivity of 0.8 hidden in the windows; C_x is the static load's."""
+    estimator = OnlineEstimator.create(kind="linear", priors=TyrePriors().with_load_sensitivity())
+    assert estimator.prior.names[-1] == "load_sensitivity"
+    windows = linear_windows(3, 600.0, load_sensitivity=0.8)
+    state, trajectory = run_online(estimator, estimator.init(), _steps(windows))
+    q, q_sd = float(state.mean[-1]), float(np.sqrt(state.cov[-1, -1]))
+    assert abs(q - 0.8) < 1.645 * q_sd and q_sd < 0.15
+    lo, hi = summary_record(trajectory, 19)["c_x"]["hdi_90"]
+    assert lo <= 40.0 <= hi

@@ -25,10 +25,12 @@ def test_tyre_priors_match_the_derivation():
         ("curve_shape_excess_log_sd", prior.shape_excess_log_sd),
         ("curve_curvature_log_mean", prior.curvature_log_mean),
         ("curve_curvature_log_sd", prior.curvature_log_sd),
-        ("load_sensitivity_mean", prior.load_sensitivity_mean),
-        ("load_sensitivity_sd", prior.load_sensitivity_sd),
     ):
         assert getattr(defaults, field) == pytest.approx(value, abs=1e-3), field
+    measured = defaults.with_load_sensitivity()
+    assert (measured.load_sensitivity_mean, measured.load_sensitivity_sd) == pytest.approx(
+        (prior.load_sensitivity_mean, prior.load_sensitivity_sd), abs=1e-3
+    )
 
 
 def test_prior_covers_every_passenger_set():

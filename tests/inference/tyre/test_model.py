@@ -177,13 +177,26 @@ def load_transfer_windows(seed: int, load_sensitivity: float, n: int = 900) -> d
     }
 
 
+def test_load_sensitivity_is_left_out_unless_its_prior_is_given():
+    obs = stack_drives([load_transfer_windows(5, 0.8)], ["dry"], pad_to=PAD)
+    with jax.numpy_rank_promotion("allow"):
+        plain = handlers.trace(handlers.seed(tyre_model, 0)).get_trace(obs, TyrePriors())
+        loaded = handlers.trace(handlers.seed(tyre_model, 0)).get_trace(
+            obs, TyrePriors().with_load_sensitivity()
+        )
+    assert "load_sensitivity" not in plain
+    assert loaded["load_sensitivity"]["fn"].loc == pytest.approx(0.263)
+    assert loaded["load_sensitivity"]["fn"].scale == pytest.approx(0.246)
+
+
 @pytest.mark.parametrize("truth", [0.0, 0.8])
 def test_load_sensitivity_is_found_and_c_x_is_at_the_static_load(truth):
-    """The prior of q is Normal(0.263, 0.246) (the measured tyres); the data hold q = 0 or the
+    """With the measured tyres' prior, Normal(0.263, 0.246), on q; the data hold q = 0 or the
     database's largest, 0.8. The posterior moves to the truth and C_x, the slope at the static
     load, is recovered either way."""
     obs = stack_drives([load_transfer_windows(5, truth)], ["dry"], pad_to=PAD)
-    fit = fit_tyre(obs, method="fast", kind="linear", seed=5)
+    priors = TyrePriors().with_load_sensitivity()
+    fit = fit_tyre(obs, priors=priors, method="fast", kind="linear", seed=5)
     assert fit.diagnostics.converged, fit.diagnostics.reason
     summary = fit.summary()
     q = np.asarray(fit.draws("load_sensitivity"))

@@ -136,9 +136,10 @@ class OnlineConfig(eqx.Module):
             raise ValueError(f"change_min_steps: expected ≥ 1, got {self.change_min_steps}")
 
 
-def default_config(kind: str = "magic", **changes) -> OnlineConfig:
+def default_config(kind: str = "magic", load_sensitive: bool = False, **changes) -> OnlineConfig:
     """:class:`OnlineConfig` with the stated drifts for ``kind``'s θ (and any field changed)."""
-    drift = jnp.asarray([DRIFT_PER_SQRT_S.get(n, 0.0) for n in parameter_names(kind)], dtype=float)
+    names = parameter_names(kind, load_sensitive)
+    drift = jnp.asarray([DRIFT_PER_SQRT_S.get(n, 0.0) for n in names], dtype=float)
     return OnlineConfig(drift_sd_per_sqrt_s=changes.pop("drift_sd_per_sqrt_s", drift), **changes)
 
 

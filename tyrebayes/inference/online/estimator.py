@@ -48,7 +48,6 @@ from .parameters import (
     PER_DRIVE,
     TYRE_COORDINATES,
     GaussianPrior,
-    parameter_names,
     reset_to_prior,
     type_prior,
 )
@@ -89,7 +88,8 @@ class OnlineEstimator(eqx.Module):
         check_kind(kind)
         priors = TyrePriors() if priors is None else priors
         prior = type_prior(priors, kind=kind, surface=surface, imu_gain_log_sd=imu_gain_log_sd)
-        return cls(prior=prior, config=config or default_config(kind), priors=priors)
+        config = config or default_config(kind, priors.load_sensitive)
+        return cls(prior=prior, config=config, priors=priors)
 
     @property
     def kind(self) -> str:
@@ -97,7 +97,7 @@ class OnlineEstimator(eqx.Module):
 
     @property
     def _index(self) -> dict:
-        return {n: i for i, n in enumerate(parameter_names(self.kind))}
+        return {n: i for i, n in enumerate(self.prior.names)}
 
     def init(self, prior: GaussianPrior | None = None, time_s=0.0) -> FilterState:
         """The state before any window: the type prior (default this estimator's)."""

@@ -22,13 +22,7 @@ from jaxtyping import Array, Bool, Float
 from ..tyre.model import TyrePriors, check_kind
 
 # Site names in θ order. "log_" sites are positive in the model (θ = log of the site).
-_COMMON_HEAD = (
-    "log_c_xr",
-    "temp_sensitivity",
-    "load_sensitivity",
-    "log_mu_max",
-    "abs_force_ratio",
-)
+_COMMON_HEAD = ("log_c_xr", "temp_sensitivity", "log_mu_max", "abs_force_ratio")
 _SHAPE = {
     "magic": ("log_curve_shape_excess", "log_curve_curvature_gap"),
     "shaped": ("log_curve_bend",),
@@ -60,10 +54,17 @@ TYRE_COORDINATES = (
 )
 
 
-def parameter_names(kind: str) -> tuple[str, ...]:
-    """Names of θ's coordinates for a tyre-curve ``kind`` (:data:`~..tyre_model.MODEL_KINDS`)."""
+def parameter_names(kind: str, load_sensitive: bool = False) -> tuple[str, ...]:
+    """Names of θ's coordinates for a tyre-curve ``kind`` (:data:`~..tyre_model.MODEL_KINDS`),
+    with the load sensitivity q last where the priors have it (:attr:`TyrePriors.load_sensitive`).
+    """
     check_kind(kind)
-    return (*_COMMON_HEAD, *_SHAPE[kind], *_COMMON_TAIL)
+    return (
+        *_COMMON_HEAD,
+        *_SHAPE[kind],
+        *_COMMON_TAIL,
+        *(("load_sensitivity",) if load_sensitive else ()),
+    )
 
 
 class GaussianPrior(eqx.Module):
@@ -79,15 +80,23 @@ class GaussianPrior(eqx.Module):
         Tyre-curve model (static).
     surface : str
         Road surface whose μ_max prior it holds (static).
+    load_sensitive : bool
+        θ has the load sensitivity q (static; :func:`parameter_names`).
     """
 
     mean: Float[Array, "p"]
     cov: Float[Array, "p p"]
     kind: str = eqx.field(static=True)
     surface: str = eqx.field(static=True)
+    load_sensitive: bool = eqx.field(static=True, default=False)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """θ's coordinates (:func:`parameter_names`)."""
+        return parameter_names(self.kind, self.load_sensitive)
 
     def __check_init__(self):
-        p = len(parameter_names(self.kind))
+        p = len(self.names)
         if self.mean.shape[-1] != p or self.cov.shape[-2:] != (p, p):
             raise ValueError(
                 f"GaussianPrior: expected mean (…, {p}) and cov (…, {p}, {p}) for kind "
@@ -121,7 +130,7 @@ def type_prior(
     --------
     >>> prior = type_prior(kind="brush")
     >>> prior.mean.shape
-    (10,)
+    (9,)
     """
     priors = TyrePriors() if priors is None else priors
     check_kind(kind)
@@ -153,10 +162,16 @@ def type_prior(
         "log_slip_noise_scale": (0.0, priors.slip_noise_log_sd),
         "log_slip_drift_sd": (np.log(priors.slip_drift_median), priors.slip_drift_log_sd),
     }
-    names = parameter_names(kind)
+    names = parameter_names(kind, priors.load_sensitive)
     mean = jnp.asarray([moments[n][0] for n in names], dtype=float)
     sd = jnp.asarray([moments[n][1] for n in names], dtype=float)
-    return GaussianPrior(mean=mean, cov=jnp.diag(sd**2), kind=kind, surface=surface)
+    return GaussianPrior(
+        mean=mean,
+        cov=jnp.diag(sd**2),
+        kind=kind,
+        surface=surface,
+        load_sensitive=priors.load_sensitive,
+    )
 
 
 def model_sites(theta: Float[Array, "p"], kind: str, priors: TyrePriors | None = None) -> dict:
@@ -166,13 +181,12 @@ def model_sites(theta: Float[Array, "p"], kind: str, priors: TyrePriors | None =
     maps (C = 1 + exp, E = 1 − exp for ``"magic"``; p = p_min + exp for ``"shaped"``).
     """
     priors = TyrePriors() if priors is None else priors
-    names = parameter_names(kind)
+    names = parameter_names(kind, priors.load_sensitive)
     value = {n: theta[i] for i, n in enumerate(names)}
     one = jnp.ones((1,), dtype=theta.dtype)
     sites = {
         "c_xr": jnp.exp(value["log_c_xr"]),
         "temp_sensitivity": value["temp_sensitivity"],
-        "load_sensitivity": value["load_sensitivity"],
         "mu_max": one * jnp.exp(value["log_mu_max"]),
         "abs_force_ratio": value["abs_force_ratio"],
         "slip_offset": one * value["slip_offset"],
@@ -185,6 +199,8 @@ def model_sites(theta: Float[Array, "p"], kind: str, priors: TyrePriors | None =
         "slip_noise_scale": jnp.exp(value["log_slip_noise_scale"]),
         "slip_drift_sd": jnp.exp(value["log_slip_drift_sd"]),
     }
+    if priors.load_sensitive:
+        sites["load_sensitivity"] = value["load_sensitivity"]
     if kind == "magic":
         sites["curve_shape_c"] = 1.0 + jnp.exp(value["log_curve_shape_excess"])
         sites["curve_curvature_e"] = 1.0 - jnp.exp(value["log_curve_curvature_gap"])
@@ -202,7 +218,7 @@ def reset_to_prior(
 ) -> tuple[Float[Array, "p"], Float[Array, "p p"]]:
     """Where ``where``, the coordinates ``names`` take ``prior``'s marginal, uncorrelated with the
     rest (whose marginal is kept)."""
-    chosen = jnp.asarray([n in names for n in parameter_names(prior.kind)]) & where
+    chosen = jnp.asarray([n in names for n in prior.names]) & where
     either = chosen[:, None] | chosen[None, :]
     both = chosen[:, None] & chosen[None, :]
     cov = jnp.where(either, jnp.where(both, prior.cov, 0.0), cov)

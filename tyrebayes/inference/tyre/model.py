@@ -106,6 +106,11 @@ _MU_MEDIAN = {"dry": 1.0, "wet": 0.75, "snow": 0.35, "ice": 0.12}
 _MU_LOG_SD = {"dry": 0.15, "wet": 0.2, "snow": 0.35, "ice": 0.4}
 
 
+#: Mean and sd of q = d ln C_x / d(ΔF_z/F_z) over the measured car/SUV tyres, rounded
+#: (:func:`~tyrebayes.inference.tyre.curve_prior.curve_shape_prior`; a test holds them to it).
+MEASURED_LOAD_SENSITIVITY = (0.263, 0.246)
+
+
 class TyrePriors(eqx.Module):
     """Prior scales of the per-tyre model (reviewed numbers; each says where it comes from).
 
@@ -119,9 +124,16 @@ class TyrePriors(eqx.Module):
         κ in C_x(T) = C_xr exp(−κ(T − 20)) [1/K]; rubber stiffness falls ~0.5–1 %/K around
         room temperature, so 0.008 ± 0.006.
     load_sensitivity_mean, load_sensitivity_sd : float
-        Normal prior of q in C_x ∝ exp(q ΔF_z/F_z) [-]: the mean and widened sd of PKX2/PKX1 +
-        PKX3 over the 9 distinct car/SUV sets of the shipped tyre database
-        (:func:`~tyrebayes.inference.tyre.curve_prior.curve_shape_prior`; 0 to 0.80 among them).
+        Normal prior of q in C_x ∝ exp(q ΔF_z/F_z,static) [-]. ``load_sensitivity_sd = 0``, the
+        default, leaves q out (one C_x at every load); :meth:`with_load_sensitivity` sets the
+        mean and widened sd of PKX2/PKX1 + PKX3 over the 9 distinct car/SUV sets of the shipped
+        tyre database (:func:`~tyrebayes.inference.tyre.curve_prior.curve_shape_prior`; 0 to
+        0.80 among them, mean 0.263, sd 0.246). Off by default because slip windows are
+        traction only, where the load follows the force, so q bends the slip-force relation
+        like the curve's shape does and a drive hardly tells them apart: its prior mean then
+        moves C_x. On the package's simulator, whose tyres have the database's load
+        dependences, it helps; on the independent generator's drives, whose tyres have none, it
+        costs (module docstring).
     slip_offset_sd : float
         Per-drive slip at zero force [-]: rolling radii differ by fractions of a percent
         (DESIGN.md physics notes), the driven-minus-reference difference has sd ~0.004.
@@ -189,7 +201,7 @@ class TyrePriors(eqx.Module):
     temp_sensitivity_mean: float = 0.008
     temp_sensitivity_sd: float = 0.006
     load_sensitivity_mean: float = 0.263
-    load_sensitivity_sd: float = 0.246
+    load_sensitivity_sd: float = 0.0
     slip_offset_sd: float = 0.004
     force_gain_log_sd: float = 0.025
     force_spread_scale: float = 0.3
@@ -206,6 +218,19 @@ class TyrePriors(eqx.Module):
     slip_noise_log_sd: float = 0.3
     slip_drift_median: float = 3e-4
     slip_drift_log_sd: float = 1.0
+
+    @property
+    def load_sensitive(self) -> bool:
+        """Whether the model has a load sensitivity q (``load_sensitivity_sd > 0``)."""
+        return self.load_sensitivity_sd > 0
+
+    def with_load_sensitivity(self) -> TyrePriors:
+        """These priors with q's prior the measured tyres' spread, Normal(0.263, 0.246)."""
+        return eqx.tree_at(
+            lambda p: (p.load_sensitivity_mean, p.load_sensitivity_sd),
+            self,
+            MEASURED_LOAD_SENSITIVITY,
+        )
 
     def mu_median(self, surfaces: tuple[str, ...]) -> jax.Array:
         return jnp.array([_MU_MEDIAN[s] for s in surfaces])
@@ -287,9 +312,6 @@ def tyre_model(
     kappa = numpyro.sample(
         "temp_sensitivity", dist.Normal(priors.temp_sensitivity_mean, priors.temp_sensitivity_sd)
     )
-    load_sensitivity = numpyro.sample(
-        "load_sensitivity", dist.Normal(priors.load_sensitivity_mean, priors.load_sensitivity_sd)
-    )
     with numpyro.plate("surface", n_surfaces):
         mu = numpyro.sample(
             "mu_max",
@@ -348,7 +370,6 @@ def tyre_model(
     params = dict(
         c_xr=c_xr,
         temp_sensitivity=kappa,
-        load_sensitivity=load_sensitivity,
         mu_max=mu,
         abs_force_ratio=abs_ratio,
         **curve,
@@ -359,6 +380,11 @@ def tyre_model(
         force_level=force_level,
         force_spread=force_spread,
     )
+    if priors.load_sensitive:
+        params["load_sensitivity"] = numpyro.sample(
+            "load_sensitivity",
+            dist.Normal(priors.load_sensitivity_mean, priors.load_sensitivity_sd),
+        )
     if priors.slip_drift_median > 0:
         params["slip_drift_sd"] = numpyro.sample(
             "slip_drift_sd",
@@ -435,11 +461,11 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     """The windows' likelihood terms of :func:`tyre_model` (see the module docstring).
 
     ``params`` holds the model's sampled sites by name (``c_xr``, ``temp_sensitivity``,
-    ``load_sensitivity``, ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``,
-    ``slip_noise_scale``, ``slip_drift_sd``, the curve's shape sites of ``kind`` and the
-    per-drive ``slip_offset``, ``force_gain``, ``force_level``, ``force_spread``); other keys are
-    ignored, so a posterior draw can be passed as it is. The model and the posterior predictive
-    share it.
+    ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale``, ``slip_drift_sd``
+    and ``load_sensitivity`` where the priors have them, the curve's shape sites of ``kind`` and
+    the per-drive ``slip_offset``, ``force_gain``, ``force_level``, ``force_spread``); other keys
+    are ignored, so a posterior draw can be passed as it is. The model and the posterior
+    predictive share it.
     """
     d = obs.drive_index
     gain, level, spread = (params[k][d] for k in ("force_gain", "force_level", "force_spread"))
@@ -454,9 +480,9 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     noise2 = rho_noise**2
     rho_hat = (obs.rho + noise2 * obs.rho_score) / gain
     rho_var = noise2 / gain**2 * jnp.clip(1.0 + noise2 * obs.rho_score_slope, 0.05, 1.0)
-    c_x = stiffness_with_sensitivity(
-        params["c_xr"], obs.temperature_c, params["temp_sensitivity"]
-    ) * jnp.exp(params["load_sensitivity"] * obs.load_change)
+    c_x = stiffness_with_sensitivity(params["c_xr"], obs.temperature_c, params["temp_sensitivity"])
+    if "load_sensitivity" in params:
+        c_x = c_x * jnp.exp(params["load_sensitivity"] * obs.load_change)
     mu_window = params["mu_max"][obs.surface_index]
     slip, slip_slope = _slip_and_slope(kind, rho_hat, c_x, mu_window, params)
     slip_scale = jnp.sqrt((params["slip_noise_scale"] * obs.slip_sd) ** 2 + slip_slope**2 * rho_var)
@@ -497,6 +523,7 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
 
 __all__ = [
     "DEFAULT_KIND",
+    "MEASURED_LOAD_SENSITIVITY",
     "MODEL_KINDS",
     "check_kind",
     "curve_slip",

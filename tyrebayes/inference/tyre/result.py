@@ -119,12 +119,13 @@ class TyreFit:
         """The ``fit-tyre --json`` object: c_x, c_xr, mu_max, slip_offset summaries and flags.
 
         ``mu_max``, ``slip_offset`` and ``force_gain`` (measured over true ρ_x: load share, IMU
-        scale, body pitch) describe the first surface and drive; ``mu_max_by_surface`` lists
+        scale, body pitch) describe the first surface and drive; ``load_sensitivity`` is q, of
+        C_x ∝ exp(q ΔF_z/F_z,static); ``mu_max_by_surface`` lists
         every surface. ``diagnostics`` is :meth:`Diagnostics.as_dict`; ``adequate`` and
         ``adequacy_reasons`` repeat its model-adequacy verdict at the top level.
         """
         mu = self.draws("mu_max")
-        return {
+        summary = {
             "c_x": summarize(self.draws("c_x")),
             "c_xr": summarize(self.draws("c_xr")),
             "mu_max": summarize(mu[:, 0]),
@@ -153,3 +154,7 @@ class TyreFit:
                 "secant_stiffness": summarize(self.secant_stiffness),
             },
         }
+        # Fit files written before the model had a load sensitivity lack it.
+        if "load_sensitivity" in self.idata["posterior"]:
+            summary["load_sensitivity"] = summarize(self.draws("load_sensitivity"))
+        return summary
