@@ -23,7 +23,12 @@ noise (what enters the model), ``stated_fit`` that times the fit's noise scale (
 
 Fits that do not converge are counted and excluded from the error and coverage figures (listed).
 
-Usage: ``python benchmarks/external_drives.py [DIR] [--out FILE] [--drives e00,e01]``.
+``--load-sensitivity`` fits every model with the load sensitivity of the slip stiffness
+(``TyrePriors().with_load_sensitivity()``), written to ``external_drives_load_sensitivity.json``
+unless ``--out`` says otherwise: these tyres have none, so the run measures what its prior costs.
+
+Usage: ``python benchmarks/external_drives.py [DIR] [--out FILE] [--drives e00,e01]
+[--load-sensitivity]``.
 """
 
 from __future__ import annotations
@@ -49,11 +54,13 @@ from tyrebayes.inference.tyre.data import (  # noqa: E402
     stack_drives,
 )
 from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
+from tyrebayes.inference.tyre.model import TyrePriors  # noqa: E402
 from tyrebayes.streams import compute_features, read_stream, validate_stream  # noqa: E402
 from tyrebayes.streams.tyre_temperature import features_tyre_temperature  # noqa: E402
 
 DEFAULT_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "external"
 RESULTS = Path(__file__).parent / "results" / "external_drives.json"
+RESULTS_LOAD = RESULTS.with_name("external_drives_load_sensitivity.json")
 SIDE_MODELS = ("brush", "linear")
 
 
@@ -134,7 +141,7 @@ def fit_row(fit, c_x_true: float, mu_true: float) -> dict:
     return row
 
 
-def one_drive(folder: Path, entry: dict) -> dict:
+def one_drive(folder: Path, entry: dict, priors: TyrePriors | None = None) -> dict:
     name = entry["name"]
     vehicle_path = folder / "drives" / entry["vehicle"]
     vehicle = load_vehicle(vehicle_path)
@@ -145,10 +152,10 @@ def one_drive(folder: Path, entry: dict) -> dict:
     windows = observations_from_features(features, temperature_c=temperature)
     obs = stack_drives([windows], ["dry"])
     t0 = time.perf_counter()
-    fits = {"default": fit_tyre(obs, method="fast", seed=0)}
+    fits = {"default": fit_tyre(obs, priors=priors, method="fast", seed=0)}
     wall = time.perf_counter() - t0
     for kind in SIDE_MODELS:
-        fits[kind] = fit_tyre(obs, method="fast", seed=0, kind=kind)
+        fits[kind] = fit_tyre(obs, priors=priors, method="fast", seed=0, kind=kind)
 
     truth = pd.read_parquet(folder / "drives" / f"{name}_truth.parquet")
     slip_windows = ~windows["at_limit"]
@@ -229,9 +236,15 @@ def pooled(rows: list[dict], model: str) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("folder", nargs="?", type=Path, default=DEFAULT_DIR)
-    parser.add_argument("--out", type=Path, default=RESULTS)
+    parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--drives", default="", help="comma-separated subset, e.g. e00,e01")
+    parser.add_argument(
+        "--load-sensitivity", action="store_true", help="fit with the measured tyres' q prior"
+    )
     args = parser.parse_args()
+    priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
+    if args.out is None:
+        args.out = RESULTS_LOAD if args.load_sensitivity else RESULTS
     entries = json.loads((args.folder / "truth.json").read_text())["drives"]
     if args.drives:
         wanted = set(args.drives.split(","))
@@ -239,7 +252,7 @@ def main() -> None:
     t0 = time.perf_counter()
     rows = []
     for entry in entries:
-        row = one_drive(args.folder, entry)
+        row = one_drive(args.folder, entry, priors)
         rows.append(row)
         d = row["default"]
         print(
@@ -256,6 +269,7 @@ def main() -> None:
         "folder": str(args.folder),
         "n_drives": len(rows),
         "method": "fast",
+        "load_sensitivity": bool(args.load_sensitivity),
         "wall_s": time.perf_counter() - t0,
         "load_avg_1min": os.getloadavg()[0],
         "pooled": {m: pooled(rows, m) for m in ("default", *SIDE_MODELS)},

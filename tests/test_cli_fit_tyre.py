@@ -108,6 +108,33 @@ def test_fit_tyre_exits_3_when_the_fit_did_not_converge(tmp_path, capsys, monkey
     assert code == 3 and "NOT CONVERGED" in capsys.readouterr().out
 
 
+def test_load_sensitivity_flag_gives_the_fit_the_measured_prior(tmp_path, capsys, monkeypatch):
+    """``--load-sensitivity`` reaches the fit as the measured tyres' q prior and its provenance."""
+    from tyrebayes._resources import data_dir
+    from tyrebayes.inference.result import load_fit
+    from tyrebayes.inference.tyre import fit as tyre_fit
+    from tyrebayes.inference.tyre.data import stack_drives
+
+    from .inference.tyre.test_model import PAD, linear_region_windows
+
+    fit = tyre_fit.fit_tyre(stack_drives([linear_region_windows(3)], ["dry"], pad_to=PAD))
+    given = {}
+
+    def recording(*args, **kwargs):
+        given.update(kwargs)
+        return fit
+
+    monkeypatch.setattr(tyre_fit, "fit_tyre", recording)
+    out = tmp_path / "fit.nc"
+    stream = data_dir() / "comma2k19_rav4_segment.csv"
+    argv = ["fit-tyre", str(stream), "--vehicle", "suv_rav4", "--method", "fast", "--json"]
+    assert main([*argv, "--load-sensitivity", "--out", str(out)]) == 0
+    assert given["priors"].load_sensitive and given["priors"].load_sensitivity_sd == 0.246
+    assert json.loads(load_fit(out).provenance.settings)["load_sensitivity"] is True
+    capsys.readouterr()
+    assert main(argv) == 0 and given["priors"] is None
+
+
 def _slow_stream(path):
     from tyrebayes._domain import load_vehicle
     from tyrebayes.streams import write_stream

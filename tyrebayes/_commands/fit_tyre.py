@@ -83,6 +83,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "from the measured tyres; shaped: the brush with a fitted exponent; brush; linear)"
         ),
     )
+    parser.add_argument(
+        "--load-sensitivity",
+        action="store_true",
+        help="let C_x follow the driven axle's load (q with the measured tyres' prior; "
+        "README: the load sensitivity of the slip stiffness)",
+    )
     add_can_arguments(parser)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", help="write the fit (netCDF, read back with tyrebayes.load_fit)")
@@ -119,6 +125,7 @@ def _text(summary: dict[str, Any], diagnostics) -> str:
         + ("" if summary["mu_max_observed"] else "  [not observed: prior only]"),
         line("slip offset", "slip_offset"),
         line("force gain", "force_gain"),
+        *([line("load sens. q", "load_sensitivity")] if "load_sensitivity" in summary else []),
         f"{summary['n_samples_used']} windows ({summary['n_abs_windows']} ABS), "
         f"model {summary['model']}",
     ]
@@ -143,6 +150,7 @@ def run(args: argparse.Namespace) -> int:
     from ..inference.result import provenance
     from ..inference.tyre.data import observations_from_stream
     from ..inference.tyre.fit import fit_tyre
+    from ..inference.tyre.model import TyrePriors
 
     with stream_file(args, args.vehicle) as path:
         stream_flags = _stream_flags(path, args.vehicle)
@@ -153,7 +161,8 @@ def run(args: argparse.Namespace) -> int:
             temperature_c=args.temperature,
             ambient_c=args.ambient,
         )
-    fit = fit_tyre(obs, method=args.method, kind=args.model, seed=args.seed)
+    priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
+    fit = fit_tyre(obs, priors=priors, method=args.method, kind=args.model, seed=args.seed)
     fit = dataclasses.replace(
         fit,
         provenance=provenance(
@@ -163,6 +172,7 @@ def run(args: argparse.Namespace) -> int:
             vehicle=str(args.vehicle),
             surface=args.surface,
             seed=args.seed,
+            load_sensitivity=bool(args.load_sensitivity),
             stream_flags=" | ".join(stream_flags),
         ),
     )
