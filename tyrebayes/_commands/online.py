@@ -64,6 +64,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "clock"
         ),
     )
+    parser.add_argument(
+        "--load-sensitivity",
+        action="store_true",
+        help="let C_x follow the driven axle's load (q with the measured tyres' prior)",
+    )
     add_can_arguments(parser)
     parser.add_argument("--json", action="store_true", help="machine-readable output")
     parser.set_defaults(func=run)
@@ -108,6 +113,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..inference.online import STEP_S, online_estimate, stream_steps, stream_windows
     from ..inference.online.summary import summary_record
+    from ..inference.tyre.model import TyrePriors
 
     with stream_file(args, args.vehicle) as path:
         windows = stream_windows(
@@ -119,13 +125,15 @@ def run(args: argparse.Namespace) -> int:
         )
     steps = stream_steps(windows, args.surface, max_step_s=args.max_step_s)
     imu = float(np.max(windows.get("imu_gain_log_sd", np.zeros(1)), initial=0.0))
-    _, trajectory = online_estimate(steps, kind=args.model, imu_gain_log_sd=imu)
+    priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
+    _, trajectory = online_estimate(steps, kind=args.model, priors=priors, imu_gain_log_sd=imu)
     records = [summary_record(trajectory, i) for i in range(steps.n_blocks)]
     payload = {
         "stream": args.stream,
         "vehicle": args.vehicle,
         "surface": args.surface,
         "model": args.model,
+        "load_sensitivity": bool(args.load_sensitivity),
         "step_s": STEP_S,
         "max_step_s": STEP_S if args.max_step_s is None else args.max_step_s,
         "trajectory": records,
@@ -149,9 +157,12 @@ def _figure(args, windows, steps, trajectory, records) -> str:
     from ..inference.online import linear_ekf
     from ..inference.tyre.data import stack_drives
     from ..inference.tyre.fit import fit_tyre
+    from ..inference.tyre.model import TyrePriors
     from ..report.online_figure import online_trajectory_figure
 
-    fit = fit_tyre(stack_drives([windows], [args.surface]), method="fast", kind=args.model)
+    priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
+    obs = stack_drives([windows], [args.surface])
+    fit = fit_tyre(obs, priors=priors, method="fast", kind=args.model)
     if not fit.diagnostics.converged:
         raise BadInputError(f"--figure: the batch fit did not converge ({fit.diagnostics.reason})")
     batch = fit.summary()["c_x"]
