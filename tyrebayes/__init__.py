@@ -106,7 +106,7 @@ from .batch import dask_client as dask_client
 from .batch import fleet_run as fleet_run
 from .batch import read_manifest as read_manifest
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 # tread wear from a car's own drive history (fit-wear)
 from .inference.wear.changepoint import detect_tyre_changes as detect_tyre_changes
