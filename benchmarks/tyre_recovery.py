@@ -479,6 +479,7 @@ def payload(results: dict, duration: float, note: str, reps: int, wall: float) -
         "results": results,
         "pooled_c_x_coverage": pooled_coverage(results),
         **load_dependence_diagnosis(results),
+        **load_sensitivity_comparison(results),
     }
 
 
@@ -502,6 +503,23 @@ def load_dependence_diagnosis(results: dict) -> dict:
             "without_load_dependence": _coverage(results, [diag for _, diag in pairs]),
         }
     }
+
+
+def load_sensitivity_comparison(results: dict) -> dict:
+    """Pooled C_x coverage of the Magic Formula settings fitted with the load sensitivity, and
+    without it where those settings are in ``results`` too (a ``--merge`` of both runs)."""
+    fitted = [
+        n
+        for n, r in results.items()
+        if r["setting"].get("load_sensitive") and r["setting"]["truth"] == "magic_formula"
+    ]
+    if not fitted:
+        return {}
+    comparison = {"settings": fitted, "with_load_sensitivity": _coverage(results, fitted)}
+    plain = [n.removesuffix("_load_sensitive") for n in fitted]
+    if all(n in results for n in plain):
+        comparison["without_load_sensitivity"] = _coverage(results, plain)
+    return {"load_sensitivity_comparison": comparison}
 
 
 def pooled_coverage(results: dict) -> dict:
@@ -531,7 +549,7 @@ def merge(paths: list[str], out: Path) -> None:
         results, first["drive_duration_s"], first["duration_note"], first["reps_per_setting"], wall
     )
     data["run_note"] = (
-        "separate processes side by side on the 2-core machine ("
+        "separate runs, in processes of their own ("
         + "; ".join(f"{','.join(r['results'])}: {r['wall_time_s']:.0f} s" for r in runs)
         + "); wall_time_s is their sum"
     )
