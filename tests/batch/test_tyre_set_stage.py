@@ -9,3 +9,14 @@ def test_pad_sizes_are_powers_of_two_from_256():
     assert [pad_size(n) for n in (1, 256, 257, 10_136, 16_384, 16_385)] == [
         256, 256, 512, 16_384, 16_384, 32_768
     ]  # fmt: skip
+
+
+def test_load_sensitivity_refits_tyre_sets_but_keeps_the_drives():
+    """The load sensitivity changes the tyre-set fit, not the windows: a rerun with it refits
+    every set (its settings differ) and skips every drive (theirs do not)."""
+    from tyrebayes.batch import RunSettings
+
+    plain, loaded = RunSettings(), RunSettings(load_sensitivity=True)
+    assert plain.drive_settings() == loaded.drive_settings()
+    assert plain.tyre_set_settings() != loaded.tyre_set_settings()
+    assert loaded.tyre_set_settings()["load_sensitivity"] is True

@@ -48,6 +48,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--method", choices=("fast", "nuts"), default="fast")
     parser.add_argument("--model", choices=MODEL_CHOICES, default=MODEL_CHOICES[0])
+    parser.add_argument(
+        "--load-sensitivity",
+        action="store_true",
+        help="fit the tyre sets with C_x following the driven axle's load (q's measured prior)",
+    )
     parser.add_argument("--vehicle", help="vehicle of every log of a glob")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
@@ -82,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
         memory_budget_mb=args.memory_budget,
         method=args.method,
         model=args.model,
+        load_sensitivity=args.load_sensitivity,
         seed=args.seed,
         pointwise=args.pointwise,
         jax_cache=default_cache_dir() if args.jax_cache is None else args.jax_cache,

@@ -20,6 +20,9 @@ class RunSettings:
         Tyre-set fit: ``"fast"`` (MAP + Laplace) or ``"nuts"``.
     model : str
         Tyre-curve model of the tyre-set fit (:data:`tyrebayes.inference.tyre.model.MODEL_KINDS`).
+    load_sensitivity : bool
+        Fit the tyre sets with the load sensitivity of the slip stiffness
+        (:meth:`tyrebayes.inference.tyre.model.TyrePriors.with_load_sensitivity`).
     seed : int
         Randomness of the fits.
     window_s : float
@@ -42,6 +45,7 @@ class RunSettings:
 
     method: str = "fast"
     model: str = "magic"
+    load_sensitivity: bool = False
     seed: int = 0
     window_s: float = 0.25
     pointwise: bool = False
@@ -65,6 +69,7 @@ class RunSettings:
             "stage": "tyre_set",
             "method": self.method,
             "model": self.model,
+            "load_sensitivity": self.load_sensitivity,
             "seed": self.seed,
             "pointwise": self.pointwise,
             "version": PACKAGE_VERSION,

@@ -142,6 +142,7 @@ def fit_tyre_set(
         from ..inference.result import provenance
         from ..inference.tyre.data import stack_drives
         from ..inference.tyre.fit import fit_tyre
+        from ..inference.tyre.model import TyrePriors
 
         drives_dir = Path(out_dir) / DRIVES_DIR
         table = pd.concat(
@@ -154,6 +155,7 @@ def fit_tyre_set(
         obs = stack_drives(windows, surfaces, pad_to=pad_size(n))
         fit = fit_tyre(
             obs,
+            priors=TyrePriors().with_load_sensitivity() if settings.load_sensitivity else None,
             method=settings.method,
             kind=settings.model,
             seed=settings.seed,
@@ -194,6 +196,7 @@ def _with_provenance(fit, provenance, tyre_set_id, drives, settings):
             tuple(d.get("path", d["drive_id"]) for d in drives),
             tyre_set_id=tyre_set_id,
             seed=settings.seed,
+            load_sensitivity=settings.load_sensitivity,
             source="fleet-run windows tables",
         ),
     )
