@@ -206,3 +206,13 @@ def test_load_sensitivity_is_found_and_c_x_is_at_the_static_load(truth):
     c_x = summary["c_x"]
     assert c_x["hdi_90"][0] < C_X_TRUE < c_x["hdi_90"][1]
     assert abs(c_x["mean"] / C_X_TRUE - 1.0) < 0.03
+
+
+def test_single_precision_observations_are_an_error_not_a_failed_fit():
+    import equinox as eqx
+    import jax.numpy as jnp
+
+    obs = stack_drives([linear_region_windows(1, n=50)], ["dry"])
+    single = eqx.tree_at(lambda o: o.slip, obs, obs.slip.astype(jnp.float32))
+    with pytest.raises(ValueError, match="expected float64 observations.*got float32"):
+        fit_tyre(single, method="fast")

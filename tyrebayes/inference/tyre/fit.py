@@ -318,7 +318,19 @@ def fit_tyre(
     --------
     >>> fit = fit_tyre(obs, method="fast")  # doctest: +SKIP
     >>> fit.summary()["c_xr"]["mean"]  # doctest: +SKIP
+
+    Raises
+    ------
+    ValueError
+        An unknown ``method``, or observations in single precision: slips of ~1e-3 with noise
+        of ~1e-4 need float64 (``jax.config.update("jax_enable_x64", True)`` before they are
+        made), and a single-precision fit could only end as not converged.
     """
+    if obs.slip.dtype != jnp.float64:
+        raise ValueError(
+            "tyre fit: expected float64 observations (jax.config.update('jax_enable_x64', "
+            f"True) before stacking them), got {obs.slip.dtype}"
+        )
     if method == "nuts":
         return fit_tyre_nuts(
             obs,

@@ -6,7 +6,7 @@ Measurement model for window i of drive d on surface s (all quantities normalise
     ρ_obs,i   = g_d ρ_true,i + ε_ρ,    ε_ρ ~ Normal(0, λ_ρ sρ_i)
     σ_obs,i   = f⁻¹(ρ_true,i; C_x(T_i), μ_s) + s0_d + b_k + ε_σ,   ε_σ ~ Normal(0, λ_σ sσ_i)
     b_k       ~ Normal(0, τ)                               (one offset per 5 s block k)
-    C_x,i     = C_xr exp(−κ (T_i − 20 °C)) exp(q ΔF_z,i/F_z)  (temperature, load sensitivity)
+    C_x,i     = C_xr exp(−κ (T_i − 20 °C)) exp(q ΔF_z,i/F_z)   (temperature; load, opt-in)
 
 with f⁻¹ the inverse of the tyre curve in adhesion: by default the Magic Formula (Pacejka 2006,
 4.E9–E18; slope C_x at zero, peak μ) with its shape C and curvature E unknown and their prior the
@@ -59,17 +59,20 @@ window, which the pipeline estimates from the drive's speed and loads
 (:mod:`tyrebayes.streams.tyre_temperature`); so κ is inferred from the drive's warm-up.
 
 C_x(T) = C_xr exp(−κ (T − 20 °C)) compensates the temperature (the reported ``c_x`` is at the
-mean tyre temperature and the static load). Real tyres are also stiffer per unit load at more
-load, or less: q = d ln C_x / d(ΔF_z/F_z) is 0 to 0.80 over the shipped car/SUV tyres (PKX2/PKX1 +
-PKX3, :mod:`.curve_prior`), and the driven axle's load moves with the force the drive applies
-(load transfer m a_x h/L: a front-driven axle unloads as it pushes). With one C_x at every load
-the model read that as the curve's bending and its C_x intervals were too narrow on simulated
-drives with the measured tyres' load dependences (90 % coverage 0.78 pooled over 36 drives,
-0.94 with the load dependences removed: ``benchmarks/results/tyre_recovery_load_dependence.json``).
-So each window's C_x follows its axle's load change ΔF_z,i/F_z (``obs.load_change``, from the
-features' force balance) through q, whose prior is the measured tyres' spread. q is read from
-how the slip-force relation bends with load; a drive that cannot tell it from the curve's shape
-carries the tyres' range of q into C_x.
+mean tyre temperature and the static load). Real tyres' stiffness per unit load also changes with
+load: q = d ln C_x / d(ΔF_z/F_z) is 0 to 0.80 over the shipped car/SUV tyres (PKX2/PKX1 + PKX3,
+:mod:`.curve_prior`), and the driven axle's load moves with the force the drive applies (load
+transfer m a_x h/L: a front-driven axle unloads as it pushes). With
+:meth:`TyrePriors.with_load_sensitivity` each window's C_x follows its axle's load change
+ΔF_z,i/F_z,static (``obs.load_change``, from the features' force balance) through q, whose prior
+is the measured tyres' spread; by default q is left out (q = 0). Slip windows are traction only,
+where the load change follows the force, so q bends the slip-force relation like the curve's
+shape and a drive hardly tells them apart: its posterior stays near the prior, whose mean moves
+C_x. On simulated drives whose tyres have the database's load dependences it took the C_x bias
+from −1.9/−1.2/+0.2 % to −0.5/−0.4/+1.9 % and the pooled 90 % coverage from 0.78 to 0.83 (36
+drives); on the independent generator's drives, whose tyres have none, it cost 2 of 16 in 90 %
+coverage (``benchmarks/results/tyre_recovery_load_sensitivity.json``,
+``external_drives_load_sensitivity.json``).
 
 ABS windows observe the total normalised force ρ_obs = −g_d r μ_s + ε with r the ratio of an ABS
 window's mean force to the peak, one parameter shared by all windows: it is a property of the
