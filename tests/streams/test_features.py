@@ -102,6 +102,17 @@ def test_traction_split_force_is_continuous_through_zero(synthetic):
     assert np.mean(feats.rho_driven_traction[braking] < 0.0) > 0.95
 
 
+def test_load_change_is_the_driven_axles_load_transfer(synthetic):
+    """ΔF_z/F_z,static of the front (driven) axle follows the truth's m (a_x + g sin θ) h/L:
+    its acceleration is the traction one (wheels' dV_x/dt plus the IMU's low-passed grade)."""
+    feats, truth = synthetic
+    ok = feats.valid & np.isfinite(feats.load_change_driven)
+    got, true = feats.load_change_driven[ok], truth["front_load_change"][ok]
+    assert np.std(true) > 0.02  # the drive moves the load by several percent
+    assert float(np.polyfit(true, got, 1)[0]) == pytest.approx(1.0, abs=0.05)
+    assert np.median(np.abs(got - true)) < 0.1 * np.std(true)
+
+
 def test_nuisances_exposed(synthetic):
     feats, truth = synthetic
     nuis = feats.nuisances

@@ -92,7 +92,7 @@ def synthetic_stream(
         The stream table in the contract, and the truth: ``time``, ``vx_mps``, ``ax_mps2``
         (dV/dt), ``grade_rad``, ``slip_driven`` (mean over the driven wheels),
         ``slip_driven_relative`` (relative to the V_x wheels, what wheel speeds show),
-        ``rho_driven``,
+        ``rho_driven``, ``front_load_change`` (ΔF_z/F_z,static of the front axle),
         ``radius_error`` (4,), ``ax_offset_mps2``.
     """
     rng = np.random.default_rng(seed)
@@ -195,6 +195,9 @@ def synthetic_stream(
         # V_x (non-driven wheels slip too when they brake).
         "slip_driven_relative": _relative_slip(slip, vehicle.drive),
         "rho_driven": rho_driven,
+        # The front axle's load over its static load, minus 1.
+        "front_load_change": fz_front / (m * g * vehicle.cog_to_rear_axle_m / vehicle.wheelbase_m)
+        - 1.0,
         "radius_error": radius_error,
         "ax_offset_mps2": float(ax_offset_mps2),
     }
