@@ -74,6 +74,20 @@ def test_a_file_without_the_windows_inputs_is_refused(two_drive_fits):
         with_pointwise(old)
 
 
+def test_a_fit_without_load_sensitivity_needs_no_load_change(two_drive_fits):
+    """A file written before the windows carried the load change still rebuilds (its model
+    never read it); one whose model has q would not."""
+    obs, _, compact = two_drive_fits
+    data = compact.data.copy()
+    data["constant_data"] = data["constant_data"].to_dataset().drop_vars("load_change")
+    old = type(compact)(
+        data=data, diagnostics=compact.diagnostics, kind="tyre", provenance=compact.provenance
+    )
+    rebuilt = observations_from_fit(old)
+    assert not np.any(np.asarray(rebuilt.load_change))
+    assert int(np.asarray(rebuilt.mask).sum()) == obs.n_used
+
+
 def test_a_compact_fit_is_criticised_as_the_full_one(two_drive_fits):
     from tyrebayes.criticism import criticize_tyre_fit
 

@@ -210,7 +210,10 @@ def observations_from_fit(fit: Fit) -> TyreObservations:
     if fit.kind != "tyre":
         raise BadInputError(f"fit: expected a tyre fit, got a {fit.kind} fit")
     const = fit.data["constant_data"]
-    missing = [name for name in WINDOW_FIELDS if name not in const.data_vars]
+    # A fit without the load sensitivity never read the load change (files written before the
+    # windows carried it): 0, the static load, is what its likelihood saw.
+    optional = set() if "load_sensitivity" in fit.data["posterior"] else {"load_change"}
+    missing = [n for n in WINDOW_FIELDS if n not in const.data_vars and n not in optional]
     if missing:
         raise BadInputError(
             f"tyre fit: expected its windows' likelihood inputs in constant_data to recompute "
@@ -225,7 +228,10 @@ def observations_from_fit(fit: Fit) -> TyreObservations:
         values = np.asarray(values)
         return jnp.asarray(np.concatenate([values, np.full(size - n, fill, dtype=values.dtype)]))
 
-    fields = {name: padded(const[name], fills.get(name, 0)) for name in WINDOW_FIELDS}
+    fields = {
+        name: padded(const[name] if name in const.data_vars else np.zeros(n), fills.get(name, 0))
+        for name in WINDOW_FIELDS
+    }
     return TyreObservations(
         slip=padded(observed["slip_obs"]),
         rho=padded(observed["rho_obs"]),
