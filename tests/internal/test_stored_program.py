@@ -7,20 +7,13 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from tyrebayes.internal.jax_cache import point_compilation_cache
 from tyrebayes.internal.stored_program import stored_program
 
 
 @jax.jit
 def _function(x, data):
     return x * data["a"], {"total": jnp.sum(data["b"]) + x.sum(), "code": jnp.argmax(data["b"])}
-
-
-@pytest.fixture
-def cache_dir(tmp_path):
-    before = jax.config.jax_compilation_cache_dir
-    jax.config.update("jax_compilation_cache_dir", str(tmp_path))
-    yield tmp_path
-    jax.config.update("jax_compilation_cache_dir", before)
 
 
 def _args(n=3):
@@ -34,11 +27,11 @@ def _same(got, want):
     assert jax.tree.structure(got) == jax.tree.structure(want)
 
 
-def test_a_new_process_reads_the_program_instead_of_tracing(cache_dir):
+def test_a_new_process_reads_the_program_instead_of_tracing(compilation_cache_dir):
     want = _function.__wrapped__(*_args())
     first = stored_program(_function, ("test", 1))
     _same(first(*_args()), want)
-    files = list((cache_dir / "tyrebayes-programs").glob("*.jaxexport"))
+    files = list((compilation_cache_dir / "tyrebayes-programs").glob("*.jaxexport"))
     assert len(files) == 1
 
     # A second wrapper stands for a new process: it reads the file and does not trace.
@@ -53,42 +46,38 @@ def test_a_new_process_reads_the_program_instead_of_tracing(cache_dir):
         _same(stored_program(_function, ("test", 1))(*_args()), want)
         assert exports == []
         # ... where a process without the file traces (the count sees it).
-        (cache_dir / "tyrebayes-programs" / files[0].name).unlink()
+        (compilation_cache_dir / "tyrebayes-programs" / files[0].name).unlink()
         stored_program(_function, ("test", 1))(*_args())
         assert exports == [1]
     # Other shapes or another key: another program.
     stored_program(_function, ("test", 1))(*_args(4)[:1], {"a": jnp.ones(4), "b": jnp.ones(3)})
     stored_program(_function, ("test", 2))(*_args())
-    assert len(list((cache_dir / "tyrebayes-programs").glob("*.jaxexport"))) == 3
+    assert len(list((compilation_cache_dir / "tyrebayes-programs").glob("*.jaxexport"))) == 3
 
 
-def test_a_file_that_is_not_a_program_is_replaced(cache_dir):
+def test_a_file_that_is_not_a_program_is_replaced(compilation_cache_dir):
     stored_program(_function, ("corrupt",))(*_args())
-    (path,) = (cache_dir / "tyrebayes-programs").glob("*.jaxexport")
+    (path,) = (compilation_cache_dir / "tyrebayes-programs").glob("*.jaxexport")
     path.write_bytes(b"not a program")
     _same(stored_program(_function, ("corrupt",))(*_args()), _function.__wrapped__(*_args()))
     assert path.read_bytes() != b"not a program"
 
 
 def test_without_a_cache_folder_the_function_is_called_as_it_is():
-    before = jax.config.jax_compilation_cache_dir
-    jax.config.update("jax_compilation_cache_dir", None)
-    try:
-        _same(stored_program(_function, ("none",))(*_args()), _function.__wrapped__(*_args()))
-    finally:
-        jax.config.update("jax_compilation_cache_dir", before)
+    point_compilation_cache(None)
+    _same(stored_program(_function, ("none",))(*_args()), _function.__wrapped__(*_args()))
 
 
-def test_a_program_traced_from_other_source_is_not_read(cache_dir, monkeypatch):
+def test_a_program_traced_from_other_source_is_not_read(compilation_cache_dir, monkeypatch):
     import tyrebayes.internal.stored_program as module
 
     stored_program(_function, ("source",))(*_args())
     monkeypatch.setattr(module, "source_fingerprint", lambda: "other source")
     _same(stored_program(_function, ("source",))(*_args()), _function.__wrapped__(*_args()))
-    assert len(list((cache_dir / "tyrebayes-programs").glob("*.jaxexport"))) == 2
+    assert len(list((compilation_cache_dir / "tyrebayes-programs").glob("*.jaxexport"))) == 2
 
 
-def test_results_mix_with_arrays_spread_over_several_devices(cache_dir):
+def test_results_mix_with_arrays_spread_over_several_devices(compilation_cache_dir):
     # NUTS runs its chains on several devices and combines them with the Laplace core's
     # results: an exported program's results come committed to one device, which must not leak.
     from jax.sharding import Mesh, NamedSharding, PartitionSpec

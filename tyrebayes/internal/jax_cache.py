@@ -37,7 +37,21 @@ def enable_compilation_cache(path: str | None = None) -> str:
         Path(path).mkdir(parents=True, exist_ok=True)
     except OSError:
         return ""
-    jax.config.update("jax_compilation_cache_dir", path)
+    point_compilation_cache(path)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
     return path
+
+
+def point_compilation_cache(path: str | None) -> None:
+    """Point JAX's persistent compilation cache at ``path`` (``None``: off), effective at once.
+
+    JAX opens its cache at the first compilation and keeps that folder for the process whatever
+    the configuration says afterwards; resetting it makes the next compilation read the
+    configuration again, so that switching the cache off (or moving it) really does.
+    """
+    import jax
+    from jax.experimental.compilation_cache import compilation_cache
+
+    jax.config.update("jax_compilation_cache_dir", path)
+    compilation_cache.reset_cache()

@@ -88,23 +88,21 @@ def test_a_refit_from_the_first_mode_reaches_the_weighted_posteriors_searched_mo
     )
 
 
-def test_layout_medians_are_kept_beside_the_compilation_cache_and_read_back_equal(tmp_path):
+def test_layout_medians_are_kept_beside_the_compilation_cache_and_read_back_equal(
+    compilation_cache_dir,
+):
     from tyrebayes.inference.tyre.laplace import _layout, _read_medians, _stored_medians_path
 
+    tmp_path = compilation_cache_dir
     key = (_priors_key(TyrePriors()), "brush", 2, ("dry",))
-    before = jax.config.jax_compilation_cache_dir
-    jax.config.update("jax_compilation_cache_dir", str(tmp_path))
-    try:
-        path = _stored_medians_path(key)
-        assert path.parent.parent == tmp_path and not path.exists()
-        computed = _layout.__wrapped__(*key)[2]  # no stored medians: computed, then kept
-        assert path.exists()
-        loaded = _layout.__wrapped__(*key)[2]
-        assert sorted(loaded) == sorted(computed)
-        for name in computed:
-            np.testing.assert_array_equal(np.asarray(loaded[name]), np.asarray(computed[name]))
-        # A file that is not what it claims is not read (the layout is then computed again).
-        path.write_bytes(b"not an npz")
-        assert _read_medians(path) is None
-    finally:
-        jax.config.update("jax_compilation_cache_dir", before)
+    path = _stored_medians_path(key)
+    assert path.parent.parent == tmp_path and not path.exists()
+    computed = _layout.__wrapped__(*key)[2]  # no stored medians: computed, then kept
+    assert path.exists()
+    loaded = _layout.__wrapped__(*key)[2]
+    assert sorted(loaded) == sorted(computed)
+    for name in computed:
+        np.testing.assert_array_equal(np.asarray(loaded[name]), np.asarray(computed[name]))
+    # A file that is not what it claims is not read (the layout is then computed again).
+    path.write_bytes(b"not an npz")
+    assert _read_medians(path) is None
