@@ -139,13 +139,21 @@ def skewed_force_windows(seed: int, n: int = 1000) -> dict:
     tail = 0.02 + rng.exponential(0.09, n)
     rho_true = np.clip(np.where(rng.random(n) < 0.65, cluster, tail), 0.0, 0.6)
     slip_true = np.asarray(brush_longitudinal_inverse(rho_true, C_X_TRUE, 1.0)) + SLIP_OFFSET_TRUE
+    return noisy_windows(rng, slip_true, rho_true, slip_sd=2e-4, rho_sd=0.012)
+
+
+def noisy_windows(rng, slip_true, rho_true, *, slip_sd: float, rho_sd: float, **also) -> dict:
+    """Windows at 20 °C observing true slips and forces through Gaussian noise of the given sd
+    (the neighbouring wheels' slip is the true one: no rolling-radius nuisance)."""
+    n = len(slip_true)
     return {
-        "slip": slip_true + rng.normal(0.0, 2e-4, n),
-        "rho": rho_true + rng.normal(0.0, 0.012, n),
-        "slip_sd": np.full(n, 2e-4),
-        "rho_sd": np.full(n, 0.012),
+        "slip": slip_true + rng.normal(0.0, slip_sd, n),
+        "rho": rho_true + rng.normal(0.0, rho_sd, n),
+        "slip_sd": np.full(n, slip_sd),
+        "rho_sd": np.full(n, rho_sd),
         "temperature_c": np.full(n, 20.0),
         "neighbour_slip": slip_true,
+        **also,
     }
 
 
@@ -166,15 +174,9 @@ def load_transfer_windows(seed: int, load_sensitivity: float, n: int = 900) -> d
     load_change = -0.5 * rho_true
     stiffness = C_X_TRUE * np.exp(load_sensitivity * load_change)
     slip_true = rho_true / stiffness + SLIP_OFFSET_TRUE
-    return {
-        "slip": slip_true + rng.normal(0.0, 1e-4, n),
-        "rho": rho_true + rng.normal(0.0, 0.004, n),
-        "slip_sd": np.full(n, 1e-4),
-        "rho_sd": np.full(n, 0.004),
-        "temperature_c": np.full(n, 20.0),
-        "load_change": load_change,
-        "neighbour_slip": slip_true,
-    }
+    return noisy_windows(
+        rng, slip_true, rho_true, slip_sd=1e-4, rho_sd=0.004, load_change=load_change
+    )
 
 
 def test_load_sensitivity_is_left_out_unless_its_prior_is_given():
