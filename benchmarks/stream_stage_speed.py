@@ -17,7 +17,7 @@ and drive summary (``windows_and_summary_cpu_s``: ``tyrebayes.batch.drive_stage`
 fastest of the repeats, the first run included: it compiles the EM and the temperature scan),
 not part of the stream-stage target.
 
-Usage: ``python benchmarks/stream_stage_speed.py [--before REV] [--repeats N]``.
+Usage: ``python benchmarks/stream_stage_speed.py [--before REV] [--repeats N] [--out JSON]``.
 """
 
 from __future__ import annotations
@@ -101,6 +101,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--before", help="git revision to compare with")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--out", type=Path, default=RESULTS, help="JSON to write")
     args = parser.parse_args()
     from tyrebayes._io import atomic_write_bytes
 
@@ -133,8 +134,8 @@ def main() -> int:
             entry["meets_target"] = entry["after"]["cpu_s"]["total"] <= TARGET_CPU_S_PER_HOUR
             results["runs"][name] = entry
             print(name, json.dumps({k: v for k, v in entry.items()}, indent=1), flush=True)
-    atomic_write_bytes(RESULTS, json.dumps(results, indent=1).encode())
-    print(f"saved {RESULTS}")
+    atomic_write_bytes(args.out, json.dumps(results, indent=1).encode())
+    print(f"saved {args.out}")
     return 0
 
 
