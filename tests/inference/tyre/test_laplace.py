@@ -93,10 +93,9 @@ def test_layout_medians_are_kept_beside_the_compilation_cache_and_read_back_equa
 ):
     from tyrebayes.inference.tyre.laplace import _layout, _read_medians, _stored_medians_path
 
-    tmp_path = compilation_cache_dir
     key = (_priors_key(TyrePriors()), "brush", 2, ("dry",))
     path = _stored_medians_path(key)
-    assert path.parent.parent == tmp_path and not path.exists()
+    assert path.parent.parent == compilation_cache_dir and not path.exists()
     computed = _layout.__wrapped__(*key)[2]  # no stored medians: computed, then kept
     assert path.exists()
     loaded = _layout.__wrapped__(*key)[2]
