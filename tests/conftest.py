@@ -1,23 +1,35 @@
 """Strict test configuration: float64, no silent rank promotion, fixed seeds."""
 
+import atexit
 import gc
 import os
+import shutil
+import tempfile
 
 os.environ.setdefault("XLA_FLAGS", "--xla_force_host_platform_device_count=2")
 os.environ.setdefault("MPLBACKEND", "Agg")
-# No persistent compilation cache for what the suite runs (the commands it calls would switch it
-# on in this process): a test neither reads the user's cache nor fills it. The tests of the
-# cache and of the stored programs point JAX at a folder of their own (`compilation_cache_dir`),
-# and `_no_cache_left_behind` switches it off again after every test.
-os.environ.setdefault("TYREBAYES_JAX_CACHE", "")
+# One persistent compilation cache for the whole run, in a fresh folder removed at its end: a
+# test neither reads the user's cache nor fills it, and a program that one test module (or one
+# of the commands, fleet workers and pytest-xdist workers it starts, which inherit the variable)
+# compiled is loaded, not compiled again, by the next, although `_compiled_programs_dropped_
+# after_each_module` drops it from memory. The run's first process makes the folder; the xdist
+# workers it starts find it in their environment.
+if "PYTEST_XDIST_WORKER" not in os.environ:
+    _RUN_CACHE = tempfile.mkdtemp(prefix="tyrebayes-tests-jax-")
+    os.environ["TYREBAYES_JAX_CACHE"] = _RUN_CACHE
+    atexit.register(shutil.rmtree, _RUN_CACHE, ignore_errors=True)
 
 import jax  # noqa: E402
 import pytest  # noqa: E402
 
-from tyrebayes.internal.jax_cache import point_compilation_cache  # noqa: E402
+from tyrebayes.internal.jax_cache import (  # noqa: E402
+    enable_compilation_cache,
+    point_compilation_cache,
+)
 
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_rank_promotion", "raise")
+enable_compilation_cache(os.environ["TYREBAYES_JAX_CACHE"])
 
 _CACHE_SETTINGS = (
     "jax_compilation_cache_dir",
@@ -52,6 +64,7 @@ def _no_cache_left_behind():
 
 @pytest.fixture
 def compilation_cache_dir(tmp_path):
-    """JAX's persistent compilation cache in a folder of this test's own (off again after it)."""
+    """JAX's persistent compilation cache in a folder of this test's own (the run's again after
+    it)."""
     point_compilation_cache(str(tmp_path))
     return tmp_path

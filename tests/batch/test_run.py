@@ -5,8 +5,8 @@ unknown vehicle) goes through the command in a subprocess that is killed (SIGKIL
 group: client, scheduler and workers) as soon as the first drives are recorded; the rerun must
 skip exactly those, finish the rest, and leave every output once; a third run skips everything.
 The fits use the linear tyre model: its compilation is the shortest, and the batch machinery,
-not the model, is under test here. The JAX cache is the command's default
-(``~/.cache/tyrebayes/jax``, shared with the demo): the first run compiles, later runs load.
+not the model, is under test here. The JAX cache is the command's default, which the suite
+points at its own folder (``tests/conftest.py``): the first run compiles, later runs load.
 """
 
 from __future__ import annotations
