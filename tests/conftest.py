@@ -38,6 +38,15 @@ _CACHE_SETTINGS = (
 )
 
 
+def pytest_collection_modifyitems(items):
+    """The modules marked ``early`` (minutes long: a whole command, a fit compiled cold) first.
+
+    The parallel run hands out whole modules; one of them started last would run on alone
+    while the other workers stand idle.
+    """
+    items.sort(key=lambda item: item.get_closest_marker("early") is None)
+
+
 @pytest.fixture(autouse=True, scope="module")
 def _compiled_programs_dropped_after_each_module():
     """Each compiled program keeps a few memory mappings for as long as JAX caches it; a whole

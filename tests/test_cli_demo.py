@@ -16,6 +16,7 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 # The demo is an integration run: numerical warnings inside fits (a draw overflowing, high Pareto
 # k) are reported in its diagnostics table, not turned into test errors.
 pytestmark = [
+    pytest.mark.early,  # minutes long: started first (tests/conftest.py)
     pytest.mark.filterwarnings("ignore::RuntimeWarning"),
     pytest.mark.filterwarnings("ignore::UserWarning"),
 ]

@@ -117,7 +117,9 @@ def test_load_sensitivity_flag_gives_the_fit_the_measured_prior(tmp_path, capsys
 
     from .inference.tyre.test_model import PAD, linear_region_windows
 
-    fit = tyre_fit.fit_tyre(stack_drives([linear_region_windows(3)], ["dry"], pad_to=PAD))
+    fit = tyre_fit.fit_tyre(
+        stack_drives([linear_region_windows(3)], ["dry"], pad_to=PAD), method="fast"
+    )
     given = {}
 
     def recording(*args, **kwargs):

@@ -4,11 +4,14 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from tyrebayes._domain import load_vehicle
 from tyrebayes.simulate.drive import simulate_drive
 from tyrebayes.simulate.fleet import simulate_fleet
 from tyrebayes.streams import write_stream
+
+pytestmark = pytest.mark.early  # minutes long: started first (tests/conftest.py)
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 

@@ -33,6 +33,8 @@ from tyrebayes.simulate.drive_io import write_drive
 from tyrebayes.simulate.tyre_set import simulate_tyre_set_drives
 from tyrebayes.streams.wear_evidence import WEAR_EVIDENCE_COLUMNS
 
+pytestmark = pytest.mark.early  # minutes long: started first (tests/conftest.py)
+
 MODEL = "linear"
 
 

@@ -26,8 +26,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "demo",
         help="simulate a fleet, fit everything, write an HTML + Markdown report",
-        description="End-to-end demo on simulated drives and the shipped real RAV4 segment; "
-        "about 5 minutes (--quick: about 1 minute).",
+        description="End-to-end demo on simulated drives and the shipped real RAV4 segment. "
+        "Most of a first run is compilation, which JAX's cache keeps for the next run "
+        "(--quick: a smaller fleet, fast fits only).",
     )
     p.add_argument("--out", default="demo_out", help="output folder (default ./demo_out)")
     p.add_argument("--quick", action="store_true", help="smaller fleet, fast fits only")

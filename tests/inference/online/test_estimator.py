@@ -21,6 +21,8 @@ from tyrebayes.inference.tyre.model import TyrePriors
 
 from ._synthetic import linear_windows
 
+pytestmark = pytest.mark.early  # minutes long: started first (tests/conftest.py)
+
 WIDTH = 121
 N_STEPS = 41  # 20 minutes of 30 s steps, and one more
 

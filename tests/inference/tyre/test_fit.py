@@ -11,6 +11,12 @@ from tyrebayes.inference.tyre.fit import fit_tyre
 
 from .test_model import PAD, linear_region_windows
 
+pytestmark = pytest.mark.early  # minutes long: started first (tests/conftest.py)
+
+# The simulated drives' fits (5 minutes to one hour, one dry drive each) are padded to one length:
+# one compiled fit serves them all.
+DRIVE_PAD = 16384
+
 
 def test_non_finite_data_is_not_converged():
     # Same shape as the shared fixture: no new compilation.
@@ -37,10 +43,12 @@ def test_max_steps_one_is_not_converged():
     assert "optimiser" in fit.diagnostics.reason
 
 
-@pytest.mark.slow
 def test_too_few_nuts_draws_is_not_converged():
-    obs = stack_drives([linear_region_windows(0, n=200)], ["dry"], pad_to=256)
-    fit = fit_tyre(obs, method="nuts", num_chains=2, num_warmup=20, num_samples=20, kind="linear")
+    # Three chains on the suite's two CPU devices run one at a time (the grouping rule below).
+    # The shape of the test above: only the sampler is compiled anew.
+    obs = stack_drives([linear_region_windows(0)], ["dry"], pad_to=PAD)
+    fit = fit_tyre(obs, method="nuts", num_chains=3, num_warmup=20, num_samples=20)
+    assert fit.idata.posterior.sizes["chain"] == 3 and fit.idata.posterior.sizes["draw"] == 20
     assert fit.diagnostics.converged is False
     assert "ESS" in fit.diagnostics.reason
 
@@ -62,7 +70,7 @@ def simulated_drive():
 
 def test_recovery_on_a_simulated_drive_with_abs(simulated_drive):
     features, truth = simulated_drive
-    obs = stack_drives([observations_from_features(features)], ["dry"])
+    obs = stack_drives([observations_from_features(features)], ["dry"], pad_to=DRIVE_PAD)
     assert obs.n_limit >= 3
     summary = fit_tyre(obs, method="fast").summary()
     c_x_true = float(np.mean(truth.c_x))
@@ -115,7 +123,9 @@ def test_map_search_escapes_the_spurious_low_friction_mode():
     )
     features = compute_features(validate_stream(df, vehicle), vehicle)
     ambient = float(np.nanmean(df["ambient_temperature"]))
-    obs = stack_drives([observations_from_features(features, temperature_c=ambient)], ["dry"])
+    obs = stack_drives(
+        [observations_from_features(features, temperature_c=ambient)], ["dry"], pad_to=DRIVE_PAD
+    )
     summary = fit_tyre(obs, method="fast").summary()
     assert abs(summary["c_x"]["mean"] / float(np.mean(truth.c_x)) - 1) < 0.05
     # The spurious mode has μ_max ≈ 0.29 (truth 1.05); 15 % allows the right mode's own error.
@@ -261,7 +271,9 @@ def test_the_warm_up_reveals_the_stiffness_temperature_sensitivity():
     estimate = features_tyre_temperature(features, ambient_c=5.0)
     fits = {
         name: fit_tyre(
-            stack_drives([observations_from_features(features, temperature_c=t)], ["dry"]),
+            stack_drives(
+                [observations_from_features(features, temperature_c=t)], ["dry"], pad_to=DRIVE_PAD
+            ),
             method="fast",
         )
         for name, t in (("warming", estimate), ("constant", 5.0))

@@ -14,6 +14,8 @@ from tyrebayes.simulate.tyre_spec import TyreSpec
 from tyrebayes.streams import compute_features, validate_stream
 from tyrebayes.streams.synthetic import synthetic_stream
 
+pytestmark = pytest.mark.early  # minutes long: started first (tests/conftest.py)
+
 # The Continental UC6 225/50R18 of the shipped database: E = -4.1 stiffens before the peak, the
 # far tail of the measured tyres (the prior's median shape is C 1.54, E 0.0).
 CONTINENTAL = MagicFormulaLongitudinal(4000.0, pkx1=32.23, pdx1=1.2183, pcx1=1.4202, pex1=-4.12123)

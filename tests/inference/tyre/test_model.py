@@ -16,6 +16,8 @@ from tyrebayes.inference.tyre.model import TyrePriors, tyre_model
 from tyrebayes.physics.tyre import brush_longitudinal, brush_longitudinal_inverse
 from tyrebayes.streams.abs_detection import _inner_runs
 
+pytestmark = pytest.mark.early  # minutes long: started first (tests/conftest.py)
+
 C_X_TRUE = 40.0
 SLIP_OFFSET_TRUE = 0.002
 PAD = 1024

@@ -92,13 +92,14 @@ def _nuts_runner(
         obs_single = _single_precision(obs)
         u, diverging = [], []
         for group, run_key in enumerate(jax.random.split(key, num_chains // per_run)):
-            chains = slice(group * per_run, (group + 1) * per_run)
+            chains = u_init[group * per_run : (group + 1) * per_run]
+            start = chains if per_run > 1 else chains[0]  # one chain: numpyro wants no chain axis
             mcmc.run(
                 run_key,
                 obs_single,
                 mode,
                 scale,
-                init_params={"u": u_init[chains]},
+                init_params={"u": start},
                 extra_fields=("diverging",),
             )
             u.append(mcmc.get_samples(group_by_chain=True)["u"])
