@@ -11,9 +11,9 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 # One persistent compilation cache for the whole run, in a fresh folder removed at its end: a
 # test neither reads the user's cache nor fills it, and a program that one test module (or one
 # of the commands, fleet workers and pytest-xdist workers it starts, which inherit the variable)
-# compiled is loaded, not compiled again, by the next, although `_compiled_programs_dropped_
-# after_each_module` drops it from memory. The run's first process makes the folder; the xdist
-# workers it starts find it in their environment.
+# compiled is loaded, not compiled again, by the next, although the fixture below drops it from
+# memory after each module. The run's first process makes the folder; the xdist workers it
+# starts find it in their environment.
 if "PYTEST_XDIST_WORKER" not in os.environ:
     _RUN_CACHE = tempfile.mkdtemp(prefix="tyrebayes-tests-jax-")
     os.environ["TYREBAYES_JAX_CACHE"] = _RUN_CACHE

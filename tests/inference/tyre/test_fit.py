@@ -19,7 +19,7 @@ DRIVE_PAD = 16384
 
 
 def test_non_finite_data_is_not_converged():
-    # Same shape as the shared fixture: no new compilation.
+    # The shape of test_model.py's fixture and of the CLI tests: compiled once per run.
     windows = linear_region_windows(3)
     windows["rho"][:10] = np.inf
     obs = stack_drives([windows], ["dry"], pad_to=PAD)
