@@ -164,3 +164,23 @@ def test_fit_carries_the_stream_flags(tmp_path, capsys):
     (flag,) = json.loads(capsys.readouterr().out)["stream_flags"]
     assert flag.startswith("sample rate 10 Hz")
     assert "sample rate 10 Hz" in json.loads(load_fit(out).provenance.settings)["stream_flags"]
+
+
+def test_diagnostics_text_has_no_r_hat_for_independent_draws():
+    from tyrebayes._commands._common import diagnostics_text
+    from tyrebayes.inference.diagnostics import Diagnostics
+
+    common = {
+        "n_chains": 1,
+        "n_draws": 2000,
+        "ess_bulk_min": 2000.0,
+        "ess_tail_min": 2000.0,
+        "divergences": 0,
+        "optimiser_result": "successful",
+        "converged": True,
+        "reasons": (),
+    }
+    fast = diagnostics_text(Diagnostics(method="fast", r_hat_max=float("nan"), **common))
+    assert "R-hat max –," in fast and "nan" not in fast.lower()
+    nuts = diagnostics_text(Diagnostics(method="nuts", r_hat_max=1.0042, **common))
+    assert "R-hat max 1.004," in nuts

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import stat
 import sys
@@ -166,8 +167,10 @@ def check_ambient(value: float | None, option: str = "--ambient") -> None:
 def diagnostics_text(diagnostics) -> str:
     """Two lines for a human: convergence (R-hat, ESS, divergences) and model adequacy."""
     d = diagnostics
+    # Independent draws (the fast path's Laplace draws) have no chains to compare: no R-hat.
+    r_hat = "–" if math.isnan(d.r_hat_max) else f"{d.r_hat_max:.3f}"
     first = (
-        f"method {d.method}: R-hat max {d.r_hat_max:.3f}, ESS min bulk {d.ess_bulk_min:.0f} / "
+        f"method {d.method}: R-hat max {r_hat}, ESS min bulk {d.ess_bulk_min:.0f} / "
         f"tail {d.ess_tail_min:.0f}, divergences {d.divergences}; "
         + ("converged" if d.converged else f"NOT CONVERGED: {d.reason}")
     )
