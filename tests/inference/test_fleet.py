@@ -27,7 +27,7 @@ def fit120():
     table, truth = simulate_fleet(
         11, 120, type_shares={"winter": 0.4, "all_season": 0.3, "summer": 0.3}
     )
-    fit = fit_fleet(table, key=3, num_warmup=500, num_samples=500, num_chains=2)
+    fit = fit_fleet(table, key=3, num_chains=2)  # the default sampler settings
     return table, truth, fit
 
 

@@ -53,8 +53,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="default: nuts up to 2,000 rows, svi above",
     )
     fit.add_argument("--seed", type=int, default=0)
-    fit.add_argument("--samples", type=int, default=500, help="NUTS draws per chain")
-    fit.add_argument("--warmup", type=int, default=500, help="NUTS warm-up steps per chain")
+    fit.add_argument("--samples", type=int, default=1000, help="NUTS draws per chain")
+    fit.add_argument("--warmup", type=int, default=1000, help="NUTS warm-up steps per chain")
     fit.add_argument("--chains", type=int, default=2)
     fit.add_argument("--json", action="store_true", help="machine-readable output")
     fit.set_defaults(func=run_fit)

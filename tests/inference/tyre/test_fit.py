@@ -159,13 +159,6 @@ def test_block_hessian_equals_the_dense_hessian_over_several_drives():
     )
 
 
-def test_chains_run_side_by_side_in_equal_groups():
-    # conftest gives JAX two CPU devices.
-    from tyrebayes.inference.tyre.nuts import _chains_per_run
-
-    assert [_chains_per_run(n) for n in (1, 2, 3, 4)] == [1, 2, 1, 2]
-
-
 def test_coarse_search_windows_keep_padding_at_the_end():
     from tyrebayes.inference.tyre.laplace import _every_nth_window
 

@@ -184,7 +184,6 @@ def fit_tyre_nuts(
     num_warmup: int = 300,
     num_samples: int = 1000,
     seed: int = 0,
-    progress_bar: bool = False,
     pointwise: bool = True,
 ) -> TyreFit:
     """Full NUTS fit (``num_chains`` chains, one per CPU device at a time) in whitened coordinates.
@@ -214,7 +213,7 @@ def fit_tyre_nuts(
         _priors_key(priors), kind, _obs_key(obs), num_chains, num_warmup, num_samples
     )
     u_init = 2.0 * jax.random.normal(key_init, (num_chains, mode.shape[0]), dtype=mode.dtype)
-    samples, diverging = runner(key_run, obs, mode, scale, u_init, progress_bar)
+    samples, diverging = runner(key_run, obs, mode, scale, u_init)
     samples = {k: np.asarray(v) for k, v in samples.items()}
     diverging = np.asarray(diverging).reshape(num_chains, -1)
     idata = _to_inference_data(
@@ -284,7 +283,6 @@ def fit_tyre(
     num_chains: int = 4,
     num_warmup: int = 300,
     num_samples: int = 1000,
-    progress_bar: bool = False,
     num_draws: int = LAPLACE_DRAWS,
     max_steps: int = 2000,
     pointwise: bool = True,
@@ -299,7 +297,7 @@ def fit_tyre(
         Full NUTS (:func:`fit_tyre_nuts`) or MAP + Laplace (:func:`fit_tyre_fast`).
     priors, kind, seed
         Priors (default :class:`TyrePriors`), tyre-curve model, randomness: both methods.
-    num_chains, num_warmup, num_samples, progress_bar
+    num_chains, num_warmup, num_samples
         NUTS settings (ignored by the fast path).
     num_draws, max_steps
         Fast-path settings: Laplace draws and BFGS steps (ignored by NUTS).
@@ -340,7 +338,6 @@ def fit_tyre(
             num_warmup=num_warmup,
             num_samples=num_samples,
             seed=seed,
-            progress_bar=progress_bar,
             pointwise=pointwise,
         )
     if method == "fast":

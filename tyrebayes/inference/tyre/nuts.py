@@ -12,9 +12,9 @@ import numpyro.distributions as dist
 from jax.flatten_util import ravel_pytree
 from numpyro import handlers
 from numpyro.distributions import constraints
-from numpyro.infer import MCMC, NUTS
 from numpyro.infer.util import constrain_fn, potential_energy
 
+from ..nuts import run_nuts
 from .laplace import _model_layout
 from .predictive import _single_precision
 
@@ -38,48 +38,19 @@ def _whitened_model(obs, mode, scale, *, model, unravel):
     numpyro.factor("log_density", -energy.astype(mode.dtype))
 
 
-def _chains_per_run(num_chains: int) -> int:
-    """Chains run side by side: one per CPU device, in equal groups (else one at a time).
-
-    JAX sees one CPU device unless told otherwise before it starts
-    (``numpyro.set_host_device_count``; the ``tyrebayes`` command sets one device per core).
-    """
-    devices = min(num_chains, jax.local_device_count())
-    while num_chains % devices:
-        devices -= 1
-    return devices
-
-
 @functools.lru_cache(maxsize=8)
 def _nuts_runner(
     priors_key: tuple, kind: str, obs_key: tuple, num_chains: int, num_warmup: int, num_samples
 ):
-    """NUTS on the whitened model, one MCMC object per shape so its compiled kernel is reused.
+    """NUTS on the whitened model of one data shape (:func:`~tyrebayes.inference.nuts.run_nuts`).
 
-    Returns ``run(key, obs, mode, scale, u_init, progress_bar)`` giving the constrained draws
+    The whitened model is made once per shape, so the sampler compiled for it is reused by every
+    fit of that shape. Returns ``run(key, obs, mode, scale, u_init)`` giving the constrained draws
     (with deterministic sites), chains stacked on the first axis, and the divergence flags.
     """
     model, _, params = _model_layout(priors_key, kind, obs_key)
     _, unravel = ravel_pytree(params)
-    kernel = NUTS(
-        partial(_whitened_model, model=model, unravel=unravel),
-        target_accept_prob=0.9,
-        dense_mass=True,
-        max_tree_depth=8,
-    )
-    per_run = _chains_per_run(num_chains)
-    mcmc = MCMC(
-        kernel,
-        num_warmup=num_warmup,
-        num_samples=num_samples,
-        num_chains=per_run,
-        # One chain per CPU device at a time, never vectorised: a vectorised step costs more
-        # than four single-chain steps on one core (measured 19.5 vs 4 x 4.6 ms per gradient,
-        # one-hour drive padded to 16,384 windows, x64) and waits for the longest trajectory.
-        chain_method="parallel" if per_run > 1 else "sequential",
-        progress_bar=False,
-        jit_model_args=True,
-    )
+    whitened = partial(_whitened_model, model=model, unravel=unravel)
 
     @jax.jit
     def constrain(z, obs):
@@ -87,25 +58,22 @@ def _nuts_runner(
             lambda f: constrain_fn(model, (obs,), {}, unravel(f), return_deterministic=True)
         )(z)
 
-    def run(key, obs, mode, scale, u_init, progress_bar):
-        mcmc.progress_bar = progress_bar
-        obs_single = _single_precision(obs)
-        u, diverging = [], []
-        for group, run_key in enumerate(jax.random.split(key, num_chains // per_run)):
-            chains = u_init[group * per_run : (group + 1) * per_run]
-            start = chains if per_run > 1 else chains[0]  # one chain: numpyro wants no chain axis
-            mcmc.run(
-                run_key,
-                obs_single,
-                mode,
-                scale,
-                init_params={"u": start},
-                extra_fields=("diverging",),
-            )
-            u.append(mcmc.get_samples(group_by_chain=True)["u"])
-            diverging.append(mcmc.get_extra_fields(group_by_chain=True)["diverging"])
-        u = jnp.concatenate(u).reshape(-1, mode.shape[0])
+    def run(key, obs, mode, scale, u_init):
+        draws = run_nuts(
+            whitened,
+            (_single_precision(obs), mode, scale),
+            seed=key,
+            num_warmup=num_warmup,
+            num_samples=num_samples,
+            num_chains=num_chains,
+            init_values={"u": u_init},
+            init_by_chain=True,
+            target_accept_prob=0.9,
+            dense_mass=True,
+            max_tree_depth=8,
+        )
+        u = jnp.asarray(draws.samples["u"]).reshape(-1, mode.shape[0])
         z = mode[None, :] + u @ scale.T
-        return constrain(z, obs), jnp.concatenate(diverging).reshape(-1)
+        return constrain(z, obs), jnp.asarray(draws.diverging).reshape(-1)
 
     return run

@@ -183,6 +183,7 @@ def fit_wear_history(
         num_samples=num_samples,
         num_chains=num_chains,
         init_values=init,
+        static_argnums=(0,),  # the drives' segments shape the model
         target_accept_prob=0.9,
     )
     samples = dict(draws.samples)
