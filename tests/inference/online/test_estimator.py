@@ -151,3 +151,24 @@ def test_load_sensitivity_is_tracked_where_the_priors_have_it():
     assert abs(q - 0.8) < 1.645 * q_sd and q_sd < 0.15
     lo, hi = summary_record(trajectory, 19)["c_x"]["hdi_90"]
     assert lo <= 40.0 <= hi
+
+
+def test_other_settings_reuse_the_compiled_filter(estimator, caplog):
+    # The settings are values the compiled filter takes: changing them compiles nothing.
+    import logging
+
+    steps = _steps(linear_windows(3, 300.0))
+    _, default = run_online(estimator, estimator.init(), steps)  # compiled for this shape
+    lax = OnlineEstimator.create(
+        kind="linear",
+        config=default_config(
+            "linear", ready_half_width=100.0, min_slip_windows=0, min_excited_windows=0
+        ),
+    )
+    caplog.clear()
+    with jax.log_compiles(True), caplog.at_level(logging.WARNING):
+        _, trajectory = run_online(lax, lax.init(), steps)
+    messages = [r.getMessage() for r in caplog.records]
+    assert not [m for m in messages if m.startswith("Finished XLA compilation")]
+    # ... and it read them: with no evidence asked for, the first step is "ready".
+    assert not bool(default.ready[0]) and bool(trajectory.ready[0])

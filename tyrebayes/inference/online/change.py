@@ -53,7 +53,7 @@ def predictive_shift_ratios(
     updated: GaussianUpdate,
     *,
     index: int,
-    shift: float,
+    shift: float | Float[Array, ""],
 ) -> Float[Array, "2"]:
     """The block's predictive log-likelihood ratios g₊, g₋ of θ_index shifted by ±``shift``.
 
@@ -96,7 +96,7 @@ def cusum_step(
     cusum_down: Float[Array, ""],
     *,
     armed: Bool[Array, ""],
-    threshold: float,
+    threshold: float | Float[Array, ""],
     max_increment: float | Float[Array, ""] = jnp.inf,
 ) -> tuple[Float[Array, ""], Float[Array, ""], Bool[Array, ""]]:
     """Page's two-sided recursion on one step's ratios, each capped at ``max_increment``

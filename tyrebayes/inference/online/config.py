@@ -9,7 +9,7 @@ import math
 
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, Float
+from jaxtyping import Array, Float, Int
 
 from .parameters import parameter_names
 from .windows import STEP_S
@@ -47,6 +47,14 @@ MAX_STEPS_PER_HOUR = 3600.0 / STEP_S
 MAX_DRIVE_STARTS_PER_HOUR = 4.0
 CHANGE_THRESHOLD = math.log(2.0 * MAX_STEPS_PER_HOUR / (FALSE_ALARMS_PER_HOUR / 2.0))
 SWAP_THRESHOLD = math.log(MAX_DRIVE_STARTS_PER_HOUR / (FALSE_ALARMS_PER_HOUR / 2.0))
+
+
+def _float(value) -> Float[Array, ""]:
+    return jnp.asarray(value, dtype=float)
+
+
+def _int(value) -> Int[Array, ""]:
+    return jnp.asarray(value, dtype=jnp.int32)  # as the filter state's counters
 
 
 class OnlineConfig(eqx.Module):
@@ -113,21 +121,23 @@ class OnlineConfig(eqx.Module):
 
     drift_sd_per_sqrt_s: Float[Array, "p"]
     newton_steps: int = eqx.field(static=True, default=10)
-    newton_tolerance: float = 0.05
-    change_log_shift: float = CHANGE_LOG_SHIFT
-    change_threshold: float = CHANGE_THRESHOLD
-    change_min_steps: int = 3
-    swap_threshold: float = SWAP_THRESHOLD
-    swap_window_steps: int = 20
-    change_gate_log_sd: float = 0.06
-    ready_half_width: float = 0.10
-    min_slip_windows: int = 240
-    min_excited_windows: int = 120
-    excitation_force: float = 0.05
-    max_prior_z: float = 4.0
-    initial_inflation: float = 2.0
-    inflation_prior_blocks: float = 10.0
-    mu_observed_contraction: float = 0.5
+    # The settings below are values the compiled filter takes, not constants in it: another
+    # threshold or window count reuses the program compiled for the defaults.
+    newton_tolerance: Float[Array, ""] = eqx.field(converter=_float, default=0.05)
+    change_log_shift: Float[Array, ""] = eqx.field(converter=_float, default=CHANGE_LOG_SHIFT)
+    change_threshold: Float[Array, ""] = eqx.field(converter=_float, default=CHANGE_THRESHOLD)
+    change_min_steps: Int[Array, ""] = eqx.field(converter=_int, default=3)
+    swap_threshold: Float[Array, ""] = eqx.field(converter=_float, default=SWAP_THRESHOLD)
+    swap_window_steps: Int[Array, ""] = eqx.field(converter=_int, default=20)
+    change_gate_log_sd: Float[Array, ""] = eqx.field(converter=_float, default=0.06)
+    ready_half_width: Float[Array, ""] = eqx.field(converter=_float, default=0.10)
+    min_slip_windows: Int[Array, ""] = eqx.field(converter=_int, default=240)
+    min_excited_windows: Int[Array, ""] = eqx.field(converter=_int, default=120)
+    excitation_force: Float[Array, ""] = eqx.field(converter=_float, default=0.05)
+    max_prior_z: Float[Array, ""] = eqx.field(converter=_float, default=4.0)
+    initial_inflation: Float[Array, ""] = eqx.field(converter=_float, default=2.0)
+    inflation_prior_blocks: Float[Array, ""] = eqx.field(converter=_float, default=10.0)
+    mu_observed_contraction: Float[Array, ""] = eqx.field(converter=_float, default=0.5)
 
     def __check_init__(self):
         if self.newton_steps < 1:

@@ -38,7 +38,11 @@ def estimated_inflation(sums: InflationSums) -> Float[Array, ""]:
     return jnp.where(usable, vif, 1.0)
 
 
-def inflation_in_use(sums: InflationSums, initial: float, prior_blocks: float) -> Float[Array, ""]:
+def inflation_in_use(
+    sums: InflationSums,
+    initial: float | Float[Array, ""],
+    prior_blocks: float | Float[Array, ""],
+) -> Float[Array, ""]:
     """The VIF the next step weighs its slips by: the prior guess and the estimate, pooled."""
     blocks = jnp.where(sums.n_blocks >= MIN_BLOCKS, sums.n_blocks, 0.0)
     return (prior_blocks * initial + blocks * estimated_inflation(sums)) / (prior_blocks + blocks)

@@ -100,7 +100,7 @@ def laplace_update(
     mean: Float[Array, "p"],
     cov: Float[Array, "p p"],
     newton_steps: int,
-    tolerance: float = 0.0,
+    tolerance: float | Float[Array, ""] = 0.0,
 ) -> GaussianUpdate:
     """One assumed-density update of N(mean, cov) by a log-likelihood (module docstring).
 

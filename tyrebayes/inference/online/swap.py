@@ -42,7 +42,7 @@ def swap_step(
     *,
     drive_start: Bool[Array, ""],
     active: Bool[Array, ""],
-    threshold: float,
+    threshold: float | Float[Array, ""],
 ) -> tuple[Float[Array, ""], Bool[Array, ""]]:
     """The log Bayes factor of a swap at the last drive start after this block, and whether it
     crossed ``threshold`` (module docstring); it stays where it was while not ``active``."""
