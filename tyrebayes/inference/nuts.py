@@ -4,13 +4,13 @@ It runs NumPyro's NUTS kernel in a program compiled once per model, sampler sett
 the model's array arguments, which are *arguments* of that program: a refit on new data of the same
 shapes reuses it in memory, and a new process loads it from the persistent compilation cache.
 NumPyro's own ``MCMC`` does not give that for chains on several devices: its ``pmap`` closes over
-the model's arguments, so every fit embedded its data as constants, compiled again (10 s for the
-fleet model, every ``fit-fleet``) and left one cache entry per data set.
+the model's arguments, so every fit embedded its data as constants, compiled again (every
+``fit-fleet``, every NUTS ``fit-tyre`` on new data) and left one cache entry per data set.
 
 Chains run side by side, one per CPU device, in equal groups (else one at a time; the
-``tyrebayes`` command sets one device per core); each chain's key, start and transitions are those
-of NumPyro's ``MCMC`` for the same key. The draws are the constrained values of the model's
-sample and deterministic sites, by chain, with the divergences, which
+``tyrebayes`` command sets one device per core); each chain's key, start and transitions are
+those of NumPyro's ``MCMC`` for the same key (up to round-off). The draws are the constrained
+values of the model's sample and deterministic sites, by chain, with the divergences, which
 :func:`~tyrebayes.inference.result.diagnose` then judges.
 """
 
