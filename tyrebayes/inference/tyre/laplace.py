@@ -195,9 +195,11 @@ def _laplace_core(
 
     stride = _search_stride(obs_key[0])
 
-    def searched(flat_init, obs, _):
+    def searched_start(flat_init, obs, _):
         # Several starts on every stride-th window find the basin; the best successful one is
-        # refined on all windows (module comment at MAP_STARTS).
+        # refined on all windows (module comment at MAP_STARTS). Returns the refinement's start,
+        # its whitening, and the search's outcome code where the search already ended at the
+        # mode (on all windows: no refinement), else -1.
         coarse = _every_nth_window(obs, stride)
         starts = jax.vmap(lambda c, m: _start(flat_init, unravel, coarse, priors, c, m))(
             *map(jnp.asarray, zip(*MAP_STARTS, strict=True))
@@ -207,17 +209,30 @@ def _laplace_core(
         ok = (results == optx.RESULTS.successful) & jnp.isfinite(energies)
         best = jnp.argmin(jnp.where(ok, energies, jnp.inf))
         best = jnp.where(ok.any(), best, jnp.argmin(jnp.nan_to_num(energies, nan=jnp.inf)))
-        mode, result = values[best], jax.tree.map(lambda r: r[best], results)
+        mode = values[best]
         if stride == 1:
-            # The search on all windows ends at the mode already.
-            return mode, result, whitens[best]
-        return minimise_from(mode, obs)
+            return mode, whitens[best], _outcome_code(jax.tree.map(lambda r: r[best], results))
+        return mode, whitening_at(mode, obs), _NOT_YET
+
+    def given_start(start, obs, whiten):
+        return start, whiten, _NOT_YET
+
+    def refined(start, obs, whiten):
+        mode, result, whiten = minimise_whitened(start, obs, whiten)
+        return mode, _outcome_code(result), whiten
 
     @jax.jit
     def mode_program(start, obs, whiten, search):
-        mode, result, whiten = jax.lax.cond(search, searched, minimise_whitened, start, obs, whiten)
+        # One BFGS run on all windows serves both passes (the search's refinement, or the
+        # second pass from its given start): the program holds it once, not once per branch.
+        start, whiten, code = jax.lax.cond(search, searched_start, given_start, start, obs, whiten)
+        mode, code, whiten = jax.lax.cond(
+            code >= 0,
+            lambda: (start, code, whiten),
+            lambda: refined(start, obs, whiten),
+        )
         point = constrain_fn(model, (obs,), {}, unravel(mode), return_deterministic=True)
-        return mode, _outcome_code(result), whiten, point
+        return mode, code, whiten, point
 
     @jax.jit
     def laplace_program(mode, obs, key):
@@ -265,6 +280,10 @@ _OUTCOMES = tuple(
 )
 
 
+# The mode program's code for "no outcome yet: the BFGS run on all windows is still to come".
+_NOT_YET = np.int32(-1)
+
+
 def _outcome_code(result) -> jax.Array:
     """An optimistix result as an integer (its place in ``_OUTCOMES``; one past it: another).
 
@@ -272,7 +291,7 @@ def _outcome_code(result) -> jax.Array:
     where optimistix's result type would not.
     """
     hits = jnp.stack([result == getattr(optx.RESULTS, name) for name in _OUTCOMES])
-    return jnp.where(hits.any(), jnp.argmax(hits), len(_OUTCOMES))
+    return jnp.where(hits.any(), jnp.argmax(hits), len(_OUTCOMES)).astype(jnp.int32)
 
 
 def optimiser_outcome(code) -> str:
