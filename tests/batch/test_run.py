@@ -188,6 +188,19 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
     assert len(pd.read_parquet(out / "drive_summaries.parquet")) == 4
 
 
+def test_local_workers_get_this_process_xla_flags_then_one_thread(monkeypatch):
+    from tyrebayes.batch.run import _worker_env
+
+    one_thread = "--xla_cpu_multi_thread_eigen=false"
+    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    assert _worker_env()["XLA_FLAGS"] == one_thread
+    own = "--xla_dump_to=/tmp/x --xla_cpu_multi_thread_eigen=true"
+    monkeypatch.setenv("XLA_FLAGS", own)
+    env = _worker_env()
+    assert env["XLA_FLAGS"] == f"{own} {one_thread}"
+    assert env["OMP_NUM_THREADS"] == "1" and env["JAX_PLATFORMS"] == "cpu"
+
+
 def test_cli_bad_manifest_is_exit_2(tmp_path, capsys):
     bad = tmp_path / "m.csv"
     pd.DataFrame([{"path": "a.parquet", "vehicle": "compact_fwd"}]).to_csv(bad, index=False)

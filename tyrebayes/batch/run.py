@@ -63,10 +63,18 @@ _WORKER_ENV = {
     "OMP_NUM_THREADS": "1",
     "OPENBLAS_NUM_THREADS": "1",
     "MKL_NUM_THREADS": "1",
-    "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1",
     "JAX_ENABLE_X64": "1",
     "JAX_PLATFORMS": "cpu",
 }
+_WORKER_XLA_FLAGS = "--xla_cpu_multi_thread_eigen=false"
+
+
+def _worker_env() -> dict[str, str]:
+    """The local workers' environment: :data:`_WORKER_ENV`, and XLA_FLAGS that start with this
+    process's own (a dump folder, a code generator chosen for the run reach the workers too)
+    and end with the one-thread flag, which wins where both name it (XLA reads the last)."""
+    flags = f"{os.environ.get('XLA_FLAGS', '')} {_WORKER_XLA_FLAGS}".strip()
+    return {**_WORKER_ENV, "XLA_FLAGS": flags}
 
 
 @contextlib.contextmanager
@@ -97,7 +105,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, memory
             processes=True,
             memory_limit=memory_limit or DEFAULT_MEMORY_LIMIT,
             dashboard_address=":0",  # any free port: two runs on one machine must not clash
-            env=_WORKER_ENV,
+            env=_worker_env(),
         ) as cluster,
         Client(cluster) as client,
     ):

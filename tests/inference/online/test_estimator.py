@@ -45,10 +45,14 @@ def test_empty_step_changes_only_the_drift(estimator):
     np.testing.assert_allclose(moved.mean, state.mean, rtol=0, atol=1e-12)
     drift = jnp.diag(estimator.config.drift_sd_per_sqrt_s**2 * 400.0)
     expected = state.cov + drift
-    # Each step inverts the covariance twice (eigendecompositions): round-off of ~1e-11 of the
-    # entries' scale √(P_ii P_jj), on entries that are themselves round-off.
+    # Each empty step inverts the covariance twice (eigendecompositions), and an inverse's
+    # relative error is up to machine epsilon times the condition number (P's is ~5e5 here).
+    # Measured against the entries' scale √(P_ii P_jj), the round-off stays within that bound
+    # summed over the inversions.
     scale = np.sqrt(np.outer(np.diag(expected), np.diag(expected)))
-    np.testing.assert_allclose((moved.cov - expected) / scale, 0.0, atol=1e-9)
+    inversions = 2 * (N_STEPS - 20)
+    bound = inversions * np.finfo(float).eps * np.linalg.cond(np.asarray(expected))
+    np.testing.assert_allclose((moved.cov - expected) / scale, 0.0, atol=bound)
     assert float(moved.n_slip_windows) == float(state.n_slip_windows) == 2400.0
 
 
