@@ -34,10 +34,7 @@ from __future__ import annotations
 
 import os
 
-os.environ["XLA_FLAGS"] = (
-    os.environ.get("XLA_FLAGS", "")
-    + " --xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
-)
+os.environ["XLA_FLAGS"] = os.environ.get("XLA_FLAGS", "") + " --xla_cpu_multi_thread_eigen=false"
 # One core (module docstring): the last CPU this process may run on.
 CORE = max(os.sched_getaffinity(0))
 os.sched_setaffinity(0, {CORE})

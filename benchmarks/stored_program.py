@@ -73,7 +73,7 @@ def _run(cache: Path, windows: Path, pad: int) -> dict:
     env = {
         **os.environ,
         "OMP_NUM_THREADS": "1",
-        "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1",
+        "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false",
     }
     out = subprocess.run(
         [sys.executable, "-c", _CHILD, str(cache), str(windows), str(pad)],

@@ -5,7 +5,7 @@ temperature, windowed observations with the force-density EM, windows table, dri
 timed on the same simulated one-hour drives for two versions of the package: this checkout
 ("after") and git revision ``--before`` ("before", extracted with ``git archive`` into a
 temporary folder, as ``stream_stage_speed.py`` does). Each version runs in a fresh
-single-threaded process (OMP one thread, XLA ``intra_op_parallelism_threads=1``, as a fleet
+single-threaded process (OMP one thread, XLA without its Eigen thread pool, as a fleet
 worker), every drive once to compile and warm up and then ``--repeats`` more times; a drive's
 figure is its fastest repeat, the total is the sum over drives divided by the drive-hours.
 
@@ -108,7 +108,7 @@ _ENV = {
     "OMP_NUM_THREADS": "1",
     "OPENBLAS_NUM_THREADS": "1",
     "MKL_NUM_THREADS": "1",
-    "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1",
+    "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false",
 }
 
 
