@@ -188,7 +188,7 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
     assert len(pd.read_parquet(out / "drive_summaries.parquet")) == 4
 
 
-def test_local_workers_get_this_process_xla_flags_then_one_thread(monkeypatch):
+def test_local_workers_get_one_thread_then_this_process_xla_flags(monkeypatch):
     from tyrebayes.batch.run import _worker_env
 
     one_thread = "--xla_cpu_multi_thread_eigen=false"
@@ -197,7 +197,7 @@ def test_local_workers_get_this_process_xla_flags_then_one_thread(monkeypatch):
     own = "--xla_dump_to=/tmp/x --xla_cpu_multi_thread_eigen=true"
     monkeypatch.setenv("XLA_FLAGS", own)
     env = _worker_env()
-    assert env["XLA_FLAGS"] == f"{own} {one_thread}"
+    assert env["XLA_FLAGS"] == f"{one_thread} {own}"
     assert env["OMP_NUM_THREADS"] == "1" and env["JAX_PLATFORMS"] == "cpu"
 
 

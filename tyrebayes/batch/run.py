@@ -70,10 +70,11 @@ _WORKER_XLA_FLAGS = "--xla_cpu_multi_thread_eigen=false"
 
 
 def _worker_env() -> dict[str, str]:
-    """The local workers' environment: :data:`_WORKER_ENV`, and XLA_FLAGS that start with this
-    process's own (a dump folder, a code generator chosen for the run reach the workers too)
-    and end with the one-thread flag, which wins where both name it (XLA reads the last)."""
-    flags = f"{os.environ.get('XLA_FLAGS', '')} {_WORKER_XLA_FLAGS}".strip()
+    """The local workers' environment: :data:`_WORKER_ENV`, and XLA_FLAGS that start with the
+    one-thread flag and go on with this process's own, so that a dump folder or a code generator
+    chosen for the run reaches the workers too (and wins where both name a flag: XLA reads the
+    last)."""
+    flags = f"{_WORKER_XLA_FLAGS} {os.environ.get('XLA_FLAGS', '')}".strip()
     return {**_WORKER_ENV, "XLA_FLAGS": flags}
 
 
