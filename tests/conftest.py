@@ -8,12 +8,12 @@ import subprocess
 import sys
 import tempfile
 
-# XLA:CPU's default code generator (its MLIR fusion emitters) compiles a fit about half as slowly
-# again as its older LLVM IR emitters, to results equal to round-off
+# XLA:CPU's default code generator (its MLIR fusion emitters) takes about 1.5 times as long to
+# compile a fit as its older LLVM IR emitters, whose results agree to round-off
 # (benchmarks/results/compile_backend.json). The suite compiles a program for nearly every test
 # and runs it once, so it runs with the older emitters; set XLA_FLAGS to run it on others. A
 # jaxlib that does not know the flag would abort at its first computation, so a child process
-# asks first. The benchmarks, and every result the README states, use the default.
+# asks first. The package, and the benchmarks of its speed and accuracy, use the default.
 _SUITE_XLA_FLAGS = "--xla_force_host_platform_device_count=2"
 _FAST_COMPILING = "--xla_cpu_use_fusion_emitters=false"
 
