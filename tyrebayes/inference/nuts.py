@@ -51,9 +51,10 @@ def chains_per_run(num_chains: int) -> int:
 
     JAX sees one CPU device unless told otherwise before it starts
     (``numpyro.set_host_device_count``; the ``tyrebayes`` command sets one device per core).
-    Chains are never vectorised on one device: a vectorised step of the per-tyre model cost more
-    than four single-chain steps on one core (19.5 against 4 × 4.6 ms per gradient, one-hour
-    drive padded to 16,384 windows, x64) and waits for the longest trajectory.
+    Chains are never vectorised on one device: on one core a vectorised gradient of the per-tyre
+    model cost more than the single-chain gradients it replaces (measured for the per-tyre
+    runner this engine replaced; no benchmark JSON holds the figures), and a vectorised step
+    waits for the longest trajectory.
     """
     devices = min(num_chains, jax.local_device_count())
     while num_chains % devices:
