@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -205,6 +207,20 @@ def test_dropped_samples_are_bridged_not_fatal(tmp_path):
     # One dropped 20 ms sample, bridged linearly, moves V_x by well under the 0.02 m/s
     # quantisation-and-noise level of the 0.2 s smoothed wheel speeds.
     assert np.nanmax(np.abs(feats.vx_mps - ref.vx_mps)) < 0.02
+
+
+def test_infinite_values_are_dropped_samples_with_a_note(tmp_path):
+    df = _clean()
+    df.loc[df.index[100:102], "wheel_speed_rr"] = np.inf
+    df.loc[df.index[200], "ax"] = -np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no arithmetic on inf anywhere on the way
+        stream = _through_file(df, tmp_path, ".parquet")
+    assert stream.nan_fraction["wheel_speed_rr"] == pytest.approx(2 / len(df))
+    assert stream.nan_fraction["ax"] == pytest.approx(1 / len(df))
+    assert "column 'wheel_speed_rr': 2 infinite values read as dropped samples" in stream.notes
+    assert "column 'ax': 1 infinite values read as dropped samples" in stream.notes
+    assert np.isfinite(stream.data["wheel_speed_rr"]).all()  # bridged like any dropped sample
 
 
 def test_long_gap_stays_nan_and_is_reported(tmp_path):

@@ -153,6 +153,23 @@ def _numeric_columns(df: pd.DataFrame) -> dict[str, np.ndarray]:
     return out
 
 
+def _infinite_as_dropped(cols: dict[str, np.ndarray], notes: list[str]) -> None:
+    """±inf in a channel becomes NaN, a dropped sample, with a note of how many.
+
+    A logger or decoder writes inf for a value it could not form (a division by a zero
+    count, an overflowed scaling); no sensor measures it. Left in, it would pass for a value in
+    the differences and medians downstream and turn them to NaN there, unannounced.
+    """
+    for name, x in cols.items():
+        if name == "time":
+            continue
+        infinite = np.isinf(x)
+        count = int(np.count_nonzero(infinite))
+        if count:
+            cols[name] = np.where(infinite, np.nan, x)
+            notes.append(f"column '{name}': {count} infinite values read as dropped samples")
+
+
 def _check_time(t: np.ndarray) -> None:
     if not np.all(np.isfinite(t)):
         row = int(np.flatnonzero(~np.isfinite(t))[0])
@@ -689,10 +706,11 @@ def validate_stream(
     if t.size < min_samples:
         raise BadInputError(f"too few samples: expected at least {min_samples} rows, got {t.size}")
     _check_time(t)
+    notes: list[str] = []
+    _infinite_as_dropped(cols, notes)
     # Each channel's finite range, found once: the range and the stuck-sensor checks read it.
     bounds = {name: _finite_range(x) for name, x in cols.items() if name != "time"}
     _check_ranges(cols, bounds)
-    notes: list[str] = []
     _check_channels(cols, bounds, notes)
     # Each channel's valid instants and median interval, found once: the wheel counts, the
     # wheel rate, the dropped fractions, the channel rates and the resampling all read them.
