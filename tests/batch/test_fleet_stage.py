@@ -1,4 +1,5 @@
-"""The fleet table from tyre-set rows: only observed μ_max of converged sets of known type."""
+"""The fleet table from tyre-set rows: only observed μ_max of converged sets of known type
+whose drives measured C_x."""
 
 from __future__ import annotations
 
@@ -10,9 +11,9 @@ from tyrebayes.batch.settings import RunSettings
 from tyrebayes.batch.tyre_set_stage import pad_size
 
 
-def _row(tyre_id, tyre_type="winter", converged=True, **observed):
+def _row(tyre_id, tyre_type="winter", converged=True, measured=True, **observed):
     row = {"tyre_id": tyre_id, "tyre_type": tyre_type, "c_xr": 30.0, "c_xr_sd": 1.0,
-           "converged": converged}  # fmt: skip
+           "converged": converged, "c_x_measured": measured}  # fmt: skip
     for s in ("snow", "ice", "wet", "dry"):
         row[f"mu_{s}"] = observed.get(s, 0.5)
         row[f"mu_{s}_observed"] = s in observed
@@ -27,6 +28,7 @@ def test_fleet_table_keeps_only_observations():
             _row("c"),  # nothing observed: its μ are priors
             _row("d", tyre_type="", snow=0.3),  # type unknown
             _row("e", converged=False, snow=0.3),
+            _row("f", measured=False, snow=0.3),  # its drives did not measure C_x
         ]
     )
     table = fleet_table(sets)
@@ -76,3 +78,9 @@ def test_fleet_stage_fits_and_predicts_per_set(tmp_path):
     by_id = pred.set_index("tyre_id")
     assert by_id.loc["w0", "p_below_mu_min"] < by_id.loc["s0", "p_below_mu_min"]
     assert (pred["mu_q05"] < pred["mu_mean"]).all() and (pred["mu_mean"] < pred["mu_q95"]).all()
+
+
+def test_a_table_written_before_c_x_measured_existed_keeps_its_sets():
+    old = _row("a", snow=0.31)
+    del old["c_x_measured"]
+    assert list(fleet_table(pd.DataFrame([old]))["tyre_id"]) == ["a"]

@@ -39,11 +39,14 @@ PREDICTION_SURFACE = "snow"
 def fleet_table(tyre_sets: pd.DataFrame) -> pd.DataFrame:
     """Fleet-table rows (``tyre_id``, ``tyre_type``, ``c_xr``, ``c_xr_sd``, ``mu``, ``surface``).
 
-    One per converged set with a known type and surface where μ_max was observed.
+    One per converged set with a known type and surface where μ_max was observed, whose drives
+    measured C_x (``c_x_measured``; a table without the column counts every set as measured).
     """
     rows = []
     for rec in tyre_sets.to_dict("records"):
         if rec.get("tyre_type") not in TYRE_TYPES or not rec.get("converged", False):
+            continue
+        if not rec.get("c_x_measured", True):
             continue
         for s in SURFACES:
             if bool(rec.get(f"mu_{s}_observed", False)) and np.isfinite(rec.get(f"mu_{s}", np.nan)):

@@ -56,7 +56,9 @@ def tyre_set_row(tyre_set_id: str, tyre_type: str, fit, n_drives: int, n_windows
 
     Columns: ``tyre_id``, ``tyre_type``, ``c_xr``, ``c_xr_sd``, per surface ``mu_<surface>``,
     ``mu_<surface>_sd``, ``mu_<surface>_observed`` (NaN / False for surfaces without drives),
-    ``converged``, ``adequate``, ``adequacy_reasons``, ``r_hat_max``, ``ess_bulk_min``,
+    ``converged``, ``adequate``, ``adequacy_reasons``, ``c_x_measured`` (the drives measured
+    C_x: :attr:`~tyrebayes.inference.tyre.adequacy.Adequacy.measures_c_x`), ``r_hat_max``,
+    ``ess_bulk_min``,
     ``divergences``, ``optimiser_result``, ``method``, ``model``, ``n_drives``, ``n_windows``,
     ``n_abs_windows``.
     """
@@ -78,6 +80,7 @@ def tyre_set_row(tyre_set_id: str, tyre_type: str, fit, n_drives: int, n_windows
         "converged": bool(fit.converged),
         "adequate": bool(diag.adequate),
         "adequacy_reasons": " | ".join(diag.adequacy_reasons),
+        "c_x_measured": bool(fit.adequacy.measures_c_x),
         "r_hat_max": float(diag.r_hat_max),
         "ess_bulk_min": float(diag.ess_bulk_min),
         "divergences": int(diag.divergences),

@@ -3,7 +3,14 @@
 import numpy as np
 import pytest
 
-from tyrebayes.inference.tyre.adequacy import MAX_STEP_T, assess_adequacy, offset_step
+from tyrebayes.inference.tyre.adequacy import (
+    EXCITATION_FORCE,
+    MAX_STEP_T,
+    MIN_EXCITED_WINDOWS,
+    Adequacy,
+    assess_adequacy,
+    offset_step,
+)
 
 
 def _clean(seed=0, n=2000):
@@ -56,3 +63,49 @@ def test_offset_step_statistic():
     # A drift of the same t but tiny size is not a change of tyre.
     small = assess_adequacy(z, rho, drive, 1, shape_prior_sds={}, block_offsets=(stepped / 10,))
     assert small.adequate, small.reasons
+
+
+def test_a_drive_without_excitation_does_not_measure_c_x():
+    z, rho, drive = _clean()
+    cruise = assess_adequacy(
+        z, 0.9 * EXCITATION_FORCE * (2 * rho / 0.3 - 1), drive, 1, shape_prior_sds={}
+    )
+    assert cruise.excited_windows == 0
+    assert not cruise.adequate and "too little excitation: 0 slip windows" in cruise.reasons[0]
+    assert not cruise.measures_c_x
+    # The count is of windows at or beyond the force, either sign: braking windows excite too.
+    few = np.where(np.arange(z.size) < MIN_EXCITED_WINDOWS, -EXCITATION_FORCE, 0.01)
+    enough = assess_adequacy(z, few, drive, 1, shape_prior_sds={})
+    assert enough.excited_windows == MIN_EXCITED_WINDOWS
+    assert not any("excitation" in r for r in enough.reasons), enough.reasons
+    assert enough.measures_c_x
+
+
+def test_c_xr_far_from_the_type_prior_is_flagged():
+    z, rho, drive = _clean()
+    far = assess_adequacy(z, rho, drive, 1, shape_prior_sds={}, c_xr_prior_sds=7.1)
+    assert not far.adequate and "C_xr +7.1 prior sds" in far.reasons[0]
+    assert not far.measures_c_x
+    # Inadequate for another reason, it still measured C_x.
+    wide = assess_adequacy(3.0 * z, rho, drive, 1, shape_prior_sds={}, c_xr_prior_sds=0.2)
+    assert not wide.adequate and wide.measures_c_x
+    near = assess_adequacy(z, rho, drive, 1, shape_prior_sds={}, c_xr_prior_sds=-3.9)
+    assert near.adequate, near.reasons
+    assert near.c_xr_prior_sds == -3.9
+
+
+def test_a_record_saved_without_the_identification_fields_reads_back():
+    old = {
+        "adequate": True,
+        "reasons": [],
+        "variance_inflation": 1.2,
+        "outside_90": 0.1,
+        "trend_t": 0.3,
+        "step_t": 1.0,
+    }
+    record = Adequacy.from_dict(old)
+    assert record.excited_windows is None and np.isnan(record.c_xr_prior_sds)
+    assert record.measures_c_x  # nothing says otherwise
+    z, rho, drive = _clean()
+    new = assess_adequacy(z, rho, drive, 1, shape_prior_sds={}, c_xr_prior_sds=0.5)
+    assert Adequacy.from_dict(new.as_dict()) == new

@@ -11,6 +11,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float, Int
 
+from ..tyre.adequacy import EXCITATION_FORCE, MAX_C_XR_PRIOR_SDS
 from .parameters import parameter_names
 from .windows import STEP_S
 
@@ -102,11 +103,15 @@ class OnlineConfig(eqx.Module):
         ... and this many windows with |ρ_x| ≥ ``excitation_force`` (a slope needs forces
         away from zero: 120 windows, 30 s).
     excitation_force : float
-        Force of an exciting window [-]: 0.05, beyond the force noise (±0.01, PUSHING_MARGIN).
+        Force of an exciting window [-]: 0.05, beyond the force noise (±0.01, PUSHING_MARGIN);
+        the batch fit's excitation check counts the same windows
+        (:data:`~tyrebayes.inference.tyre.adequacy.EXCITATION_FORCE`).
     max_prior_z : float
         C_x is withheld while the mean of log C_xr lies more than this many type-prior sds
         from the type's median (4: with the prior's log-sd 0.45 a factor of 6 either way, far
-        beyond any tyre of the type; such a value comes from a model that does not fit).
+        beyond any tyre of the type; such a value comes from a model that does not fit). The
+        batch fit flags a C_xr at the same distance
+        (:data:`~tyrebayes.inference.tyre.adequacy.MAX_C_XR_PRIOR_SDS`).
     initial_inflation : float
         Slip-error variance inflation assumed until :data:`~..window_correlation.MIN_BLOCKS`
         batch-means blocks have estimated it (2.0: the package's own simulated drive gave
@@ -133,8 +138,8 @@ class OnlineConfig(eqx.Module):
     ready_half_width: Float[Array, ""] = eqx.field(converter=_float, default=0.10)
     min_slip_windows: Int[Array, ""] = eqx.field(converter=_int, default=240)
     min_excited_windows: Int[Array, ""] = eqx.field(converter=_int, default=120)
-    excitation_force: Float[Array, ""] = eqx.field(converter=_float, default=0.05)
-    max_prior_z: Float[Array, ""] = eqx.field(converter=_float, default=4.0)
+    excitation_force: Float[Array, ""] = eqx.field(converter=_float, default=EXCITATION_FORCE)
+    max_prior_z: Float[Array, ""] = eqx.field(converter=_float, default=MAX_C_XR_PRIOR_SDS)
     initial_inflation: Float[Array, ""] = eqx.field(converter=_float, default=2.0)
     inflation_prior_blocks: Float[Array, ""] = eqx.field(converter=_float, default=10.0)
     mu_observed_contraction: Float[Array, ""] = eqx.field(converter=_float, default=0.5)

@@ -24,6 +24,21 @@ window, with these checks (each a reason when it fails):
 * **curve shape at the edge of the measured tyres**: the Magic Formula shape or curvature more
   than :data:`MAX_SHAPE_PRIOR_SDS` prior sds from the measured tyres' mean.
 
+Two checks ask instead whether the drive identifies C_x at all:
+
+* **too little excitation**: fewer than :data:`MIN_EXCITED_WINDOWS` slip windows with
+  |ρ_x| ≥ :data:`EXCITATION_FORCE`. C_x is the slope of slip on force; where every window's force
+  stays within the force noise (cruising), the model can explain the forces' spread as true
+  force under a small noise scale and the slips' as noise, and then reports a slope that no
+  force change measured, with an interval that looks like a real one (ten minutes at constant
+  speed with an external drive's sensor noise gave C_x 195 ± 48 where that car's tyre has 48.7:
+  ``benchmarks/results/identification.json``).
+* **C_xr far outside the type prior**: its posterior mean more than :data:`MAX_C_XR_PRIOR_SDS`
+  prior sds (log scale) from the prior's median, a factor of 6 either way with the default
+  log-sd 0.45: no tyre of the type has it, and a wrong wheel radius, driven axle, mass or unit
+  is far likelier (the online estimator withholds its C_x at the same distance,
+  :attr:`~tyrebayes.inference.online.OnlineConfig.max_prior_z`).
+
 The fitted scales λ of the stream's stated slip and force noise do not decide it: the model
 infers them, so a stream whose noise estimate is off is still described; the fit summary reports
 them (``noise_scales``) so that a user sees how far off the stream's estimates were.
@@ -48,6 +63,13 @@ MIN_STEP_BLOCKS = 3
 # of rolling radius, about a 0.3 bar pressure loss or a millimetre of tread; tyres warming over a
 # drive move it by a few 1e-5 on the package's simulated drives.
 MIN_STEP_SLIP = 1e-3
+#: Force of a window that excites the tyre [-]: beyond the force noise (±0.01, the error budget
+#: behind ``PUSHING_MARGIN``) five times over. The online estimator counts the same windows.
+EXCITATION_FORCE = 0.05
+#: Least number of exciting slip windows (5 s of them at 0.25 s windows) for a slope to be read.
+MIN_EXCITED_WINDOWS = 20
+#: Farthest posterior mean of log C_xr from the type prior's median, in prior sds.
+MAX_C_XR_PRIOR_SDS = 4.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,6 +90,12 @@ class Adequacy:
         t-value of the residuals' slope against the window force, deflated by √inflation [-].
     step_t : float
         Largest t-value of a step in the blocks' slip offsets [-].
+    excited_windows : int or None
+        Slip windows with |ρ_x| ≥ :data:`EXCITATION_FORCE` (None in a fit saved before the
+        count was kept).
+    c_xr_prior_sds : float
+        Posterior mean of log C_xr in type-prior sds from the prior's median [-] (NaN where
+        not known).
     """
 
     adequate: bool
@@ -76,6 +104,15 @@ class Adequacy:
     outside_90: float
     trend_t: float
     step_t: float
+    excited_windows: int | None = None
+    c_xr_prior_sds: float = float("nan")
+
+    @property
+    def measures_c_x(self) -> bool:
+        """False when the drive does not measure C_x (the two identification checks of the
+        module docstring): its C_xr is then no tyre's, and a fleet table leaves it out."""
+        excited = self.excited_windows is None or self.excited_windows >= MIN_EXCITED_WINDOWS
+        return excited and not abs(self.c_xr_prior_sds) > MAX_C_XR_PRIOR_SDS
 
     def as_dict(self) -> dict:
         return {**dataclasses.asdict(self), "reasons": list(self.reasons)}
@@ -94,6 +131,7 @@ def assess_adequacy(
     *,
     shape_prior_sds: dict[str, float],
     block_offsets: tuple[np.ndarray, ...] = (),
+    c_xr_prior_sds: float = float("nan"),
 ) -> Adequacy:
     """Run the checks of the module docstring on one fit's slip windows.
 
@@ -111,9 +149,13 @@ def assess_adequacy(
         Posterior mean of each curve-shape parameter in prior sds from the prior mean [-].
     block_offsets : tuple of ndarray
         Per drive, its blocks' mean slip residuals in time order [-].
+    c_xr_prior_sds : float
+        Posterior mean of log C_xr in type-prior sds from the prior's median [-] (NaN skips
+        the check).
     """
     z, rho = np.asarray(z, float), np.asarray(rho, float)
     finite = np.isfinite(z) & np.isfinite(rho)
+    excited = int(np.count_nonzero(np.abs(rho[finite]) >= EXCITATION_FORCE))
     if not finite.all():
         return Adequacy(
             adequate=False,
@@ -122,8 +164,22 @@ def assess_adequacy(
             outside_90=float("nan"),
             trend_t=float("nan"),
             step_t=float("nan"),
+            excited_windows=excited,
+            c_xr_prior_sds=float(c_xr_prior_sds),
         )
     reasons = []
+    if excited < MIN_EXCITED_WINDOWS:
+        reasons.append(
+            f"too little excitation: {excited} slip windows with |rho_x| >= "
+            f"{EXCITATION_FORCE:g} (need {MIN_EXCITED_WINDOWS}): the forces stay within their "
+            "noise, so the drive does not measure C_x"
+        )
+    if abs(c_xr_prior_sds) > MAX_C_XR_PRIOR_SDS:
+        reasons.append(
+            f"C_xr {c_xr_prior_sds:+.1f} prior sds from the tyre type's median (beyond "
+            f"{MAX_C_XR_PRIOR_SDS:g}): no tyre of the type has it; check the vehicle's wheel "
+            "radius, mass and driven axle, and the stream's units"
+        )
     inflation = max(
         (
             variance_inflation(z[drive_index == d])
@@ -175,6 +231,8 @@ def assess_adequacy(
         outside_90=outside,
         trend_t=trend_t,
         step_t=step_t,
+        excited_windows=excited,
+        c_xr_prior_sds=float(c_xr_prior_sds),
     )
 
 
@@ -202,4 +260,11 @@ def offset_step(offsets: np.ndarray) -> tuple[float, float]:
     return float(t[best]), float(abs(step[best]))
 
 
-__all__ = ["Adequacy", "assess_adequacy", "offset_step"]
+__all__ = [
+    "EXCITATION_FORCE",
+    "MAX_C_XR_PRIOR_SDS",
+    "MIN_EXCITED_WINDOWS",
+    "Adequacy",
+    "assess_adequacy",
+    "offset_step",
+]

@@ -130,6 +130,8 @@ def _adequacy(obs: TyreObservations, samples: dict, kind: str, priors: TyrePrior
         obs.n_drives,
         shape_prior_sds=shape_sds,
         block_offsets=tuple(per_drive),
+        c_xr_prior_sds=(float(np.mean(np.log(samples["c_xr"]))) - np.log(priors.c_xr_median))
+        / priors.c_xr_log_sd,
     )
 
 
