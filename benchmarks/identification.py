@@ -15,9 +15,14 @@ more than ``MAX_C_XR_PRIOR_SDS`` type-prior sds from the type's median. This ben
 * ``e00_declared_rwd``: the drive with its vehicle file saying ``rwd``: the free-rolling front
   wheels read as driven, the driven ones as the speed reference.
 
-Reported per case: C_x (mean, 90 % interval) against the truth, ``adequate`` with its reasons,
-the exciting windows counted and C_xr's distance from the type prior. Nothing is tuned to these
-drives: the thresholds are the online estimator's (``OnlineConfig``), set before this benchmark.
+And whether the fit questions a surface label its ABS stops contradict (the third check,
+μ_max beyond ``MAX_MU_PRIOR_SDS`` of its surface's prior): ``e00_labelled_snow`` and
+``e00_labelled_ice``, the dry drive (truth μ 0.95) fitted with ``--surface snow`` / ``ice``.
+
+Reported per case: C_x (mean, 90 % interval) against the truth, μ_max, ``adequate`` with its
+reasons, the exciting windows counted, C_xr's distance from the type prior and μ_max's from its
+surface's. Nothing is tuned to these drives: the C_xr and excitation thresholds are the online
+estimator's (``OnlineConfig``), set before this benchmark; the μ_max one is the C_xr one.
 
 Usage: ``python benchmarks/identification.py [DIR] [--out FILE]``.
 """
@@ -41,6 +46,7 @@ import pandas as pd  # noqa: E402
 from tyrebayes.inference.tyre.adequacy import (  # noqa: E402
     EXCITATION_FORCE,
     MAX_C_XR_PRIOR_SDS,
+    MAX_MU_PRIOR_SDS,
     MIN_EXCITED_WINDOWS,
 )
 from tyrebayes.inference.tyre.data import observations_from_stream  # noqa: E402
@@ -68,12 +74,15 @@ def cruise(drive: pd.DataFrame, entry: dict, radius_m: float, seed: int = 0) -> 
     return out
 
 
-def fit_case(name: str, stream: Path, vehicle: Path, c_x_true: float | None) -> dict:
-    obs = observations_from_stream(stream, vehicle)
+def fit_case(
+    name: str, stream: Path, vehicle: Path, c_x_true: float | None, surface: str = "dry"
+) -> dict:
+    obs = observations_from_stream(stream, vehicle, surface=surface)
     t0 = time.perf_counter()
     fit = fit_tyre(obs, method="fast", seed=0)
     wall = time.perf_counter() - t0
     c_x = fit.draws("c_x")
+    mu = fit.draws("mu_max")[:, 0]
     summary = fit.summary()
     adequacy = fit.adequacy
     row = {
@@ -85,6 +94,11 @@ def fit_case(name: str, stream: Path, vehicle: Path, c_x_true: float | None) -> 
         "c_x_sd": float(c_x.std()),
         "c_x_hdi_90": summary["c_x"]["hdi_90"],
         "c_x_err": None if c_x_true is None else float(c_x.mean() / c_x_true - 1),
+        "surface": surface,
+        "mu_mean": float(mu.mean()),
+        "mu_hdi_90": summary["mu_max"]["hdi_90"],
+        "mu_observed": bool(summary["mu_max_observed"]),
+        "mu_prior_sds": adequacy.mu_prior_sds,
         "adequate": bool(adequacy.adequate),
         "adequacy_reasons": list(adequacy.reasons),
         "excited_windows": adequacy.excited_windows,
@@ -94,7 +108,8 @@ def fit_case(name: str, stream: Path, vehicle: Path, c_x_true: float | None) -> 
     }
     print(
         f"{name:18s} C_x {row['c_x_mean']:7.1f} ± {row['c_x_sd']:6.1f} (true {c_x_true}) "
-        f"excited {row['excited_windows']:5d} C_xr {row['c_xr_prior_sds']:+5.1f} sd | "
+        f"excited {row['excited_windows']:5d} C_xr {row['c_xr_prior_sds']:+5.1f} sd "
+        f"mu {row['mu_mean']:.3f} on {surface} {row['mu_prior_sds']} | "
         f"adequate {row['adequate']} {'; '.join(row['adequacy_reasons'])[:160]}",
         flush=True,
     )
@@ -131,9 +146,11 @@ def main() -> None:
             ("e00_first_60s", first, vehicle, entry["c_x"]),
             ("cruise", flat, vehicle, None),
             ("e00_declared_rwd", source, declared_rwd, entry["c_x"]),
+            ("e00_labelled_snow", source, vehicle, entry["c_x"], "snow"),
+            ("e00_labelled_ice", source, vehicle, entry["c_x"], "ice"),
         ]
-        for name, stream, car, truth in cases:
-            rows.append(fit_case(name, stream, car, truth))
+        for case in cases:
+            rows.append(fit_case(*case))
     result = {
         "benchmark": "identification",
         "folder": str(args.folder),
@@ -142,7 +159,9 @@ def main() -> None:
             "excitation_force": EXCITATION_FORCE,
             "min_excited_windows": MIN_EXCITED_WINDOWS,
             "max_c_xr_prior_sds": MAX_C_XR_PRIOR_SDS,
+            "max_mu_prior_sds": MAX_MU_PRIOR_SDS,
         },
+        "mu_true": entry["mu"],
         "wall_s": time.perf_counter() - t0,
         "load_avg_1min": os.getloadavg()[0],
         "cases": rows,

@@ -5,6 +5,7 @@ import pytest
 
 from tyrebayes.inference.tyre.adequacy import (
     EXCITATION_FORCE,
+    MAX_MU_PRIOR_SDS,
     MAX_STEP_T,
     MIN_EXCITED_WINDOWS,
     Adequacy,
@@ -109,3 +110,18 @@ def test_a_record_saved_without_the_identification_fields_reads_back():
     z, rho, drive = _clean()
     new = assess_adequacy(z, rho, drive, 1, shape_prior_sds={}, c_xr_prior_sds=0.5)
     assert Adequacy.from_dict(new.as_dict()) == new
+
+
+def test_mu_max_far_from_its_surface_prior_questions_the_label():
+    z, rho, drive = _clean()
+    ice = assess_adequacy(
+        z, rho, drive, 1, shape_prior_sds={}, mu_prior_sds={"ice": 5.0, "dry": -0.3}
+    )
+    assert ice.reasons == (
+        f"mu_max on ice +5.0 prior sds from that surface's median (beyond {MAX_MU_PRIOR_SDS:g}): "
+        "check the drive's surface label",
+    )
+    assert ice.measures_c_x  # the label is in doubt, not the stiffness
+    assert Adequacy.from_dict(ice.as_dict()) == ice
+    plausible = assess_adequacy(z, rho, drive, 1, shape_prior_sds={}, mu_prior_sds={"snow": 2.7})
+    assert plausible.adequate, plausible.reasons

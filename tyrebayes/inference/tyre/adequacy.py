@@ -39,6 +39,14 @@ Two checks ask instead whether the drive identifies C_x at all:
   is far likelier (the online estimator withholds its C_x at the same distance,
   :attr:`~tyrebayes.inference.online.OnlineConfig.max_prior_z`).
 
+And one whether the drive's label fits what it measured:
+
+* **μ_max far outside its surface's prior**: on a surface where the fit observed μ_max (ABS
+  windows), its posterior mean more than :data:`MAX_MU_PRIOR_SDS` prior sds (log scale) from
+  that surface's median: a dry road's 0.9 labelled ice (median 0.12, log-sd 0.4) is 5 sds out.
+  The data then override the prior and the value is the drive's, but the label, which a fleet
+  table groups μ by, is likely wrong.
+
 The fitted scales λ of the stream's stated slip and force noise do not decide it: the model
 infers them, so a stream whose noise estimate is off is still described; the fit summary reports
 them (``noise_scales``) so that a user sees how far off the stream's estimates were.
@@ -70,6 +78,8 @@ EXCITATION_FORCE = 0.05
 MIN_EXCITED_WINDOWS = 20
 #: Farthest posterior mean of log C_xr from the type prior's median, in prior sds.
 MAX_C_XR_PRIOR_SDS = 4.0
+#: Farthest posterior mean of an observed log μ_max from its surface's median, in prior sds.
+MAX_MU_PRIOR_SDS = 4.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -96,6 +106,9 @@ class Adequacy:
     c_xr_prior_sds : float
         Posterior mean of log C_xr in type-prior sds from the prior's median [-] (NaN where
         not known).
+    mu_prior_sds : dict of str to float
+        Per surface where μ_max was observed, its posterior mean (log) in prior sds from the
+        surface's median [-].
     """
 
     adequate: bool
@@ -106,6 +119,7 @@ class Adequacy:
     step_t: float
     excited_windows: int | None = None
     c_xr_prior_sds: float = float("nan")
+    mu_prior_sds: dict[str, float] = dataclasses.field(default_factory=dict)
 
     @property
     def measures_c_x(self) -> bool:
@@ -132,6 +146,7 @@ def assess_adequacy(
     shape_prior_sds: dict[str, float],
     block_offsets: tuple[np.ndarray, ...] = (),
     c_xr_prior_sds: float = float("nan"),
+    mu_prior_sds: dict[str, float] | None = None,
 ) -> Adequacy:
     """Run the checks of the module docstring on one fit's slip windows.
 
@@ -152,7 +167,11 @@ def assess_adequacy(
     c_xr_prior_sds : float
         Posterior mean of log C_xr in type-prior sds from the prior's median [-] (NaN skips
         the check).
+    mu_prior_sds : dict of str to float, optional
+        Per surface where μ_max was observed, its posterior mean (log) in prior sds from the
+        surface's median [-].
     """
+    mu_prior_sds = {s: float(v) for s, v in (mu_prior_sds or {}).items()}
     z, rho = np.asarray(z, float), np.asarray(rho, float)
     finite = np.isfinite(z) & np.isfinite(rho)
     excited = int(np.count_nonzero(np.abs(rho[finite]) >= EXCITATION_FORCE))
@@ -166,6 +185,7 @@ def assess_adequacy(
             step_t=float("nan"),
             excited_windows=excited,
             c_xr_prior_sds=float(c_xr_prior_sds),
+            mu_prior_sds=mu_prior_sds,
         )
     reasons = []
     if excited < MIN_EXCITED_WINDOWS:
@@ -180,6 +200,12 @@ def assess_adequacy(
             f"{MAX_C_XR_PRIOR_SDS:g}): no tyre of the type has it; check the vehicle's wheel "
             "radius, mass and driven axle, and the stream's units"
         )
+    for surface, sds in mu_prior_sds.items():
+        if abs(sds) > MAX_MU_PRIOR_SDS:
+            reasons.append(
+                f"mu_max on {surface} {sds:+.1f} prior sds from that surface's median (beyond "
+                f"{MAX_MU_PRIOR_SDS:g}): check the drive's surface label"
+            )
     inflation = max(
         (
             variance_inflation(z[drive_index == d])
@@ -233,6 +259,7 @@ def assess_adequacy(
         step_t=step_t,
         excited_windows=excited,
         c_xr_prior_sds=float(c_xr_prior_sds),
+        mu_prior_sds=mu_prior_sds,
     )
 
 
@@ -263,6 +290,7 @@ def offset_step(offsets: np.ndarray) -> tuple[float, float]:
 __all__ = [
     "EXCITATION_FORCE",
     "MAX_C_XR_PRIOR_SDS",
+    "MAX_MU_PRIOR_SDS",
     "MIN_EXCITED_WINDOWS",
     "Adequacy",
     "assess_adequacy",

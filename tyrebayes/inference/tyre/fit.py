@@ -67,11 +67,12 @@ def _tyre_fit(
     rho = np.asarray(obs.rho)[slip_window]
     rho = rho[np.isfinite(rho)]
     force_range = float(np.quantile(np.abs(rho), 0.9)) if rho.size else 0.0
-    adequacy = _adequacy(obs, samples, kind, priors)
+    mu_observed = _mu_observed(samples["mu_max"], priors, obs)
+    adequacy = _adequacy(obs, samples, kind, priors, mu_observed)
     return TyreFit(
         idata=idata,
         diagnostics=diagnostics.with_adequacy(adequacy.reasons),
-        mu_observed=_mu_observed(samples["mu_max"], priors, obs),
+        mu_observed=mu_observed,
         surfaces=obs.surfaces,
         n_samples_used=obs.n_used,
         kind=kind,
@@ -93,7 +94,9 @@ def _secant_stiffness(samples: dict, kind: str, force: float) -> np.ndarray:
         return force / slip
 
 
-def _adequacy(obs: TyreObservations, samples: dict, kind: str, priors: TyrePriors) -> Adequacy:
+def _adequacy(
+    obs: TyreObservations, samples: dict, kind: str, priors: TyrePriors, mu_observed: dict
+) -> Adequacy:
     """:func:`.adequacy.assess_adequacy` at the posterior mean (slip windows, time order)."""
     point = {k: jnp.mean(jnp.asarray(v), axis=0) for k, v in samples.items()}
     lik = window_likelihood(point, obs, kind)
@@ -132,6 +135,14 @@ def _adequacy(obs: TyreObservations, samples: dict, kind: str, priors: TyrePrior
         block_offsets=tuple(per_drive),
         c_xr_prior_sds=(float(np.mean(np.log(samples["c_xr"]))) - np.log(priors.c_xr_median))
         / priors.c_xr_log_sd,
+        mu_prior_sds={
+            s: float(
+                (np.mean(np.log(samples["mu_max"][:, i])) - np.log(priors.mu_median((s,))[0]))
+                / priors.mu_log_sd((s,))[0]
+            )
+            for i, s in enumerate(obs.surfaces)
+            if mu_observed[s]
+        },
     )
 
 
