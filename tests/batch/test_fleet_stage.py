@@ -29,6 +29,7 @@ def test_fleet_table_keeps_only_observations():
             _row("d", tyre_type="", snow=0.3),  # type unknown
             _row("e", converged=False, snow=0.3),
             _row("f", measured=False, snow=0.3),  # its drives did not measure C_x
+            _row("g", snow=0.9, dry=0.95) | {"mu_snow_prior_sds": 4.3, "mu_dry_prior_sds": -0.3},
         ]
     )
     table = fleet_table(sets)
@@ -36,6 +37,7 @@ def test_fleet_table_keeps_only_observations():
         ("a", "snow", 0.31),
         ("a", "dry", 0.9),
         ("b", "snow", 0.35),
+        ("g", "dry", 0.95),  # its "snow" is a dry road's μ: the label is in doubt
     ]
 
 

@@ -56,6 +56,9 @@ def tyre_set_row(tyre_set_id: str, tyre_type: str, fit, n_drives: int, n_windows
 
     Columns: ``tyre_id``, ``tyre_type``, ``c_xr``, ``c_xr_sd``, per surface ``mu_<surface>``,
     ``mu_<surface>_sd``, ``mu_<surface>_observed`` (NaN / False for surfaces without drives),
+    ``mu_<surface>_prior_sds`` (an observed μ_max's distance from the surface's prior median in
+    prior sds, :attr:`~tyrebayes.inference.tyre.adequacy.Adequacy.mu_prior_sds`; NaN where not
+    observed),
     ``converged``, ``adequate``, ``adequacy_reasons``, ``c_x_measured`` (the drives measured
     C_x: :attr:`~tyrebayes.inference.tyre.adequacy.Adequacy.measures_c_x`), ``r_hat_max``,
     ``ess_bulk_min``,
@@ -76,6 +79,7 @@ def tyre_set_row(tyre_set_id: str, tyre_type: str, fit, n_drives: int, n_windows
         row[f"mu_{s}"] = float(mu["mean"]) if mu else float("nan")
         row[f"mu_{s}_sd"] = float(mu["sd"]) if mu else float("nan")
         row[f"mu_{s}_observed"] = bool(mu["observed"]) if mu else False
+        row[f"mu_{s}_prior_sds"] = fit.adequacy.mu_prior_sds.get(s, float("nan"))
     row |= {
         "converged": bool(fit.converged),
         "adequate": bool(diag.adequate),
