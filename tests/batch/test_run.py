@@ -139,6 +139,9 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
     assert sorted(sets["tyre_id"]) == ["set0", "set1"]
     assert (sets["n_drives"] == 2).all() and sets["converged"].all()
     assert set(sets["tyre_type"]) == {"winter", "summer"}
+    # Simulated drives with normal driving measure C_x, and their surface labels are true.
+    assert sets["c_x_measured"].all()
+    assert (sets.filter(like="_prior_sds").abs().fillna(0.0) < 4.0).all().all()
     for rec in _records(out, "tyre_sets").values():
         if rec["tyre_set_id"] == "set9":
             assert rec["status"] == "failed" and "no drive" in rec["reason"]
