@@ -8,6 +8,7 @@ import pytest
 
 from tyrebayes.inference.tyre.data import observations_from_features, stack_drives
 from tyrebayes.inference.tyre.fit import fit_tyre
+from tyrebayes.inference.tyre.model import TyrePriors
 
 from .test_model import PAD, linear_region_windows
 
@@ -72,7 +73,8 @@ def test_recovery_on_a_simulated_drive_with_abs(simulated_drive):
     features, truth = simulated_drive
     obs = stack_drives([observations_from_features(features)], ["dry"], pad_to=DRIVE_PAD)
     assert obs.n_limit >= 3
-    summary = fit_tyre(obs, method="fast").summary()
+    fit = fit_tyre(obs, method="fast")
+    summary = fit.summary()
     c_x_true = float(np.mean(truth.c_x))
     # Tolerances: 6 % on C_x and 8 % on μ_max for one 5-minute drive (seeded); the feature
     # pipeline's scale errors (reference-wheel radius, IMU) are part of the error budget.
@@ -80,6 +82,20 @@ def test_recovery_on_a_simulated_drive_with_abs(simulated_drive):
     assert abs(summary["mu_max"]["mean"] / truth.mu_max - 1) < 0.08
     assert summary["mu_max_observed"] is True
     assert summary["diagnostics"]["converged"] is True
+    # The identification checks read this fit's own windows and draws.
+    priors, adequacy = TyrePriors(), fit.adequacy
+    pushing = np.asarray(obs.mask & ~obs.at_limit) & (np.abs(np.asarray(obs.rho)) >= 0.05)
+    assert adequacy.excited_windows == int(pushing.sum())
+    log_c_xr = np.log(fit.draws("c_xr")).mean()
+    assert adequacy.c_xr_prior_sds == pytest.approx(
+        (log_c_xr - np.log(priors.c_xr_median)) / priors.c_xr_log_sd
+    )
+    assert list(adequacy.mu_prior_sds) == ["dry"]  # the one surface whose μ_max was observed
+    assert adequacy.mu_prior_sds["dry"] == pytest.approx(
+        (np.log(fit.draws("mu_max")[:, 0]).mean() - np.log(float(priors.mu_median(("dry",))[0])))
+        / float(priors.mu_log_sd(("dry",))[0])
+    )
+    assert adequacy.measures_c_x
 
 
 def test_nuts_agrees_with_the_fast_path_and_converges(simulated_drive):
