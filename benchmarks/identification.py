@@ -18,6 +18,8 @@ more than ``MAX_C_XR_PRIOR_SDS`` type-prior sds from the type's median. This ben
 And whether the fit questions a surface label its ABS stops contradict (the third check,
 μ_max beyond ``MAX_MU_PRIOR_SDS`` of its surface's prior): ``e00_labelled_snow`` and
 ``e00_labelled_ice``, the dry drive (truth μ 0.95) fitted with ``--surface snow`` / ``ice``.
+For e00 under each of the three labels the online estimator runs too (``tyrebayes online``'s
+path): its final μ_max and the same distance, which it reports as a note.
 
 Reported per case: C_x (mean, 90 % interval) against the truth, μ_max, ``adequate`` with its
 reasons, the exciting windows counted, C_xr's distance from the type prior and μ_max's from its
@@ -43,6 +45,12 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from tyrebayes.inference.online import (  # noqa: E402
+    online_estimate,
+    stream_steps,
+    stream_windows,
+    summary_record,
+)
 from tyrebayes.inference.tyre.adequacy import (  # noqa: E402
     EXCITATION_FORCE,
     MAX_C_XR_PRIOR_SDS,
@@ -116,6 +124,23 @@ def fit_case(
     return row
 
 
+def online_case(stream: Path, vehicle: Path, surface: str) -> dict:
+    """The online estimator over the drive (the command's path): its last step's μ_max."""
+    windows = stream_windows(stream, vehicle, surface=surface)
+    steps = stream_steps(windows, surface)
+    _, trajectory = online_estimate(steps)
+    last = summary_record(trajectory, steps.n_blocks - 1)
+    row = {
+        "surface": surface,
+        "mu_max": last["mu_max"],
+        "mu_max_prior_sds": last["mu_max_prior_sds"],
+        "mu_max_note": last["mu_max_note"],
+        "n_abs_windows": last["n_abs_windows"],
+    }
+    print(f"online on {surface}: {row}", flush=True)
+    return row
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("folder", nargs="?", type=Path, default=DEFAULT_DIR)
@@ -151,6 +176,7 @@ def main() -> None:
         ]
         for case in cases:
             rows.append(fit_case(*case))
+        online = [online_case(source, vehicle, surface) for surface in ("dry", "snow", "ice")]
     result = {
         "benchmark": "identification",
         "folder": str(args.folder),
@@ -165,6 +191,7 @@ def main() -> None:
         "wall_s": time.perf_counter() - t0,
         "load_avg_1min": os.getloadavg()[0],
         "cases": rows,
+        "online_e00_by_label": online,
     }
     args.out.parent.mkdir(parents=True, exist_ok=True)
     tmp_out = args.out.with_suffix(".tmp")

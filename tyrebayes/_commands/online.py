@@ -94,6 +94,8 @@ def _text(payload: dict[str, Any]) -> str:
     lines.append(
         "mu_max  " + (_value_text(mu, None) if mu is not None else f"—  ({final['mu_max_reason']})")
     )
+    if final["mu_max_note"]:
+        lines.append(f"mu_max  NOTE: {final['mu_max_note']}")
     alarms = payload["alarms_s"]
     at = ", ".join(f"{t:.0f} s" for t in alarms) if alarms else "none"
     lines.append(f"change alarms at: {at}")

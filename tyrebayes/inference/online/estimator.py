@@ -246,6 +246,9 @@ class OnlineEstimator(eqx.Module):
         mu_observed = (state.n_limit_windows > 0) & (
             mu_contraction >= self.config.mu_observed_contraction
         )
+        mu_prior_z = (state.mean[mu_i] - self.prior.mean[mu_i]) / jnp.sqrt(
+            self.prior.cov[mu_i, mu_i]
+        )
         return OnlineSummary(
             time_s=state.time_s,
             c_x=c_x,
@@ -257,6 +260,7 @@ class OnlineEstimator(eqx.Module):
             ready=ready,
             reason=reason,
             mu_observed=mu_observed,
+            mu_prior_z=mu_prior_z,
             alarm=state.alarm,
             n_alarms=state.n_alarms,
             swap_log_bayes_factor=state.log_bayes_factor,

@@ -23,6 +23,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
 from ...physics.thermal import REFERENCE_TEMPERATURE_C
+from ..tyre.adequacy import MAX_MU_PRIOR_SDS
 
 _Z90 = 1.6448536269514722
 
@@ -83,6 +84,10 @@ class OnlineSummary(eqx.Module):
         Why not (:data:`REASONS`), 0 when ready.
     mu_observed : Bool[Array, "*t"]
         μ_max observed (module docstring).
+    mu_prior_z : Float[Array, "*t"]
+        Mean of log μ_max in prior sds from the surface prior's median: an observed μ_max
+        beyond :data:`~tyrebayes.inference.tyre.adequacy.MAX_MU_PRIOR_SDS` puts the drive's
+        surface label in doubt, as in the batch fit's adequacy.
     alarm : Bool[Array, "*t"]
         A change alarm at this step (the estimator restarted from the prior).
     n_alarms : Int[Array, "*t"]
@@ -106,6 +111,7 @@ class OnlineSummary(eqx.Module):
     ready: Bool[Array, "*t"]
     reason: Int[Array, "*t"]
     mu_observed: Bool[Array, "*t"]
+    mu_prior_z: Float[Array, "*t"]
     alarm: Bool[Array, "*t"]
     n_alarms: Int[Array, "*t"]
     swap_log_bayes_factor: Float[Array, "*t"]
@@ -156,6 +162,8 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
     ready = bool(np.asarray(summary.ready)[i])
     reason = REASONS[int(np.asarray(summary.reason)[i])]
     mu_ok = bool(np.asarray(summary.mu_observed)[i])
+    mu_z = float(np.asarray(summary.mu_prior_z)[i])
+    label_doubtful = mu_ok and abs(mu_z) > MAX_MU_PRIOR_SDS
     record = {
         "time_s": float(np.asarray(summary.time_s)[i]),
         "enough_evidence": ready,
@@ -164,6 +172,13 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
         "c_xr": _value(summary.c_xr, i) if ready else None,
         "mu_max": _value(summary.mu_max, i) if mu_ok else None,
         "mu_max_reason": None if mu_ok else "not observed: no ABS stop, or too little contraction",
+        "mu_max_prior_sds": mu_z,
+        "mu_max_note": (
+            f"{mu_z:+.1f} prior sds from the surface's median (beyond {MAX_MU_PRIOR_SDS:g}): "
+            "check the drive's surface label"
+            if label_doubtful
+            else None
+        ),
         "slip_offset": {
             "mean": float(np.asarray(summary.slip_offset_mean)[i]),
             "sd": float(np.asarray(summary.slip_offset_sd)[i]),
