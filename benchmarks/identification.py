@@ -45,6 +45,7 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from tyrebayes._domain import load_vehicle  # noqa: E402
 from tyrebayes.inference.online import (  # noqa: E402
     online_estimate,
     stream_steps,
@@ -152,9 +153,7 @@ def main() -> None:
     vehicle = args.folder / "drives" / entry["vehicle"]
     drive = pd.read_parquet(source)
     vehicle_text = vehicle.read_text()
-    radius = float(
-        next(line for line in vehicle_text.splitlines() if "wheel_radius_m" in line).split("=")[1]
-    )
+    radius = load_vehicle(vehicle).wheel_radius_m
     t0 = time.perf_counter()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
