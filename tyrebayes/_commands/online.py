@@ -96,6 +96,13 @@ def _text(payload: dict[str, Any]) -> str:
     )
     if final["mu_max_note"]:
         lines.append(f"mu_max  NOTE: {final['mu_max_note']}")
+    conflict = final["prior_conflict"]
+    if conflict:
+        lines.append(
+            f"NOTE: the tyre's {conflict['coordinate']} lies {conflict['prior_sds']:+.1f} prior "
+            "sds from its prior: the model does not fit these windows (check the surface label "
+            "and the vehicle file); C_x and mu_max withheld"
+        )
     alarms = payload["alarms_s"]
     at = ", ".join(f"{t:.0f} s" for t in alarms) if alarms else "none"
     lines.append(f"change alarms at: {at}")

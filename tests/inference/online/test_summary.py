@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax.numpy as jnp
+import pytest
 
+from tyrebayes.inference.online import OnlineEstimator
 from tyrebayes.inference.online.config import default_config
+from tyrebayes.inference.online.parameters import PRIOR_CHECKED
 from tyrebayes.inference.online.summary import (
     INTERVAL_TOO_WIDE,
     OUTSIDE_TYPE,
+    PRIOR_CONFLICT,
     READY,
     TOO_LITTLE_EXCITATION,
     OnlineSummary,
@@ -34,9 +39,12 @@ def test_each_missing_condition_withholds_with_its_reason():
     assert _reason(0.2, 1000.0, 0.5) == (False, INTERVAL_TOO_WIDE)
     # A narrow interval far outside the type's range: the model does not fit, so no value.
     assert _reason(0.001, 1000.0, -9.0) == (False, OUTSIDE_TYPE)
+    c_x = log_normal_summary(jnp.log(30.0), jnp.asarray(0.02))
+    conflict = readiness(c_x, 1000.0, 1000.0, jnp.asarray(0.5), CONFIG, jnp.asarray(True))
+    assert (bool(conflict[0]), int(conflict[1])) == (False, PRIOR_CONFLICT)
 
 
-def _summary(mu_observed: bool, mu_prior_z: float) -> OnlineSummary:
+def _summary(mu_observed: bool, mu_prior_z: float, conflict: bool = False) -> OnlineSummary:
     value = log_normal_summary(jnp.log(0.9), jnp.asarray(0.02))
     zero, one = jnp.asarray(0.0), jnp.asarray(1.0)
     return OnlineSummary(
@@ -58,6 +66,10 @@ def _summary(mu_observed: bool, mu_prior_z: float) -> OnlineSummary:
         n_excited_windows=jnp.asarray(800.0),
         n_limit_windows=jnp.asarray(12.0),
         slip_inflation=one,
+        prior_conflict=jnp.asarray(conflict),
+        conflict_prior_sds=jnp.asarray(5.3 if conflict else 0.4),
+        conflict_coordinate=jnp.asarray(1),
+        coordinate_names=("log_c_xr", "abs_force_ratio"),
     )
 
 
@@ -68,3 +80,37 @@ def test_an_observed_mu_max_far_from_its_surface_prior_questions_the_label():
     assert summary_record(_summary(True, -2.7))["mu_max_note"] is None
     # Not observed: the value is the prior's, and says nothing of the label.
     assert summary_record(_summary(False, 5.0))["mu_max_note"] is None
+
+
+def test_a_tyre_coordinate_in_conflict_with_its_prior_withholds_c_x_and_mu_max():
+    record = summary_record(_summary(True, 2.7, conflict=True))
+    assert record["mu_max"] is None and record["mu_max_reason"].startswith("withheld: ")
+    assert record["prior_conflict"] == {"coordinate": "abs_force_ratio", "prior_sds": 5.3}
+    assert summary_record(_summary(True, 2.7))["prior_conflict"] is None
+
+
+@pytest.mark.parametrize("coordinate", ["abs_force_ratio", "log_curve_curvature_gap"])
+def test_the_summary_names_the_checked_coordinate_beyond_the_readiness_distance(coordinate):
+    estimator = OnlineEstimator.create(kind="magic")
+    names = estimator.prior.names
+    limit = float(estimator.config.max_prior_z)
+    many = jnp.asarray(1000.0)
+    state = eqx.tree_at(
+        lambda s: (s.n_slip_windows, s.n_excited_windows), estimator.init(), (many, many)
+    )
+
+    def moved(name, sds):
+        j = names.index(name)
+        step = sds * jnp.sqrt(estimator.prior.cov[j, j])
+        return estimator.summary(eqx.tree_at(lambda s: s.mean, state, state.mean.at[j].add(step)))
+
+    assert coordinate in PRIOR_CHECKED
+    assert not bool(estimator.summary(state).prior_conflict)
+    far = moved(coordinate, -(limit + 1.0))
+    assert bool(far.prior_conflict) and int(far.reason) == PRIOR_CONFLICT
+    assert far.coordinate_names[int(far.conflict_coordinate)] == coordinate
+    assert float(far.conflict_prior_sds) == pytest.approx(-(limit + 1.0))
+    # C_xr has its own rule (OUTSIDE_TYPE); the noise scales are the sensors', not the tyre's.
+    assert int(moved("log_c_xr", limit + 1.0).reason) == OUTSIDE_TYPE
+    assert not bool(moved("log_c_xr", limit + 1.0).prior_conflict)
+    assert not bool(moved("log_rho_noise_scale", limit + 1.0).prior_conflict)

@@ -46,6 +46,7 @@ from .inflation import accrue_residuals, empty_inflation, inflation_in_use
 from .laplace_update import laplace_update
 from .parameters import (
     PER_DRIVE,
+    PRIOR_CHECKED,
     TYRE_COORDINATES,
     GaussianPrior,
     reset_to_prior,
@@ -237,18 +238,21 @@ class OnlineEstimator(eqx.Module):
         a = c_x_direction(state.mean.shape[0], mean_temperature, idx, state.mean.dtype)
         c_x = log_normal_summary(a @ state.mean, jnp.sqrt(a @ state.cov @ a))
         gain_i, offset_i, c_i = idx["log_force_gain"], idx["slip_offset"], idx["log_c_xr"]
-        prior_z = (state.mean[c_i] - self.prior.mean[c_i]) / jnp.sqrt(self.prior.cov[c_i, c_i])
+        prior_sds = (state.mean - self.prior.mean) / jnp.sqrt(jnp.diag(self.prior.cov))
+        prior_z = prior_sds[c_i]
+        checked = jnp.asarray([n in PRIOR_CHECKED for n in self.prior.names])
+        checked_sds = jnp.where(checked, prior_sds, 0.0)
+        worst = jnp.argmax(jnp.abs(checked_sds))
+        conflict = jnp.abs(checked_sds[worst]) > self.config.max_prior_z
         ready, reason = readiness(
-            c_x, state.n_slip_windows, state.n_excited_windows, prior_z, self.config
+            c_x, state.n_slip_windows, state.n_excited_windows, prior_z, self.config, conflict
         )
         mu_i = idx["log_mu_max"]
         mu_contraction = 1.0 - sd[mu_i] / jnp.sqrt(self.prior.cov[mu_i, mu_i])
         mu_observed = (state.n_limit_windows > 0) & (
             mu_contraction >= self.config.mu_observed_contraction
         )
-        mu_prior_z = (state.mean[mu_i] - self.prior.mean[mu_i]) / jnp.sqrt(
-            self.prior.cov[mu_i, mu_i]
-        )
+        mu_prior_z = prior_sds[mu_i]
         return OnlineSummary(
             time_s=state.time_s,
             c_x=c_x,
@@ -270,6 +274,10 @@ class OnlineEstimator(eqx.Module):
             slip_inflation=inflation_in_use(
                 state.inflation, self.config.initial_inflation, self.config.inflation_prior_blocks
             ),
+            prior_conflict=conflict,
+            conflict_prior_sds=checked_sds[worst],
+            conflict_coordinate=worst.astype(jnp.int32),
+            coordinate_names=self.prior.names,
         )
 
     def run(self, state: FilterState, blocks: WindowBlocks) -> tuple[FilterState, OnlineSummary]:

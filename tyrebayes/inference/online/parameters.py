@@ -52,6 +52,12 @@ TYRE_COORDINATES = (
     "log_curve_curvature_gap",
     "log_curve_bend",
 )
+#: The tyre's coordinates the summary holds to the type prior besides C_xr (whose rule is the
+#: readiness' own) and μ_max (held to its surface label): the curve's shape, the ABS force
+#: ratio, the temperature and load sensitivities. Where the windows push one of them far out,
+#: the model is explaining them with a tyre no prior allows (a wrong surface label sends the ABS
+#: forces into the ratio and the shape), and no value of it is reported (:mod:`.summary`).
+PRIOR_CHECKED = tuple(c for c in TYRE_COORDINATES if c not in ("log_c_xr", "log_mu_max"))
 
 
 def parameter_names(kind: str, load_sensitive: bool = False) -> tuple[str, ...]:
@@ -227,6 +233,7 @@ def reset_to_prior(
 
 __all__ = [
     "PER_DRIVE",
+    "PRIOR_CHECKED",
     "TYRE_COORDINATES",
     "reset_to_prior",
     "GaussianPrior",

@@ -13,6 +13,16 @@ slip windows, enough of them at a force away from zero) AND its C_xr lies within
 fit the windows, not what the tyre is. μ_max has its own rule: an ABS window
 was seen and the posterior sd of log μ_max has shrunk by half from the prior's. A value that is
 not ready is reported as missing, with the reason (:func:`summary_record`).
+
+Neither is reported while the tyre's other coordinates
+(:data:`~tyrebayes.inference.online.parameters.PRIOR_CHECKED`: the curve's shape, the ABS force
+ratio, the temperature and load sensitivities) are in conflict with the type prior, one of them
+beyond ``max_prior_z`` prior sds from its prior mean: the filter is then explaining the windows
+with a tyre no prior allows, and its C_x and μ_max come from that misfit. A dry drive labelled
+ice is the case in point: its ABS forces, three times the ice prior's μ_max, went into the ABS
+force ratio and the curve's shape (``benchmarks/identification.py``). The sensors' noise scales
+and the per-drive coordinates are not checked: they are the sensors' and the drive's, not the
+tyre's.
 """
 
 from __future__ import annotations
@@ -28,12 +38,16 @@ from ..tyre.adequacy import MAX_MU_PRIOR_SDS
 _Z90 = 1.6448536269514722
 
 # Reasons a C_x value is withheld (codes in OnlineSummary.reason, texts in summary_record).
-READY, TOO_LITTLE_EXCITATION, INTERVAL_TOO_WIDE, OUTSIDE_TYPE = 0, 1, 2, 3
+READY, TOO_LITTLE_EXCITATION, INTERVAL_TOO_WIDE, OUTSIDE_TYPE, PRIOR_CONFLICT = 0, 1, 2, 3, 4
 REASONS = {
     READY: "",
     TOO_LITTLE_EXCITATION: "too little excitation: too few windows pushing the tyre",
     INTERVAL_TOO_WIDE: "90 % interval of C_x wider than the readiness width",
     OUTSIDE_TYPE: "C_xr far outside its tyre type's range: the model does not fit these windows",
+    PRIOR_CONFLICT: (
+        "a tyre parameter far outside its prior (prior_conflict): the model does not fit these "
+        "windows; check the surface label and the vehicle file"
+    ),
 }
 
 
@@ -99,6 +113,15 @@ class OnlineSummary(eqx.Module):
         Windows since the (re)start.
     slip_inflation : Float[Array, "*t"]
         Variance inflation of the slip errors the next step uses.
+    prior_conflict : Bool[Array, "*t"]
+        One of the tyre's checked coordinates lies beyond ``max_prior_z`` prior sds from its
+        prior mean (module docstring): C_x and μ_max are withheld.
+    conflict_prior_sds : Float[Array, "*t"]
+        The checked coordinate farthest from its prior mean: its distance in prior sds, signed.
+    conflict_coordinate : Int[Array, "*t"]
+        Its index in θ (``coordinate_names``).
+    coordinate_names : tuple of str
+        θ's coordinates (static).
     """
 
     time_s: Float[Array, "*t"]
@@ -119,6 +142,10 @@ class OnlineSummary(eqx.Module):
     n_excited_windows: Float[Array, "*t"]
     n_limit_windows: Float[Array, "*t"]
     slip_inflation: Float[Array, "*t"]
+    prior_conflict: Bool[Array, "*t"]
+    conflict_prior_sds: Float[Array, "*t"]
+    conflict_coordinate: Int[Array, "*t"]
+    coordinate_names: tuple[str, ...] = eqx.field(static=True, default=())
 
 
 def c_x_direction(n_params: int, mean_temperature_c, index: dict, dtype=float):
@@ -127,9 +154,10 @@ def c_x_direction(n_params: int, mean_temperature_c, index: dict, dtype=float):
     return a.at[index["temp_sensitivity"]].set(-(mean_temperature_c - REFERENCE_TEMPERATURE_C))
 
 
-def readiness(c_x: LogNormalSummary, n_slip, n_excited, prior_z, config) -> tuple:
+def readiness(c_x: LogNormalSummary, n_slip, n_excited, prior_z, config, conflict=False) -> tuple:
     """(ready, reason) for C_x (module docstring); ``prior_z`` is the distance of log C_xr's
-    mean from the type prior's in prior sds."""
+    mean from the type prior's in prior sds, ``conflict`` whether another of the tyre's
+    coordinates is in conflict with its prior."""
     narrow = (c_x.high <= (1.0 + config.ready_half_width) * c_x.mean) & (
         c_x.low >= (1.0 - config.ready_half_width) * c_x.mean
     )
@@ -140,9 +168,13 @@ def readiness(c_x: LogNormalSummary, n_slip, n_excited, prior_z, config) -> tupl
     reason = jnp.where(
         ~excited,
         TOO_LITTLE_EXCITATION,
-        jnp.where(~typical, OUTSIDE_TYPE, jnp.where(narrow, READY, INTERVAL_TOO_WIDE)),
+        jnp.where(
+            ~typical,
+            OUTSIDE_TYPE,
+            jnp.where(conflict, PRIOR_CONFLICT, jnp.where(narrow, READY, INTERVAL_TOO_WIDE)),
+        ),
     )
-    return excited & typical & narrow, reason
+    return excited & typical & ~jnp.asarray(conflict) & narrow, reason
 
 
 def _value(s: LogNormalSummary, i) -> dict:
@@ -161,9 +193,26 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
     """
     ready = bool(np.asarray(summary.ready)[i])
     reason = REASONS[int(np.asarray(summary.reason)[i])]
-    mu_ok = bool(np.asarray(summary.mu_observed)[i])
+    observed = bool(np.asarray(summary.mu_observed)[i])
+    conflict = bool(np.asarray(summary.prior_conflict)[i])
+    mu_ok = observed and not conflict
     mu_z = float(np.asarray(summary.mu_prior_z)[i])
-    label_doubtful = mu_ok and abs(mu_z) > MAX_MU_PRIOR_SDS
+    label_doubtful = observed and abs(mu_z) > MAX_MU_PRIOR_SDS
+    coordinate = int(np.asarray(summary.conflict_coordinate)[i])
+    conflict_record = {
+        "coordinate": (
+            summary.coordinate_names[coordinate]
+            if coordinate < len(summary.coordinate_names)
+            else str(coordinate)
+        ),
+        "prior_sds": float(np.asarray(summary.conflict_prior_sds)[i]),
+    }
+    if not observed:
+        mu_reason = "not observed: no ABS stop, or too little contraction"
+    elif conflict:
+        mu_reason = f"withheld: {REASONS[PRIOR_CONFLICT]}"
+    else:
+        mu_reason = None
     record = {
         "time_s": float(np.asarray(summary.time_s)[i]),
         "enough_evidence": ready,
@@ -171,7 +220,7 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
         "c_x": _value(summary.c_x, i) if ready else None,
         "c_xr": _value(summary.c_xr, i) if ready else None,
         "mu_max": _value(summary.mu_max, i) if mu_ok else None,
-        "mu_max_reason": None if mu_ok else "not observed: no ABS stop, or too little contraction",
+        "mu_max_reason": mu_reason,
         "mu_max_prior_sds": mu_z,
         "mu_max_note": (
             f"{mu_z:+.1f} prior sds from the surface's median (beyond {MAX_MU_PRIOR_SDS:g}): "
@@ -195,11 +244,13 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
         "n_excited_windows": int(np.asarray(summary.n_excited_windows)[i]),
         "n_abs_windows": int(np.asarray(summary.n_limit_windows)[i]),
         "slip_inflation": float(np.asarray(summary.slip_inflation)[i]),
+        "prior_conflict": conflict_record if conflict else None,
     }
     return record
 
 
 __all__ = [
+    "PRIOR_CONFLICT",
     "REASONS",
     "LogNormalSummary",
     "OnlineSummary",
