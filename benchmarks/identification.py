@@ -15,11 +15,14 @@ more than ``MAX_C_XR_PRIOR_SDS`` type-prior sds from the type's median. This ben
 * ``e00_declared_rwd``: the drive with its vehicle file saying ``rwd``: the free-rolling front
   wheels read as driven, the driven ones as the speed reference.
 
-And whether the fit questions a surface label its ABS stops contradict (the third check,
-μ_max beyond ``MAX_MU_PRIOR_SDS`` of its surface's prior): ``e00_labelled_snow`` and
+And whether the fit questions a surface label its ABS stops contradict (μ_max beyond
+``MAX_MU_PRIOR_SDS`` of its surface's prior, or another surface's prior predicting it more than
+``exp(MAX_LABEL_LOG_BAYES_FACTOR)`` = 20 times better): ``e00_labelled_snow`` and
 ``e00_labelled_ice``, the dry drive (truth μ 0.95) fitted with ``--surface snow`` / ``ice``.
 For e00 under each of the three labels the online estimator runs too (``tyrebayes online``'s
-path): its final μ_max and the same distance, which it reports as a note.
+path): its final C_x and μ_max (with the value the filter holds where it withholds it), the same
+label statistics, which it reports as a note, and its prior-conflict check (a tyre coordinate
+beyond ``max_prior_z`` of the type prior withholds both values).
 
 Reported per case: C_x (mean, 90 % interval) against the truth, μ_max, ``adequate`` with its
 reasons, the exciting windows counted, C_xr's distance from the type prior and μ_max's from its
@@ -55,6 +58,7 @@ from tyrebayes.inference.online import (  # noqa: E402
 from tyrebayes.inference.tyre.adequacy import (  # noqa: E402
     EXCITATION_FORCE,
     MAX_C_XR_PRIOR_SDS,
+    MAX_LABEL_LOG_BAYES_FACTOR,
     MAX_MU_PRIOR_SDS,
     MIN_EXCITED_WINDOWS,
 )
@@ -108,6 +112,7 @@ def fit_case(
         "mu_hdi_90": summary["mu_max"]["hdi_90"],
         "mu_observed": bool(summary["mu_max_observed"]),
         "mu_prior_sds": adequacy.mu_prior_sds,
+        "mu_likelier_surface": adequacy.mu_likelier_surface,
         "adequate": bool(adequacy.adequate),
         "adequacy_reasons": list(adequacy.reasons),
         "excited_windows": adequacy.excited_windows,
@@ -134,8 +139,19 @@ def online_case(stream: Path, vehicle: Path, surface: str) -> dict:
     row = {
         "surface": surface,
         "mu_max": last["mu_max"],
+        # What the filter holds, reported or withheld: its last step's mean and 90 % interval.
+        "mu_max_filter": [
+            float(np.asarray(x)[steps.n_blocks - 1])
+            for x in (trajectory.mu_max.mean, trajectory.mu_max.low, trajectory.mu_max.high)
+        ],
         "mu_max_prior_sds": last["mu_max_prior_sds"],
+        "mu_max_reason": last["mu_max_reason"],
+        "mu_max_label_log_bayes_factor": last["mu_max_label_log_bayes_factor"],
+        "mu_max_likelier_surface": last["mu_max_likelier_surface"],
         "mu_max_note": last["mu_max_note"],
+        "c_x": last["c_x"],
+        "c_x_reason": last["reason"],
+        "prior_conflict": last["prior_conflict"],
         "n_abs_windows": last["n_abs_windows"],
     }
     print(f"online on {surface}: {row}", flush=True)
@@ -185,6 +201,7 @@ def main() -> None:
             "min_excited_windows": MIN_EXCITED_WINDOWS,
             "max_c_xr_prior_sds": MAX_C_XR_PRIOR_SDS,
             "max_mu_prior_sds": MAX_MU_PRIOR_SDS,
+            "max_label_log_bayes_factor": MAX_LABEL_LOG_BAYES_FACTOR,
         },
         "mu_true": entry["mu"],
         "wall_s": time.perf_counter() - t0,

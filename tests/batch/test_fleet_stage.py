@@ -30,6 +30,9 @@ def test_fleet_table_keeps_only_observations():
             _row("e", converged=False, snow=0.3),
             _row("f", measured=False, snow=0.3),  # its drives did not measure C_x
             _row("g", snow=0.9, dry=0.95) | {"mu_snow_prior_sds": 4.3, "mu_dry_prior_sds": -0.3},
+            # 2.7 sds from snow's median, but 80 times likelier on a dry road.
+            _row("h", snow=0.9) | {"mu_snow_prior_sds": 2.7, "mu_snow_label_log_bf": 4.4},
+            _row("i", snow=0.5) | {"mu_snow_prior_sds": 1.0, "mu_snow_label_log_bf": -1.0},
         ]
     )
     table = fleet_table(sets)
@@ -38,6 +41,7 @@ def test_fleet_table_keeps_only_observations():
         ("a", "dry", 0.9),
         ("b", "snow", 0.35),
         ("g", "dry", 0.95),  # its "snow" is a dry road's μ: the label is in doubt
+        ("i", "snow", 0.5),
     ]
 
 

@@ -19,7 +19,7 @@ import pandas as pd
 
 from .._domain import SURFACES, TYRE_TYPES
 from .._errors import BadInputError
-from ..inference.tyre.adequacy import MAX_MU_PRIOR_SDS
+from ..inference.tyre.adequacy import label_in_doubt
 from .drive_stage import one_line
 from .records import (
     read_record,
@@ -41,10 +41,9 @@ def fleet_table(tyre_sets: pd.DataFrame) -> pd.DataFrame:
     """Fleet-table rows (``tyre_id``, ``tyre_type``, ``c_xr``, ``c_xr_sd``, ``mu``, ``surface``).
 
     One per converged set with a known type and surface where μ_max was observed, whose drives
-    measured C_x (``c_x_measured``), and whose μ_max there is within
-    :data:`~tyrebayes.inference.tyre.adequacy.MAX_MU_PRIOR_SDS` prior sds of the surface's median
-    (``mu_<surface>_prior_sds``: beyond, the surface label is in doubt). A table without these
-    columns keeps every such set.
+    measured C_x (``c_x_measured``), and whose surface label the μ_max there does not put in
+    doubt (:func:`~tyrebayes.inference.tyre.adequacy.label_in_doubt` of ``mu_<surface>_prior_sds``
+    and ``mu_<surface>_label_log_bf``). A table without these columns keeps every such set.
     """
     rows = []
     for rec in tyre_sets.to_dict("records"):
@@ -53,8 +52,9 @@ def fleet_table(tyre_sets: pd.DataFrame) -> pd.DataFrame:
         if not rec.get("c_x_measured", True):
             continue
         for s in SURFACES:
-            label_doubtful = abs(rec.get(f"mu_{s}_prior_sds", 0.0)) > MAX_MU_PRIOR_SDS
-            if label_doubtful:
+            if label_in_doubt(
+                rec.get(f"mu_{s}_prior_sds", 0.0), rec.get(f"mu_{s}_label_log_bf", -np.inf)
+            ):
                 continue
             if bool(rec.get(f"mu_{s}_observed", False)) and np.isfinite(rec.get(f"mu_{s}", np.nan)):
                 rows.append(

@@ -58,6 +58,9 @@ def tyre_set_row(tyre_set_id: str, tyre_type: str, fit, n_drives: int, n_windows
     ``mu_<surface>_sd``, ``mu_<surface>_observed`` (NaN / False for surfaces without drives),
     ``mu_<surface>_prior_sds`` (an observed μ_max's distance from the surface's prior median in
     prior sds, :attr:`~tyrebayes.inference.tyre.adequacy.Adequacy.mu_prior_sds`; NaN where not
+    observed), ``mu_<surface>_label_log_bf`` (the log Bayes factor of the other surface whose
+    prior predicts that μ_max best over the label,
+    :attr:`~tyrebayes.inference.tyre.adequacy.Adequacy.mu_likelier_surface`; NaN where not
     observed),
     ``converged``, ``adequate``, ``adequacy_reasons``, ``c_x_measured`` (the drives measured
     C_x: :attr:`~tyrebayes.inference.tyre.adequacy.Adequacy.measures_c_x`), ``r_hat_max``,
@@ -80,6 +83,7 @@ def tyre_set_row(tyre_set_id: str, tyre_type: str, fit, n_drives: int, n_windows
         row[f"mu_{s}_sd"] = float(mu["sd"]) if mu else float("nan")
         row[f"mu_{s}_observed"] = bool(mu["observed"]) if mu else False
         row[f"mu_{s}_prior_sds"] = fit.adequacy.mu_prior_sds.get(s, float("nan"))
+        row[f"mu_{s}_label_log_bf"] = fit.adequacy.mu_likelier_surface.get(s, ("", float("nan")))[1]
     row |= {
         "converged": bool(fit.converged),
         "adequate": bool(diag.adequate),

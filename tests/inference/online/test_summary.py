@@ -44,7 +44,9 @@ def test_each_missing_condition_withholds_with_its_reason():
     assert (bool(conflict[0]), int(conflict[1])) == (False, PRIOR_CONFLICT)
 
 
-def _summary(mu_observed: bool, mu_prior_z: float, conflict: bool = False) -> OnlineSummary:
+def _summary(
+    mu_observed: bool, mu_prior_z: float, conflict: bool = False, label_log_bf: float = -2.0
+) -> OnlineSummary:
     value = log_normal_summary(jnp.log(0.9), jnp.asarray(0.02))
     zero, one = jnp.asarray(0.0), jnp.asarray(1.0)
     return OnlineSummary(
@@ -59,6 +61,8 @@ def _summary(mu_observed: bool, mu_prior_z: float, conflict: bool = False) -> On
         reason=jnp.asarray(READY),
         mu_observed=jnp.asarray(mu_observed),
         mu_prior_z=jnp.asarray(mu_prior_z),
+        mu_likelier_surface=jnp.asarray(3),
+        mu_label_log_bf=jnp.asarray(label_log_bf),
         alarm=jnp.asarray(False),
         n_alarms=jnp.asarray(0),
         swap_log_bayes_factor=zero,
@@ -114,3 +118,14 @@ def test_the_summary_names_the_checked_coordinate_beyond_the_readiness_distance(
     assert int(moved("log_c_xr", limit + 1.0).reason) == OUTSIDE_TYPE
     assert not bool(moved("log_c_xr", limit + 1.0).prior_conflict)
     assert not bool(moved("log_rho_noise_scale", limit + 1.0).prior_conflict)
+
+
+def test_an_observed_mu_max_likelier_on_another_surface_questions_the_label():
+    record = summary_record(_summary(True, 2.7, label_log_bf=4.4))
+    assert record["mu_max_likelier_surface"] == "dry"
+    assert record["mu_max_note"] == (
+        "81 times likelier under the dry prior (Bayes factor beyond 20): check the drive's "
+        "surface label"
+    )
+    assert summary_record(_summary(True, 2.7, label_log_bf=2.0))["mu_max_note"] is None
+    assert summary_record(_summary(False, 2.7, label_log_bf=4.4))["mu_max_note"] is None

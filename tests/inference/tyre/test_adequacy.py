@@ -10,6 +10,8 @@ from tyrebayes.inference.tyre.adequacy import (
     MIN_EXCITED_WINDOWS,
     Adequacy,
     assess_adequacy,
+    label_in_doubt,
+    likelier_surface,
     offset_step,
 )
 
@@ -125,3 +127,37 @@ def test_mu_max_far_from_its_surface_prior_questions_the_label():
     assert Adequacy.from_dict(ice.as_dict()) == ice
     plausible = assess_adequacy(z, rho, drive, 1, shape_prior_sds={}, mu_prior_sds={"snow": 2.7})
     assert plausible.adequate, plausible.reasons
+
+
+def test_mu_max_likelier_under_another_surface_questions_the_label():
+    z, rho, drive = _clean()
+    snow = assess_adequacy(
+        z, rho, drive, 1, shape_prior_sds={}, mu_prior_sds={"snow": 2.7},
+        mu_likelier_surface={"snow": ("dry", 4.4)},
+    )  # fmt: skip
+    assert snow.reasons == (
+        "mu_max on snow 81 times likelier under the dry prior than under snow's (Bayes factor "
+        "beyond 20): check the drive's surface label",
+    )
+    assert Adequacy.from_dict(snow.as_dict()) == snow
+    assert label_in_doubt(2.7, 4.4) and label_in_doubt(5.0, -9.0)
+    assert not label_in_doubt(2.7, np.log(19.0)) and not label_in_doubt(float("nan"), np.nan)
+    # One reason per surface: beyond 4 sds the distance rule has said it.
+    far = assess_adequacy(
+        z, rho, drive, 1, shape_prior_sds={}, mu_prior_sds={"ice": 5.0},
+        mu_likelier_surface={"ice": ("snow", 9.0)},
+    )  # fmt: skip
+    assert len(far.reasons) == 1 and "prior sds" in far.reasons[0]
+
+
+def test_likelier_surface_is_the_prior_predictive_ratio():
+    surfaces = ("snow", "ice", "wet", "dry")
+    medians, sds = np.log([0.35, 0.12, 0.75, 1.0]), np.array([0.35, 0.4, 0.2, 0.15])
+    best, lbf = likelier_surface(np.log(0.91), 0.03, "snow", surfaces, medians, sds)
+    scale = np.hypot(sds, 0.03)
+    density = -0.5 * ((np.log(0.91) - medians) / scale) ** 2 - np.log(scale)
+    assert surfaces[int(best)] == "dry"
+    assert float(lbf) == pytest.approx(density[3] - density[0], rel=1e-5)
+    # A dry road's own value: the label is the likeliest, so the best other is below it.
+    _, own = likelier_surface(np.log(0.95), 0.03, "dry", surfaces, medians, sds)
+    assert float(own) < 0

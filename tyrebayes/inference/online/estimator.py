@@ -37,8 +37,10 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
-from ..tyre.model import TyrePriors, check_kind
+from ..tyre.adequacy import likelier_surface
+from ..tyre.model import SURFACES, TyrePriors, check_kind
 from .block_likelihood import block_log_likelihood, standardised_slip_residuals
 from .change import cusum_step, predictive_shift_ratios
 from .config import OnlineConfig, default_config
@@ -253,6 +255,14 @@ class OnlineEstimator(eqx.Module):
             mu_contraction >= self.config.mu_observed_contraction
         )
         mu_prior_z = prior_sds[mu_i]
+        likelier, label_log_bf = likelier_surface(
+            state.mean[mu_i],
+            sd[mu_i],
+            self.prior.surface,
+            SURFACES,
+            np.log(np.asarray(self.priors.mu_median(SURFACES))),
+            np.asarray(self.priors.mu_log_sd(SURFACES)),
+        )
         return OnlineSummary(
             time_s=state.time_s,
             c_x=c_x,
@@ -265,6 +275,8 @@ class OnlineEstimator(eqx.Module):
             reason=reason,
             mu_observed=mu_observed,
             mu_prior_z=mu_prior_z,
+            mu_likelier_surface=likelier.astype(jnp.int32),
+            mu_label_log_bf=label_log_bf,
             alarm=state.alarm,
             n_alarms=state.n_alarms,
             swap_log_bayes_factor=state.log_bayes_factor,

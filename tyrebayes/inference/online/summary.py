@@ -11,7 +11,10 @@ from its 90 % HDI), keyed ``hdi_90`` as every summary of the package.
 slip windows, enough of them at a force away from zero) AND its C_xr lies within
 ``max_prior_z`` type-prior sds of the type's median: a value beyond that says the model does not
 fit the windows, not what the tyre is. μ_max has its own rule: an ABS window
-was seen and the posterior sd of log μ_max has shrunk by half from the prior's. A value that is
+was seen and the posterior sd of log μ_max has shrunk by half from the prior's; an observed
+μ_max that puts the drive's surface label in doubt, as in the batch fit's adequacy
+(:func:`~tyrebayes.inference.tyre.adequacy.label_in_doubt`: beyond 4 prior sds of the label's
+median, or 20 times likelier under another surface's prior), is reported with a note. A value that is
 not ready is reported as missing, with the reason (:func:`summary_record`).
 
 Neither is reported while the tyre's other coordinates
@@ -32,8 +35,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
+from ..._domain import SURFACES
 from ...physics.thermal import REFERENCE_TEMPERATURE_C
-from ..tyre.adequacy import MAX_MU_PRIOR_SDS
+from ..tyre.adequacy import MAX_LABEL_LOG_BAYES_FACTOR, MAX_MU_PRIOR_SDS, label_in_doubt
 
 _Z90 = 1.6448536269514722
 
@@ -102,6 +106,14 @@ class OnlineSummary(eqx.Module):
         Mean of log μ_max in prior sds from the surface prior's median: an observed μ_max
         beyond :data:`~tyrebayes.inference.tyre.adequacy.MAX_MU_PRIOR_SDS` puts the drive's
         surface label in doubt, as in the batch fit's adequacy.
+    mu_likelier_surface : Int[Array, "*t"]
+        The other surface (index in :data:`~tyrebayes._domain.SURFACES`) whose μ_max prior
+        predicts the estimate best, and
+    mu_label_log_bf : Float[Array, "*t"]
+        its log Bayes factor over the label [nats]
+        (:func:`~tyrebayes.inference.tyre.adequacy.likelier_surface`): an observed μ_max past
+        :data:`~tyrebayes.inference.tyre.adequacy.MAX_LABEL_LOG_BAYES_FACTOR` also puts the label
+        in doubt.
     alarm : Bool[Array, "*t"]
         A change alarm at this step (the estimator restarted from the prior).
     n_alarms : Int[Array, "*t"]
@@ -135,6 +147,8 @@ class OnlineSummary(eqx.Module):
     reason: Int[Array, "*t"]
     mu_observed: Bool[Array, "*t"]
     mu_prior_z: Float[Array, "*t"]
+    mu_likelier_surface: Int[Array, "*t"]
+    mu_label_log_bf: Float[Array, "*t"]
     alarm: Bool[Array, "*t"]
     n_alarms: Int[Array, "*t"]
     swap_log_bayes_factor: Float[Array, "*t"]
@@ -197,7 +211,20 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
     conflict = bool(np.asarray(summary.prior_conflict)[i])
     mu_ok = observed and not conflict
     mu_z = float(np.asarray(summary.mu_prior_z)[i])
-    label_doubtful = observed and abs(mu_z) > MAX_MU_PRIOR_SDS
+    label_log_bf = float(np.asarray(summary.mu_label_log_bf)[i])
+    likelier = SURFACES[int(np.asarray(summary.mu_likelier_surface)[i])]
+    if not observed or not label_in_doubt(mu_z, label_log_bf):
+        label_note = None
+    elif abs(mu_z) > MAX_MU_PRIOR_SDS:
+        label_note = (
+            f"{mu_z:+.1f} prior sds from the surface's median (beyond {MAX_MU_PRIOR_SDS:g}): "
+            "check the drive's surface label"
+        )
+    else:
+        label_note = (
+            f"{np.exp(label_log_bf):.0f} times likelier under the {likelier} prior (Bayes factor "
+            f"beyond {np.exp(MAX_LABEL_LOG_BAYES_FACTOR):.0f}): check the drive's surface label"
+        )
     coordinate = int(np.asarray(summary.conflict_coordinate)[i])
     conflict_record = {
         "coordinate": (
@@ -222,12 +249,9 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
         "mu_max": _value(summary.mu_max, i) if mu_ok else None,
         "mu_max_reason": mu_reason,
         "mu_max_prior_sds": mu_z,
-        "mu_max_note": (
-            f"{mu_z:+.1f} prior sds from the surface's median (beyond {MAX_MU_PRIOR_SDS:g}): "
-            "check the drive's surface label"
-            if label_doubtful
-            else None
-        ),
+        "mu_max_label_log_bayes_factor": label_log_bf,
+        "mu_max_likelier_surface": likelier,
+        "mu_max_note": label_note,
         "slip_offset": {
             "mean": float(np.asarray(summary.slip_offset_mean)[i]),
             "sd": float(np.asarray(summary.slip_offset_sd)[i]),

@@ -46,6 +46,13 @@ And one whether the drive's label fits what it measured:
   that surface's median: a dry road's 0.9 labelled ice (median 0.12, log-sd 0.4) is 5 sds out.
   The data then override the prior and the value is the drive's, but the label, which a fleet
   table groups μ by, is likely wrong.
+* **μ_max likelier on another surface**: the observed μ_max's log predictive density under
+  another surface's prior (its posterior sd added to the prior's) exceeds its label's by more
+  than :data:`MAX_LABEL_LOG_BAYES_FACTOR`, a Bayes factor of 20, "strong" on Kass & Raftery's
+  (1995) scale (:func:`likelier_surface`). The distance rule alone misses a neighbouring
+  surface: a dry road's 0.91 labelled snow (median 0.35, log-sd 0.35) is 2.7 sds out, but 80 times
+  likelier under the dry prior. Neighbours whose priors overlap (wet and dry) stay apart by less
+  than the factor for values between them.
 
 The fitted scales λ of the stream's stated slip and force noise do not decide it: the model
 infers them, so a stream whose noise estimate is off is still described; the fit summary reports
@@ -56,7 +63,9 @@ from __future__ import annotations
 
 import dataclasses
 
+import jax.numpy as jnp
 import numpy as np
+from jax.scipy.stats import norm
 
 from .window_correlation import variance_inflation
 
@@ -80,6 +89,61 @@ MIN_EXCITED_WINDOWS = 20
 MAX_C_XR_PRIOR_SDS = 4.0
 #: Farthest posterior mean of an observed log μ_max from its surface's median, in prior sds.
 MAX_MU_PRIOR_SDS = 4.0
+#: Largest log Bayes factor [nats] of another surface's μ_max prior over the label's for an
+#: observed μ_max: 20, "strong evidence" (Kass & Raftery 1995, J. Am. Stat. Assoc. 90, 773).
+MAX_LABEL_LOG_BAYES_FACTOR = float(np.log(20.0))
+
+
+def likelier_surface(
+    log_mu_mean,
+    log_mu_sd,
+    label: str,
+    surfaces: tuple[str, ...],
+    log_medians,
+    log_sds,
+):
+    """The surface whose μ_max prior best predicts an observed μ_max, and by how much.
+
+    Parameters
+    ----------
+    log_mu_mean, log_mu_sd : float or array
+        Posterior mean and sd of log μ_max.
+    label : str
+        The drive's surface label (one of ``surfaces``).
+    surfaces : tuple of str
+        The surfaces with a μ_max prior.
+    log_medians, log_sds : array
+        Per surface, the prior's log median and log-sd.
+
+    Returns
+    -------
+    (int, float or array)
+        Index in ``surfaces`` of the likeliest surface other than the label, and its log Bayes
+        factor over the label [nats]: the difference of log N(m; log median, √(s² + sd²))
+        between the two (the prior predictive of the posterior mean, the posterior's own sd
+        added). Works on NumPy and JAX arrays alike (the online estimator calls it traced).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> best, lbf = likelier_surface(np.log(0.91), 0.03, "snow", ("snow", "dry"),
+    ...                              np.log([0.35, 1.0]), np.array([0.35, 0.15]))
+    >>> int(best), round(float(lbf), 1)
+    (1, 4.3)
+    """
+    scale = jnp.sqrt(jnp.asarray(log_sds) ** 2 + jnp.asarray(log_mu_sd) ** 2)
+    log_density = norm.logpdf(log_mu_mean, jnp.asarray(log_medians), scale)
+    at_label = jnp.arange(len(surfaces)) == surfaces.index(label)
+    others = jnp.where(at_label, -jnp.inf, log_density)
+    best = jnp.argmax(others)
+    return best, others[best] - log_density[surfaces.index(label)]
+
+
+def label_in_doubt(prior_sds: float, label_log_bayes_factor: float) -> bool:
+    """The surface label of an observed μ_max is in doubt (module docstring's two rules)."""
+    return bool(
+        abs(prior_sds) > MAX_MU_PRIOR_SDS or label_log_bayes_factor > MAX_LABEL_LOG_BAYES_FACTOR
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -109,6 +173,10 @@ class Adequacy:
     mu_prior_sds : dict of str to float
         Per surface where μ_max was observed, its posterior mean (log) in prior sds from the
         surface's median [-].
+    mu_likelier_surface : dict of str to list
+        Per surface where μ_max was observed, the other surface whose prior predicts it best and
+        that one's log Bayes factor over the label [nats] (:func:`likelier_surface`; empty in a
+        fit saved before it was kept).
     """
 
     adequate: bool
@@ -120,6 +188,7 @@ class Adequacy:
     excited_windows: int | None = None
     c_xr_prior_sds: float = float("nan")
     mu_prior_sds: dict[str, float] = dataclasses.field(default_factory=dict)
+    mu_likelier_surface: dict[str, list] = dataclasses.field(default_factory=dict)
 
     @property
     def measures_c_x(self) -> bool:
@@ -147,6 +216,7 @@ def assess_adequacy(
     block_offsets: tuple[np.ndarray, ...] = (),
     c_xr_prior_sds: float = float("nan"),
     mu_prior_sds: dict[str, float] | None = None,
+    mu_likelier_surface: dict[str, tuple[str, float]] | None = None,
 ) -> Adequacy:
     """Run the checks of the module docstring on one fit's slip windows.
 
@@ -170,8 +240,14 @@ def assess_adequacy(
     mu_prior_sds : dict of str to float, optional
         Per surface where μ_max was observed, its posterior mean (log) in prior sds from the
         surface's median [-].
+    mu_likelier_surface : dict of str to (str, float), optional
+        Per surface where μ_max was observed, :func:`likelier_surface`'s surface (by name) and
+        log Bayes factor.
     """
     mu_prior_sds = {s: float(v) for s, v in (mu_prior_sds or {}).items()}
+    mu_likelier_surface = {
+        s: [str(other), float(lbf)] for s, (other, lbf) in (mu_likelier_surface or {}).items()
+    }
     z, rho = np.asarray(z, float), np.asarray(rho, float)
     finite = np.isfinite(z) & np.isfinite(rho)
     excited = int(np.count_nonzero(np.abs(rho[finite]) >= EXCITATION_FORCE))
@@ -186,6 +262,7 @@ def assess_adequacy(
             excited_windows=excited,
             c_xr_prior_sds=float(c_xr_prior_sds),
             mu_prior_sds=mu_prior_sds,
+            mu_likelier_surface=mu_likelier_surface,
         )
     reasons = []
     if excited < MIN_EXCITED_WINDOWS:
@@ -205,6 +282,15 @@ def assess_adequacy(
             reasons.append(
                 f"mu_max on {surface} {sds:+.1f} prior sds from that surface's median (beyond "
                 f"{MAX_MU_PRIOR_SDS:g}): check the drive's surface label"
+            )
+    for surface, (other, lbf) in mu_likelier_surface.items():
+        if lbf > MAX_LABEL_LOG_BAYES_FACTOR and not abs(mu_prior_sds.get(surface, 0.0)) > (
+            MAX_MU_PRIOR_SDS
+        ):
+            reasons.append(
+                f"mu_max on {surface} {np.exp(lbf):.0f} times likelier under the {other} prior "
+                f"than under {surface}'s (Bayes factor beyond "
+                f"{np.exp(MAX_LABEL_LOG_BAYES_FACTOR):.0f}): check the drive's surface label"
             )
     inflation = max(
         (
@@ -260,6 +346,7 @@ def assess_adequacy(
         excited_windows=excited,
         c_xr_prior_sds=float(c_xr_prior_sds),
         mu_prior_sds=mu_prior_sds,
+        mu_likelier_surface=mu_likelier_surface,
     )
 
 
@@ -290,9 +377,12 @@ def offset_step(offsets: np.ndarray) -> tuple[float, float]:
 __all__ = [
     "EXCITATION_FORCE",
     "MAX_C_XR_PRIOR_SDS",
+    "MAX_LABEL_LOG_BAYES_FACTOR",
     "MAX_MU_PRIOR_SDS",
     "MIN_EXCITED_WINDOWS",
     "Adequacy",
     "assess_adequacy",
+    "label_in_doubt",
+    "likelier_surface",
     "offset_step",
 ]

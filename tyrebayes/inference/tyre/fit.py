@@ -19,11 +19,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .adequacy import Adequacy, assess_adequacy
+from .adequacy import Adequacy, assess_adequacy, likelier_surface
 from .data import TyreObservations
 from .laplace import LaplaceCore, _laplace_core, optimiser_outcome
 from .model import (
     DEFAULT_KIND,
+    SURFACES,
     TyrePriors,
     check_kind,
     curve_slip,
@@ -143,7 +144,25 @@ def _adequacy(
             for i, s in enumerate(obs.surfaces)
             if mu_observed[s]
         },
+        mu_likelier_surface={
+            s: _likelier_surface(np.log(samples["mu_max"][:, i]), s, priors)
+            for i, s in enumerate(obs.surfaces)
+            if mu_observed[s]
+        },
     )
+
+
+def _likelier_surface(log_mu: np.ndarray, label: str, priors: TyrePriors) -> tuple[str, float]:
+    """:func:`.adequacy.likelier_surface` of posterior draws of log μ_max, by surface name."""
+    best, lbf = likelier_surface(
+        float(np.mean(log_mu)),
+        float(np.std(log_mu)),
+        label,
+        SURFACES,
+        np.log(np.asarray(priors.mu_median(SURFACES))),
+        np.asarray(priors.mu_log_sd(SURFACES)),
+    )
+    return SURFACES[int(best)], float(lbf)
 
 
 def _weighted_by_correlation(obs: TyreObservations, point: dict, kind: str):
