@@ -37,7 +37,6 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 from ..tyre.adequacy import likelier_surface
 from ..tyre.model import SURFACES, TyrePriors, check_kind
@@ -260,8 +259,8 @@ class OnlineEstimator(eqx.Module):
             sd[mu_i],
             self.prior.surface,
             SURFACES,
-            np.log(np.asarray(self.priors.mu_median(SURFACES))),
-            np.asarray(self.priors.mu_log_sd(SURFACES)),
+            jnp.log(self.priors.mu_median(SURFACES)),
+            self.priors.mu_log_sd(SURFACES),
         )
         return OnlineSummary(
             time_s=state.time_s,
