@@ -14,8 +14,8 @@ fit the windows, not what the tyre is. μ_max has its own rule: an ABS window
 was seen and the posterior sd of log μ_max has shrunk by half from the prior's; an observed
 μ_max that puts the drive's surface label in doubt, as in the batch fit's adequacy
 (:func:`~tyrebayes.inference.tyre.adequacy.label_in_doubt`: beyond 4 prior sds of the label's
-median, or 20 times likelier under another surface's prior), is reported with a note. A value that is
-not ready is reported as missing, with the reason (:func:`summary_record`).
+median, or 20 times likelier under another surface's prior), is reported with a note. A value
+that is not ready is reported as missing, with the reason (:func:`summary_record`).
 
 Neither is reported while the tyre's other coordinates
 (:data:`~tyrebayes.inference.online.parameters.PRIOR_CHECKED`: the curve's shape, the ABS force
