@@ -23,9 +23,9 @@ ratio, the temperature and load sensitivities) are in conflict with the type pri
 beyond ``max_prior_z`` prior sds from its prior mean: the filter is then explaining the windows
 with a tyre no prior allows, and its C_x and μ_max come from that misfit. A dry drive labelled
 ice is the case in point: its ABS forces, three times the ice prior's μ_max, went into the ABS
-force ratio and the curve's shape (``benchmarks/identification.py``). The sensors' noise scales
-and the per-drive coordinates are not checked: they are the sensors' and the drive's, not the
-tyre's.
+force ratio, +5.3 prior sds (``benchmarks/results/identification.json``). The sensors' noise
+scales and the per-drive coordinates are not checked: they are the sensors' and the drive's,
+not the tyre's.
 """
 
 from __future__ import annotations
