@@ -58,10 +58,10 @@ def tyre_set_row(tyre_set_id: str, tyre_type: str, fit, n_drives: int, n_windows
     ``mu_<surface>_sd``, ``mu_<surface>_observed`` (NaN / False for surfaces without drives),
     ``mu_<surface>_prior_sds`` (an observed μ_max's distance from the surface's prior median in
     prior sds, :attr:`~tyrebayes.inference.tyre.adequacy.Adequacy.mu_prior_sds`; NaN where not
-    observed), ``mu_<surface>_label_log_bf`` (the log Bayes factor of the other surface whose
+    observed), ``mu_<surface>_label_log_bf`` (the log Bayes factor of the grippier surface whose
     prior predicts that μ_max best over the label,
     :attr:`~tyrebayes.inference.tyre.adequacy.Adequacy.mu_likelier_surface`; NaN where not
-    observed),
+    observed or on the grippiest surface),
     ``converged``, ``adequate``, ``adequacy_reasons``, ``c_x_measured`` (the drives measured
     C_x: :attr:`~tyrebayes.inference.tyre.adequacy.Adequacy.measures_c_x`), ``r_hat_max``,
     ``ess_bulk_min``,

@@ -158,6 +158,10 @@ def test_likelier_surface_is_the_prior_predictive_ratio():
     density = -0.5 * ((np.log(0.91) - medians) / scale) ** 2 - np.log(scale)
     assert surfaces[int(best)] == "dry"
     assert float(lbf) == pytest.approx(density[3] - density[0], rel=1e-5)
-    # A dry road's own value: the label is the likeliest, so the best other is below it.
-    _, own = likelier_surface(np.log(0.95), 0.03, "dry", surfaces, medians, sds)
-    assert float(own) < 0
+    # Only grippier surfaces are weighed: none is grippier than dry.
+    best, own = likelier_surface(np.log(0.6), 0.03, "dry", surfaces, medians, sds)
+    assert surfaces[int(best)] == "dry" and float(own) == -np.inf
+    # A summer tyre on snow at 0.13: the ice prior predicts it 47 times better than the snow
+    # one, but a low μ_max may be the tyre's; against the grippier surfaces the label holds.
+    best, low = likelier_surface(np.log(0.13), 0.03, "snow", surfaces, medians, sds)
+    assert surfaces[int(best)] == "wet" and float(low) < -10

@@ -14,7 +14,7 @@ fit the windows, not what the tyre is. μ_max has its own rule: an ABS window
 was seen and the posterior sd of log μ_max has shrunk by half from the prior's; an observed
 μ_max that puts the drive's surface label in doubt, as in the batch fit's adequacy
 (:func:`~tyrebayes.inference.tyre.adequacy.label_in_doubt`: beyond 4 prior sds of the label's
-median, or 20 times likelier under another surface's prior), is reported with a note. A value
+median, or 20 times likelier under a grippier surface's prior), is reported with a note. A value
 that is not ready is reported as missing, with the reason (:func:`summary_record`).
 
 Neither is reported while the tyre's other coordinates
@@ -107,8 +107,8 @@ class OnlineSummary(eqx.Module):
         beyond :data:`~tyrebayes.inference.tyre.adequacy.MAX_MU_PRIOR_SDS` puts the drive's
         surface label in doubt, as in the batch fit's adequacy.
     mu_likelier_surface : Int[Array, "*t"]
-        The other surface (index in :data:`~tyrebayes._domain.SURFACES`) whose μ_max prior
-        predicts the estimate best, and
+        The grippier surface (index in :data:`~tyrebayes._domain.SURFACES`) whose μ_max prior
+        predicts the estimate best (the label's own on the grippiest surface), and
     mu_label_log_bf : Float[Array, "*t"]
         its log Bayes factor over the label [nats]
         (:func:`~tyrebayes.inference.tyre.adequacy.likelier_surface`): an observed μ_max past
@@ -212,8 +212,11 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
     mu_ok = observed and not conflict
     mu_z = float(np.asarray(summary.mu_prior_z)[i])
     label_log_bf = float(np.asarray(summary.mu_label_log_bf)[i])
+    # None on the grippiest surface's label, where no surface is weighed against it.
     likelier = SURFACES[int(np.asarray(summary.mu_likelier_surface)[i])]
-    if not observed or not label_in_doubt(mu_z, label_log_bf):
+    if not np.isfinite(label_log_bf):
+        label_log_bf, likelier = None, None
+    if not observed or not label_in_doubt(mu_z, -np.inf if label_log_bf is None else label_log_bf):
         label_note = None
     elif abs(mu_z) > MAX_MU_PRIOR_SDS:
         label_note = (

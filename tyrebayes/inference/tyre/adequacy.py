@@ -46,13 +46,16 @@ And one whether the drive's label fits what it measured:
   that surface's median: a dry road's 0.9 labelled ice (median 0.12, log-sd 0.4) is 5 sds out.
   The data then override the prior and the value is the drive's, but the label, which a fleet
   table groups μ by, is likely wrong.
-* **μ_max likelier on another surface**: the observed μ_max's log predictive density under
-  another surface's prior (its posterior sd added to the prior's) exceeds its label's by more
-  than :data:`MAX_LABEL_LOG_BAYES_FACTOR`, a Bayes factor of 20, "strong" on Kass & Raftery's
-  (1995) scale (:func:`likelier_surface`). The distance rule alone misses a neighbouring
-  surface: a dry road's 0.91 labelled snow (median 0.35, log-sd 0.35) is 2.7 sds out, but 80 times
-  likelier under the dry prior. Neighbours whose priors overlap (wet and dry) stay apart by less
-  than the factor for values between them.
+* **μ_max likelier on a grippier surface**: the observed μ_max's log predictive density under
+  the prior of a surface of higher median μ_max (its posterior sd added to the prior's) exceeds
+  its label's by more than :data:`MAX_LABEL_LOG_BAYES_FACTOR`, a Bayes factor of 20, "strong"
+  on Kass & Raftery's (1995) scale (:func:`likelier_surface`). The distance rule alone misses a
+  neighbouring surface: a dry road's 0.91 labelled snow (median 0.35, log-sd 0.35) is 2.7 sds
+  out, but 68 times likelier under the dry prior. Only grippier surfaces are weighed: the top of
+  a surface's μ_max is the surface's (no tyre grips snow like a dry road), its bottom the tyre's.
+  A summer tyre on snow sits far below the snow prior's median, which spans tyre types, and a
+  worn one on a dry road below the dry one's; the ice and wet priors would "explain" those
+  values better, and a label that is right would be doubted.
 
 The fitted scales λ of the stream's stated slip and force noise do not decide it: the model
 infers them, so a stream whose noise estimate is off is still described; the fit summary reports
@@ -102,7 +105,11 @@ def likelier_surface(
     log_medians,
     log_sds,
 ):
-    """The surface whose μ_max prior best predicts an observed μ_max, and by how much.
+    """The grippier surface whose μ_max prior best predicts an observed μ_max, and by how much.
+
+    Only surfaces whose prior median μ_max lies above the label's are weighed (module
+    docstring): a μ_max too high for its label is the surface's doing, one too low may be the
+    tyre's.
 
     Parameters
     ----------
@@ -118,10 +125,11 @@ def likelier_surface(
     Returns
     -------
     (int, float or array)
-        Index in ``surfaces`` of the likeliest surface other than the label, and its log Bayes
-        factor over the label [nats]: the difference of log N(m; log median, √(s² + sd²))
-        between the two (the prior predictive of the posterior mean, the posterior's own sd
-        added). Works on NumPy and JAX arrays alike (the online estimator calls it traced).
+        Index in ``surfaces`` of the likeliest surface of higher median than the label, and its
+        log Bayes factor over the label [nats]: the difference of log N(m; log median,
+        √(s² + sd²)) between the two (the prior predictive of the posterior mean, the
+        posterior's own sd added); −inf (and the label's index) where no surface's median is
+        higher. Works on NumPy and JAX arrays alike (the online estimator calls it traced).
 
     Examples
     --------
@@ -131,12 +139,14 @@ def likelier_surface(
     >>> int(best), round(float(lbf), 1)
     (1, 4.3)
     """
+    label_index = surfaces.index(label)
+    log_medians = jnp.asarray(log_medians)
     scale = jnp.sqrt(jnp.asarray(log_sds) ** 2 + jnp.asarray(log_mu_sd) ** 2)
-    log_density = norm.logpdf(log_mu_mean, jnp.asarray(log_medians), scale)
-    at_label = jnp.arange(len(surfaces)) == surfaces.index(label)
-    others = jnp.where(at_label, -jnp.inf, log_density)
-    best = jnp.argmax(others)
-    return best, others[best] - log_density[surfaces.index(label)]
+    log_density = norm.logpdf(log_mu_mean, log_medians, scale)
+    grippier = log_medians > log_medians[label_index]
+    candidates = jnp.where(grippier, log_density, -jnp.inf)
+    best = jnp.where(jnp.any(grippier), jnp.argmax(candidates), label_index)
+    return best, candidates[best] - log_density[label_index]
 
 
 def label_in_doubt(prior_sds: float, label_log_bayes_factor: float) -> bool:
@@ -174,9 +184,9 @@ class Adequacy:
         Per surface where μ_max was observed, its posterior mean (log) in prior sds from the
         surface's median [-].
     mu_likelier_surface : dict of str to list
-        Per surface where μ_max was observed, the other surface whose prior predicts it best and
-        that one's log Bayes factor over the label [nats] (:func:`likelier_surface`; empty in a
-        fit saved before it was kept).
+        Per surface where μ_max was observed, the grippier surface whose prior predicts it best
+        and that one's log Bayes factor over the label [nats] (:func:`likelier_surface`; −inf
+        on the grippiest surface; empty in a fit saved before it was kept).
     """
 
     adequate: bool

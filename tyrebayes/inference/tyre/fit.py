@@ -145,9 +145,12 @@ def _adequacy(
             if mu_observed[s]
         },
         mu_likelier_surface={
-            s: _likelier_surface(np.log(samples["mu_max"][:, i]), s, priors)
+            s: odds
             for i, s in enumerate(obs.surfaces)
             if mu_observed[s]
+            and np.isfinite(
+                (odds := _likelier_surface(np.log(samples["mu_max"][:, i]), s, priors))[1]
+            )
         },
     )
 
