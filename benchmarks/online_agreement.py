@@ -63,6 +63,10 @@ from tyrebayes.inference.online import (  # noqa: E402
     run_online,
     stream_steps,
 )
+from tyrebayes.inference.tyre.adequacy import (  # noqa: E402
+    MAX_LABEL_LOG_BAYES_FACTOR,
+    MAX_MU_PRIOR_SDS,
+)
 from tyrebayes.inference.tyre.data import stack_drives  # noqa: E402
 from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
 
@@ -140,6 +144,19 @@ def one_drive(name, windows, truth_at, n_steps, estimator, source, max_step_s=No
         "ekf_time_to_useful_s": first_time(e_useful),
         "ekf_err_when_useful": error_at(e_useful, e_mean),
         "n_alarms": int(np.asarray(traj.n_alarms)[n - 1]),
+        # The prior-conflict check (summary.py): how near the tyre's checked coordinates came to
+        # its limit on a drive labelled as driven, and the steps it withheld.
+        "conflict_prior_sds_max": float(np.max(np.abs(np.asarray(traj.conflict_prior_sds)[:n]))),
+        "prior_conflict_steps": int(np.sum(np.asarray(traj.prior_conflict)[:n])),
+        "mu_label_in_doubt_steps": int(
+            np.sum(
+                np.asarray(traj.mu_observed)[:n]
+                & (
+                    (np.abs(np.asarray(traj.mu_prior_z)[:n]) > MAX_MU_PRIOR_SDS)
+                    | (np.asarray(traj.mu_label_log_bf)[:n] > MAX_LABEL_LOG_BAYES_FACTOR)
+                )
+            )
+        ),
     }
 
 
@@ -206,6 +223,9 @@ def pooled(rows: list[dict]) -> dict:
         "online_abs_err_at_end_median": float(np.median([abs(r["online_err_at_end"]) for r in ok])),
         "ekf_abs_err_at_end_median": float(np.median([abs(r["ekf_err_at_end"]) for r in ok])),
         "n_alarms_total": int(sum(r["n_alarms"] for r in ok)),
+        "conflict_prior_sds_max": float(max(r["conflict_prior_sds_max"] for r in rows)),
+        "prior_conflict_steps_total": int(sum(r["prior_conflict_steps"] for r in rows)),
+        "mu_label_in_doubt_steps_total": int(sum(r["mu_label_in_doubt_steps"] for r in rows)),
     }
 
 
