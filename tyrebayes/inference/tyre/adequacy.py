@@ -92,7 +92,7 @@ MIN_EXCITED_WINDOWS = 20
 MAX_C_XR_PRIOR_SDS = 4.0
 #: Farthest posterior mean of an observed log μ_max from its surface's median, in prior sds.
 MAX_MU_PRIOR_SDS = 4.0
-#: Largest log Bayes factor [nats] of another surface's μ_max prior over the label's for an
+#: Largest log Bayes factor [nats] of a grippier surface's μ_max prior over the label's for an
 #: observed μ_max: 20, "strong evidence" (Kass & Raftery 1995, J. Am. Stat. Assoc. 90, 773).
 MAX_LABEL_LOG_BAYES_FACTOR = float(np.log(20.0))
 
@@ -185,8 +185,8 @@ class Adequacy:
         surface's median [-].
     mu_likelier_surface : dict of str to list
         Per surface where μ_max was observed, the grippier surface whose prior predicts it best
-        and that one's log Bayes factor over the label [nats] (:func:`likelier_surface`; −inf
-        on the grippiest surface; empty in a fit saved before it was kept).
+        and that one's log Bayes factor over the label [nats] (:func:`likelier_surface`; no
+        entry on the grippiest surface; empty in a fit saved before it was kept).
     """
 
     adequate: bool

@@ -127,6 +127,11 @@ def _adequacy(
         ids, inverse = np.unique(blocks[drives == d], return_inverse=True)
         sums = np.bincount(inverse, residual[drives == d], minlength=len(ids))
         per_drive.append(sums / np.bincount(inverse, minlength=len(ids)))
+    label_odds = {
+        s: _likelier_surface(np.log(samples["mu_max"][:, i]), s, priors)
+        for i, s in enumerate(obs.surfaces)
+        if mu_observed[s]
+    }
     return assess_adequacy(
         z,
         np.asarray(obs.rho)[slip_window],
@@ -144,14 +149,8 @@ def _adequacy(
             for i, s in enumerate(obs.surfaces)
             if mu_observed[s]
         },
-        mu_likelier_surface={
-            s: odds
-            for i, s in enumerate(obs.surfaces)
-            if mu_observed[s]
-            and np.isfinite(
-                (odds := _likelier_surface(np.log(samples["mu_max"][:, i]), s, priors))[1]
-            )
-        },
+        # No entry where no surface is grippier than the label (dry).
+        mu_likelier_surface={s: odds for s, odds in label_odds.items() if np.isfinite(odds[1])},
     )
 
 
