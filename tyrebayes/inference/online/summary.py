@@ -200,6 +200,21 @@ def _value(s: LogNormalSummary, i) -> dict:
     }
 
 
+def _label_note(prior_sds: float, label_log_bf: float | None, likelier: str | None) -> str | None:
+    """The note on an observed μ_max that puts its surface label in doubt (None if it does not)."""
+    if not label_in_doubt(prior_sds, -np.inf if label_log_bf is None else label_log_bf):
+        return None
+    if abs(prior_sds) > MAX_MU_PRIOR_SDS:
+        return (
+            f"{prior_sds:+.1f} prior sds from the surface's median (beyond {MAX_MU_PRIOR_SDS:g}): "
+            "check the drive's surface label"
+        )
+    return (
+        f"{np.exp(label_log_bf):.0f} times likelier under the {likelier} prior (Bayes factor "
+        f"beyond {np.exp(MAX_LABEL_LOG_BAYES_FACTOR):.0f}): check the drive's surface label"
+    )
+
+
 def summary_record(summary: OnlineSummary, i=()) -> dict:
     """One step of a summary as plain data; withheld values are ``None`` with a reason.
 
@@ -216,18 +231,7 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
     likelier = SURFACES[int(np.asarray(summary.mu_likelier_surface)[i])]
     if not np.isfinite(label_log_bf):
         label_log_bf, likelier = None, None
-    if not observed or not label_in_doubt(mu_z, -np.inf if label_log_bf is None else label_log_bf):
-        label_note = None
-    elif abs(mu_z) > MAX_MU_PRIOR_SDS:
-        label_note = (
-            f"{mu_z:+.1f} prior sds from the surface's median (beyond {MAX_MU_PRIOR_SDS:g}): "
-            "check the drive's surface label"
-        )
-    else:
-        label_note = (
-            f"{np.exp(label_log_bf):.0f} times likelier under the {likelier} prior (Bayes factor "
-            f"beyond {np.exp(MAX_LABEL_LOG_BAYES_FACTOR):.0f}): check the drive's surface label"
-        )
+    label_note = _label_note(mu_z, label_log_bf, likelier) if observed else None
     coordinate = int(np.asarray(summary.conflict_coordinate)[i])
     conflict_record = {
         "coordinate": (
