@@ -5,6 +5,7 @@ import pytest
 
 from tyrebayes.inference.tyre.adequacy import (
     EXCITATION_FORCE,
+    MAX_LABEL_LOG_BAYES_FACTOR,
     MAX_MU_PRIOR_SDS,
     MAX_STEP_T,
     MIN_EXCITED_WINDOWS,
@@ -161,7 +162,10 @@ def test_likelier_surface_is_the_prior_predictive_ratio():
     # Only grippier surfaces are weighed: none is grippier than dry.
     best, own = likelier_surface(np.log(0.6), 0.03, "dry", surfaces, medians, sds)
     assert surfaces[int(best)] == "dry" and float(own) == -np.inf
-    # A summer tyre on snow at 0.13: the ice prior predicts it 47 times better than the snow
-    # one, but a low μ_max may be the tyre's; against the grippier surfaces the label holds.
+    # A summer tyre on snow at 0.13: the ice prior predicts it more than 20 times better than
+    # the snow one, but a low μ_max may be the tyre's; against the grippier surfaces the label
+    # holds.
+    density = -0.5 * ((np.log(0.13) - medians) / scale) ** 2 - np.log(scale)
+    assert density[1] - density[0] > MAX_LABEL_LOG_BAYES_FACTOR
     best, low = likelier_surface(np.log(0.13), 0.03, "snow", surfaces, medians, sds)
     assert surfaces[int(best)] == "wet" and float(low) < -10
