@@ -197,9 +197,9 @@ def test_a_dry_road_labelled_ice_is_not_reported_as_such(estimator, surface):
     if surface != "dry":  # labelled dry, the module's filter (compiled once) serves
         estimator = OnlineEstimator.create(kind="linear", surface=surface)
     windows = _with_abs_stop(_with_abs_stop(linear_windows(11, 600.0), 200.0, 0.9), 400.0, 0.9)
-    steps = pad_steps(window_blocks(windows, surface, width=WIDTH), N_STEPS)
-    _, trajectory = run_online(estimator, estimator.init(), steps)
-    record = summary_record(trajectory, steps.n_blocks - 1 - (N_STEPS - 21))
+    blocks = window_blocks(windows, surface, width=WIDTH)
+    _, trajectory = run_online(estimator, estimator.init(), pad_steps(blocks, N_STEPS))
+    record = summary_record(trajectory, blocks.n_blocks - 1)  # the drive's last step
     if surface == "dry":
         assert record["mu_max"] is not None and record["mu_max_note"] is None
         assert record["prior_conflict"] is None and record["enough_evidence"]
