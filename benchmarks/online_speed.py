@@ -25,9 +25,14 @@ Under vmap a ``lax.cond`` computes both branches, so the Laplace update's skippe
 line searches are computed for every car: on one CPU core a vmapped car-hour costs more than a
 single car's.
 
+With ``--before REV``, the Magic Formula car-hour (30 s steps) of the package as of git
+revision REV beside this checkout's: each in a fresh child process pinned to the same core, on
+the same simulated hour, alternating ``--before-pairs`` times, so that both see the machine as
+it was then (a shared machine's speed drifts by more than a change's gain between runs).
+
 Timings include whatever else ran on the machine (the load average is recorded in the JSON).
 
-Usage: ``python benchmarks/online_speed.py [--reps N] [--cars N]``.
+Usage: ``python benchmarks/online_speed.py [--reps N] [--cars N] [--before REV]``.
 """
 
 from __future__ import annotations
@@ -44,6 +49,7 @@ import json  # noqa: E402
 import resource  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
+import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -57,6 +63,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _online_common import machine, simulated_windows  # noqa: E402
+from _revisions import package_at, run_child  # noqa: E402
 
 import tyrebayes.inference.online.laplace_update as laplace_module  # noqa: E402
 from tyrebayes.inference.online import (  # noqa: E402
@@ -70,6 +77,32 @@ from tyrebayes.inference.online.block_likelihood import block_log_likelihood  # 
 
 RESULTS = Path(__file__).parent / "results" / "online_speed.json"
 KINDS = ("magic", "shaped", "brush", "linear")
+
+# One Magic Formula car-hour in 30 s steps, timed in a child on the package it is given
+# (argv: core, benchmarks folder, repetitions); prints its JSON on the last line.
+_CAR_HOUR_CHILD = r"""
+import os, sys
+os.environ["XLA_FLAGS"] = os.environ.get("XLA_FLAGS", "") + " --xla_cpu_multi_thread_eigen=false"
+os.sched_setaffinity(0, {int(sys.argv[1])})
+sys.path.insert(0, sys.argv[2])
+import json, time
+import jax
+jax.config.update("jax_enable_x64", True)
+import numpy as np
+from _online_common import simulated_windows
+from tyrebayes.inference.online import OnlineEstimator, run_online, stream_steps
+windows, _, _ = simulated_windows(0, 3600.0)
+steps = stream_steps(windows)
+est = OnlineEstimator.create(kind="magic")
+jax.block_until_ready(run_online(est, est.init(), steps))
+walls = []
+for _ in range(int(sys.argv[3])):
+    t0 = time.perf_counter()
+    jax.block_until_ready(run_online(est, est.init(), steps))
+    walls.append(time.perf_counter() - t0)
+hours = float(steps.time_s[-1]) / 3600.0
+print(json.dumps({"car_hour_s": float(np.median(walls)) / hours, "steps": steps.n_blocks}))
+"""
 
 
 def timed(fn, reps):
@@ -197,6 +230,32 @@ def fleet_in_child(args) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
+def before_and_after(revision: str, pairs: int, reps: int) -> dict:
+    """The Magic Formula car-hour at ``revision`` and on this checkout, alternated ``pairs``
+    times in fresh children on this core (module docstring)."""
+    here = str(Path(__file__).parent)
+    with tempfile.TemporaryDirectory() as tmp:
+        code = package_at(revision, Path(tmp) / "before")
+        runs = {"before": [], "after": []}
+        for _ in range(pairs):
+            for side, where in (("before", code), ("after", None)):
+                child = run_child(_CAR_HOUR_CHILD, [CORE, here, reps], where, {})
+                runs[side].append(child["car_hour_s"])
+    before, after = (float(np.median(runs[side])) for side in ("before", "after"))
+    return {
+        "kind": "magic",
+        "max_step_s": STEP_S,
+        "before_revision": revision,
+        "pairs": pairs,
+        "car_hour_s_before": runs["before"],
+        "car_hour_s_after": runs["after"],
+        "car_hour_s_before_median": before,
+        "car_hour_s_after_median": after,
+        "speedup": before / after,
+        "note": "each value the median of its child's runs; children alternate on one core",
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--reps", type=int, default=5)
@@ -207,6 +266,8 @@ def main() -> None:
     parser.add_argument("--chunk", type=int, default=25)
     parser.add_argument("--fleet-timeout", type=float, default=1200.0)
     parser.add_argument("--fleet-only", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--before", help="git revision whose car-hour to time beside this one")
+    parser.add_argument("--before-pairs", type=int, default=3)
     parser.add_argument("--out", default=str(RESULTS))
     args = parser.parse_args()
     load_at_start = os.getloadavg()[0]
@@ -272,6 +333,9 @@ def main() -> None:
         print(json.dumps(vmapped[-1]), flush=True)
     fleet = fleet_in_child(args)
     print(json.dumps(fleet), flush=True)
+    compared = before_and_after(args.before, args.before_pairs, args.reps) if args.before else None
+    if compared:
+        print(json.dumps(compared), flush=True)
     result = {
         "benchmark": "online_speed",
         "windows_per_car_hour": int(np.sum(np.asarray(steps.mask)) / hours),
@@ -284,6 +348,7 @@ def main() -> None:
         "where_the_time_goes": profile,
         "vmapped": vmapped,
         "vmapped_fleet": fleet,
+        "before_and_after": compared,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "machine": {**machine(), "load_average_1min_at_start": load_at_start},
         "previous": "online_speed_779f035.json: the same benchmark before packed steps existed",

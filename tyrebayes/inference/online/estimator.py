@@ -48,6 +48,7 @@ from .laplace_update import laplace_update
 from .parameters import (
     PER_DRIVE,
     PRIOR_CHECKED,
+    QUADRATIC,
     TYRE_COORDINATES,
     GaussianPrior,
     reset_to_prior,
@@ -142,7 +143,14 @@ class OnlineEstimator(eqx.Module):
         drift = jnp.diag(cfg.drift_sd_per_sqrt_s**2 * elapsed)
         start = block.drive_start
         predicted = reset_to_prior(self.prior, state.mean, state.cov + drift, PER_DRIVE, start)
-        updated = laplace_update(log_likelihood, *predicted, cfg.newton_steps, cfg.newton_tolerance)
+        quadratic = jnp.asarray([n in QUADRATIC for n in self.prior.names])
+
+        def laplace(mean, cov):
+            return laplace_update(
+                log_likelihood, mean, cov, cfg.newton_steps, cfg.newton_tolerance, quadratic
+            )
+
+        updated = laplace(*predicted)
 
         # The swap test's challenger: from a drive start, the tyre's coordinates anew.
         challenger = either(
@@ -159,9 +167,7 @@ class OnlineEstimator(eqx.Module):
         active = drive_steps < cfg.swap_window_steps
         challenged = jax.lax.cond(
             active,
-            lambda: laplace_update(
-                log_likelihood, *challenger, cfg.newton_steps, cfg.newton_tolerance
-            ),
+            lambda: laplace(*challenger),
             lambda: updated,
         )
         log_bayes_factor, swapped = swap_step(

@@ -13,12 +13,20 @@ against the posterior sd (:attr:`OnlineConfig.newton_tolerance`), each with a He
 positive definite. The full step is taken when it lowers the objective; otherwise the best of a
 fixed set of shorter ones (0 included, so a step never makes the objective worse). The Hessian,
 most of an iteration's cost, is taken again only after a step longer than
-:data:`_REFRESH_SD` posterior sds: a settled filter's first step from the predicted mean is a
-fraction of an sd, over which the block's curvature barely changes, so its update costs one
-Hessian (a chord step confirms the mode). The Hessian at the predicted mean comes from the same
-forward-over-reverse pass as the objective and gradient there, and the Newton matrix is inverted
-once per Hessian, not once per iteration. The loop is a ``lax.while_loop``: the update vmaps over
-cars (running as many iterations as the slowest car needs) and scans over time.
+:data:`_REFRESH_SD` posterior sds in the coordinates the block's curvature depends on: a
+settled filter's first step from the predicted mean is a fraction of an sd in those, over which
+the curvature barely changes, so its update costs one Hessian (a chord step confirms the mode).
+Coordinates the log-likelihood is quadratic in given the others (``quadratic``: a location
+shift of Normal terms, such as the slip offset) do not count. Along them the Hessian changes
+only in the scale directions, through the residuals: a step of k of the block's own sds
+changes the curvature there by about k²/(2n) of itself, for a block of n windows. Such a
+coordinate, widened by its drift between steps, moves more than an sd at many steps of a
+settled filter; counted, it would take the Hessian twice at each of them.
+
+The Hessian at the predicted mean comes from the same forward-over-reverse pass as the objective
+and gradient there, and the Newton matrix is inverted once per Hessian, not once per iteration.
+The loop is a ``lax.while_loop``: the update vmaps over cars (running as many iterations as the
+slowest car needs) and scans over time.
 """
 
 from __future__ import annotations
@@ -28,7 +36,7 @@ from collections.abc import Callable
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-from jaxtyping import Array, Float
+from jaxtyping import Array, Bool, Float
 
 # Step lengths tried when the full Newton step does not lower the objective (the best is taken;
 # 0 keeps the point).
@@ -101,6 +109,7 @@ def laplace_update(
     cov: Float[Array, "p p"],
     newton_steps: int,
     tolerance: float | Float[Array, ""] = 0.0,
+    quadratic: Bool[Array, "p"] | None = None,
 ) -> GaussianUpdate:
     """One assumed-density update of N(mean, cov) by a log-likelihood (module docstring).
 
@@ -117,14 +126,18 @@ def laplace_update(
         length under the Newton matrix): a settled posterior moves a fraction of an sd per
         block, and one step from the predicted mean is then the classic one-step Laplace
         update. 0 runs all ``newton_steps``.
+    quadratic : bool array, optional
+        Coordinates ℓ is quadratic in given the others: a step along them alone does not take
+        the Hessian again (module docstring). None: every coordinate counts.
 
     Returns
     -------
     GaussianUpdate
         The mode of the one-step posterior and the inverse of its negative Hessian (the
         block's part with negative eigenvalues cut, :func:`_informations`, taken where the
-        Hessian was last taken: the start of the last step longer than ``_REFRESH_SD`` sds,
-        or the predicted mean), and the block's Laplace log-evidence.
+        Hessian was last taken: the end of the last step longer than ``_REFRESH_SD`` sds in
+        the coordinates not ``quadratic``, or the predicted mean), and the block's Laplace
+        log-evidence.
 
     Examples
     --------
@@ -146,6 +159,8 @@ def laplace_update(
     value_and_gradient = jax.value_and_grad(negative_log_likelihood)
     hessian = jax.jacfwd(jax.grad(negative_log_likelihood))
     lengths = jnp.asarray(_STEP_LENGTHS, dtype=mean.dtype)
+    # Steps along these coordinates move the point without changing the curvature.
+    curved = jnp.ones(mean.shape, bool) if quadratic is None else ~jnp.asarray(quadratic)
     basis = jnp.eye(mean.shape[0], dtype=mean.dtype)
 
     def newton_factors(curvature):
@@ -186,7 +201,9 @@ def laplace_update(
         moved = taken * step
         newton_matrix = precision + absolute
         length = jnp.sqrt(jnp.abs(moved @ newton_matrix @ moved))
-        refresh = length > _REFRESH_SD
+        # In conditional sds (the Newton matrix's block), never less than the marginal ones.
+        bending = jnp.where(curved, moved, 0.0)
+        refresh = jnp.sqrt(jnp.abs(bending @ newton_matrix @ bending)) > _REFRESH_SD
         return (
             i + 1,
             theta - moved,

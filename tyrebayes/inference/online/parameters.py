@@ -41,6 +41,10 @@ _COMMON_TAIL = (
 #: θ's per-drive coordinates: each drive has its own in the batch model (a drive's rolling radii
 #: and load share), so the filter starts them again from the prior at every drive start.
 PER_DRIVE = ("slip_offset", "log_force_gain")
+#: θ's coordinates the block log-likelihood is quadratic in given the others: the slip offset
+#: shifts the Normal slip terms' location and the blocks' offsets' (the Laplace update takes no
+#: new Hessian for a step along it, :mod:`.laplace_update`).
+QUADRATIC = ("slip_offset",)
 #: θ's coordinates that belong to the tyre (not to the drive or the sensors): what a swap renews.
 TYRE_COORDINATES = (
     "log_c_xr",

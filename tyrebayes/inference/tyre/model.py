@@ -460,6 +460,14 @@ def block_offsets(
     return correction, jnp.where(precision > 0, offset, 0.0)
 
 
+def _per_window(site: jax.Array, index: jax.Array, n: int) -> jax.Array:
+    """``site[index]``; with one drive or surface (``n``, static) a broadcast of its only value,
+    whose derivatives XLA computes without the scatter-adds a gather's transpose takes."""
+    if n == 1:
+        return jnp.broadcast_to(jnp.reshape(site, (-1,))[0], index.shape)
+    return site[index]
+
+
 def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowLikelihood:
     """The windows' likelihood terms of :func:`tyre_model` (see the module docstring).
 
@@ -470,8 +478,13 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     are ignored, so a posterior draw can be passed as it is. The model and the posterior
     predictive share it.
     """
-    d = obs.drive_index
-    gain, level, spread = (params[k][d] for k in ("force_gain", "force_level", "force_spread"))
+
+    def per_drive(site):
+        return _per_window(site, obs.drive_index, obs.n_drives)
+
+    gain, level, spread = (
+        per_drive(params[k]) for k in ("force_gain", "force_level", "force_spread")
+    )
     rho_noise = params["rho_noise_scale"] * obs.rho_sd
     # The true force given its measurement, by Tweedie's formula on the density of the measured
     # forces (force_density.force_density_score): exact for Gaussian noise whatever the shape of
@@ -486,7 +499,7 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     c_x = stiffness_with_sensitivity(params["c_xr"], obs.temperature_c, params["temp_sensitivity"])
     if "load_sensitivity" in params:
         c_x = c_x * jnp.exp(params["load_sensitivity"] * obs.load_change)
-    mu_window = params["mu_max"][obs.surface_index]
+    mu_window = _per_window(params["mu_max"], obs.surface_index, obs.n_surfaces)
     slip, slip_slope = _slip_and_slope(kind, rho_hat, c_x, mu_window, params)
     slip_scale = jnp.sqrt((params["slip_noise_scale"] * obs.slip_sd) ** 2 + slip_slope**2 * rho_var)
 
@@ -503,7 +516,7 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     # C_x twice the truth).
     headroom = (mu_window - jnp.abs(rho_hat)) / jnp.sqrt(rho_var + (0.02 * mu_window) ** 2)
     below_peak = jnp.where(obs.mask & ~obs.at_limit, jax.scipy.special.log_ndtr(headroom), 0.0)
-    slip_loc = slip + params["slip_offset"][d]
+    slip_loc = slip + per_drive(params["slip_offset"])
     precision = jnp.where(obs.mask & ~obs.at_limit, obs.slip_weight / slip_scale**2, 0.0).astype(
         slip_loc.dtype
     )
