@@ -220,3 +220,27 @@ def test_single_precision_observations_are_an_error_not_a_failed_fit():
     single = eqx.tree_at(lambda o: o.slip, obs, obs.slip.astype(jnp.float32))
     with pytest.raises(ValueError, match="expected float64 observations.*got float32"):
         fit_tyre(single, method="fast")
+
+
+def test_a_one_drive_site_is_broadcast_with_the_gathers_values_and_derivatives():
+    # window_likelihood broadcasts the only value of a one-drive (one-surface) site instead of
+    # gathering it: same values and gradients, and no gather left in its program.
+    import jax.numpy as jnp
+
+    from tyrebayes.inference.tyre.model import _per_window
+
+    index = jnp.zeros(7, dtype=jnp.int32)
+    weights = jnp.arange(7.0)
+
+    def loss(per_window):
+        return lambda site: jnp.sum(weights * jnp.sin(per_window(site)) ** 2)
+
+    site = jnp.asarray([0.3])
+    broadcast = lambda s: _per_window(s, index, 1)  # noqa: E731
+    gathered = lambda s: s[index]  # noqa: E731
+    np.testing.assert_array_equal(broadcast(site), gathered(site))
+    hessians = [jax.hessian(loss(f))(site) for f in (broadcast, gathered)]
+    np.testing.assert_allclose(hessians[0], hessians[1], rtol=1e-12)
+    assert "gather" not in str(jax.make_jaxpr(jax.hessian(loss(broadcast)))(site))
+    two = jnp.asarray([0.3, 0.5])
+    np.testing.assert_array_equal(_per_window(two, index.at[3].set(1), 2), two[index.at[3].set(1)])
