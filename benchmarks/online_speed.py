@@ -32,7 +32,9 @@ it was then (a shared machine's speed drifts by more than a change's gain betwee
 
 Timings include whatever else ran on the machine (the load average is recorded in the JSON).
 
-Usage: ``python benchmarks/online_speed.py [--reps N] [--cars N] [--before REV]``.
+Usage: ``python benchmarks/online_speed.py [--reps N] [--cars N] [--before REV] [--no-fleet]``
+(``--no-fleet`` skips the 10^4-car call, about 10-25 minutes on this machine; the JSON then
+says it was not run).
 """
 
 from __future__ import annotations
@@ -269,6 +271,7 @@ def main() -> None:
     parser.add_argument("--chunk", type=int, default=25)
     parser.add_argument("--fleet-timeout", type=float, default=1200.0)
     parser.add_argument("--fleet-only", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--no-fleet", action="store_true", help="skip the --fleet-cars call")
     parser.add_argument("--before", help="git revision whose car-hour to time beside this one")
     parser.add_argument("--before-pairs", type=int, default=3)
     parser.add_argument("--out", default=str(RESULTS))
@@ -334,7 +337,11 @@ def main() -> None:
             }
         )
         print(json.dumps(vmapped[-1]), flush=True)
-    fleet = fleet_in_child(args)
+    fleet = (
+        {"not_run": "--no-fleet: see the previous JSON (module docstring)"}
+        if args.no_fleet
+        else fleet_in_child(args)
+    )
     print(json.dumps(fleet), flush=True)
     compared = before_and_after(args.before, args.before_pairs, args.reps) if args.before else None
     if compared:
@@ -354,7 +361,9 @@ def main() -> None:
         "before_and_after": compared,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "machine": {**machine(), "load_average_1min_at_start": load_at_start},
-        "previous": "online_speed_779f035.json: the same benchmark before packed steps existed",
+        "previous": "online_speed_f0e5ce6.json: the same benchmark before the slip offset's "
+        "steps stopped taking new Hessians and one-drive sites were broadcast; "
+        "online_speed_779f035.json: before packed steps existed",
     }
     Path(args.out).write_text(json.dumps(result, indent=2))
 
