@@ -19,9 +19,11 @@ the curvature barely changes, so its update costs one Hessian (a chord step conf
 Coordinates the log-likelihood is quadratic in given the others (``quadratic``: a location
 shift of Normal terms, such as the slip offset) do not count. Along them the Hessian changes
 only in the scale directions, through the residuals: a step of k of the block's own sds
-changes the curvature there by about k²/(2n) of itself, for a block of n windows. Such a
-coordinate, widened by its drift between steps, moves more than an sd at many steps of a
-settled filter; counted, it would take the Hessian twice at each of them.
+changes the curvature there by about k²/(2n) of itself, for a block of n windows, and
+couples them to it with a correlation of about k√(2/n), whose sign follows the step's (a
+drift's steps go either way, so it does not build up over blocks). Such a coordinate, widened
+by its drift between steps, moves more than an sd at many steps of a settled filter; counted,
+it would take the Hessian twice at each of them.
 
 The Hessian at the predicted mean comes from the same forward-over-reverse pass as the objective
 and gradient there, and the Newton matrix is inverted once per Hessian, not once per iteration.
@@ -159,7 +161,8 @@ def laplace_update(
     value_and_gradient = jax.value_and_grad(negative_log_likelihood)
     hessian = jax.jacfwd(jax.grad(negative_log_likelihood))
     lengths = jnp.asarray(_STEP_LENGTHS, dtype=mean.dtype)
-    # Steps along these coordinates move the point without changing the curvature.
+    # The coordinates whose steps can change the curvature (a quadratic one's only moves the
+    # point).
     curved = jnp.ones(mean.shape, bool) if quadratic is None else ~jnp.asarray(quadratic)
     basis = jnp.eye(mean.shape[0], dtype=mean.dtype)
 
@@ -201,7 +204,8 @@ def laplace_update(
         moved = taken * step
         newton_matrix = precision + absolute
         length = jnp.sqrt(jnp.abs(moved @ newton_matrix @ moved))
-        # In conditional sds (the Newton matrix's block), never less than the marginal ones.
+        # The step's length in the curved coordinates' conditional sds (the Newton matrix's
+        # block): never shorter than in their marginal sds.
         bending = jnp.where(curved, moved, 0.0)
         refresh = jnp.sqrt(jnp.abs(bending @ newton_matrix @ bending)) > _REFRESH_SD
         return (
