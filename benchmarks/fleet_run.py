@@ -197,10 +197,11 @@ def _as_a_worker() -> None:
     """
     import sys
 
-    from tyrebayes.batch.run import _WORKER_ENV
+    from tyrebayes.batch.run import _worker_env
 
-    if any(os.environ.get(k) != v for k, v in _WORKER_ENV.items()):
-        os.execve(sys.executable, [sys.executable, *sys.argv], {**os.environ, **_WORKER_ENV})
+    worker = _worker_env()
+    if any(os.environ.get(k) != v for k, v in worker.items()):
+        os.execve(sys.executable, [sys.executable, *sys.argv], {**os.environ, **worker})
 
 
 def _compiled_programs_mb() -> float:

@@ -50,7 +50,7 @@ import numpy as np  # noqa: E402
 from tyrebayes._domain import load_vehicle  # noqa: E402
 from tyrebayes.inference.tyre import fit as tyre_fit  # noqa: E402
 from tyrebayes.inference.tyre.data import (  # noqa: E402
-    _bucket_size,
+    bucket_size,
     observations_from_features,
     stack_drives,
 )
@@ -163,7 +163,7 @@ def main() -> None:
     res["simulate_one_hour_s"] = [sim_a, sim_b]
     res["features_and_windows_one_hour_s"] = [win_a, win_b]
     # One bucket for both drives (default buckets: 8 sizes per octave), so B reuses A's compile.
-    pad = _bucket_size(max(len(wa["slip"]), len(wb["slip"])))
+    pad = bucket_size(max(len(wa["slip"]), len(wb["slip"])))
     obs_a = stack_drives([_strip(wa)], ["dry"], pad_to=pad)
     obs_b = stack_drives([_strip(wb)], ["dry"], pad_to=pad)
     res["c_x_true"] = [wa["_c_x_true"], wb["_c_x_true"]]

@@ -55,8 +55,12 @@ def test_fleet_stage_without_observations_is_a_recorded_failure(tmp_path):
 
 
 def test_pad_sizes_are_few():
-    sizes = {pad_size(int(n)) for n in np.unique(np.geomspace(10, 200_000, 500).astype(int))}
-    assert sizes == {2**k for k in range(8, 19)}
+    lengths = np.unique(np.geomspace(10, 200_000, 500).astype(int))
+    sizes = {pad_size(int(n)) for n in lengths}
+    # Four per octave from 256 (2^8), and none wastes a quarter of its work or more.
+    grid = {(4 + j) * 2 ** (k - 2) for k in range(8, 18) for j in range(4)}
+    assert sizes == {s for s in grid if s <= pad_size(200_000)}
+    assert all(n <= pad_size(int(n)) < 1.25 * max(int(n), 205) for n in lengths)
     assert all(pad_size(n) >= n for n in (1, 255, 256, 257, 65_536, 65_537))
 
 

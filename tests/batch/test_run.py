@@ -202,6 +202,10 @@ def test_local_workers_get_one_thread_then_this_process_xla_flags(monkeypatch):
     env = _worker_env()
     assert env["XLA_FLAGS"] == f"{one_thread} {own}"
     assert env["OMP_NUM_THREADS"] == "1" and env["JAX_PLATFORMS"] == "cpu"
+    # A process started with a worker's environment passes the same flags on: they are part of
+    # JAX's compilation-cache key, so a repeated flag would miss every cached program.
+    monkeypatch.setenv("XLA_FLAGS", env["XLA_FLAGS"])
+    assert _worker_env()["XLA_FLAGS"] == env["XLA_FLAGS"]
 
 
 def test_cli_bad_manifest_is_exit_2(tmp_path, capsys):

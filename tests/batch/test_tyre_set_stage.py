@@ -5,9 +5,9 @@ from __future__ import annotations
 from tyrebayes.batch.tyre_set_stage import pad_size
 
 
-def test_pad_sizes_are_powers_of_two_from_256():
-    assert [pad_size(n) for n in (1, 256, 257, 10_136, 16_384, 16_385)] == [
-        256, 256, 512, 16_384, 16_384, 32_768
+def test_pad_sizes_are_four_per_octave_from_256():
+    assert [pad_size(n) for n in (1, 256, 257, 10_136, 16_384, 16_385, 20_481)] == [
+        256, 256, 320, 10_240, 16_384, 20_480, 24_576
     ]  # fmt: skip
 
 

@@ -19,7 +19,7 @@ from .._resources import data_dir
 from ..criticism import criticize_stream, criticize_table
 from ..inference.fleet import fit_fleet
 from ..inference.result import Fit
-from ..inference.tyre.data import _bucket_size, observations_from_features, stack_drives
+from ..inference.tyre.data import bucket_size, observations_from_features, stack_drives
 from ..inference.tyre.fit import fit_tyre
 from ..inference.vmax import load_table_6_2
 from ..report.content import Report
@@ -155,7 +155,7 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
             surfaces.append(truth.surface)
         prepared.append((name, tyre_type, spec, windows, surfaces))
         steps.done()
-    pad = max(_bucket_size(sum(len(w["slip"]) for w in p[3])) for p in prepared)
+    pad = max(bucket_size(sum(len(w["slip"]) for w in p[3])) for p in prepared)
     for i, (name, tyre_type, spec, windows, surfaces) in enumerate(prepared):
         steps.start(f"fit {name}")
         obs = stack_drives(windows, surfaces, pad_to=pad)

@@ -73,9 +73,13 @@ def _worker_env() -> dict[str, str]:
     """The local workers' environment: :data:`_WORKER_ENV`, and XLA_FLAGS that start with the
     one-thread flag and go on with this process's own, so that a dump folder or a code generator
     chosen for the run reaches the workers too (and wins where both name a flag: XLA reads the
-    last)."""
-    flags = f"{_WORKER_XLA_FLAGS} {os.environ.get('XLA_FLAGS', '')}".strip()
-    return {**_WORKER_ENV, "XLA_FLAGS": flags}
+    last). Idempotent: flags that already start with the one-thread flag are kept as they are,
+    so that a process started with a worker's environment gives its workers the same flags (they
+    are part of JAX's compilation-cache key, and a repeated flag would change it)."""
+    own = os.environ.get("XLA_FLAGS", "").strip()
+    if own.split()[:1] == [_WORKER_XLA_FLAGS]:
+        return {**_WORKER_ENV, "XLA_FLAGS": own}
+    return {**_WORKER_ENV, "XLA_FLAGS": f"{_WORKER_XLA_FLAGS} {own}".strip()}
 
 
 @contextlib.contextmanager

@@ -124,15 +124,17 @@ class TyreObservations(eqx.Module):
         return len(self.surfaces)
 
 
-def _bucket_size(n: int) -> int:
-    """Padded length for n windows: 64, or the next size on a grid of 8 sizes per octave.
+def bucket_size(n: int, per_octave: int = 8) -> int:
+    """Padded length for n windows: 64, or the next size on a grid of ``per_octave`` sizes per
+    octave (a power of two).
 
-    Data of similar size share one compiled model, and padding wastes at most 1/8 of the work
-    (powers of two wasted up to half: a one-hour drive of ~8,300 windows padded to 16,384).
+    Data of similar size share one compiled model, and padding wastes less than 1/per_octave of
+    the work (powers of two wasted up to half: a one-hour drive of ~8,300 windows padded to
+    16,384).
     """
     if n <= 64:
         return 64
-    step = 1 << max(0, int(np.floor(np.log2(n))) - 3)
+    step = 1 << max(0, int(np.floor(np.log2(n))) - int(np.log2(per_octave)))
     return int(-(-n // step) * step)
 
 
@@ -416,7 +418,7 @@ def stack_drives(
     surfaces : sequence of str
         Surface of each drive, from ``SURFACES``.
     pad_to : int, optional
-        Padded length; default ``_bucket_size`` (8 sizes per octave).
+        Padded length; default :func:`bucket_size` (8 sizes per octave).
     """
     if len(drives) != len(surfaces):
         raise BadInputError(
@@ -473,7 +475,7 @@ def stack_drives(
     n = sum(len(p) for p in parts["slip"])
     if n < 10:
         raise BadInputError(f"tyre observations: expected at least 10 usable windows, got {n}")
-    size = pad_to or _bucket_size(n)
+    size = pad_to or bucket_size(n)
     if size < n:
         raise BadInputError(f"tyre observations: pad_to expected ≥ {n}, got {size}")
 

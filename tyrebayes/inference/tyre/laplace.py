@@ -151,6 +151,18 @@ class LaplaceCore(NamedTuple):
     flat0: jax.Array
 
 
+# BFGS stops when a step moves every whitened coordinate (posterior sds, where the whitening
+# is the Hessian's) by less than BFGS_ATOL and the log density by less than about
+# BFGS_RTOL·|f|. 1e-4 sds is far below what a fit reports (the Laplace draws' mean carries
+# 1/√2000 = 0.022 sds of Monte-Carlo error) and above the resolution of the log density itself:
+# |f| is ~10⁵ nats for a few hours of windows, so round-off (ε|f| ≈ 2e-11 nats) hides steps
+# shorter than √(2ε|f|) ≈ 7e-6 sds, and a tolerance below that left BFGS wandering in
+# round-off: three tyre sets of 1.6-3.2 h took 66-74 steps on all windows at 1e-8 and 21-29 at
+# 1e-4, with every reported mean and sd equal to 1e-5 of an sd.
+BFGS_ATOL = 1e-4
+BFGS_RTOL = 1e-8
+
+
 @functools.lru_cache(maxsize=16)
 def _laplace_core(
     priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, max_steps: int
@@ -164,7 +176,7 @@ def _laplace_core(
     def negative_log_posterior(flat, obs):
         return potential_energy(model, (obs,), {}, unravel(flat))
 
-    def whitening_at(flat, obs):
+    def whitening_at(flat, obs, scale=1.0):
         # BFGS starts from the identity, but the posterior's scales differ by orders of magnitude
         # (a slip offset known to 1e-5, a force level to 1e-2) and its parameters are
         # correlated (C_xr with μ_max and the slip offsets). It works in y with
@@ -175,7 +187,9 @@ def _laplace_core(
         # shaped model became the default): one one-hour drive 45-56 and 40
         # (diagonal rescaling x = start + y/√|H_ii|: 69-74 and 84); ten stacked one-hour drives
         # 32-53 and 49 (79-83 and 103). Without any rescaling a one-hour drive took 240-360.
-        hessian = hessian_at(lambda f: negative_log_posterior(f, obs), flat)
+        # ``scale`` multiplies the Hessian: that of a subset of the windows, scaled to all of
+        # them, whitens about as well at a fraction of the cost.
+        hessian = scale * hessian_at(lambda f: negative_log_posterior(f, obs), flat)
         finite = jnp.all(jnp.isfinite(hessian))
         eigenvalues, vectors = jnp.linalg.eigh(jnp.where(finite, hessian, jnp.eye(len(flat))))
         return vectors / jnp.sqrt(jnp.maximum(jnp.abs(eigenvalues), 1.0))[None, :]
@@ -184,7 +198,7 @@ def _laplace_core(
         def rescaled(y, obs):
             return negative_log_posterior(flat_start + whiten @ y, obs)
 
-        solver = optx.BFGS(rtol=1e-8, atol=1e-8)
+        solver = optx.BFGS(rtol=BFGS_RTOL, atol=BFGS_ATOL)
         sol = optx.minimise(
             rescaled, solver, jnp.zeros_like(flat_start), args=obs, max_steps=max_steps, throw=False
         )
@@ -212,7 +226,11 @@ def _laplace_core(
         mode = values[best]
         if stride == 1:
             return mode, whitens[best], _outcome_code(jax.tree.map(lambda r: r[best], results))
-        return mode, whitening_at(mode, obs), _NOT_YET
+        # The refinement's whitening from the search's windows, scaled to all windows (the
+        # prior's curvature scaled with them: only the first steps' lengths depend on it). A
+        # Hessian of every window cost about as much as the refinement's BFGS steps together.
+        windows = jnp.sum(obs.mask) / jnp.maximum(jnp.sum(coarse.mask), 1)
+        return mode, whitening_at(mode, coarse, windows), _NOT_YET
 
     def given_start(start, obs, whiten):
         return start, whiten, _NOT_YET

@@ -22,7 +22,7 @@ import xarray as xr
 from ..._errors import BadInputError
 from ...internal.stored_program import stored_program
 from ..result import Diagnostics, Fit, diagnose
-from .data import TyreObservations, _bucket_size
+from .data import TyreObservations, bucket_size
 from .model import (
     TyrePriors,
     window_likelihood,
@@ -221,7 +221,7 @@ def observations_from_fit(fit: Fit) -> TyreObservations:
         )
     observed = fit.data["observed_data"]
     n = int(observed["slip_obs"].shape[0])
-    size = _bucket_size(n)
+    size = bucket_size(n)
     fills = {"slip_sd": 1.0, "rho_sd": 1.0, "temperature_c": 20.0, "slip_weight": 1.0}
 
     def padded(values, fill=0):
