@@ -43,10 +43,11 @@ def set_file_name(tyre_set_id: str) -> str:
 
 
 # Padded sizes per octave of a tyre-set fit's windows. A set's fit costs about its padded
-# length: powers of two (one size per octave) paid up to twice the work, 1.44x on average over
-# a fleet's spread of lengths. Each size is one compilation of the fit (shared through the
-# cache) and one reload of its programs where a worker's shape changes (seconds), so a fleet's
-# many sets amortise four sizes per octave where one set would not; waste is below 1/4.
+# length: powers of two (one size per octave) paid up to twice the work, 1/ln 2 = 1.44x on
+# average for lengths spread evenly on a log scale. Each size is one compilation of the fit
+# (shared through the cache) and one reload of its programs where a worker's shape changes
+# (seconds), so a fleet's many sets amortise four sizes per octave where one set would not;
+# padding adds less than a quarter of the work.
 FIT_SIZES_PER_OCTAVE = 4
 
 

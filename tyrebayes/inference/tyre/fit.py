@@ -278,7 +278,8 @@ def fit_tyre_fast(
     The MAP search runs from the starts in ``MAP_STARTS`` at once (vectorised) on every
     ``_search_stride``-th window and refines the best successful one on all windows: a long
     drive's posterior has spurious local modes. Each BFGS run works in parameters whitened by
-    the Hessian at its start. The slips' weights (1/VIF) are then taken from the residuals at
+    the Hessian at its start (for the refinement, the search's windows' Hessian scaled to all
+    windows). The slips' weights (1/VIF) are then taken from the residuals at
     that mode, and the weighted posterior's mode is found by one BFGS run from the first mode
     in the refinement's coordinates (the search's basin kept; no second search). Draws come
     from the Gaussian N(mode, H⁻¹) there on the unconstrained space, mapped through the
