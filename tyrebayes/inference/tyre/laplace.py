@@ -184,9 +184,10 @@ def _laplace_core(
         # absolute value, floored: far from the mode H need not be positive definite), so that
         # its first step is a Newton step. Steps per BFGS run, search (four starts) and
         # refinement, with the data-driven starts of _start (brush model, measured before the
-        # shaped model became the default): one one-hour drive 45-56 and 40
-        # (diagonal rescaling x = start + y/√|H_ii|: 69-74 and 84); ten stacked one-hour drives
-        # 32-53 and 49 (79-83 and 103). Without any rescaling a one-hour drive took 240-360.
+        # shaped model became the default, at the former tolerance 1e-8): one one-hour drive
+        # 45-56 and 40 (diagonal rescaling x = start + y/√|H_ii|: 69-74 and 84); ten stacked
+        # one-hour drives 32-53 and 49 (79-83 and 103). Without any rescaling a one-hour drive
+        # took 240-360.
         # ``scale`` multiplies the Hessian: that of a subset of the windows, scaled to all of
         # them, whitens about as well at a fraction of the cost.
         hessian = scale * hessian_at(lambda f: negative_log_posterior(f, obs), flat)
