@@ -82,6 +82,20 @@ def test_the_estimate_settles_on_the_truth_and_is_ready(estimator):
     assert record["c_x"]["sd"] / record["c_x"]["mean"] < 0.05
 
 
+def test_gauss_newton_and_exact_curvature_give_the_same_posterior(estimator):
+    # The default curvature drops the windows' quantities' own curvature: after 10 minutes the
+    # two filters' C_xr must agree to a fraction of a posterior sd, and their sds closely.
+    steps = _steps(linear_windows(3, 600.0))
+    exact = eqx.tree_at(lambda e: e.config, estimator, default_config("linear", gauss_newton=False))
+    assert estimator.config.gauss_newton and not exact.config.gauss_newton
+    gauss_newton, _ = run_online(estimator, estimator.init(), steps)
+    hessian, _ = run_online(exact, exact.init(), steps)
+    c = estimator.prior.names.index("log_c_xr")
+    sd = float(np.sqrt(hessian.cov[c, c]))
+    assert abs(float(gauss_newton.mean[c] - hessian.mean[c])) < 0.1 * sd
+    assert float(np.sqrt(gauss_newton.cov[c, c])) == pytest.approx(sd, rel=0.05)
+
+
 def test_change_fires_on_a_planted_step_and_not_without_one(estimator):
     _, quiet = run_online(estimator, estimator.init(), _steps(linear_windows(5, 1200.0)))
     assert int(quiet.n_alarms[-1]) == 0

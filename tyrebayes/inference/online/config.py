@@ -71,6 +71,11 @@ class OnlineConfig(eqx.Module):
         a block short of its mode takes its information at the wrong point, and the too-small
         covariance then holds the estimate there (a challenger adopted after a swap stayed
         short of the new tyre's C_x with 3 iterations).
+    gauss_newton : bool
+        Take each update's curvature as the block's Gauss-Newton information
+        (:func:`~.block_likelihood.block_curvature`: the windows' quantities differentiated
+        once) instead of its exact Hessian (static; True: about half the cost of an exact
+        Hessian of the Magic Formula's block, ``benchmarks/online_speed.py``).
     newton_tolerance : float
         ... and no more once a step is shorter than this many posterior sds: a settled
         posterior takes two, the second confirming the first. It also sets how exactly the
@@ -126,6 +131,7 @@ class OnlineConfig(eqx.Module):
 
     drift_sd_per_sqrt_s: Float[Array, "p"]
     newton_steps: int = eqx.field(static=True, default=10)
+    gauss_newton: bool = eqx.field(static=True, default=True)
     # The settings below are values the compiled filter takes, not constants in it: another
     # threshold or window count reuses the program compiled for the defaults.
     newton_tolerance: Float[Array, ""] = eqx.field(converter=_float, default=0.05)

@@ -40,7 +40,11 @@ import jax.numpy as jnp
 
 from ..tyre.adequacy import likelier_surface
 from ..tyre.model import SURFACES, TyrePriors, check_kind
-from .block_likelihood import block_log_likelihood, standardised_slip_residuals
+from .block_likelihood import (
+    block_curvature,
+    block_log_likelihood,
+    standardised_slip_residuals,
+)
 from .change import cusum_step, predictive_shift_ratios
 from .config import OnlineConfig, default_config
 from .inflation import accrue_residuals, empty_inflation, inflation_in_use
@@ -139,6 +143,9 @@ class OnlineEstimator(eqx.Module):
         def log_likelihood(theta):
             return block_log_likelihood(theta, block, weight, self.kind, self.priors)
 
+        def gauss_newton(theta):
+            return block_curvature(theta, block, weight, self.kind, self.priors)
+
         elapsed = jnp.maximum(block.time_s - state.time_s, 0.0)
         drift = jnp.diag(cfg.drift_sd_per_sqrt_s**2 * elapsed)
         start = block.drive_start
@@ -147,7 +154,13 @@ class OnlineEstimator(eqx.Module):
 
         def laplace(mean, cov):
             return laplace_update(
-                log_likelihood, mean, cov, cfg.newton_steps, cfg.newton_tolerance, quadratic
+                log_likelihood,
+                mean,
+                cov,
+                cfg.newton_steps,
+                cfg.newton_tolerance,
+                quadratic,
+                curvature=gauss_newton if cfg.gauss_newton else None,
             )
 
         updated = laplace(*predicted)

@@ -8,6 +8,11 @@ Filtering and Smoothing*, ch. 5-6, whose iterated posterior-linearisation filter
 with a statistical linearisation in place of the Hessian). When ℓ is quadratic in θ one Newton
 step is exact and the update is the Kalman filter's (a test checks it).
 
+The curvature is the exact negative Hessian of ℓ, or any information matrix a caller passes
+in its place (``curvature``: the online estimator passes the block's Gauss-Newton information,
+:func:`~.block_likelihood.block_curvature`, which costs about half as much and drops only the
+curvature of the windows' quantities themselves). "Hessian" below means whichever is used.
+
 The Newton iterations are at most :attr:`OnlineConfig.newton_steps`, fewer once a step is short
 against the posterior sd (:attr:`OnlineConfig.newton_tolerance`), each with a Hessian floored to
 positive definite. The full step is taken when it lowers the objective; otherwise the best of a
@@ -25,8 +30,8 @@ drift's steps go either way, so it does not build up over blocks). Such a coordi
 by its drift between steps, moves more than an sd at many steps of a settled filter; counted,
 it would take the Hessian twice at each of them.
 
-The Hessian at the predicted mean comes from the same forward-over-reverse pass as the objective
-and gradient there, and the Newton matrix is inverted once per Hessian, not once per iteration.
+The Hessian at the predicted mean comes from the same pass as the objective and gradient
+there, and the Newton matrix is inverted once per Hessian, not once per iteration.
 The loop is a ``lax.while_loop``: the update vmaps over cars (running as many iterations as the
 slowest car needs) and scans over time.
 """
@@ -105,6 +110,28 @@ class GaussianUpdate(eqx.Module):
     log_evidence: Float[Array, ""]
 
 
+Curvature = Callable[
+    [Float[Array, "p"]], tuple[Float[Array, ""], Float[Array, "p"], Float[Array, "p p"]]
+]
+
+
+def exact_curvature(
+    log_likelihood: Callable[[Float[Array, "p"]], Float[Array, ""]],
+) -> Curvature:
+    """θ ↦ (ℓ, ∇ℓ, −∇²ℓ) in one forward-over-reverse pass: the Hessian's columns are the
+    directional derivatives of the gradient, whose primal is the gradient itself."""
+    value_and_gradient = jax.value_and_grad(log_likelihood)
+
+    def curvature(theta):
+        basis = jnp.eye(theta.shape[0], dtype=theta.dtype)
+        (value, gradient), (_, rows) = jax.vmap(
+            lambda e: jax.jvp(value_and_gradient, (theta,), (e,)), out_axes=(None, 0)
+        )(basis)
+        return value, gradient, -rows.T
+
+    return curvature
+
+
 def laplace_update(
     log_likelihood: Callable[[Float[Array, "p"]], Float[Array, ""]],
     mean: Float[Array, "p"],
@@ -112,6 +139,7 @@ def laplace_update(
     newton_steps: int,
     tolerance: float | Float[Array, ""] = 0.0,
     quadratic: Bool[Array, "p"] | None = None,
+    curvature: Curvature | None = None,
 ) -> GaussianUpdate:
     """One assumed-density update of N(mean, cov) by a log-likelihood (module docstring).
 
@@ -131,6 +159,10 @@ def laplace_update(
     quadratic : bool array, optional
         Coordinates ℓ is quadratic in given the others: a step along them alone does not take
         the Hessian again (module docstring). None: every coordinate counts.
+    curvature : callable, optional
+        θ ↦ (ℓ(θ), ∇ℓ(θ), an information matrix standing for −∇²ℓ(θ)), e.g. a Gauss-Newton
+        one (:func:`~.block_likelihood.block_curvature`). None: the exact Hessian
+        (:func:`exact_curvature`).
 
     Returns
     -------
@@ -159,12 +191,11 @@ def laplace_update(
         return -log_likelihood(theta)
 
     value_and_gradient = jax.value_and_grad(negative_log_likelihood)
-    hessian = jax.jacfwd(jax.grad(negative_log_likelihood))
+    curvature = exact_curvature(log_likelihood) if curvature is None else curvature
     lengths = jnp.asarray(_STEP_LENGTHS, dtype=mean.dtype)
     # The coordinates whose steps can change the curvature (a quadratic one's only moves the
     # point).
     curved = jnp.ones(mean.shape, bool) if quadratic is None else ~jnp.asarray(quadratic)
-    basis = jnp.eye(mean.shape[0], dtype=mean.dtype)
 
     def newton_factors(curvature):
         # The informations of a Hessian and the inverse of the Newton matrix they give: all
@@ -184,7 +215,7 @@ def laplace_update(
         i, theta, value, g, information, absolute, inverse, refresh, _ = carry
         information, absolute, inverse = jax.lax.cond(
             refresh,
-            lambda: newton_factors(hessian(theta)),
+            lambda: newton_factors(curvature(theta)[2]),
             lambda: (information, absolute, inverse),
         )
         step = inverse @ g
@@ -224,20 +255,17 @@ def laplace_update(
         i, length = carry[0], carry[-1]
         return (i < newton_steps) & ((i == 0) | (length >= tolerance))
 
-    # The first iteration's Hessian is taken at the predicted mean, in the same pass as the
-    # objective and gradient there (forward over reverse: the Hessian's columns are the
-    # directional derivatives of the gradient, whose primal is the gradient itself).
-    (nll, g), (_, rows) = jax.vmap(
-        lambda e: jax.jvp(value_and_gradient, (mean,), (e,)), out_axes=(None, 0)
-    )(basis)
-    value = jnp.where(jnp.isfinite(nll), nll, jnp.inf)
+    # The first iteration's curvature is taken at the predicted mean, in the same pass as the
+    # objective and gradient there.
+    log_lik, gradient, information = curvature(mean)
+    value = jnp.where(jnp.isfinite(log_lik), -log_lik, jnp.inf)
     inf = jnp.asarray(jnp.inf, mean.dtype)
     start = (
         jnp.zeros((), jnp.int32),
         mean,
         value,
-        g,
-        *newton_factors(rows.T),
+        -gradient,
+        *newton_factors(information),
         jnp.array(False),
         inf,
     )
@@ -252,4 +280,4 @@ def laplace_update(
     )
 
 
-__all__ = ["GaussianUpdate", "laplace_update"]
+__all__ = ["Curvature", "GaussianUpdate", "exact_curvature", "laplace_update"]

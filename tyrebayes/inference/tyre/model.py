@@ -468,16 +468,29 @@ def _per_window(site: jax.Array, index: jax.Array, n: int) -> jax.Array:
     return site[index]
 
 
-def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowLikelihood:
-    """The windows' likelihood terms of :func:`tyre_model` (see the module docstring).
+class WindowQuantities(NamedTuple):
+    """What the parameters set in each window, before any observation is compared with them.
 
-    ``params`` holds the model's sampled sites by name (``c_xr``, ``temp_sensitivity``,
-    ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale``, ``slip_drift_sd``
-    and ``load_sensitivity`` where the priors have them, the curve's shape sites of ``kind`` and
-    the per-drive ``slip_offset``, ``force_gain``, ``force_level``, ``force_spread``); other keys
-    are ignored, so a posterior draw can be passed as it is. The model and the posterior
-    predictive share it.
+    The likelihood is a fixed function of these (:func:`likelihood_of_quantities`), so a
+    curvature can be built from their first derivatives alone (the online filter's
+    Gauss-Newton curvature, :mod:`tyrebayes.inference.online.block_likelihood`).
+
+    ``slip_loc``, ``slip_scale``: Normal of the measured slip (slip windows, before the block
+    offset); ``rho_loc``, ``rho_scale``: Normal of the measured force; ``headroom``: the true
+    force's distance below μ_max in its sds (slip windows); ``drift_sd``: the block offsets' sd τ
+    (a scalar; 0 without them).
     """
+
+    slip_loc: jax.Array
+    slip_scale: jax.Array
+    rho_loc: jax.Array
+    rho_scale: jax.Array
+    headroom: jax.Array
+    drift_sd: jax.Array
+
+
+def window_quantities(params: dict, obs: TyreObservations, kind: str) -> WindowQuantities:
+    """The per-window quantities of :func:`window_likelihood` (``params`` as there)."""
 
     def per_drive(site):
         return _per_window(site, obs.drive_index, obs.n_drives)
@@ -507,34 +520,56 @@ def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowL
     limit_mean = -gain * params["abs_force_ratio"] * mu_window
     # Window-to-window spread of ABS cycling around the shared ratio: ~2 % of μ.
     limit_scale = jnp.sqrt(noise2 + (0.02 * mu_window) ** 2)
-    rho_loc = jnp.where(obs.at_limit, limit_mean, gain * level)
-    rho_scale = jnp.where(obs.at_limit, limit_scale, jnp.sqrt((gain * spread) ** 2 + noise2))
-
     # Outside ABS the force is quasi-static and below the peak: the true force of every slip
     # window lies under μ. Without this the inverse, which maps forces beyond the peak to the
     # peak slip, would let a μ_max below the measured forces fit (a spurious mode: μ ~0.25 and
     # C_x twice the truth).
     headroom = (mu_window - jnp.abs(rho_hat)) / jnp.sqrt(rho_var + (0.02 * mu_window) ** 2)
-    below_peak = jnp.where(obs.mask & ~obs.at_limit, jax.scipy.special.log_ndtr(headroom), 0.0)
-    slip_loc = slip + per_drive(params["slip_offset"])
-    precision = jnp.where(obs.mask & ~obs.at_limit, obs.slip_weight / slip_scale**2, 0.0).astype(
-        slip_loc.dtype
+    return WindowQuantities(
+        slip_loc=slip + per_drive(params["slip_offset"]),
+        slip_scale=slip_scale,
+        rho_loc=jnp.where(obs.at_limit, limit_mean, gain * level),
+        rho_scale=jnp.where(obs.at_limit, limit_scale, jnp.sqrt((gain * spread) ** 2 + noise2)),
+        headroom=headroom,
+        drift_sd=params.get("slip_drift_sd", jnp.zeros((), slip.dtype)),
+    )
+
+
+def likelihood_of_quantities(q: WindowQuantities, obs: TyreObservations) -> WindowLikelihood:
+    """The windows' likelihood terms given their quantities (:func:`window_likelihood`)."""
+    slip_window = obs.mask & ~obs.at_limit
+    below_peak = jnp.where(slip_window, jax.scipy.special.log_ndtr(q.headroom), 0.0)
+    precision = jnp.where(slip_window, obs.slip_weight / q.slip_scale**2, 0.0).astype(
+        q.slip_loc.dtype
     )
     correction, offset = block_offsets(
-        jnp.where(precision > 0, obs.slip - slip_loc, 0.0),
+        jnp.where(precision > 0, obs.slip - q.slip_loc, 0.0),
         precision,
         obs.block_index,
-        params.get("slip_drift_sd", jnp.zeros((), slip_loc.dtype)),
+        q.drift_sd,
     )
     return WindowLikelihood(
-        slip_loc=slip_loc,
-        slip_scale=slip_scale,
-        rho_loc=rho_loc,
-        rho_scale=rho_scale,
+        slip_loc=q.slip_loc,
+        slip_scale=q.slip_scale,
+        rho_loc=q.rho_loc,
+        rho_scale=q.rho_scale,
         below_peak=below_peak,
         block_offset=offset,
         block_log_correction=correction,
     )
+
+
+def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowLikelihood:
+    """The windows' likelihood terms of :func:`tyre_model` (see the module docstring).
+
+    ``params`` holds the model's sampled sites by name (``c_xr``, ``temp_sensitivity``,
+    ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale``, ``slip_drift_sd``
+    and ``load_sensitivity`` where the priors have them, the curve's shape sites of ``kind`` and
+    the per-drive ``slip_offset``, ``force_gain``, ``force_level``, ``force_spread``); other keys
+    are ignored, so a posterior draw can be passed as it is. The model and the posterior
+    predictive share it.
+    """
+    return likelihood_of_quantities(window_quantities(params, obs, kind), obs)
 
 
 __all__ = [
@@ -546,7 +581,10 @@ __all__ = [
     "SURFACES",
     "TyrePriors",
     "WindowLikelihood",
+    "WindowQuantities",
     "block_offsets",
+    "likelihood_of_quantities",
     "tyre_model",
     "window_likelihood",
+    "window_quantities",
 ]
