@@ -65,7 +65,8 @@ def test_information_is_the_hessian_less_the_quantities_curvature(block):
     def linear_in_q(t):
         q = quantities(t)
         return sum(
-            jnp.sum(g * x) for g, x in zip(jax.tree.leaves(gradient_q), jax.tree.leaves(q))
+            jnp.sum(g * x)
+            for g, x in zip(jax.tree.leaves(gradient_q), jax.tree.leaves(q), strict=True)
         )
 
     hessian = jax.hessian(_log_likelihood(block))(theta)
