@@ -93,9 +93,7 @@ def block_curvature(
         return _log_likelihood_of(q, block, obs)
 
     basis = jnp.eye(theta.shape[0], dtype=theta.dtype)
-    q, tangents = jax.vmap(lambda e: jax.jvp(quantities, (theta,), (e,)), out_axes=(None, 0))(
-        basis
-    )
+    q, tangents = jax.vmap(lambda e: jax.jvp(quantities, (theta,), (e,)), out_axes=(None, 0))(basis)
     value, gradient_q = jax.value_and_grad(log_likelihood_of)(q)
     curved = jax.vmap(lambda t: jax.jvp(jax.grad(log_likelihood_of), (q,), (t,))[1])(tangents)
 
