@@ -10,8 +10,9 @@ not do that: ``online_speed_df9f71f.json`` was taken with them and two threads s
   clock steps and with sparse driving packed into steps of up to ``PACKED_STEP_S``
   (``window_blocks``' ``max_step_s``: fewer, fuller steps; ``online_change.py --max-step-s``
   measures what it costs the alarms);
-* where a Magic Formula car-hour's time goes: the block log-likelihood's Hessian, its value and
-  gradient, and its value alone, each timed over the hour's steps, and how many Hessians the
+* where a Magic Formula car-hour's time goes: the block log-likelihood's Gauss-Newton pass (the
+  filter's curvature), its exact Hessian for comparison, its value and gradient, and its value
+  alone, each timed over the hour's steps, and how many curvatures the
   filter took (counted in a separate, untimed run);
 * ``--cars`` copies of that car-hour vmapped in one call, the time per car-hour;
 * ``--fleet-cars`` (10^4, the issue's number) cars in one compiled call over the first
@@ -21,7 +22,7 @@ not do that: ``online_speed_df9f71f.json`` was taken with them and two threads s
   in XLA's CPU runtime, jaxlib 0.10.2; chunks of 24-30 did not), in a child process with a time
   limit: the time per car-hour, or that it gave no result.
 
-Under vmap a ``lax.cond`` computes both branches, so the Laplace update's skipped Hessians and
+Under vmap a ``lax.cond`` computes both branches, so the Laplace update's skipped curvatures and
 line searches are computed for every car: on one CPU core a vmapped car-hour costs more than a
 single car's.
 
@@ -75,7 +76,10 @@ from tyrebayes.inference.online import (  # noqa: E402
     run_online,
     stream_steps,
 )
-from tyrebayes.inference.online.block_likelihood import block_log_likelihood  # noqa: E402
+from tyrebayes.inference.online.block_likelihood import (  # noqa: E402
+    block_curvature,
+    block_log_likelihood,
+)
 
 RESULTS = Path(__file__).parent / "results" / "online_speed.json"
 KINDS = ("magic", "shaped", "brush", "linear")
@@ -122,7 +126,7 @@ def timed(fn, reps):
 
 def where_the_time_goes(steps, reps) -> dict:
     """The Magic Formula block log-likelihood's passes, each scanned over the hour's steps at the
-    type prior's mean (per step, ms), and the Hessians one car-hour takes."""
+    type prior's mean (per step, ms), and the curvatures one car-hour takes."""
     est = OnlineEstimator.create(kind="magic")
     theta = est.prior.mean
     weight = jnp.asarray(0.5)
@@ -132,23 +136,28 @@ def where_the_time_goes(steps, reps) -> dict:
         # XLA would fold the parts of the pass that depend on them alone.
         def over(blocks, theta, weight):
             def one(carry, block):
-                def nll(t):
-                    return -block_log_likelihood(t, block, weight, "magic", est.priors)
-
-                return carry, make(nll)(theta)
+                return carry, make(block, weight)(theta)
 
             return jax.lax.scan(one, 0.0, blocks)[1]
 
         fn = jax.jit(over)
         return timed(lambda: fn(steps, theta, weight), reps)[1] / steps.n_blocks * 1e3
 
+    def nll(block, weight):
+        return lambda t: -block_log_likelihood(t, block, weight, "magic", est.priors)
+
     passes = {
-        "hessian_ms": scanned(lambda f: jax.jacfwd(jax.grad(f))),
-        "value_and_gradient_ms": scanned(jax.value_and_grad),
-        "value_ms": scanned(lambda f: f),
+        "gauss_newton_ms": scanned(
+            lambda block, weight: lambda t: block_curvature(t, block, weight, "magic", est.priors)
+        ),
+        "exact_hessian_ms": scanned(lambda block, weight: jax.jacfwd(jax.grad(nll(block, weight)))),
+        "value_and_gradient_ms": scanned(
+            lambda block, weight: jax.value_and_grad(nll(block, weight))
+        ),
+        "value_ms": scanned(nll),
     }
-    # Hessians counted in an untimed run: a host callback at each of the update's
-    # eigendecompositions of a Hessian (laplace_update._informations, once per Hessian).
+    # Curvatures counted in an untimed run: a host callback at each of the update's
+    # eigendecompositions of one (laplace_update._informations, once per curvature taken).
     counted = []
     informations = laplace_module._informations
 
@@ -162,15 +171,15 @@ def where_the_time_goes(steps, reps) -> dict:
         jax.block_until_ready(jax.jit(lambda s, b: probe.run(s, b))(probe.init(), steps))
     finally:
         laplace_module._informations = informations
-    hessians = len(counted)
     return {
         "kind": "magic",
+        "curvature": "gauss_newton" if est.config.gauss_newton else "exact_hessian",
         "per_step": passes,
-        "hessians_per_car_hour": hessians,
+        "curvatures_per_car_hour": len(counted),
         "steps_per_car_hour": steps.n_blocks,
-        "hessian_share_of_car_hour_estimate": None,  # filled by main with the car-hour time
+        "curvature_share_of_car_hour_estimate": None,  # filled by main with the car-hour time
         "note": "each pass timed alone over the hour's steps at the type prior mean, passed as an "
-        "argument (jit, scan)",
+        "argument (jit, scan); the filter takes the gauss_newton pass (block_curvature)",
     }
 
 
@@ -310,8 +319,8 @@ def main() -> None:
         next(r["car_hour_s"] for r in rows if r["kind"] == "magic" and r["max_step_s"] == STEP_S)
         * hours
     )
-    profile["hessian_share_of_car_hour_estimate"] = (
-        profile["hessians_per_car_hour"] * profile["per_step"]["hessian_ms"] * 1e-3 / magic_s
+    profile["curvature_share_of_car_hour_estimate"] = (
+        profile["curvatures_per_car_hour"] * profile["per_step"]["gauss_newton_ms"] * 1e-3 / magic_s
     )
     print(json.dumps(profile), flush=True)
     vmapped = []
@@ -361,7 +370,9 @@ def main() -> None:
         "before_and_after": compared,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "machine": {**machine(), "load_average_1min_at_start": load_at_start},
-        "previous": "online_speed_f0e5ce6.json: the same benchmark before the slip offset's "
+        "previous": "online_speed_exact_hessian.json: the same benchmark with the exact Hessian "
+        "as the filter's curvature (revision 31df558), on a slower day; "
+        "online_speed_f0e5ce6.json: before the slip offset's "
         "steps stopped taking new Hessians and one-drive sites were broadcast; "
         "online_speed_779f035.json: before packed steps existed",
     }
