@@ -13,15 +13,27 @@ from .filters import nan_moving_average, window_samples
 
 
 def window_means(
-    values: np.ndarray, valid: np.ndarray, window: int
+    values: np.ndarray, valid: np.ndarray, window: int, counts: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Means of consecutive blocks of ``window`` samples and the number of valid samples in each."""
+    """Means of consecutive blocks of ``window`` samples and the number of valid samples in each.
+
+    ``counts``: :func:`window_counts` of ``valid``, when the caller has them (several channels
+    averaged over the same valid samples count them once).
+    """
     n_blocks = len(values) // window
-    v = np.where(valid, values, 0.0)[: n_blocks * window].reshape(n_blocks, window)
-    counts = valid[: n_blocks * window].reshape(n_blocks, window).sum(axis=1)
+    end = n_blocks * window
+    v = np.where(valid[:end], values[:end], 0.0).reshape(n_blocks, window)
+    if counts is None:
+        counts = window_counts(valid, window)
     with np.errstate(invalid="ignore", divide="ignore"):
         means = v.sum(axis=1) / counts
     return means, counts
+
+
+def window_counts(valid: np.ndarray, window: int) -> np.ndarray:
+    """Number of valid samples in each block of :func:`window_means`."""
+    n_blocks = len(valid) // window
+    return valid[: n_blocks * window].reshape(n_blocks, window).sum(axis=1)
 
 
 def wheel_oscillation(
@@ -40,23 +52,44 @@ def wheel_oscillation(
     oscillation too (a 0.7 g stop in recovery seed 1003, brush_no_abs, made two ABS windows
     and put μ_max at −32 %), and that the high-pass removes.
     """
-    relative = wheel_vx_mps - np.mean(wheel_vx_mps, axis=1, keepdims=True)
-    relative = relative - nan_moving_average(relative, window_samples(0.5, sample_rate_hz))
-    ok = valid & np.all(np.isfinite(relative), axis=1)
-    return np.max(
-        np.column_stack([_window_sd(relative[:, i], ok, window) for i in range(4)]), axis=1
-    )
+    # Column by column (the table's columns are contiguous): the four-wheel mean in np.mean's
+    # order, and one masked copy and one count per block shared by the four wheels' sds.
+    wheels = [wheel_vx_mps[:, i] for i in range(4)]
+    mean = wheels[0] + wheels[1]
+    mean += wheels[2]
+    mean += wheels[3]
+    mean /= 4
+    relative = np.empty(wheel_vx_mps.shape[::-1]).T
+    for i, wheel in enumerate(wheels):
+        np.subtract(wheel, mean, out=relative[:, i])
+    relative -= nan_moving_average(relative, window_samples(0.5, sample_rate_hz))
+    ok = valid.copy()
+    for i in range(4):
+        ok &= np.isfinite(relative[:, i])
+    counts = window_counts(ok, window)
+    largest = _window_sd(relative[:, 0], ok, window, counts)
+    for i in range(1, 4):
+        np.maximum(largest, _window_sd(relative[:, i], ok, window, counts), out=largest)
+    return largest
 
 
-def _window_sd(values: np.ndarray, valid: np.ndarray, window: int) -> np.ndarray:
-    """Standard deviation within consecutive blocks of ``window`` samples (valid samples only)."""
-    mean, counts = window_means(values, valid, window)
-    n_blocks = len(mean)
-    v = np.where(valid, values, 0.0)[: n_blocks * window].reshape(n_blocks, window)
-    ok = valid[: n_blocks * window].reshape(n_blocks, window)
+def _window_sd(
+    values: np.ndarray, valid: np.ndarray, window: int, counts: np.ndarray
+) -> np.ndarray:
+    """Standard deviation within consecutive blocks of ``window`` samples (valid samples only).
+
+    ``counts``: :func:`window_counts` of ``valid``.
+    """
+    n_blocks = len(counts)
+    end = n_blocks * window
+    v = np.where(valid[:end], values[:end], 0.0).reshape(n_blocks, window)
+    ok = valid[:end].reshape(n_blocks, window)
     with np.errstate(invalid="ignore", divide="ignore"):
-        var = np.where(ok, (v - mean[:, None]) ** 2, 0.0).sum(axis=1) / counts
-    return np.sqrt(var)
+        mean = v.sum(axis=1) / counts
+        v -= mean[:, None]
+        v *= v
+        var = np.where(ok, v, 0.0).sum(axis=1) / counts
+    return np.sqrt(var, out=var)
 
 
 # An ABS window's force is within a few percent of the event's (the controller holds the tyres

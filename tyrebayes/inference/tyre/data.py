@@ -25,6 +25,7 @@ from ...streams.abs_detection import (
     _below_run_peak,
     _inner_runs,
     wheel_oscillation,
+    window_counts,
     window_means,
 )
 from .force_density import force_density_score
@@ -220,11 +221,9 @@ def windowed_observations(
     valid = np.ones(n, dtype=bool) if usable is None else np.asarray(usable, dtype=bool).copy()
     for arr in arrays.values():
         valid &= np.isfinite(arr)
-    out = {}
-    counts = None
-    for name, arr in arrays.items():
-        means, counts = window_means(arr, valid, window)
-        out[name] = means
+    # Every channel is averaged over the same valid samples: one count per window serves all.
+    counts = window_counts(valid, window)
+    out = {name: window_means(arr, valid, window, counts)[0] for name, arr in arrays.items()}
     out["time_s"] = window_centres(time_s, window, len(counts))
     keep = counts >= max(1, int(np.ceil(min_fraction_valid * window)))
     out["neighbour_slip"] = _neighbour_mean(np.where(keep, out["slip"], np.nan))
@@ -356,7 +355,7 @@ def observations_from_features(
     sample_temperature = np.broadcast_to(np.asarray(temperature_c, dtype=float), valid.shape)
     limit_temperature, _ = window_means(sample_temperature, np.ones_like(valid), window)
     limit_time = window_centres(features.time_s, window, len(rho_mean))
-    limit_load, _ = window_means(np.nan_to_num(features.load_change_driven), valid, window)
+    limit_load, _ = window_means(np.nan_to_num(features.load_change_driven), valid, window, counts)
     enough = counts >= 0.8 * window
     baseline = np.nanmedian(np.where(enough, oscillation, np.nan)) if enough.any() else np.nan
     candidate = (
