@@ -156,22 +156,45 @@ class DriveWearEvidence(eqx.Module):
         }
 
 
-def _free_slip_ratios(feats: StreamFeatures, driven: list[int], c_hat: float) -> np.ndarray:
+def _free_slip_ratios(
+    feats: StreamFeatures,
+    driven: list[int],
+    c_hat: float,
+    free_force: dict[int, float] | None = None,
+) -> np.ndarray:
     """Per-wheel radius ratios with the driven wheels' free-rolling slip taken out.
 
     "Free rolling" (|ρ_x| < 0.02 on the driven axle) still pushes against drag and rolling
     resistance, so the driven wheels turn faster by σ ≈ ρ_x / C_x there: the free-rolling ratio
     reads that slip as radius. Divided out with the drive's secant stiffness (eq. 4.27).
+    ``free_force``: :func:`_free_rolling_force` of ``feats``, when the caller has it (it does
+    not change with Ĉ_x, which :func:`drive_wear_evidence` iterates on).
     """
     ratio = np.asarray(feats.nuisances.radius_ratio, dtype=float).copy()
     if not (np.all(np.isfinite(ratio)) and np.isfinite(c_hat)):
         return ratio
+    if free_force is None:
+        free_force = _free_rolling_force(feats, driven)
+    for axle in driven:
+        ratio[2 * axle : 2 * axle + 2] /= 1.0 + np.nan_to_num(free_force[axle]) / c_hat
+    return ratio
+
+
+def _free_rolling_force(feats: StreamFeatures, driven: list[int]) -> dict[int, float]:
+    """Mean ρ_x of each driven axle over the straight free-rolling samples.
+
+    0 without such samples, NaN when none has a force (:func:`_free_slip_ratios` counts that
+    as 0 too); found once per drive, also where the ratios turn out not to need it, so an
+    all-NaN axle gives NaN without ``np.nanmean``'s warning.
+    """
     free = feats.mask("free_rolling") & (np.abs(feats.steer_rad) < 0.02)
     rho = feats.rho_axle[free]
-    for axle in driven:
-        mean_rho = float(np.nanmean(rho[:, axle])) if rho.size else 0.0
-        ratio[2 * axle : 2 * axle + 2] /= 1.0 + np.nan_to_num(mean_rho) / c_hat
-    return ratio
+    if not rho.size:
+        return dict.fromkeys(driven, 0.0)
+    return {
+        axle: float(np.nanmean(rho[:, axle])) if np.isfinite(rho[:, axle]).any() else np.nan
+        for axle in driven
+    }
 
 
 def _corrected_slip(feats: StreamFeatures, ratio: np.ndarray, drive: str) -> np.ndarray:
@@ -379,8 +402,9 @@ def drive_wear_evidence(
     ratio_sd4 = np.asarray(feats.nuisances.radius_ratio_sd, dtype=float)
     c_hat = float("nan")
     terms, sums = _work_terms(feats, is_driven, valid, dt), None
+    free_force = _free_rolling_force(feats, driven)
     for _ in range(4):
-        ratios = _free_slip_ratios(feats, driven, c_hat)
+        ratios = _free_slip_ratios(feats, driven, c_hat, free_force)
         work = _longitudinal_work(feats, ratios, ratio_sd4, vehicle.drive, terms, dt, sums)
         c_hat, sums = work[2], work[5]
     work_x, work_x_sd, c_hat, kernel, use, _ = work
