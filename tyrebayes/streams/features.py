@@ -319,8 +319,9 @@ def _slip_noise_probe(
     s = slip_velocity - slip_velocity_sums.window_mean(half)
     r = force_velocity - nan_moving_average(force_velocity, 5 * window)
     ok = np.isfinite(s) & np.isfinite(r) & pushing
-    denominator = float(np.sum(r[ok] ** 2))
-    slope = float(np.sum(s[ok] * r[ok])) / denominator if denominator > 0 else 0.0
+    r_ok = r[ok]
+    denominator = float(np.sum(r_ok**2))
+    slope = float(np.sum(s[ok] * r_ok)) / denominator if denominator > 0 else 0.0
     return np.where(pushing, slip_velocity - slope * force_velocity, np.nan)
 
 
@@ -340,7 +341,7 @@ GRADE_LOWPASS_S = 10.0
 def _traction_acceleration(
     vx: PrefixSums,
     ax_imu: np.ndarray,
-    vx_probe: np.ndarray,
+    vx_probe: PrefixSums,
     drive: str,
     dt: float,
     window: int,
@@ -371,7 +372,7 @@ def _traction_acceleration(
     imu_error = ax_imu - dvx_dt
     imu_error_sums = PrefixSums.of(imu_error)
     grade_accel = imu_error_sums.window_mean(lowpass // 2)
-    probe = smoothed_derivative(vx_probe, dt, window)
+    probe = vx_probe.smoothed_derivative(window // 2, dt)
     probe_sums = PrefixSums.of(probe)
     probe -= probe_sums.window_mean(span // 2)
     # probe² has probe's NaN: the same counts.
@@ -679,7 +680,9 @@ class _WheelNoise(eqx.Module):
     local_wheel: Float[np.ndarray, "n 4"]  # each wheel's slip-velocity noise [m/s]
     slip_sd: Float[np.ndarray, "n 4"]  # [-]
     vx_sd: Float[np.ndarray, "n"]  # [m/s]
-    vx_probe: Float[np.ndarray, "n"]  # the V_x wheels' zero-mean combination (_vx_noise_probe)
+    # Prefix sums of the V_x wheels' zero-mean combination (_vx_noise_probe): the noise of
+    # the wheel speeds' dV_x/dt (_traction_acceleration) is measured on it too.
+    vx_probe: PrefixSums
 
 
 def _wheel_noise(motion: _Motion, vehicle, scales: _Scales, spin_threshold) -> _WheelNoise:
@@ -699,15 +702,18 @@ def _wheel_noise(motion: _Motion, vehicle, scales: _Scales, spin_threshold) -> _
     for i in range(4):
         probes[:, i] -= vx_raw
     slip_velocity_driven = _row_mean(probes, m.driven_wheels)
+    vx_probe = PrefixSums.of(probes[:, 4])
     # The slip velocities are NaN where V_x is (not valid): V_x's counts serve them.
-    probe_sd = local_noise_sd(probes, scales.window, scales.span, like=m.vx_prefix)
+    probe_sd = local_noise_sd(
+        probes, scales.window, scales.span, like=m.vx_prefix, prefix=(None,) * 4 + (vx_probe,)
+    )
     local_wheel = probe_sd[:, :4]
     return _WheelNoise(
         slip_velocity_driven=slip_velocity_driven,
         local_wheel=local_wheel,
         slip_sd=np.divide(local_wheel, m.vx_safe[:, None], out=_table(*local_wheel.shape)),
         vx_sd=probe_sd[:, 4],
-        vx_probe=probes[:, 4],
+        vx_probe=vx_probe,
     )
 
 
