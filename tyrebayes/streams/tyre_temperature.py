@@ -34,6 +34,7 @@ from jaxtyping import Float
 
 from .._errors import BadInputError
 from ..physics.thermal import ThermalParams, simulate_tyre_temperature
+from .order_stats import median
 
 # The thermal time constant is minutes (heat capacity / conductance ≈ 25 kJ/K / 54 W/K ≈ 8 min
 # at 100 km/h), so 1 s block means lose nothing and keep the scan 100× shorter than at 100 Hz.
@@ -91,7 +92,7 @@ def driven_tyre_temperature(
         raise BadInputError(f"tyre temperature: expected a finite ambient, got {ambient_c}")
     if n < 2:
         return np.full(n, float(ambient_c if initial_c is None else initial_c))
-    dt = float(np.median(np.diff(time_s)))
+    dt = median(np.diff(time_s), overwrite_input=True)  # np.median's, by one selection
     block = max(int(round(_BLOCK_S / dt)), 1)
     n_blocks = max(n // block, 1)
     means = [_block_means(x, block, n_blocks) for x in (*channels, friction)]

@@ -54,6 +54,7 @@ import pandas as pd
 
 from ..physics.vehicle import Vehicle
 from .features import StreamFeatures, compute_features
+from .order_stats import nanmedian
 from .tyre_temperature import features_tyre_temperature
 from .validate import ValidatedStream
 
@@ -434,7 +435,7 @@ def drive_wear_evidence(
         if "ambient_temperature" in data
         else np.array([np.nan])
     )
-    ambient_c = float(np.nanmedian(ambient)) if np.any(np.isfinite(ambient)) else float("nan")
+    ambient_c = nanmedian(ambient) if np.any(np.isfinite(ambient)) else float("nan")
     temp = features_tyre_temperature(
         feats, ambient_c=ambient_c if np.isfinite(ambient_c) else FALLBACK_AMBIENT_C
     )

@@ -28,6 +28,7 @@ from ...streams.abs_detection import (
     window_counts,
     window_means,
 )
+from ...streams.order_stats import median, nanmedian
 from .force_density import force_density_score
 
 # Length of the blocks whose slips share an offset in the model [s]: slow slip and force errors
@@ -141,7 +142,7 @@ def bucket_size(n: int, per_octave: int = 8) -> int:
 
 def window_centres(time_s: np.ndarray, window: int, n_blocks: int) -> np.ndarray:
     """Centre times of the first ``n_blocks`` blocks of ``window`` samples [s]."""
-    dt = float(np.median(np.diff(time_s))) if len(time_s) > 1 else 0.0
+    dt = median(np.diff(time_s), overwrite_input=True) if len(time_s) > 1 else 0.0
     return np.asarray(time_s, dtype=float)[: n_blocks * window : window] + 0.5 * (window - 1) * dt
 
 
@@ -205,7 +206,7 @@ def windowed_observations(
     n = len(time_s)
     if n < 2:
         raise BadInputError(f"tyre observations: expected at least 2 samples, got {n}")
-    dt = float(np.median(np.diff(time_s)))
+    dt = median(np.diff(time_s), overwrite_input=True)
     window = max(1, int(round(window_s / dt)))
     arrays = {
         "slip": np.asarray(slip, dtype=float),
@@ -357,7 +358,7 @@ def observations_from_features(
     limit_time = window_centres(features.time_s, window, len(rho_mean))
     limit_load, _ = window_means(np.nan_to_num(features.load_change_driven), valid, window, counts)
     enough = counts >= 0.8 * window
-    baseline = np.nanmedian(np.where(enough, oscillation, np.nan)) if enough.any() else np.nan
+    baseline = nanmedian(np.where(enough, oscillation, np.nan)) if enough.any() else np.nan
     candidate = (
         enough
         & np.isfinite(oscillation)
