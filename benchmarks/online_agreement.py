@@ -147,6 +147,9 @@ def one_drive(name, windows, truth_at, n_steps, estimator, source, max_step_s=No
         # The prior-conflict check (summary.py): how near the tyre's checked coordinates came to
         # its limit on a drive labelled as driven, and the steps it withheld.
         "conflict_prior_sds_max": float(np.max(np.abs(np.asarray(traj.conflict_prior_sds)[:n]))),
+        "conflict_joint_prior_sds_max": float(
+            np.max(np.asarray(traj.conflict_joint_prior_sds)[:n])
+        ),
         "prior_conflict_steps": int(np.sum(np.asarray(traj.prior_conflict)[:n])),
         "mu_label_in_doubt_steps": int(
             np.sum(
@@ -224,6 +227,7 @@ def pooled(rows: list[dict]) -> dict:
         "ekf_abs_err_at_end_median": float(np.median([abs(r["ekf_err_at_end"]) for r in ok])),
         "n_alarms_total": int(sum(r["n_alarms"] for r in ok)),
         "conflict_prior_sds_max": float(max(r["conflict_prior_sds_max"] for r in rows)),
+        "conflict_joint_prior_sds_max": float(max(r["conflict_joint_prior_sds_max"] for r in rows)),
         "prior_conflict_steps_total": int(sum(r["prior_conflict_steps"] for r in rows)),
         "mu_label_in_doubt_steps_total": int(sum(r["mu_label_in_doubt_steps"] for r in rows)),
     }

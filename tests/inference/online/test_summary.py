@@ -16,6 +16,7 @@ from tyrebayes.inference.online.summary import (
     READY,
     TOO_LITTLE_EXCITATION,
     OnlineSummary,
+    joint_prior_sds,
     log_normal_summary,
     readiness,
     summary_record,
@@ -72,6 +73,7 @@ def _summary(
         slip_inflation=one,
         prior_conflict=jnp.asarray(conflict),
         conflict_prior_sds=jnp.asarray(5.3 if conflict else 0.4),
+        conflict_joint_prior_sds=jnp.asarray(4.9 if conflict else 0.3),
         conflict_coordinate=jnp.asarray(1),
         coordinate_names=("log_c_xr", "abs_force_ratio"),
     )
@@ -89,7 +91,11 @@ def test_an_observed_mu_max_far_from_its_surface_prior_questions_the_label():
 def test_a_tyre_coordinate_in_conflict_with_its_prior_withholds_c_x_and_mu_max():
     record = summary_record(_summary(True, 2.7, conflict=True))
     assert record["mu_max"] is None and record["mu_max_reason"].startswith("withheld: ")
-    assert record["prior_conflict"] == {"coordinate": "abs_force_ratio", "prior_sds": 5.3}
+    assert record["prior_conflict"] == {
+        "coordinate": "abs_force_ratio",
+        "prior_sds": 5.3,
+        "joint_prior_sds": pytest.approx(4.9),
+    }
     assert summary_record(_summary(True, 2.7))["prior_conflict"] is None
 
 
@@ -118,6 +124,37 @@ def test_the_summary_names_the_checked_coordinate_beyond_the_readiness_distance(
     assert int(moved("log_c_xr", limit + 1.0).reason) == OUTSIDE_TYPE
     assert not bool(moved("log_c_xr", limit + 1.0).prior_conflict)
     assert not bool(moved("log_rho_noise_scale", limit + 1.0).prior_conflict)
+
+
+def test_joint_prior_sds_is_one_coordinates_distance_for_one_and_grows_with_more():
+    cov = jnp.diag(jnp.asarray([4.0, 0.25, 1.0]))
+    one = joint_prior_sds(jnp.asarray([-3.0]), cov[:1, :1])
+    assert float(one) == pytest.approx(1.5, rel=1e-9)
+    # Three coordinates at 3 sds each: d² = 27, χ²₃ tail 5.9e-6, as far out as one coordinate
+    # at 4.53 sds.
+    three = joint_prior_sds(jnp.asarray([6.0, 1.5, 3.0]), cov)
+    assert float(three) == pytest.approx(4.530, abs=1e-3)
+    # One coordinate at 3 sds among three: nearer than 3 sds alone (two of them sit at 0).
+    assert float(joint_prior_sds(jnp.asarray([6.0, 0.0, 0.0]), cov)) < 3.0
+
+
+def test_coordinates_each_inside_but_together_beyond_the_distance_are_a_conflict():
+    estimator = OnlineEstimator.create(kind="magic")
+    names = estimator.prior.names
+    limit = float(estimator.config.max_prior_z)
+    many = jnp.asarray(1000.0)
+    state = eqx.tree_at(
+        lambda s: (s.n_slip_windows, s.n_excited_windows), estimator.init(), (many, many)
+    )
+    shifted = state.mean
+    for name in (n for n in names if n in PRIOR_CHECKED):
+        j = names.index(name)
+        shifted = shifted.at[j].add(0.85 * limit * jnp.sqrt(estimator.prior.cov[j, j]))
+    summary = estimator.summary(eqx.tree_at(lambda s: s.mean, state, shifted))
+    assert abs(float(summary.conflict_prior_sds)) == pytest.approx(0.85 * limit)
+    assert float(summary.conflict_joint_prior_sds) > limit
+    assert bool(summary.prior_conflict) and int(summary.reason) == PRIOR_CONFLICT
+    assert summary_record(summary)["prior_conflict"]["joint_prior_sds"] > limit
 
 
 def test_an_observed_mu_max_likelier_on_another_surface_questions_the_label():

@@ -37,6 +37,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ..tyre.adequacy import likelier_surface
 from ..tyre.model import SURFACES, TyrePriors, check_kind
@@ -59,7 +60,13 @@ from .parameters import (
     type_prior,
 )
 from .state import FilterState
-from .summary import OnlineSummary, c_x_direction, log_normal_summary, readiness
+from .summary import (
+    OnlineSummary,
+    c_x_direction,
+    joint_prior_sds,
+    log_normal_summary,
+    readiness,
+)
 from .swap import either, swap_step
 from .windows import STEP_S, WindowBlocks
 
@@ -263,7 +270,13 @@ class OnlineEstimator(eqx.Module):
         checked = jnp.asarray([n in PRIOR_CHECKED for n in self.prior.names])
         checked_sds = jnp.where(checked, prior_sds, 0.0)
         worst = jnp.argmax(jnp.abs(checked_sds))
-        conflict = jnp.abs(checked_sds[worst]) > self.config.max_prior_z
+        rows = np.asarray([i for i, n in enumerate(self.prior.names) if n in PRIOR_CHECKED])
+        joint = joint_prior_sds(
+            (state.mean - self.prior.mean)[rows], self.prior.cov[np.ix_(rows, rows)]
+        )
+        conflict = (jnp.abs(checked_sds[worst]) > self.config.max_prior_z) | (
+            joint > self.config.max_prior_z
+        )
         ready, reason = readiness(
             c_x, state.n_slip_windows, state.n_excited_windows, prior_z, self.config, conflict
         )
@@ -306,6 +319,7 @@ class OnlineEstimator(eqx.Module):
             ),
             prior_conflict=conflict,
             conflict_prior_sds=checked_sds[worst],
+            conflict_joint_prior_sds=joint,
             conflict_coordinate=worst.astype(jnp.int32),
             coordinate_names=self.prior.names,
         )

@@ -19,18 +19,23 @@ that is not ready is reported as missing, with the reason (:func:`summary_record
 
 Neither is reported while the tyre's other coordinates
 (:data:`~tyrebayes.inference.online.parameters.PRIOR_CHECKED`: the curve's shape, the ABS force
-ratio, the temperature and load sensitivities) are in conflict with the type prior, one of them
-beyond ``max_prior_z`` prior sds from its prior mean: the filter is then explaining the windows
-with a tyre no prior allows, and its C_x and μ_max come from that misfit. A dry drive labelled
-ice is the case in point: its ABS forces, three times the ice prior's μ_max, went into the ABS
-force ratio, +5.3 prior sds (``benchmarks/results/identification.json``). The sensors' noise
-scales and the per-drive coordinates are not checked: they are the sensors' and the drive's,
-not the tyre's.
+ratio, the temperature and load sensitivities) are in conflict with the type prior: one of them
+beyond ``max_prior_z`` prior sds from its prior mean, or all of them together as far out, by
+their Mahalanobis distance under the prior (:func:`joint_prior_sds`: the χ² tail probability of
+that distance, read as the distance of one coordinate with the same two-sided tail). The filter
+is then explaining the windows with a tyre no prior allows, and its C_x and μ_max come from that
+misfit. A dry drive labelled ice is the case in point: its ABS forces, three times the ice
+prior's μ_max, went into the ABS force ratio and the curve's shape; with the exact Hessian as
+the filter's curvature one of them ended beyond 5 prior sds, with the Gauss-Newton curvature
+the misfit spread over four of them, none past 4 sds alone, and only their joint distance
+shows it (``benchmarks/results/identification.json``). The sensors' noise scales and the
+per-drive coordinates are not checked: they are the sensors' and the drive's, not the tyre's.
 """
 
 from __future__ import annotations
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
@@ -126,10 +131,14 @@ class OnlineSummary(eqx.Module):
     slip_inflation : Float[Array, "*t"]
         Variance inflation of the slip errors the next step uses.
     prior_conflict : Bool[Array, "*t"]
-        One of the tyre's checked coordinates lies beyond ``max_prior_z`` prior sds from its
-        prior mean (module docstring): C_x and μ_max are withheld.
+        One of the tyre's checked coordinates, or all of them jointly, lies beyond
+        ``max_prior_z`` prior sds from the prior mean (module docstring): C_x and μ_max are
+        withheld.
     conflict_prior_sds : Float[Array, "*t"]
         The checked coordinate farthest from its prior mean: its distance in prior sds, signed.
+    conflict_joint_prior_sds : Float[Array, "*t"]
+        The checked coordinates' joint distance from the prior mean as one coordinate's
+        (:func:`joint_prior_sds`).
     conflict_coordinate : Int[Array, "*t"]
         Its index in θ (``coordinate_names``).
     coordinate_names : tuple of str
@@ -158,8 +167,24 @@ class OnlineSummary(eqx.Module):
     slip_inflation: Float[Array, "*t"]
     prior_conflict: Bool[Array, "*t"]
     conflict_prior_sds: Float[Array, "*t"]
+    conflict_joint_prior_sds: Float[Array, "*t"]
     conflict_coordinate: Int[Array, "*t"]
     coordinate_names: tuple[str, ...] = eqx.field(static=True, default=())
+
+
+def joint_prior_sds(offset: Float[Array, "k"], prior_cov: Float[Array, "k k"]) -> Float[Array, ""]:
+    """How far k coordinates lie from their prior mean together, in one coordinate's sds.
+
+    The squared Mahalanobis distance d²  = offsetᵀ prior_cov⁻¹ offset has a χ²_k tail probability
+    p = Q(k/2, d²/2) when the coordinates are drawn from the prior; the result is the z with
+    the same two-sided Normal tail, P(|Z| > z) = p, so one threshold in sds serves a single
+    coordinate and the k together (z = |offset|/sd for k = 1). A posterior mean lies nearer the
+    prior's than a draw from it, so the tail is conservative for it.
+    """
+    k = offset.shape[0]
+    d2 = offset @ jnp.linalg.solve(prior_cov, offset)
+    tail = jax.scipy.special.gammaincc(k / 2.0, d2 / 2.0)
+    return -jax.scipy.special.ndtri(0.5 * tail)
 
 
 def c_x_direction(n_params: int, mean_temperature_c, index: dict, dtype=float):
@@ -240,6 +265,7 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
             else str(coordinate)
         ),
         "prior_sds": float(np.asarray(summary.conflict_prior_sds)[i]),
+        "joint_prior_sds": float(np.asarray(summary.conflict_joint_prior_sds)[i]),
     }
     if not observed:
         mu_reason = "not observed: no ABS stop, or too little contraction"
@@ -286,6 +312,7 @@ __all__ = [
     "LogNormalSummary",
     "OnlineSummary",
     "log_normal_summary",
+    "joint_prior_sds",
     "readiness",
     "summary_record",
 ]
