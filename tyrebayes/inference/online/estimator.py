@@ -11,7 +11,8 @@ One step (Särkkä 2013, ch. 5-6; module docstrings of the parts):
    (:data:`~.config.DRIFT_PER_SQRT_S`); at a drive start the per-drive coordinates
    (:data:`~.parameters.PER_DRIVE`) take their prior again, uncorrelated with the rest;
 2. update: the Laplace update on the batch model's own per-window likelihood of the block
-   (:mod:`.laplace_update`, :mod:`.block_likelihood`), slips weighted by 1/VIF;
+   (:mod:`.laplace_update`, :mod:`.block_likelihood`), slips weighted by 1/VIF, with the
+   block's Gauss-Newton information as its curvature (:attr:`OnlineConfig.gauss_newton`);
 3. swap: for the first steps of a drive, a challenger filter whose tyre coordinates started
    again from the prior at the drive start is updated by the same block; the log Bayes factor
    of the two (:mod:`.swap`) past its threshold makes the challenger the estimate;
