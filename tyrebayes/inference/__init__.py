@@ -23,7 +23,10 @@ from .tyre.fit import fit_tyre_fast as fit_tyre_fast
 from .tyre.fit import fit_tyre_nuts as fit_tyre_nuts
 from .tyre.model import TyrePriors as TyrePriors
 from .tyre.model import WindowLikelihood as WindowLikelihood
+from .tyre.model import WindowQuantities as WindowQuantities
+from .tyre.model import likelihood_of_quantities as likelihood_of_quantities
 from .tyre.model import tyre_model as tyre_model
 from .tyre.model import window_likelihood as window_likelihood
+from .tyre.model import window_quantities as window_quantities
 from .tyre.predictive import observations_from_fit as observations_from_fit
 from .tyre.predictive import with_pointwise as with_pointwise
