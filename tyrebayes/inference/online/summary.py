@@ -25,10 +25,10 @@ their Mahalanobis distance under the prior (:func:`joint_prior_sds`: the χ² ta
 that distance, read as the distance of one coordinate with the same two-sided tail). The filter
 is then explaining the windows with a tyre no prior allows, and its C_x and μ_max come from that
 misfit. A dry drive labelled ice is the case in point: its ABS forces, three times the ice
-prior's μ_max, went into the ABS force ratio and the curve's shape
-(``benchmarks/results/identification.json``); with the Gauss-Newton curvature taken from the
-type prior on, the misfit spread over four of them, none past 4 sds alone, and only their
-joint distance showed it. The sensors' noise scales and the
+prior's μ_max, went into the ABS force ratio and the curve's shape; with the exact Hessian as
+the filter's curvature one of them ended beyond 5 prior sds, with the Gauss-Newton curvature
+the misfit spread over four of them, none past 4 sds alone, and only their joint distance
+shows it (``benchmarks/results/identification.json``). The sensors' noise scales and the
 per-drive coordinates are not checked: they are the sensors' and the drive's, not the tyre's.
 """
 
