@@ -75,15 +75,7 @@ class OnlineConfig(eqx.Module):
         Take each update's curvature as the block's Gauss-Newton information
         (:func:`~.block_likelihood.block_curvature`: the windows' quantities differentiated
         once) instead of its exact Hessian (static; True: about half the cost of an exact
-        Hessian of the Magic Formula's block, ``benchmarks/online_speed.py``) once the
-        predicted sd of log C_xr is at most ``gauss_newton_log_sd``.
-    gauss_newton_log_sd : float
-        Before that (a start, a restart, the swap test's challenger: C_xr from its type prior)
-        an update takes the exact Hessian. Gauss-Newton is a local approximation: from the
-        type prior its Newton steps went astray on a simulated swap (C_xr 0.25 after 10
-        iterations, the challenger's evidence −1,145 nats, where the exact Hessian's
-        saddle-free steps reached the mode at 67.8; ``benchmarks/online_change.py``, pair 26).
-        0.06: the readiness width.
+        Hessian of the Magic Formula's block, ``benchmarks/online_speed.py``).
     newton_tolerance : float
         ... and no more once a step is shorter than this many posterior sds: a settled
         posterior takes two, the second confirming the first. It also sets how exactly the
@@ -149,7 +141,6 @@ class OnlineConfig(eqx.Module):
     swap_threshold: Float[Array, ""] = eqx.field(converter=_float, default=SWAP_THRESHOLD)
     swap_window_steps: Int[Array, ""] = eqx.field(converter=_int, default=20)
     change_gate_log_sd: Float[Array, ""] = eqx.field(converter=_float, default=0.06)
-    gauss_newton_log_sd: Float[Array, ""] = eqx.field(converter=_float, default=0.06)
     ready_half_width: Float[Array, ""] = eqx.field(converter=_float, default=0.10)
     min_slip_windows: Int[Array, ""] = eqx.field(converter=_int, default=240)
     min_excited_windows: Int[Array, ""] = eqx.field(converter=_int, default=120)

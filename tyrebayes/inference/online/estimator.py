@@ -12,8 +12,7 @@ One step (Särkkä 2013, ch. 5-6; module docstrings of the parts):
    (:data:`~.parameters.PER_DRIVE`) take their prior again, uncorrelated with the rest;
 2. update: the Laplace update on the batch model's own per-window likelihood of the block
    (:mod:`.laplace_update`, :mod:`.block_likelihood`), slips weighted by 1/VIF, with the
-   block's Gauss-Newton information as its curvature once C_xr is settled, its exact Hessian
-   before (:attr:`OnlineConfig.gauss_newton`);
+   block's Gauss-Newton information as its curvature (:attr:`OnlineConfig.gauss_newton`);
 3. swap: for the first steps of a drive, a challenger filter whose tyre coordinates started
    again from the prior at the drive start is updated by the same block; the log Bayes factor
    of the two (:mod:`.swap`) past its threshold makes the challenger the estimate;
@@ -51,7 +50,7 @@ from .block_likelihood import (
 from .change import cusum_step, predictive_shift_ratios
 from .config import OnlineConfig, default_config
 from .inflation import accrue_residuals, empty_inflation, inflation_in_use
-from .laplace_update import exact_curvature, laplace_update
+from .laplace_update import laplace_update
 from .parameters import (
     PER_DRIVE,
     PRIOR_CHECKED,
@@ -152,20 +151,8 @@ class OnlineEstimator(eqx.Module):
         def log_likelihood(theta):
             return block_log_likelihood(theta, block, weight, self.kind, self.priors)
 
-        exact = exact_curvature(log_likelihood)
-        c_index = self._index["log_c_xr"]
-
-        def curvature(settled):
-            # Gauss-Newton once C_xr is settled, the exact Hessian before (config).
-            def chosen(theta):
-                return jax.lax.cond(
-                    settled,
-                    lambda t: block_curvature(t, block, weight, self.kind, self.priors),
-                    exact,
-                    theta,
-                )
-
-            return chosen if cfg.gauss_newton else None
+        def gauss_newton(theta):
+            return block_curvature(theta, block, weight, self.kind, self.priors)
 
         elapsed = jnp.maximum(block.time_s - state.time_s, 0.0)
         drift = jnp.diag(cfg.drift_sd_per_sqrt_s**2 * elapsed)
@@ -174,7 +161,6 @@ class OnlineEstimator(eqx.Module):
         quadratic = jnp.asarray([n in QUADRATIC for n in self.prior.names])
 
         def laplace(mean, cov):
-            settled = jnp.sqrt(cov[c_index, c_index]) <= cfg.gauss_newton_log_sd
             return laplace_update(
                 log_likelihood,
                 mean,
@@ -182,7 +168,7 @@ class OnlineEstimator(eqx.Module):
                 cfg.newton_steps,
                 cfg.newton_tolerance,
                 quadratic,
-                curvature=curvature(settled),
+                curvature=gauss_newton if cfg.gauss_newton else None,
             )
 
         updated = laplace(*predicted)
@@ -214,6 +200,7 @@ class OnlineEstimator(eqx.Module):
             threshold=cfg.swap_threshold,
         )
 
+        c_index = self._index["log_c_xr"]
         up, down, shifted = cusum_step(
             predictive_shift_ratios(predicted, updated, index=c_index, shift=cfg.change_log_shift),
             state.cusum_up,
