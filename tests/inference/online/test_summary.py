@@ -99,15 +99,21 @@ def test_a_tyre_coordinate_in_conflict_with_its_prior_withholds_c_x_and_mu_max()
     assert summary_record(_summary(True, 2.7))["prior_conflict"] is None
 
 
-@pytest.mark.parametrize("coordinate", ["abs_force_ratio", "log_curve_curvature_gap"])
-def test_the_summary_names_the_checked_coordinate_beyond_the_readiness_distance(coordinate):
+def _excited_prior_state():
+    """A Magic Formula estimator and its prior state with windows enough to be ready."""
     estimator = OnlineEstimator.create(kind="magic")
-    names = estimator.prior.names
-    limit = float(estimator.config.max_prior_z)
     many = jnp.asarray(1000.0)
     state = eqx.tree_at(
         lambda s: (s.n_slip_windows, s.n_excited_windows), estimator.init(), (many, many)
     )
+    return estimator, state
+
+
+@pytest.mark.parametrize("coordinate", ["abs_force_ratio", "log_curve_curvature_gap"])
+def test_the_summary_names_the_checked_coordinate_beyond_the_readiness_distance(coordinate):
+    estimator, state = _excited_prior_state()
+    names = estimator.prior.names
+    limit = float(estimator.config.max_prior_z)
 
     def moved(name, sds):
         j = names.index(name)
@@ -139,13 +145,9 @@ def test_joint_prior_sds_is_one_coordinates_distance_for_one_and_grows_with_more
 
 
 def test_coordinates_each_inside_but_together_beyond_the_distance_are_a_conflict():
-    estimator = OnlineEstimator.create(kind="magic")
+    estimator, state = _excited_prior_state()
     names = estimator.prior.names
     limit = float(estimator.config.max_prior_z)
-    many = jnp.asarray(1000.0)
-    state = eqx.tree_at(
-        lambda s: (s.n_slip_windows, s.n_excited_windows), estimator.init(), (many, many)
-    )
     shifted = state.mean
     for name in (n for n in names if n in PRIOR_CHECKED):
         j = names.index(name)
