@@ -1,11 +1,13 @@
-"""The Laplace update: exact Kalman on a linear-Gaussian likelihood; never grows the covariance."""
+"""The Laplace update: exact Kalman on a linear-Gaussian likelihood; never grows the covariance;
+damped steps where the quadratic model fails."""
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.scipy.stats import norm
 from scipy.stats import multivariate_normal
 
-from tyrebayes.inference.online.laplace_update import laplace_update
+from tyrebayes.inference.online.laplace_update import _next_damping, laplace_update
 
 
 def _kalman(mean, cov, a, y, r):
@@ -104,3 +106,44 @@ def test_a_step_along_a_quadratic_coordinate_takes_no_new_hessian(monkeypatch):
         np.testing.assert_allclose(skipping.mean, everywhere.mean, rtol=1e-6)
         sd = np.sqrt(np.diag(np.asarray(everywhere.cov)))
         np.testing.assert_allclose(np.sqrt(np.diag(np.asarray(skipping.cov))), sd, rtol=0.03)
+
+
+def test_damping_follows_the_gain_ratio():
+    # Predicted well: trusted more, and dropped once small; badly: distrusted, at least λ = 1;
+    # a step within the tolerance ends the damping whatever its (round-off) gain.
+    def nxt(damping, actual, settled=False):
+        return float(
+            _next_damping(
+                jnp.asarray(damping),
+                actual=jnp.asarray(actual),
+                predicted=jnp.asarray(1.0),
+                settled=jnp.asarray(settled),
+            )
+        )
+
+    assert nxt(0.0, 0.9) == 0.0 and nxt(4.0, 0.9) == 1.0 and nxt(0.02, 0.9) == 0.0
+    assert nxt(0.0, 0.1) == 1.0 and nxt(2.0, -5.0) == 8.0 and nxt(2.0, 0.5) == 2.0
+    assert nxt(8.0, -5.0, settled=True) == 0.0
+
+
+def test_damped_gauss_newton_steps_reach_the_mode_where_full_ones_overshoot():
+    # A saturating response seen from a prior far on its flat side: the Gauss-Newton
+    # information vanishes there, so the full steps overshoot by many prior sds; damped, the
+    # update reaches the mode of the exact-Hessian update in 8 iterations.
+    n, y = 1e4, jnp.asarray([0.9, -0.5])
+
+    def log_likelihood(theta):
+        return -0.5 * n * jnp.sum((y - jnp.tanh(theta)) ** 2)
+
+    def gauss_newton(theta):
+        jacobian = jax.jacfwd(jnp.tanh)(theta)
+        residual = n * (y - jnp.tanh(theta))
+        return log_likelihood(theta), jacobian.T @ residual, n * jacobian.T @ jacobian
+
+    mean, cov = jnp.asarray([-3.0, 3.0]), 4.0 * jnp.eye(2)
+    exact = laplace_update(log_likelihood, mean, cov, 60, 0.0)
+    damped = laplace_update(log_likelihood, mean, cov, 8, 0.0, curvature=gauss_newton)
+    full = laplace_update(log_likelihood, mean, cov, 8, 0.0, curvature=gauss_newton, damped=False)
+    assert np.allclose(damped.mean, exact.mean, atol=1e-3)
+    assert abs(float(damped.log_evidence - exact.log_evidence)) < 0.05
+    assert float(full.log_evidence) < float(exact.log_evidence) - 100.0
