@@ -175,7 +175,7 @@ def model_windows(template: dict, seed: int) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--swaps", type=int, default=10)
+    parser.add_argument("--swaps", type=int, default=30)
     parser.add_argument("--before", type=float, default=600.0)
     parser.add_argument("--after", type=float, default=360.0)
     parser.add_argument("--cars", type=int, default=100)

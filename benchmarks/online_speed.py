@@ -374,7 +374,8 @@ def main() -> None:
         "as the filter's curvature (revision 31df558), on a slower day; "
         "online_speed_f0e5ce6.json: before the slip offset's "
         "steps stopped taking new Hessians and one-drive sites were broadcast; "
-        "online_speed_779f035.json: before packed steps existed",
+        "online_speed_779f035.json: before packed steps existed; "
+        "online_speed_vs_31df558.json: revision 463e925 (Gauss-Newton) timed beside 31df558",
     }
     Path(args.out).write_text(json.dumps(result, indent=2))
 
