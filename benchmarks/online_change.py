@@ -80,6 +80,12 @@ TRUE = {
 }
 
 
+def _first_after(row: dict, before_s: float) -> str:
+    """The kind of the first alarm after the swap ("" if none)."""
+    after = [k for t, k in zip(row["alarms_s"], row["alarm_kinds"], strict=True) if t > before_s]
+    return after[0] if after else ""
+
+
 def swap_drive(i: int, before_s: float, after_s: float, factor: float) -> dict:
     """Pair ``i``: a drive on one tyre, then one on a tyre with C_xr × ``factor``."""
     rng = np.random.default_rng([i, 11])
@@ -194,7 +200,9 @@ def main() -> None:
         n = steps.n_blocks
         _, traj = run_online(estimator, estimator.init(), pad_steps(steps, n_steps))
         times = np.asarray(traj.time_s)[:n]
-        alarms = times[np.asarray(traj.alarm)[:n]]
+        alarmed = np.asarray(traj.alarm)[:n]
+        alarms = times[alarmed]
+        kinds = np.where(np.asarray(traj.swap_alarm)[:n][alarmed], "swap", "change")
         after = alarms[alarms > args.before]
         delay = float(after[0] - args.before) if after.size else None
         row = {
@@ -202,6 +210,8 @@ def main() -> None:
             "c_xr_factor": factor,
             **batch_separation(windows, args.before),
             "alarms_s": alarms.tolist(),
+            # Which detector raised each: the drive-start swap test or the mid-drive CUSUM.
+            "alarm_kinds": kinds.tolist(),
             "false_alarms_before_swap": int(np.sum(alarms <= args.before)),
             "delay_s": delay,
             "detected_within_5min": bool(delay is not None and delay <= DETECT_WITHIN_S),
@@ -209,6 +219,7 @@ def main() -> None:
                 np.asarray(traj.c_x.mean)[:n][np.searchsorted(times, args.before) - 1]
             ),
             "c_x_end": float(np.asarray(traj.c_x.mean)[n - 1]),
+            # After the steps', so an alarm's own step shows the reset (0), not its crossing.
             "swap_log_bayes_factor_max_after": float(
                 np.max(np.asarray(traj.swap_log_bayes_factor)[:n][times > args.before])
             ),
@@ -279,6 +290,13 @@ def main() -> None:
             if any(s["delay_s"] for s in swaps)
             else None,
             "false_alarms_before_swaps": int(sum(s["false_alarms_before_swap"] for s in swaps)),
+            "found_by": {
+                kind: sum(
+                    s["detected_within_5min"] and _first_after(s, args.before) == kind
+                    for s in swaps
+                )
+                for kind in ("swap", "change")
+            },
             "batch_separation_sd": {
                 "detected": [s["batch_separation_sd"] for s in swaps if s["detected_within_5min"]],
                 "missed": [s["batch_separation_sd"] for s in swaps if s not in found],

@@ -41,6 +41,8 @@ def test_online_json_trajectory(short_stream, capsys):
             lo, hi = r["c_x"]["hdi_90"]
             assert lo < r["c_x"]["mean"] < hi
     assert payload["alarms_s"] == [r["time_s"] for r in trajectory if r["alarm"]]
+    assert payload["alarm_kinds"] == [r["alarm_kind"] for r in trajectory if r["alarm"]]
+    assert all((r["alarm_kind"] in ("swap", "change")) == r["alarm"] for r in trajectory)
     assert "whole stream" in payload["note"]
     assert payload["step_s"] == payload["max_step_s"] == 30.0
 

@@ -87,7 +87,11 @@ def _text(payload: dict[str, Any]) -> str:
         minutes = r["time_s"] / 60.0
         flag = "yes" if r["enough_evidence"] else "no"
         text = _value_text(r["c_x"], r["reason"])
-        alarm = "  CHANGE ALARM: restarted from the type prior" if r["alarm"] else ""
+        alarm = {
+            "change": "  CHANGE ALARM: restarted from the type prior",
+            "swap": "  SWAP ALARM: a new tyre since the drive start, learned from it",
+            "": "",
+        }[r["alarm_kind"]]
         lines.append(f"{minutes:6.1f} min  {text}  {flag}{alarm}")
     final = payload["final"]
     mu = final["mu_max"]
@@ -103,9 +107,9 @@ def _text(payload: dict[str, Any]) -> str:
             "sds from its prior: the model does not fit these windows (check the surface label "
             "and the vehicle file); C_x and mu_max withheld"
         )
-    alarms = payload["alarms_s"]
-    at = ", ".join(f"{t:.0f} s" for t in alarms) if alarms else "none"
-    lines.append(f"change alarms at: {at}")
+    alarms = zip(payload["alarms_s"], payload["alarm_kinds"], strict=True)
+    at = ", ".join(f"{t:.0f} s ({kind})" for t, kind in alarms)
+    lines.append(f"change alarms at: {at or 'none'}")
     lines.append(f"note: {LOOKAHEAD_NOTE}")
     return "\n".join(lines)
 
@@ -148,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
         "trajectory": records,
         "final": records[-1],
         "alarms_s": [r["time_s"] for r in records if r["alarm"]],
+        "alarm_kinds": [r["alarm_kind"] for r in records if r["alarm"]],
         "note": LOOKAHEAD_NOTE,
     }
     if args.figure is not None:

@@ -103,6 +103,8 @@ def test_change_fires_on_a_planted_step_and_not_without_one(estimator):
     _, loud = run_online(estimator, estimator.init(), swapped)
     alarms = np.asarray(loud.time_s)[np.asarray(loud.alarm)]
     assert alarms.size >= 1 and 600.0 < alarms[0] <= 900.0
+    # Mid-drive, so the change detector's, not the drive-start swap test's.
+    assert not np.any(np.asarray(loud.swap_alarm))
     # After the restart from the prior the estimator learns the new tyre.
     assert abs(float(loud.c_x.mean[-1]) / 48.0 - 1.0) < 0.05
 
@@ -144,6 +146,7 @@ def test_swap_at_a_drive_start_is_found_and_a_new_drive_alone_is_not(estimator):
     _, loud = run_online(swap_only, swap_only.init(), _steps(_two_drives(11, 52.0, -0.003)))
     alarms = np.asarray(loud.time_s)[np.asarray(loud.alarm)]
     assert alarms.size == 1 and 600.0 < alarms[0] <= 900.0
+    assert np.array_equal(np.asarray(loud.swap_alarm), np.asarray(loud.alarm))
     assert abs(float(loud.c_x.mean[-1]) / 52.0 - 1.0) < 0.03
 
 

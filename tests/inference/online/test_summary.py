@@ -65,6 +65,7 @@ def _summary(
         mu_likelier_surface=jnp.asarray(3),
         mu_label_log_bf=jnp.asarray(label_log_bf),
         alarm=jnp.asarray(False),
+        swap_alarm=jnp.asarray(False),
         n_alarms=jnp.asarray(0),
         swap_log_bayes_factor=zero,
         n_slip_windows=jnp.asarray(1000.0),

@@ -138,6 +138,7 @@ class OnlineEstimator(eqx.Module):
             drive_steps=jnp.asarray(self.config.swap_window_steps, dtype=jnp.int32),
             n_alarms=jnp.zeros((), dtype=jnp.int32),
             alarm=jnp.zeros((), dtype=bool),
+            swap_alarm=jnp.zeros((), dtype=bool),
             inflation=empty_inflation(dtype),
         )
 
@@ -173,9 +174,10 @@ class OnlineEstimator(eqx.Module):
             )
 
         # The estimate's steps are undamped: damping them moves where the update of a block the
-        # model does not explain lands (the noise scales absorb such a block either way; the
-        # README's known defects), while its first blocks from the prior reach their modes
-        # undamped (benchmarks/online_agreement.py).
+        # model does not explain lands, and the noise scales absorb such a block either way
+        # (README, "Why 5 of 30 swaps are missed" and after). Undamped, its first blocks from
+        # the prior can stop short of their modes; that costs the estimate those blocks'
+        # information, not a test's running sum.
         updated = laplace(*predicted, damped=False)
 
         # The swap test's challenger: from a drive start, the tyre's coordinates anew.
@@ -260,6 +262,7 @@ class OnlineEstimator(eqx.Module):
             drive_steps=drive_steps,
             n_alarms=state.n_alarms + alarm.astype(jnp.int32),
             alarm=alarm,
+            swap_alarm=swapped,
             inflation=accrue_residuals(state.inflation, z, slip_window),
         )
 
@@ -319,6 +322,7 @@ class OnlineEstimator(eqx.Module):
             mu_likelier_surface=likelier.astype(jnp.int32),
             mu_label_log_bf=label_log_bf,
             alarm=state.alarm,
+            swap_alarm=state.swap_alarm,
             n_alarms=state.n_alarms,
             swap_log_bayes_factor=state.log_bayes_factor,
             n_slip_windows=state.n_slip_windows,

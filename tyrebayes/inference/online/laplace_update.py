@@ -22,9 +22,9 @@ Newton matrix's prior part scaled by 1 + λ (:func:`_next_damping`): far from th
 blocks from a wide prior, the Gauss-Newton information leaves out the large residuals' curvature
 and its full steps overshoot by many prior sds, from which shortened steps of the same
 direction climb back only slowly (a swap test's challenger, started from the type prior on a
-simulated drive, was still 1,100 nats short of the mode after 10 iterations; damped, it reached
-it in 10). A settled filter's steps are predicted well and never damped. The Hessian,
-most of an iteration's cost, is taken again only after a step longer than
+simulated drive, was still 1,600 nats short of the mode after 10 iterations; damped, it reached
+it in 10). A settled filter's steps are predicted well, and damping leaves them as they were.
+The Hessian, most of an iteration's cost, is taken again only after a step longer than
 :data:`_REFRESH_SD` posterior sds in the coordinates the block's curvature depends on: a
 settled filter's first step from the predicted mean is a fraction of an sd in those, over which
 the curvature barely changes, so its update costs one Hessian (a chord step confirms the mode).

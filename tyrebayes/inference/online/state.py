@@ -78,6 +78,9 @@ class FilterState(eqx.Module):
         Change alarms so far.
     alarm : Bool[Array, ""]
         The last step raised an alarm (and restarted from the prior).
+    swap_alarm : Bool[Array, ""]
+        ... and it was the drive-start swap test's (the estimate is the challenger's, which
+        learned the new tyre since the drive start), not the mid-drive change detector's.
     inflation : InflationSums
         The slip errors' running variance-inflation sums (kept across restarts: a property of
         the sensors, not of the tyre).
@@ -99,6 +102,7 @@ class FilterState(eqx.Module):
     drive_steps: Int[Array, ""]
     n_alarms: Int[Array, ""]
     alarm: Bool[Array, ""]
+    swap_alarm: Bool[Array, ""]
     inflation: InflationSums
 
 

@@ -121,6 +121,9 @@ class OnlineSummary(eqx.Module):
         in doubt.
     alarm : Bool[Array, "*t"]
         A change alarm at this step (the estimator restarted from the prior).
+    swap_alarm : Bool[Array, "*t"]
+        ... raised by the drive-start swap test (:mod:`.swap`; the estimate is then the
+        challenger's), not by the mid-drive change detector (:mod:`.change`).
     n_alarms : Int[Array, "*t"]
         Alarms so far.
     swap_log_bayes_factor : Float[Array, "*t"]
@@ -159,6 +162,7 @@ class OnlineSummary(eqx.Module):
     mu_likelier_surface: Int[Array, "*t"]
     mu_label_log_bf: Float[Array, "*t"]
     alarm: Bool[Array, "*t"]
+    swap_alarm: Bool[Array, "*t"]
     n_alarms: Int[Array, "*t"]
     swap_log_bayes_factor: Float[Array, "*t"]
     n_slip_windows: Float[Array, "*t"]
@@ -295,6 +299,7 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
         },
         "force_gain": _value(summary.force_gain, i),
         "alarm": bool(np.asarray(summary.alarm)[i]),
+        "alarm_kind": _alarm_kind(summary, i),
         "n_alarms": int(np.asarray(summary.n_alarms)[i]),
         "swap_log_bayes_factor": float(np.asarray(summary.swap_log_bayes_factor)[i]),
         "n_slip_windows": int(np.asarray(summary.n_slip_windows)[i]),
@@ -304,6 +309,13 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
         "prior_conflict": conflict_record if conflict else None,
     }
     return record
+
+
+def _alarm_kind(summary: OnlineSummary, i) -> str:
+    """ "swap" (the drive-start swap test), "change" (the mid-drive detector) or "" (none)."""
+    if not bool(np.asarray(summary.alarm)[i]):
+        return ""
+    return "swap" if bool(np.asarray(summary.swap_alarm)[i]) else "change"
 
 
 __all__ = [
