@@ -219,7 +219,7 @@ def main() -> None:
                 np.asarray(traj.c_x.mean)[:n][np.searchsorted(times, args.before) - 1]
             ),
             "c_x_end": float(np.asarray(traj.c_x.mean)[n - 1]),
-            # After the steps', so an alarm's own step shows the reset (0), not its crossing.
+            # Read after each step, so an alarm's own step shows the reset (0), not its crossing.
             "swap_log_bayes_factor_max_after": float(
                 np.max(np.asarray(traj.swap_log_bayes_factor)[:n][times > args.before])
             ),

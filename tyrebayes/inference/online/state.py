@@ -77,7 +77,8 @@ class FilterState(eqx.Module):
     n_alarms : Int[Array, ""]
         Change alarms so far.
     alarm : Bool[Array, ""]
-        The last step raised an alarm (and restarted from the prior).
+        The last step raised an alarm (and restarted from the type prior, or took the
+        challenger's estimate).
     swap_alarm : Bool[Array, ""]
         ... and it was the drive-start swap test's (the estimate is the challenger's, which
         learned the new tyre since the drive start), not the mid-drive change detector's.

@@ -120,10 +120,11 @@ class OnlineSummary(eqx.Module):
         :data:`~tyrebayes.inference.tyre.adequacy.MAX_LABEL_LOG_BAYES_FACTOR` also puts the label
         in doubt.
     alarm : Bool[Array, "*t"]
-        A change alarm at this step (the estimator restarted from the prior).
+        An alarm at this step: the tyre's coordinates restarted from the type prior (a
+        mid-drive change), or the challenger's taken over (a swap).
     swap_alarm : Bool[Array, "*t"]
-        ... raised by the drive-start swap test (:mod:`.swap`; the estimate is then the
-        challenger's), not by the mid-drive change detector (:mod:`.change`).
+        ... raised by the drive-start swap test (:mod:`.swap`), not by the mid-drive change
+        detector (:mod:`.change`).
     n_alarms : Int[Array, "*t"]
         Alarms so far.
     swap_log_bayes_factor : Float[Array, "*t"]
@@ -312,7 +313,8 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
 
 
 def _alarm_kind(summary: OnlineSummary, i) -> str:
-    """ "swap" (the drive-start swap test), "change" (the mid-drive detector) or "" (none)."""
+    """The detector of the alarm at step ``i``: "swap" (the drive-start swap test), "change"
+    (the mid-drive detector) or "" (no alarm)."""
     if not bool(np.asarray(summary.alarm)[i]):
         return ""
     return "swap" if bool(np.asarray(summary.swap_alarm)[i]) else "change"
