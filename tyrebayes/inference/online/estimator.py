@@ -14,9 +14,8 @@ One step (Särkkä 2013, ch. 5-6; module docstrings of the parts):
    (:mod:`.laplace_update`, :mod:`.block_likelihood`), slips weighted by 1/VIF, with the
    block's Gauss-Newton information as its curvature (:attr:`OnlineConfig.gauss_newton`);
 3. swap: for the first steps of a drive, a challenger filter whose tyre coordinates started
-   again from the prior at the drive start is updated by the same block, its Newton steps
-   damped (:mod:`.laplace_update`); the log Bayes factor of the two (:mod:`.swap`) past its
-   threshold makes the challenger the estimate;
+   again from the prior at the drive start is updated by the same block; the log Bayes factor
+   of the two (:mod:`.swap`) past its threshold makes the challenger the estimate;
 4. change: the two-sided CUSUM of a mid-drive C_xr step on the block's predictive likelihood
    ratio, from the predicted and the updated Gaussians (:mod:`.change`); an alarm restarts the
    tyre's and the drive's coordinates (:data:`~.parameters.TYRE_COORDINATES`,
@@ -25,12 +24,7 @@ One step (Särkkä 2013, ch. 5-6; module docstrings of the parts):
    block that raised the alarm is left out: its information was taken at the old tyre's mode,
    and carried from there to the prior as a linear message it can land far outside the prior
    (a block of turning windows whose slips sat far off the curve sent C_x to zero);
-5. outliers: without an alarm, a settled estimate keeps its prediction where the block's update
-   would move a noise scale by more than :attr:`OnlineConfig.max_noise_shift_sds` of its
-   predicted sds (a block the model cannot explain, which the Normal errors would take as a
-   larger noise for the rest of the drive);
-6. the standardised residuals at the new mode feed the VIF estimate (:mod:`.inflation`), those
-   of a block left out excepted.
+5. the standardised residuals at the new mode feed the VIF estimate (:mod:`.inflation`).
 
 Examples
 --------
@@ -182,9 +176,11 @@ class OnlineEstimator(eqx.Module):
                 damped=damped,
             )
 
-        # The estimate's steps are undamped (the filter benchmarks/online_agreement.py
-        # measures). Its first blocks from the prior can then stop short of their modes, which
-        # costs it those blocks' information, not a test's running sum.
+        # The estimate's steps are undamped: damping them moves where the update of a block the
+        # model does not explain lands, and the noise scales absorb such a block either way
+        # (README, "Why 5 of 30 swaps are missed" and after). Undamped, its first blocks from
+        # the prior can stop short of their modes; that costs the estimate those blocks'
+        # information, not a test's running sum.
         updated = laplace(*predicted, damped=False)
 
         # The swap test's challenger: from a drive start, the tyre's coordinates anew.
