@@ -144,8 +144,6 @@ def one_drive(name, windows, truth_at, n_steps, estimator, source, max_step_s=No
         "ekf_time_to_useful_s": first_time(e_useful),
         "ekf_err_when_useful": error_at(e_useful, e_mean),
         "n_alarms": int(np.asarray(traj.n_alarms)[n - 1]),
-        # Blocks the outlier gate left out (OnlineConfig.max_noise_shift_sds).
-        "n_blocks_left_out": int(np.asarray(traj.n_left_out)[n - 1]),
         # The prior-conflict check (summary.py): how near the tyre's checked coordinates came to
         # its limit on a drive labelled as driven, and the steps it withheld.
         "conflict_prior_sds_max": float(np.max(np.abs(np.asarray(traj.conflict_prior_sds)[:n]))),
@@ -228,8 +226,6 @@ def pooled(rows: list[dict]) -> dict:
         "online_abs_err_at_end_median": float(np.median([abs(r["online_err_at_end"]) for r in ok])),
         "ekf_abs_err_at_end_median": float(np.median([abs(r["ekf_err_at_end"]) for r in ok])),
         "n_alarms_total": int(sum(r["n_alarms"] for r in ok)),
-        "n_blocks_left_out_total": int(sum(r["n_blocks_left_out"] for r in rows)),
-        "n_steps_total": int(sum(r["n_steps"] for r in rows)),
         "conflict_prior_sds_max": float(max(r["conflict_prior_sds_max"] for r in rows)),
         "conflict_joint_prior_sds_max": float(max(r["conflict_joint_prior_sds_max"] for r in rows)),
         "prior_conflict_steps_total": int(sum(r["prior_conflict_steps"] for r in rows)),

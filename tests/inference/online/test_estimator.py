@@ -17,7 +17,6 @@ from tyrebayes.inference.online import (
     summary_record,
     window_blocks,
 )
-from tyrebayes.inference.online.parameters import NOISE_SCALES
 from tyrebayes.inference.tyre.model import TyrePriors
 
 from ._synthetic import linear_windows
@@ -116,18 +115,9 @@ def test_one_block_of_outlying_slips_is_not_a_change(estimator):
     windows = linear_windows(6, 1200.0)
     burst = (windows["time_s"] > 700.0) & (windows["time_s"] < 710.0)
     windows["slip"] = windows["slip"] + np.where(burst, 20 * 2e-4 * 5, 0.0)
-    state, trajectory = run_online(estimator, estimator.init(), _steps(windows))
+    _, trajectory = run_online(estimator, estimator.init(), _steps(windows))
     assert int(trajectory.n_alarms[-1]) == 0
     assert abs(float(trajectory.c_x.mean[-1]) / 40.0 - 1.0) < 0.05
-    # The outlier gate leaves that block out (and only it), so the noise scales, which the
-    # Normal errors would otherwise have blown up for the rest of the drive, stay as learned.
-    left = np.asarray(trajectory.time_s)[np.asarray(trajectory.left_out)]
-    assert left.size == 1 and 700.0 < left[0] <= 740.0
-    final, clean = run_online(estimator, estimator.init(), _steps(linear_windows(6, 1200.0)))
-    assert int(clean.n_left_out[-1]) == 0
-    noise = [estimator.prior.names.index(n) for n in NOISE_SCALES]
-    sd = np.sqrt(np.diag(np.asarray(final.cov)))[noise]
-    assert np.all(np.abs(np.asarray(state.mean - final.mean)[noise]) < 3.0 * sd)
 
 
 def _two_drives(seed, c_x_after, offset_after):

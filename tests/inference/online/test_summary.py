@@ -67,8 +67,6 @@ def _summary(
         alarm=jnp.asarray(False),
         swap_alarm=jnp.asarray(False),
         n_alarms=jnp.asarray(0),
-        left_out=jnp.asarray(False),
-        n_left_out=jnp.asarray(0),
         swap_log_bayes_factor=zero,
         n_slip_windows=jnp.asarray(1000.0),
         n_excited_windows=jnp.asarray(800.0),

@@ -96,16 +96,6 @@ class OnlineConfig(eqx.Module):
         Steps after a drive start that the swap test runs (20: ten minutes of steps that start
         30 s apart, more where steps pack sparse driving, :mod:`.windows`; the challenger
         filter costs a second update per step while it runs).
-    max_noise_shift_sds : float
-        A settled estimate (C_xr within ``change_gate_log_sd``) leaves out a block whose update
-        would move a noise scale (:data:`~.parameters.NOISE_SCALES`) by more than this many of
-        its predicted sds: the noise scales are the sensors', do not drift, and under the model
-        a block moves a settled one by an N(0, < 1) number of its sds (5: < 6e-7 a block and
-        coordinate, < 2e-4 an hour). A block of outlying slips, which the Normal errors can
-        only explain by a larger noise, moved them by tens of sds, for the rest of the drive
-        (``test_one_block_of_outlying_slips_is_not_a_change``); ``benchmarks/online_agreement.py``
-        and ``online_change.py`` count the blocks left out. The change detector still weighs
-        such a block (capped), so a lasting change raises its alarm.
     change_gate_log_sd : float
         The CUSUM accumulates only while the posterior sd of log C_xr is below this: before
         that, the estimate's own movement is not a change (and its Gaussian is the crudest).
@@ -151,7 +141,6 @@ class OnlineConfig(eqx.Module):
     swap_threshold: Float[Array, ""] = eqx.field(converter=_float, default=SWAP_THRESHOLD)
     swap_window_steps: Int[Array, ""] = eqx.field(converter=_int, default=20)
     change_gate_log_sd: Float[Array, ""] = eqx.field(converter=_float, default=0.06)
-    max_noise_shift_sds: Float[Array, ""] = eqx.field(converter=_float, default=5.0)
     ready_half_width: Float[Array, ""] = eqx.field(converter=_float, default=0.10)
     min_slip_windows: Int[Array, ""] = eqx.field(converter=_int, default=240)
     min_excited_windows: Int[Array, ""] = eqx.field(converter=_int, default=120)

@@ -52,7 +52,6 @@ from .config import OnlineConfig, default_config
 from .inflation import accrue_residuals, empty_inflation, inflation_in_use
 from .laplace_update import laplace_update
 from .parameters import (
-    NOISE_SCALES,
     PER_DRIVE,
     PRIOR_CHECKED,
     QUADRATIC,
@@ -140,8 +139,6 @@ class OnlineEstimator(eqx.Module):
             n_alarms=jnp.zeros((), dtype=jnp.int32),
             alarm=jnp.zeros((), dtype=bool),
             swap_alarm=jnp.zeros((), dtype=bool),
-            n_left_out=jnp.zeros((), dtype=jnp.int32),
-            left_out=jnp.zeros((), dtype=bool),
             inflation=empty_inflation(dtype),
         )
 
@@ -228,23 +225,10 @@ class OnlineEstimator(eqx.Module):
         )
         alarm = swapped | shifted
         restarted = reset_to_prior(self.prior, *predicted, TYRE_COORDINATES + PER_DRIVE, shifted)
-        # The outlier gate (OnlineConfig.max_noise_shift_sds): a settled estimate keeps its
-        # prediction where the block would move a noise scale far.
-        noise = jnp.asarray([n in NOISE_SCALES for n in self.prior.names])
-        shift_sds = (updated.mean - predicted[0]) / jnp.sqrt(jnp.diag(predicted[1]))
-        left_out = (
-            ~alarm
-            & (jnp.sqrt(predicted[1][c_index, c_index]) <= cfg.change_gate_log_sd)
-            & jnp.any(noise & (jnp.abs(shift_sds) > cfg.max_noise_shift_sds))
-        )
         mean, cov = either(
             swapped,
             (challenged.mean, challenged.cov),
-            either(
-                shifted,
-                restarted,
-                either(left_out, predicted, (updated.mean, updated.cov)),
-            ),
+            either(shifted, restarted, (updated.mean, updated.cov)),
         )
         challenger = either(active & ~alarm, (challenged.mean, challenged.cov), (mean, cov))
 
@@ -258,8 +242,8 @@ class OnlineEstimator(eqx.Module):
 
         def since_start(previous, added):
             # A change restart leaves this block out (step 4), a swap keeps it (the challenger
-            # took it in), and so does the outlier gate.
-            return jnp.where(alarm, 0.0, previous) + jnp.where(shifted | left_out, 0.0, added)
+            # took it in).
+            return jnp.where(alarm, 0.0, previous) + jnp.where(shifted, 0.0, added)
 
         return FilterState(
             mean=mean,
@@ -279,9 +263,7 @@ class OnlineEstimator(eqx.Module):
             n_alarms=state.n_alarms + alarm.astype(jnp.int32),
             alarm=alarm,
             swap_alarm=swapped,
-            n_left_out=state.n_left_out + left_out.astype(jnp.int32),
-            left_out=left_out,
-            inflation=accrue_residuals(state.inflation, z, slip_window & ~left_out),
+            inflation=accrue_residuals(state.inflation, z, slip_window),
         )
 
     def summary(self, state: FilterState) -> OnlineSummary:
@@ -341,8 +323,6 @@ class OnlineEstimator(eqx.Module):
             mu_label_log_bf=label_log_bf,
             alarm=state.alarm,
             swap_alarm=state.swap_alarm,
-            left_out=state.left_out,
-            n_left_out=state.n_left_out,
             n_alarms=state.n_alarms,
             swap_log_bayes_factor=state.log_bayes_factor,
             n_slip_windows=state.n_slip_windows,

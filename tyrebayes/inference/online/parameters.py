@@ -45,9 +45,6 @@ PER_DRIVE = ("slip_offset", "log_force_gain")
 #: shifts the Normal slip terms' location and the blocks' offsets' (the Laplace update takes no
 #: new Hessian for a step along it, :mod:`.laplace_update`).
 QUADRATIC = ("slip_offset",)
-#: θ's coordinates of the sensors' noise: properties of the sensors, which do not drift, and
-#: which the outlier gate watches (:attr:`~.config.OnlineConfig.max_noise_shift_sds`).
-NOISE_SCALES = ("log_rho_noise_scale", "log_slip_noise_scale")
 #: θ's coordinates that belong to the tyre (not to the drive or the sensors): what a swap renews.
 TYRE_COORDINATES = (
     "log_c_xr",
@@ -239,7 +236,6 @@ def reset_to_prior(
 
 
 __all__ = [
-    "NOISE_SCALES",
     "PER_DRIVE",
     "PRIOR_CHECKED",
     "TYRE_COORDINATES",

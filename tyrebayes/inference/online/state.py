@@ -79,11 +79,6 @@ class FilterState(eqx.Module):
     alarm : Bool[Array, ""]
         The last step raised an alarm (and restarted from the type prior, or took the
         challenger's estimate).
-    n_left_out : Int[Array, ""]
-        Blocks left out so far by the outlier gate
-        (:attr:`~.config.OnlineConfig.max_noise_shift_sds`), and
-    left_out : Bool[Array, ""]
-        whether the last step's was.
     swap_alarm : Bool[Array, ""]
         ... and it was the drive-start swap test's (the estimate is the challenger's, which
         learned the new tyre since the drive start), not the mid-drive change detector's.
@@ -109,8 +104,6 @@ class FilterState(eqx.Module):
     n_alarms: Int[Array, ""]
     alarm: Bool[Array, ""]
     swap_alarm: Bool[Array, ""]
-    n_left_out: Int[Array, ""]
-    left_out: Bool[Array, ""]
     inflation: InflationSums
 
 

@@ -127,11 +127,6 @@ class OnlineSummary(eqx.Module):
         detector (:mod:`.change`).
     n_alarms : Int[Array, "*t"]
         Alarms so far.
-    left_out : Bool[Array, "*t"]
-        The outlier gate left this step's block out
-        (:attr:`~.config.OnlineConfig.max_noise_shift_sds`): the estimate is the prediction.
-    n_left_out : Int[Array, "*t"]
-        Blocks it left out so far.
     swap_log_bayes_factor : Float[Array, "*t"]
         Log Bayes factor of a tyre swap at the last drive start [nats] (:mod:`.swap`; an alarm
         at its threshold).
@@ -170,8 +165,6 @@ class OnlineSummary(eqx.Module):
     alarm: Bool[Array, "*t"]
     swap_alarm: Bool[Array, "*t"]
     n_alarms: Int[Array, "*t"]
-    left_out: Bool[Array, "*t"]
-    n_left_out: Int[Array, "*t"]
     swap_log_bayes_factor: Float[Array, "*t"]
     n_slip_windows: Float[Array, "*t"]
     n_excited_windows: Float[Array, "*t"]
@@ -309,8 +302,6 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
         "alarm": bool(np.asarray(summary.alarm)[i]),
         "alarm_kind": _alarm_kind(summary, i),
         "n_alarms": int(np.asarray(summary.n_alarms)[i]),
-        "block_left_out": bool(np.asarray(summary.left_out)[i]),
-        "n_blocks_left_out": int(np.asarray(summary.n_left_out)[i]),
         "swap_log_bayes_factor": float(np.asarray(summary.swap_log_bayes_factor)[i]),
         "n_slip_windows": int(np.asarray(summary.n_slip_windows)[i]),
         "n_excited_windows": int(np.asarray(summary.n_excited_windows)[i]),
