@@ -14,8 +14,9 @@ One step (Särkkä 2013, ch. 5-6; module docstrings of the parts):
    (:mod:`.laplace_update`, :mod:`.block_likelihood`), slips weighted by 1/VIF, with the
    block's Gauss-Newton information as its curvature (:attr:`OnlineConfig.gauss_newton`);
 3. swap: for the first steps of a drive, a challenger filter whose tyre coordinates started
-   again from the prior at the drive start is updated by the same block; the log Bayes factor
-   of the two (:mod:`.swap`) past its threshold makes the challenger the estimate;
+   again from the prior at the drive start is updated by the same block, its Newton steps
+   damped (:mod:`.laplace_update`); the log Bayes factor of the two (:mod:`.swap`) past its
+   threshold makes the challenger the estimate;
 4. change: the two-sided CUSUM of a mid-drive C_xr step on the block's predictive likelihood
    ratio, from the predicted and the updated Gaussians (:mod:`.change`); an alarm restarts the
    tyre's and the drive's coordinates (:data:`~.parameters.TYRE_COORDINATES`,
