@@ -22,10 +22,11 @@ Newton matrix's prior part scaled by 1 + λ (:func:`_next_damping`): far from th
 blocks from a wide prior, the Gauss-Newton information leaves out the large residuals' curvature
 and its full steps overshoot by many prior sds, from which shortened steps of the same
 direction climb back only slowly (a swap test's challenger, started from the type prior on a
-simulated drive, was still 1,600 nats short of the mode after 10 iterations; damped, it reached
-it in 10). A settled filter's steps are predicted well, and damping leaves them as they were.
-The Hessian, most of an iteration's cost, is taken again only after a step longer than
-:data:`_REFRESH_SD` posterior sds in the coordinates the block's curvature depends on: a
+simulated drive, stopped so far short of the mode after 10 iterations that its log Bayes factor
+fell to −1,587 nats, ``benchmarks/results/online_change_undamped_463e925.json``, pair 26;
+damped, the swap is found). A settled filter's steps are predicted well, and damping leaves
+them as they were. The Hessian, most of an iteration's cost, is taken again only after a step
+longer than :data:`_REFRESH_SD` posterior sds in the coordinates the block's curvature depends on: a
 settled filter's first step from the predicted mean is a fraction of an sd in those, over which
 the curvature barely changes, so its update costs one Hessian (a chord step confirms the mode).
 Coordinates the log-likelihood is quadratic in given the others (``quadratic``: a location
@@ -280,11 +281,12 @@ def laplace_update(
         )
         moved = taken * step
         newton_matrix = precision + absolute
+        step_curvature = step @ newton_matrix @ step
         new_damping = _next_damping(
             damping,
             actual=value - full_value,
-            predicted=step @ g - 0.5 * step @ newton_matrix @ step,
-            settled=jnp.sqrt(jnp.abs(step @ newton_matrix @ step)) < tolerance,
+            predicted=step @ g - 0.5 * step_curvature,
+            settled=jnp.sqrt(jnp.abs(step_curvature)) < tolerance,
         )
         new_damping = jnp.where(damped, new_damping, 0.0)
         length = jnp.sqrt(jnp.abs(moved @ newton_matrix @ moved))
