@@ -21,14 +21,26 @@ from .windows import STEP_S
 # drift); 0.02 per √hour = 3.3e-4 per √s. The drive's slip offset: rolling radii drift with tyre
 # temperature and pressure by 0.05-0.1 % of radius over tens of minutes (TyrePriors'
 # slip_drift_median), faster drifts are the 5 s blocks' own offsets: 1e-3 per √hour. The force
-# gain: the load share changes with fuel and passengers (stops), 1 % per √hour. The shape, κ, the
-# ABS force ratio and the noise scales are properties of the tyre and the sensors: no drift.
+# gain: the load share changes with fuel and passengers (stops), 1 % per √hour. The shape, κ and
+# the ABS force ratio are properties of the tyre: no drift. The noise scales revert instead
+# (REVERSION_S).
 _PER_SQRT_HOUR = 1.0 / 60.0
 DRIFT_PER_SQRT_S = {
     "log_c_xr": 0.02 * _PER_SQRT_HOUR,
     "log_mu_max": 0.02 * _PER_SQRT_HOUR,
     "slip_offset": 1e-3 * _PER_SQRT_HOUR,
     "log_force_gain": 0.01 * _PER_SQRT_HOUR,
+}
+
+# Correlation time [s] of the coordinates that revert to their prior (:mod:`.process`). The noise
+# scales λ_ρ and λ_σ correct the noise the stream measured locally; how far that measure is off
+# depends on the road's surface and the speed regime (town, arterial, motorway), which change
+# over minutes within a drive: 10 minutes. Constant factors held every block's noise level for
+# the rest of the drive, and one burst of 20 σ slips then sent them tens of sds away and the
+# CUSUM to a false alarm (tests/inference/online/test_estimator.py).
+REVERSION_S = {
+    "log_rho_noise_scale": 600.0,
+    "log_slip_noise_scale": 600.0,
 }
 
 # The C_xr step the change detector is designed for: a tyre swap or a pressure loss moves C_xr by
@@ -65,6 +77,9 @@ class OnlineConfig(eqx.Module):
     ------
     drift_sd_per_sqrt_s : Float[Array, "p"]
         Random-walk sd of each θ coordinate per √s (:data:`DRIFT_PER_SQRT_S`, 0 elsewhere).
+    reversion_s : Float[Array, "p"]
+        Correlation time of each θ coordinate that reverts to its prior [s]
+        (:data:`REVERSION_S`, ``inf`` elsewhere; :mod:`.process`).
     newton_steps : int
         Most Newton iterations of each Laplace update (static): the first blocks from a wide
         prior (the start, a restart, the swap test's challenger) can need many. Stopping such
@@ -130,6 +145,7 @@ class OnlineConfig(eqx.Module):
     """
 
     drift_sd_per_sqrt_s: Float[Array, "p"]
+    reversion_s: Float[Array, "p"]
     newton_steps: int = eqx.field(static=True, default=10)
     gauss_newton: bool = eqx.field(static=True, default=True)
     # The settings below are values the compiled filter takes, not constants in it: another
@@ -158,16 +174,23 @@ class OnlineConfig(eqx.Module):
 
 
 def default_config(kind: str = "magic", load_sensitive: bool = False, **changes) -> OnlineConfig:
-    """:class:`OnlineConfig` with the stated drifts for ``kind``'s θ (and any field changed)."""
+    """:class:`OnlineConfig` with the stated drifts and reversions for ``kind``'s θ (and any
+    field changed)."""
     names = parameter_names(kind, load_sensitive)
     drift = jnp.asarray([DRIFT_PER_SQRT_S.get(n, 0.0) for n in names], dtype=float)
-    return OnlineConfig(drift_sd_per_sqrt_s=changes.pop("drift_sd_per_sqrt_s", drift), **changes)
+    reversion = jnp.asarray([REVERSION_S.get(n, jnp.inf) for n in names], dtype=float)
+    return OnlineConfig(
+        drift_sd_per_sqrt_s=changes.pop("drift_sd_per_sqrt_s", drift),
+        reversion_s=changes.pop("reversion_s", reversion),
+        **changes,
+    )
 
 
 __all__ = [
     "CHANGE_THRESHOLD",
     "SWAP_THRESHOLD",
     "DRIFT_PER_SQRT_S",
+    "REVERSION_S",
     "OnlineConfig",
     "default_config",
 ]

@@ -8,7 +8,8 @@ car axis).
 One step (Särkkä 2013, ch. 5-6; module docstrings of the parts):
 
 1. predict: θ's covariance grows by the random-walk drift over the time since the last step
-   (:data:`~.config.DRIFT_PER_SQRT_S`); at a drive start the per-drive coordinates
+   (:data:`~.config.DRIFT_PER_SQRT_S`), and the noise scales revert towards their prior
+   (:data:`~.config.REVERSION_S`, :mod:`.process`); at a drive start the per-drive coordinates
    (:data:`~.parameters.PER_DRIVE`) take their prior again, uncorrelated with the rest;
 2. update: the Laplace update on the batch model's own per-window likelihood of the block
    (:mod:`.laplace_update`, :mod:`.block_likelihood`), slips weighted by 1/VIF, with the
@@ -61,6 +62,7 @@ from .parameters import (
     reset_to_prior,
     type_prior,
 )
+from .process import predict
 from .state import FilterState
 from .summary import (
     OnlineSummary,
@@ -157,9 +159,12 @@ class OnlineEstimator(eqx.Module):
             return block_curvature(theta, block, weight, self.kind, self.priors)
 
         elapsed = jnp.maximum(block.time_s - state.time_s, 0.0)
-        drift = jnp.diag(cfg.drift_sd_per_sqrt_s**2 * elapsed)
+
+        def moved(mean, cov):
+            return predict(self.prior, mean, cov, elapsed, cfg.drift_sd_per_sqrt_s, cfg.reversion_s)
+
         start = block.drive_start
-        predicted = reset_to_prior(self.prior, state.mean, state.cov + drift, PER_DRIVE, start)
+        predicted = reset_to_prior(self.prior, *moved(state.mean, state.cov), PER_DRIVE, start)
         quadratic = jnp.asarray([n in QUADRATIC for n in self.prior.names])
 
         def laplace(mean, cov, damped):
@@ -185,7 +190,7 @@ class OnlineEstimator(eqx.Module):
         challenger = either(
             start,
             reset_to_prior(self.prior, *predicted, TYRE_COORDINATES, start),
-            (state.challenger_mean, state.challenger_cov + drift),
+            moved(state.challenger_mean, state.challenger_cov),
         )
         # A drive start with no slip window since the (re)start carries nothing of a tyre to
         # test against: its challenger would be the estimate itself, so the test stays off.
