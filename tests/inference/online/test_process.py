@@ -43,7 +43,9 @@ def test_a_noise_scale_relaxes_to_its_prior_with_its_correlation_time():
     np.testing.assert_allclose(np.diag(half_cov)[NOISE], expected, rtol=1e-12)
     # Long after, the marginal is the prior's.
     far_mean, far_cov = _predict(mean, cov, 100 * tau)
-    np.testing.assert_allclose(np.asarray(far_mean)[NOISE], np.asarray(PRIOR.mean)[NOISE], atol=1e-12)
+    np.testing.assert_allclose(
+        np.asarray(far_mean)[NOISE], np.asarray(PRIOR.mean)[NOISE], atol=1e-12
+    )
     np.testing.assert_allclose(np.diag(far_cov)[NOISE], np.diag(PRIOR.cov)[NOISE])
 
 
