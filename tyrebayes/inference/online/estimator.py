@@ -181,9 +181,9 @@ class OnlineEstimator(eqx.Module):
 
         # The estimate's steps are undamped: damping them moves where the update of a block the
         # model does not explain lands, and the noise scales absorb such a block either way
-        # (README, "Why 5 of 30 swaps are missed" and after). Undamped, its first blocks from
-        # the prior can stop short of their modes; that costs the estimate those blocks'
-        # information, not a test's running sum.
+        # until they revert (README, "Why 5 of 30 swaps are missed" and after). Undamped, its
+        # first blocks from the prior can stop short of their modes; that costs the estimate
+        # those blocks' information, not a test's running sum.
         updated = laplace(*predicted, damped=False)
 
         # The swap test's challenger: from a drive start, the tyre's coordinates anew.
