@@ -3,10 +3,10 @@
 :mod:`.estimator` holds :class:`OnlineEstimator` (``init``, ``update``, ``summary``, ``run``);
 the parts are one concept per module: θ and the type prior (:mod:`.parameters`), the blocks of
 windows it reads (:mod:`.windows`), their likelihood (:mod:`.block_likelihood`), the Laplace
-update (:mod:`.laplace_update`), the change detector (:mod:`.change`), the slip errors'
-inflation (:mod:`.inflation`), the state (:mod:`.state`), settings (:mod:`.config`), the
-reported estimate and its readiness (:mod:`.summary`) and the linear-model EKF it is compared
-with (:mod:`.linear_ekf`).
+update (:mod:`.laplace_update`), how θ moves between steps (:mod:`.process`), the change
+detector (:mod:`.change`), the slip errors' inflation (:mod:`.inflation`), the state
+(:mod:`.state`), settings (:mod:`.config`), the reported estimate and its readiness
+(:mod:`.summary`) and the linear-model EKF it is compared with (:mod:`.linear_ekf`).
 """
 
 from .config import OnlineConfig as OnlineConfig

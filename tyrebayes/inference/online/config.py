@@ -40,7 +40,7 @@ DRIFT_PER_SQRT_S = {
 # that restarted C_x at about 3 times its value (tests/inference/online/test_estimator.py). Set on
 # the package's own cases, not the external drives: at 10 minutes the scales absorbed part of a
 # swap's misfit (pair 26 of benchmarks/online_change.py went unfound), at 30 a burst of outliers
-# still raised false alarms (10 of 12 seeds of that test).
+# still raised false alarms on most seeds of that test (README, "One burst of outliers").
 REVERSION_S = {
     "log_rho_noise_scale": 900.0,
     "log_slip_noise_scale": 900.0,
