@@ -2,6 +2,7 @@
 
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from tyrebayes.inference.online import default_config
 from tyrebayes.inference.online.parameters import type_prior
@@ -64,3 +65,18 @@ def test_the_prior_is_stationary_for_the_reverting_coordinates():
     np.testing.assert_allclose(moved_mean, PRIOR.mean, rtol=0, atol=1e-15)
     both = NOISE[:, None] & NOISE[None, :]
     np.testing.assert_allclose(np.asarray(moved_cov)[both], np.asarray(PRIOR.cov)[both])
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {"reversion_s": jnp.zeros(len(PRIOR.names))},
+        {"reversion_s": jnp.full(len(PRIOR.names), jnp.nan)},
+        {"reversion_s": jnp.ones(3)},
+        {"drift_sd_per_sqrt_s": -jnp.ones(len(PRIOR.names))},
+    ],
+)
+def test_a_process_that_cannot_be_is_refused(changes):
+    # Mismatched shapes meet jaxtyping's check first where it is on (the test suite).
+    with pytest.raises((ValueError, TypeError), match="OnlineConfig"):
+        default_config("linear", **changes)

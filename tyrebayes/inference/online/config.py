@@ -9,8 +9,10 @@ import math
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float, Int
 
+from ...internal.validation import _concrete, check_nonnegative
 from ..tyre.adequacy import EXCITATION_FORCE, MAX_C_XR_PRIOR_SDS
 from .parameters import parameter_names
 from .windows import STEP_S
@@ -174,6 +176,18 @@ class OnlineConfig(eqx.Module):
             raise ValueError(f"newton_steps: expected ≥ 1, got {self.newton_steps}")
         if self.change_min_steps < 1:
             raise ValueError(f"change_min_steps: expected ≥ 1, got {self.change_min_steps}")
+        check_nonnegative("OnlineConfig", "drift_sd_per_sqrt_s", self.drift_sd_per_sqrt_s)
+        reversion = _concrete(self.reversion_s)
+        if reversion is not None and not np.all(reversion > 0):
+            raise ValueError(
+                f"OnlineConfig.reversion_s: expected correlation times > 0 s (inf: none), got "
+                f"{reversion.tolist()}"
+            )
+        if self.reversion_s.shape != self.drift_sd_per_sqrt_s.shape:
+            raise ValueError(
+                f"OnlineConfig: expected reversion_s shaped as drift_sd_per_sqrt_s "
+                f"{self.drift_sd_per_sqrt_s.shape}, got {self.reversion_s.shape}"
+            )
 
 
 def default_config(kind: str = "magic", load_sensitive: bool = False, **changes) -> OnlineConfig:
