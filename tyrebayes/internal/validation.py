@@ -27,6 +27,13 @@ def check_positive(owner: str, field: str, value) -> None:
         raise ValueError(f"{owner}.{field}: expected a finite value > 0, got {value!r}")
 
 
+def check_positive_or_inf(owner: str, field: str, value) -> None:
+    """Raise ValueError unless every element of ``value`` is > 0 (``inf`` allowed, NaN not)."""
+    arr = _concrete(value)
+    if arr is not None and not np.all(arr > 0):
+        raise ValueError(f"{owner}.{field}: expected values > 0 (inf allowed), got {value!r}")
+
+
 def check_nonnegative(owner: str, field: str, value) -> None:
     """Raise ValueError unless every element of ``value`` is finite and >= 0."""
     arr = _concrete(value)

@@ -9,10 +9,9 @@ import math
 
 import equinox as eqx
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, Float, Int
 
-from ...internal.validation import _concrete, check_nonnegative
+from ...internal.validation import check_nonnegative, check_positive_or_inf
 from ..tyre.adequacy import EXCITATION_FORCE, MAX_C_XR_PRIOR_SDS
 from .parameters import parameter_names
 from .windows import STEP_S
@@ -177,12 +176,7 @@ class OnlineConfig(eqx.Module):
         if self.change_min_steps < 1:
             raise ValueError(f"change_min_steps: expected ≥ 1, got {self.change_min_steps}")
         check_nonnegative("OnlineConfig", "drift_sd_per_sqrt_s", self.drift_sd_per_sqrt_s)
-        reversion = _concrete(self.reversion_s)
-        if reversion is not None and not np.all(reversion > 0):
-            raise ValueError(
-                f"OnlineConfig.reversion_s: expected correlation times > 0 s (inf: none), got "
-                f"{reversion.tolist()}"
-            )
+        check_positive_or_inf("OnlineConfig", "reversion_s", self.reversion_s)
         if self.reversion_s.shape != self.drift_sd_per_sqrt_s.shape:
             raise ValueError(
                 f"OnlineConfig: expected reversion_s shaped as drift_sd_per_sqrt_s "
