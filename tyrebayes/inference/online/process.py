@@ -10,10 +10,11 @@ drives):
   median is 1) but not at every stretch of road: road surface and speed regime change within a
   drive. Each log factor is a stationary Gauss-Markov (Ornstein-Uhlenbeck) process about the
   prior with the prior's variance and a correlation time τ: over Δt the mean moves towards the
-  prior's by ``a = exp(−Δt/τ)`` and the variance gains the prior's times ``1 − a²`` (Särkkä
-  2013, §4.3; the exact discretisation of the linear SDE). Data of one stretch therefore weigh
-  on the factor for about τ, and a block the Normal errors cannot explain (a feature error's
-  burst of outlying slips) stops setting the noise level for the rest of the drive.
+  prior's by ``a = exp(−Δt/τ)`` and the variance gains the prior's times ``1 − a²``
+  (Uhlenbeck & Ornstein 1930: the process's exact transition over Δt, not a discretisation).
+  Data of one stretch therefore weigh on the factor for about τ, and a block the Normal errors
+  cannot explain (a feature error's burst of outlying slips) stops setting the noise level for
+  the rest of the drive.
 
 Where τ is infinite the coordinate keeps its mean and covariance exactly (``a = 1``).
 """
