@@ -38,7 +38,7 @@ DRIFT_PER_SQRT_S = {
 # depends on the road's surface and the speed regime (town, arterial, motorway), which change
 # within a drive over a quarter of an hour: 15 minutes. With constant factors one burst of 20 σ
 # slips held them tens of sds out for the rest of the drive and sent the CUSUM to false alarms
-# that restarted C_x at about 3 times its value (tests/inference/online/test_estimator.py). Set on
+# that restarted C_x far from its value (benchmarks/results/online_outliers.json). Set on
 # the package's own cases, not the external drives: at 10 minutes the scales absorbed part of a
 # swap's misfit (pair 26 of benchmarks/online_change.py went unfound), at 30 a burst of outliers
 # still raised false alarms on most seeds of that test (README, "One burst of outliers").
