@@ -14,7 +14,7 @@ NOISE = np.asarray(["noise_scale" in n for n in PRIOR.names])
 
 
 def _settled():
-    """A posterior far from the prior: noise scales 3 prior sds out, variances 1 % of it."""
+    """A posterior far from the prior: every coordinate 3 prior sds out, variances 1 % of it."""
     sd = jnp.sqrt(jnp.diag(PRIOR.cov))
     return PRIOR.mean + 3.0 * sd, jnp.diag((0.1 * sd) ** 2)
 
@@ -51,7 +51,7 @@ def test_a_noise_scale_relaxes_to_its_prior_with_its_correlation_time():
 
 
 def test_two_predictions_are_one_over_their_sum():
-    # The exact discretisation of a linear SDE: moving 100 s then 250 s is moving 350 s.
+    # The exact transition of the process: moving 100 s then 250 s is moving 350 s.
     mean, cov = _settled()
     cov = cov + 0.5 * jnp.outer(jnp.sqrt(jnp.diag(cov)), jnp.sqrt(jnp.diag(cov)))  # correlated
     twice = _predict(*_predict(mean, cov, 100.0), 250.0)
