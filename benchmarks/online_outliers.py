@@ -44,7 +44,6 @@ from tyrebayes.inference.online import (  # noqa: E402
     OnlineEstimator,
     default_config,
     pad_steps,
-    run_online,
     stream_steps,
 )
 from tyrebayes.inference.online.config import REVERSION_S  # noqa: E402
@@ -67,20 +66,25 @@ def with_burst(windows: dict) -> tuple[dict, float]:
     return {**windows, "slip": moved}, float(t[slip_windows[0]])
 
 
+@eqx.filter_jit
+def _trajectory(estimator: OnlineEstimator, blocks):
+    """Every step's summary and θ's mean after it (:meth:`OnlineEstimator.run`'s scan, which
+    keeps the summaries only)."""
+
+    def step(state, block):
+        state = estimator.update(state, block)
+        return state, (estimator.summary(state), state.mean)
+
+    return jax.lax.scan(step, estimator.init(), blocks)[1]
+
+
 def run(estimator: OnlineEstimator, windows: dict, truth, n_steps: int) -> dict:
     steps = stream_steps(windows)
     n, padded = steps.n_blocks, pad_steps(steps, n_steps)
-    _, traj = run_online(estimator, estimator.init(), padded)
+    traj, means = _trajectory(estimator, padded)
     names = estimator.prior.names
     prior_sd = np.sqrt(np.diag(np.asarray(estimator.prior.cov)))
-    # The noise scales' path: the state after each step, replayed (the trajectory holds the
-    # summaries only).
-    update = eqx.filter_jit(estimator.update)
-    state, path = estimator.init(), []
-    for k in range(n):
-        state = update(state, jax.tree.map(lambda x, k=k: x[k] if np.ndim(x) else x, padded))
-        path.append((np.asarray(state.mean) - np.asarray(estimator.prior.mean)) / prior_sd)
-    path = np.asarray(path)
+    path = (np.asarray(means)[:n] - np.asarray(estimator.prior.mean)) / prior_sd
     times = np.asarray(traj.time_s)[:n]
     truth_end = float(true_c_x_so_far(truth, times[-1:])[0])
     mean = float(np.asarray(traj.c_x.mean)[n - 1])

@@ -26,9 +26,12 @@ simulated drive, stopped so far short of the mode after 10 iterations that its l
 fell to −1,587 nats, ``benchmarks/results/online_change_undamped_463e925.json``, pair 26;
 damped, the swap is found). A settled filter's steps are predicted well, and damping leaves
 them as they were. The Hessian, most of an iteration's cost, is taken again only after a step
-longer than :data:`_REFRESH_SD` posterior sds in the coordinates the block's curvature depends on: a
-settled filter's first step from the predicted mean is a fraction of an sd in those, over which
-the curvature barely changes, so its update costs one Hessian (a chord step confirms the mode).
+longer than :data:`_REFRESH_SD` posterior sds in the coordinates the block's curvature depends
+on: a settled filter's first step from the predicted mean is mostly a fraction of an sd in those,
+over which the curvature barely changes, so such an update costs one Hessian (a chord step
+confirms the mode). The noise scales, which revert to their prior between steps
+(:mod:`.process`), move by about a posterior sd at a step, so a good part of the steps take a
+second (``benchmarks/results/online_speed.json``, ``where_the_time_goes``).
 Coordinates the log-likelihood is quadratic in given the others (``quadratic``: a location
 shift of Normal terms, such as the slip offset) do not count. Along them the Hessian changes
 only in the scale directions, through the residuals: a step of k of the block's own sds
