@@ -50,7 +50,7 @@ def test_online_json_trajectory(short_stream, capsys):
 def test_online_text_and_bad_input(short_stream, capsys, tmp_path):
     assert main(["online", str(short_stream), "--vehicle", "compact_fwd", "--model", "linear"]) == 0
     out = capsys.readouterr().out
-    assert "min" in out and "change alarms at" in out
+    assert "min" in out and "alarms (swap or change) at: " in out
     assert main(["online", str(tmp_path / "missing.parquet"), "--vehicle", "compact_fwd"]) == 2
     assert "file not found" in capsys.readouterr().err
     bad = ["online", str(short_stream), "--vehicle", "compact_fwd", "--figure", "x.txt"]

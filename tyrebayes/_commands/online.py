@@ -109,7 +109,7 @@ def _text(payload: dict[str, Any]) -> str:
         )
     alarms = zip(payload["alarms_s"], payload["alarm_kinds"], strict=True)
     at = ", ".join(f"{t:.0f} s ({kind})" for t, kind in alarms)
-    lines.append(f"change alarms at: {at or 'none'}")
+    lines.append(f"alarms (swap or change) at: {at or 'none'}")
     lines.append(f"note: {LOOKAHEAD_NOTE}")
     return "\n".join(lines)
 

@@ -1,10 +1,11 @@
 """A fleet run on dask.distributed: drives map over workers, tyre sets reduce, the fleet closes.
 
-:func:`fleet_run` submits one task per drive (:func:`~.drive_stage.process_drive`); once a set's
-drives have finished (done, failed or skipped) it submits the set's joint fit
-(:func:`~.tyre_set_stage.fit_tyre_set`) at a priority below every drive's, larger padded shapes
-higher, so that the sets fill the drive stage's idle tail and a worker keeps one fit shape at a
-time; when all sets are in, it writes the run's tables and
+:func:`fleet_run` submits one task per drive (:func:`~.drive_stage.process_drive`). A set's
+joint fit (:func:`~.tyre_set_stage.fit_tyre_set`) is ready once its drives have finished (done,
+failed or skipped); ready fits are held on the client until the drives still to finish are no
+more than the cluster's task slots, then submitted at a priority below every drive's, larger
+padded shapes higher: they fill the drive stage's idle tail, and a worker meets each fit shape
+about once (it keeps one shape's programs). When all sets are in, it writes the run's tables and
 runs the fleet stage (:func:`~.fleet_stage.run_fleet_stage`) on the client. Every item writes its
 own outputs atomically when it finishes, so a killed run loses only the items in flight, and a
 rerun skips what its records say is unchanged.
@@ -140,6 +141,11 @@ class _Progress:
             self.bar.close()
 
 
+def _task_slots(client) -> int:
+    """The cluster's task threads now (at least 1): the tasks it runs at once."""
+    return max(1, sum(client.nthreads().values()))
+
+
 def _stage_stats(records: list[dict]) -> dict:
     """Counts and costs of one stage: ``done`` (ran now and succeeded), ``skipped`` (an earlier
     record was reused, whatever its status), ``failed`` (failed now or earlier: still failed),
@@ -240,28 +246,46 @@ def fleet_run(
     set_records: dict[str, dict] = {}
     completed = as_completed(list(futures))
 
-    def submit_set(s: str) -> None:
-        # A set goes out once its last drive is done, below every drive: a worker takes it only
-        # when no drive is waiting, so the sets fill the drive stage's idle tail instead of
-        # waiting for it. Among waiting sets the largest padded shape goes first, so that a
-        # worker meets each compiled fit shape about once (it keeps one shape's programs, not
-        # all: fit_tyre_set) and the longest fits start first.
-        finished = [
+    ready_sets: list[str] = []
+    drives_left = len(items)
+
+    def release_sets() -> None:
+        # Ready sets wait here, not in the workers, until the drive stage's tail: a task sent
+        # to a worker waits in that worker's own queue, where it goes before the drives the
+        # scheduler has not sent yet, whatever its priority. Sent early, fits and drives
+        # alternated, and each fit at a new shape dropped the worker's programs, the drive
+        # stage's with them: a 1-worker run of 200 drives dropped them at 48 tasks and took
+        # 1.9 times the CPU seconds of the same work in a warm plain loop
+        # (benchmarks/results/fleet_run_b8b3867.json). Sent together, the largest padded shape
+        # first, each worker meets each fit shape about once and the longest fits start first.
+        if not ready_sets or drives_left > _task_slots(client):
+            return
+        for s in sorted(ready_sets, key=set_size, reverse=True):
+            submit_set(s)
+        ready_sets.clear()
+
+    def set_size(s: str) -> int:
+        # The padded number of windows of the set's fit, from its finished drives.
+        return pad_size(sum(r["windows"] for r in finished_drives(s)))
+
+    def finished_drives(s: str) -> list[dict]:
+        return [
             drive_records[d.drive_id]
             for d in by_set[s]
             if drive_records[d.drive_id].get("status") == "done"
         ]
-        size = pad_size(sum(r["windows"] for r in finished))
+
+    def submit_set(s: str) -> None:
         fut = client.submit(
             fit_tyre_set,
             s,
             set_type[s],
-            finished,
+            finished_drives(s),
             out_s,
             settings,
             key=f"tyre-set-{set_file_name(s)}",
             pure=False,
-            priority=size - _SET_PRIORITY_OFFSET,
+            priority=set_size(s) - _SET_PRIORITY_OFFSET,
         )
         futures[fut] = ("tyre_set", s)
         completed.add(fut)
@@ -280,9 +304,11 @@ def fleet_run(
         future.release()
         if kind == "drive":
             drive_records[item.drive_id] = record
+            drives_left -= 1
             bar.update(item.drive_id)
             if all(d.drive_id in drive_records for d in by_set[item.tyre_set_id]):
-                submit_set(item.tyre_set_id)
+                ready_sets.append(item.tyre_set_id)
+            release_sets()
         else:
             set_records[item] = record
             bar.update(f"set {item}")
