@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from distributed import get_task_stream
 
 from tyrebayes._commands.fit_wear import drive_table
 from tyrebayes.batch import RunSettings, dask_client, fleet_run, read_manifest
@@ -189,6 +190,27 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
     assert again["fleet"]["skipped"]
     assert [p.stat().st_mtime_ns for p in fits] == stamps
     assert len(pd.read_parquet(out / "drive_summaries.parquet")) == 4
+
+
+def test_fits_wait_for_the_drive_stage_tail(manifest, tmp_path):
+    # set1's two drives first: it is ready while four drives are still to run. Sent to the
+    # worker then, it would run before the drives the scheduler had not yet sent; held on the
+    # client, it starts once no more drives are left than the worker has task slots (1).
+    rows = pd.read_csv(manifest)
+    first = rows["tyre_set_id"] == "set1"
+    reordered = manifest.parent / "set1_first.csv"
+    pd.concat([rows[first], rows[~first]]).to_csv(reordered, index=False)
+    settings = RunSettings(model=MODEL, jax_cache=default_cache_dir())
+    with dask_client(workers=1) as client, get_task_stream(client) as stream:
+        summary = fleet_run(read_manifest(reordered), tmp_path / "out", client, settings)
+    assert summary["tyre_sets"]["done"] == 2
+    computed = {
+        t["key"]: next(s for s in t["startstops"] if s["action"] == "compute") for t in stream.data
+    }
+    drive_ends = [c["stop"] for k, c in computed.items() if k.startswith("drive-")]
+    set_starts = [c["start"] for k, c in computed.items() if k.startswith("tyre-set-")]
+    assert len(drive_ends) == 6 and len(set_starts) == 3
+    assert sum(end <= min(set_starts) for end in drive_ends) >= 6 - 1
 
 
 def test_local_workers_get_one_thread_then_this_process_xla_flags(monkeypatch):
