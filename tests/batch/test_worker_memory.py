@@ -11,6 +11,7 @@ from tyrebayes.batch.worker_memory import (
     peak_rss_mb,
     release_free_memory,
     reset_peak_rss,
+    reuse_freed_arrays,
 )
 
 
@@ -91,3 +92,56 @@ def test_a_worker_learns_each_task_kinds_need_and_drops_its_programs_before_it_r
     # Little above the floor since: no second drop; the task runs over and its record says so.
     _, dropped, _ = _task(budget, "drive", start + 100.0, 10)
     assert not dropped and cleared == [True]
+
+
+_PAGE_FAULT_PROBE = """
+import resource, sys
+import numpy as np
+from tyrebayes.batch.worker_memory import reuse_freed_arrays
+if sys.argv[1] == "1":
+    assert reuse_freed_arrays()
+x = np.ones(400_000)  # 3.2 MB: one hour of a 100 Hz channel is 2.9 MB
+for _ in range(3):
+    y = x * 2.0
+    del y
+before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+for _ in range(50):
+    y = x * 2.0
+    del y
+print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc only")
+def test_fixed_malloc_thresholds_are_repaired_so_large_arrays_stop_page_faulting():
+    import os
+    import subprocess
+
+    def faults(env: dict, repair: bool) -> int:
+        done = subprocess.run(
+            [sys.executable, "-c", _PAGE_FAULT_PROBE, "1" if repair else "0"],
+            env={**os.environ, **env},
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        return int(done.stdout.strip().splitlines()[-1])
+
+    # dask's nannies start workers with this; glibc then maps every large array afresh.
+    fixed = {"MALLOC_TRIM_THRESHOLD_": "65536"}
+    assert faults(fixed, repair=False) > 50 * 500  # ~780 pages per 3.2 MB array
+    assert faults(fixed, repair=True) < 500
+    # Without such a variable glibc's own rule reuses the heap, and nothing is changed.
+    unfixed = subprocess.run(
+        [sys.executable, "-c", _PAGE_FAULT_PROBE, "0"],
+        env={k: v for k, v in os.environ.items() if not k.startswith("MALLOC_")},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert int(unfixed.stdout.strip().splitlines()[-1]) < 500
+
+
+def test_thresholds_are_left_alone_where_nothing_fixed_them():
+    assert reuse_freed_arrays({}) is False
+    assert reuse_freed_arrays({"PATH": "/usr/bin"}) is False

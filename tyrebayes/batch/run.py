@@ -50,11 +50,16 @@ _SET_PRIORITY_OFFSET = 1 << 40
 # spilling and pausing only get in the way: memory that JAX and the allocator keep after a fit
 # does not come back, and a paused single worker never resumes. The limit stays as the nanny's
 # hard stop (a worker over 95 % is restarted and its task recorded as failed).
+# The nannies' default MALLOC_TRIM_THRESHOLD_ is unset (None removes it): it turns off glibc's
+# dynamic mmap threshold, and every large array then page-faults afresh
+# (:func:`.worker_memory.reuse_freed_arrays`, which repairs it on other clusters' workers). The
+# freed heap still goes back after each task (:func:`.worker_memory.release_free_memory`).
 _WORKER_MEMORY_CONFIG = {
     "distributed.worker.memory.target": False,
     "distributed.worker.memory.spill": False,
     "distributed.worker.memory.pause": False,
     "distributed.worker.memory.terminate": 0.95,
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
 }
 
 # One task thread per worker, and OpenMP, BLAS and XLA's Eigen kernels without thread pools of

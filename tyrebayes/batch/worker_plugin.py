@@ -2,7 +2,9 @@
 
 Without it a worker's first task pays the imports of the package, JAX and NumPyro (seconds),
 on every worker of every run; with it they are paid while the cluster starts, and a worker that
-joins a running cluster later pays them before it takes a task.
+joins a running cluster later pays them before it takes a task. It also lets the heap serve
+large arrays again where the worker was started with glibc's thresholds fixed
+(:func:`~.worker_memory.reuse_freed_arrays`: a cluster's nannies do so by default).
 """
 
 from __future__ import annotations
@@ -16,6 +18,9 @@ class ImportTasks(WorkerPlugin):
     name = "tyrebayes-import-tasks"
 
     def setup(self, worker) -> None:
+        from .worker_memory import reuse_freed_arrays
+
+        reuse_freed_arrays()
         import tyrebayes.batch.drive_stage  # noqa: F401
         import tyrebayes.batch.tyre_set_stage  # noqa: F401
         import tyrebayes.inference.tyre.fit  # noqa: F401
