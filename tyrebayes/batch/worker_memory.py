@@ -97,7 +97,7 @@ def reuse_freed_arrays(environ=None) -> bool:
     ``MALLOC_MMAP_MAX_`` turns that rule off, and dask's nannies set the first (64 kB) in every
     worker by default: there each of the drive stage's one-hour arrays (2.9 MB) cost page faults,
     and the stage ran 2.3 times slower than in a plain process (16 simulated drives, 9.4
-    drive-hours: 1.13 against 0.49 CPU s per drive-hour, one-off). In such a process this sets
+    drive-hours: 1.15 against 0.49 CPU s per drive-hour, one-off). In such a process this sets
     the thresholds that rule would reach (:data:`_MMAP_THRESHOLD_BYTES`, twice it for trimming);
     the heap freed between tasks still goes back (:func:`release_free_memory`). Returns whether
     it did (no: no such variable, or no glibc).
