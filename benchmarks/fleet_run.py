@@ -138,6 +138,12 @@ def plain_loop(items, out: Path, settings, traced_drives: bool = False) -> dict:
             for step in ("read", "validate", "features", "windows_and_summary")
         },
         "drives_done": sum(r["status"] == "done" for r in drives.values()),
+        # Tasks that started by dropping this process's compiled programs (memory budget or a
+        # new fit shape): each reloads them, inside its time.
+        "programs_dropped": {
+            "drives": sum(bool(r.get("programs_dropped")) for r in drives.values()),
+            "tyre_sets": sum(bool(r.get("programs_dropped")) for r in set_records),
+        },
         "sets_done": sum(r["status"] == "done" for r in set_records),
         "tyre_set_fit_seconds": [r["seconds"] for r in set_records],
         "peak_rss_mb": peak_rss_mb(),
