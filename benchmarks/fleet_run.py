@@ -360,9 +360,10 @@ def main() -> int:
                 "fit_file_mb_per_set": fit_bytes / 2**20 / max(1, s1["tyre_sets"]["done"]),
             },
             "cpu_count": os.cpu_count(),
-            "note": "shared 2-core machine (other helpers' jobs ran alongside): wall times, "
-            "CPU seconds and the scaling figure include their contention (load averages "
-            "recorded per run); throughput counts wall time x workers, everything included; "
+            "note": "2-core machine shared by the workers with this process (client and "
+            "scheduler) and whatever else ran: wall times, CPU seconds and the scaling figure "
+            "include that contention (load averages recorded per run); throughput counts wall "
+            "time x workers, everything included; "
             "the plain loops run with a worker's environment (one task thread, the same XLA "
             "flags)",
         }
