@@ -137,8 +137,8 @@ def main() -> None:
     runs = {f"{m}_{b}": [] for m in ("reverting", "constant") for b in ("burst", "clean")}
     for seed in range(args.drives):
         windows, truth, _ = simulated_windows(3000 + seed, DURATION_S)
+        burst, burst_s = with_burst(windows)
         for label, est in (("reverting", reverting), ("constant", constant)):
-            burst, burst_s = with_burst(windows)
             for case, w in (("burst", burst), ("clean", windows)):
                 row = {"seed": 3000 + seed, "burst_s": burst_s, **run(est, w, truth, n_steps)}
                 runs[f"{label}_{case}"].append(row)
