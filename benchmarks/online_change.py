@@ -41,7 +41,6 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
-import equinox as eqx  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -52,6 +51,7 @@ from tyrebayes.inference.online import (  # noqa: E402
     OnlineEstimator,
     pad_steps,
     run_online,
+    run_online_cars,
     stream_steps,
 )
 from tyrebayes.inference.tyre.data import BLOCK_S, stack_drives  # noqa: E402
@@ -244,7 +244,6 @@ def main() -> None:
             pad_steps(window_blocks(w, "dry", width=width, max_step_s=args.max_step_s), longest)
         )
     cars = jax.tree.map(lambda *x: jnp.stack(x), *padded)
-    fn = eqx.filter_jit(jax.vmap(lambda s, b: estimator.run(s, b)))
     # Cars in chunks of CHUNK_CARS per call: one call over all 100 hung in XLA's CPU runtime
     # (every thread idle, the result never ready; jaxlib 0.10.2), 30 per call did not.
     t0 = time.perf_counter()
@@ -255,7 +254,7 @@ def main() -> None:
         states = jax.tree.map(
             lambda x, size=size: jnp.broadcast_to(x, (size, *x.shape)), estimator.init()
         )
-        parts.append(jax.block_until_ready(fn(states, chunk)))
+        parts.append(jax.block_until_ready(run_online_cars(estimator, states, chunk)))
     final, traj = jax.tree.map(lambda *x: jnp.concatenate(x), *parts)
     false_wall = time.perf_counter() - t0
     hours = float(np.sum(np.asarray(cars.time_s)[:, -1]) / 3600.0)

@@ -23,6 +23,7 @@ Usage: ``python benchmarks/online_outliers.py [--drives 12] [--out FILE]``.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import resource
 import sys
@@ -41,6 +42,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _online_common import machine, simulated_windows, true_c_x_so_far  # noqa: E402
 
 from tyrebayes.inference.online import (  # noqa: E402
+    COMPILER_OPTIONS,
     OnlineEstimator,
     default_config,
     pad_steps,
@@ -66,7 +68,7 @@ def with_burst(windows: dict) -> tuple[dict, float]:
     return {**windows, "slip": moved}, float(t[slip_windows[0]])
 
 
-@eqx.filter_jit
+@functools.partial(eqx.filter_jit, compiler_options=COMPILER_OPTIONS)
 def _trajectory(estimator: OnlineEstimator, blocks):
     """Every step's summary and θ's mean after it (:meth:`OnlineEstimator.run`'s scan, which
     keeps the summaries only)."""

@@ -14,6 +14,8 @@ not do that: ``online_speed_df9f71f.json`` was taken with them and two threads s
   filter's curvature), its exact Hessian for comparison, its value and gradient, and its value
   alone, each timed over the hour's steps, and how many curvatures the
   filter took (counted in a separate, untimed run);
+* the Magic Formula car-hour compiled with XLA's default options beside the estimator's own
+  (``COMPILER_OPTIONS``), alternated ``--before-pairs`` times, and how far their results differ;
 * ``--cars`` copies of that car-hour vmapped in one call, the time per car-hour;
 * ``--fleet-cars`` (10^4, the issue's number) cars in one compiled call over the first
   ``--fleet-steps`` steps of the drive (each car's own copy of the windows; one hour each would
@@ -70,10 +72,12 @@ from _revisions import package_at, run_child  # noqa: E402
 
 import tyrebayes.inference.online.laplace_update as laplace_module  # noqa: E402
 from tyrebayes.inference.online import (  # noqa: E402
+    COMPILER_OPTIONS,
     PACKED_STEP_S,
     STEP_S,
     OnlineEstimator,
     run_online,
+    run_online_cars,
     stream_steps,
 )
 from tyrebayes.inference.online.block_likelihood import (  # noqa: E402
@@ -191,7 +195,8 @@ def fleet_call(args, steps) -> dict:
     cars = jax.tree.map(lambda x: jnp.array(np.broadcast_to(x, (args.fleet_cars, *x.shape))), head)
     init = est.init()
     fn = eqx.filter_jit(
-        lambda cars: jax.lax.map(lambda b: est.run(init, b), cars, batch_size=args.chunk)
+        lambda cars: jax.lax.map(lambda b: est.run(init, b), cars, batch_size=args.chunk),
+        compiler_options=COMPILER_OPTIONS,
     )
     first, wall, _ = timed(lambda: fn(cars), 1)
     return {
@@ -242,6 +247,44 @@ def fleet_in_child(args) -> dict:
             "failed": error.stderr.strip().splitlines()[-1],
         }
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def compiler_options_gain(steps, hours: float, pairs: int, reps: int) -> dict:
+    """The Magic Formula car-hour (30 s steps) compiled with XLA's default options and with the
+    estimator's :data:`~tyrebayes.inference.online.COMPILER_OPTIONS`, alternated ``pairs`` times
+    in this process, and how far their results differ."""
+    est = OnlineEstimator.create(kind="magic")
+    default = eqx.filter_jit(lambda est, state, blocks: est.run(state, blocks))
+    runs = {"default": [], "estimator": []}
+    outputs = {}
+    for _ in range(pairs):
+        for side, fn in (("default", default), ("estimator", run_online)):
+            outputs[side] = jax.block_until_ready(fn(est, est.init(), steps))
+            runs[side].append(timed(lambda fn=fn: fn(est, est.init(), steps), reps)[1] / hours)
+    final = {side: outputs[side][0] for side in outputs}
+    sd = np.sqrt(np.diag(np.asarray(final["default"].cov)))
+    mean_sds = np.abs(np.asarray(final["estimator"].mean - final["default"].mean)) / sd
+    c_x = {side: np.asarray(outputs[side][1].c_x.mean) for side in outputs}
+    default_s, options_s = (float(np.median(runs[side])) for side in ("default", "estimator"))
+    return {
+        "kind": "magic",
+        "max_step_s": STEP_S,
+        "options": COMPILER_OPTIONS,
+        "pairs": pairs,
+        "car_hour_s_default": runs["default"],
+        "car_hour_s_estimator": runs["estimator"],
+        "car_hour_s_default_median": default_s,
+        "car_hour_s_estimator_median": options_s,
+        "speedup": default_s / options_s,
+        "final_mean_max_diff_posterior_sds": float(np.max(mean_sds)),
+        "c_x_trajectory_max_rel_diff": float(
+            np.max(np.abs(c_x["estimator"] - c_x["default"]) / c_x["default"])
+        ),
+        "same_alarms": bool(np.array_equal(*(np.asarray(outputs[k][1].alarm) for k in runs))),
+        "same_ready_flags": bool(np.array_equal(*(np.asarray(outputs[k][1].ready) for k in runs))),
+        "note": "each value the median of reps runs after compilation; the two alternate on one "
+        "core",
+    }
 
 
 def before_and_after(revision: str, pairs: int, reps: int) -> dict:
@@ -323,6 +366,8 @@ def main() -> None:
         profile["curvatures_per_car_hour"] * profile["per_step"]["gauss_newton_ms"] * 1e-3 / magic_s
     )
     print(json.dumps(profile), flush=True)
+    options = compiler_options_gain(steps, hours, args.before_pairs, args.reps)
+    print(json.dumps(options), flush=True)
     vmapped = []
     for kind, max_step_s, these in (
         ("magic", STEP_S, steps),
@@ -332,8 +377,9 @@ def main() -> None:
         est = OnlineEstimator.create(kind=kind)
         cars = jax.tree.map(lambda x: jnp.broadcast_to(x, (args.cars, *x.shape)), these)
         states = jax.tree.map(lambda x: jnp.broadcast_to(x, (args.cars, *x.shape)), est.init())
-        fn = eqx.filter_jit(jax.vmap(lambda s, b, est=est: est.run(s, b)))
-        first, wall, _ = timed(lambda fn=fn, cars=cars, states=states: fn(states, cars), 1)
+        first, wall, _ = timed(
+            lambda est=est, cars=cars, states=states: run_online_cars(est, states, cars), 1
+        )
         vmapped.append(
             {
                 "kind": kind,
@@ -365,6 +411,7 @@ def main() -> None:
         "started; the vmapped and fleet calls too",
         "single_car": rows,
         "where_the_time_goes": profile,
+        "compiler_options": options,
         "vmapped": vmapped,
         "vmapped_fleet": fleet,
         "before_and_after": compared,

@@ -14,6 +14,7 @@ from tyrebayes.inference.online import (
     default_config,
     pad_steps,
     run_online,
+    run_online_cars,
     summary_record,
     window_blocks,
 )
@@ -64,8 +65,7 @@ def test_vmap_over_cars_equals_one_car_at_a_time(estimator):
     cars = [_steps(linear_windows(s, 300.0, c_x=30.0 + 10 * s)) for s in range(2)]
     stacked = jax.tree.map(lambda *x: jnp.stack(x), *cars)
     states = jax.tree.map(lambda x: jnp.stack([x, x]), estimator.init())
-    run_many = eqx.filter_jit(jax.vmap(lambda s, b: estimator.run(s, b)))
-    final, trajectory = run_many(states, stacked)
+    final, trajectory = run_online_cars(estimator, states, stacked)
     for i, car in enumerate(cars):
         one, one_trajectory = run_online(estimator, estimator.init(), car)
         # Batched and single linear algebra round differently (seen: 3e-10 of the covariance's
@@ -75,6 +75,21 @@ def test_vmap_over_cars_equals_one_car_at_a_time(estimator):
         scale = np.outer(sd, sd)
         np.testing.assert_allclose((final.cov[i] - one.cov) / scale, 0.0, atol=1e-7)
         np.testing.assert_allclose(trajectory.c_x.mean[i], one_trajectory.c_x.mean, rtol=1e-8)
+
+
+def test_the_compiler_options_change_round_off_only(estimator):
+    # COMPILER_OPTIONS allow reassociation and fused multiply-adds: the filter compiled with
+    # XLA's defaults must give the same trajectory to round-off, alarms and flags alike.
+    steps = _steps(linear_windows(4, 600.0, c_x=45.0))
+    default = eqx.filter_jit(lambda est, state, blocks: est.run(state, blocks))
+    plain, plain_trajectory = default(estimator, estimator.init(), steps)
+    fast, fast_trajectory = run_online(estimator, estimator.init(), steps)
+    sd = np.sqrt(np.diag(plain.cov))
+    np.testing.assert_allclose((fast.mean - plain.mean) / sd, 0.0, atol=1e-6)
+    np.testing.assert_allclose(fast.cov / np.outer(sd, sd), plain.cov / np.outer(sd, sd), atol=1e-7)
+    np.testing.assert_allclose(fast_trajectory.c_x.mean, plain_trajectory.c_x.mean, rtol=1e-8)
+    np.testing.assert_array_equal(fast_trajectory.ready, plain_trajectory.ready)
+    np.testing.assert_array_equal(fast_trajectory.alarm, plain_trajectory.alarm)
 
 
 def test_the_estimate_settles_on_the_truth_and_is_ready(estimator):

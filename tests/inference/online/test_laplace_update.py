@@ -7,7 +7,7 @@ import numpy as np
 from jax.scipy.stats import norm
 from scipy.stats import multivariate_normal
 
-from tyrebayes.inference.online.laplace_update import _next_damping, laplace_update
+from tyrebayes.inference.online.laplace_update import _next_damping, _spd_inverse, laplace_update
 
 
 def _kalman(mean, cov, a, y, r):
@@ -147,3 +147,21 @@ def test_damped_gauss_newton_steps_reach_the_mode_where_full_ones_overshoot():
     assert np.allclose(damped.mean, exact.mean, atol=1e-3)
     assert abs(float(damped.log_evidence - exact.log_evidence)) < 0.05
     assert float(full.log_evidence) < float(exact.log_evidence) - 100.0
+
+
+def test_spd_inverse_by_cholesky_and_where_round_off_fails_it():
+    rng = np.random.default_rng(3)
+    root = rng.normal(size=(4, 4))
+    matrix = root @ root.T + np.eye(4)
+    inverse, log_det = _spd_inverse(jnp.asarray(matrix))
+    np.testing.assert_allclose(inverse, np.linalg.inv(matrix), rtol=1e-10)
+    np.testing.assert_allclose(log_det, np.linalg.slogdet(matrix)[1], rtol=1e-12)
+    # Rank one with a round-off-sized negative eigenvalue: Cholesky fails, the floored
+    # eigenvalues give a finite, symmetric positive definite inverse.
+    v = np.array([1.0, 2.0, -1.0, 0.5])
+    singular = np.outer(v, v) - 1e-15 * np.eye(4)
+    assert np.linalg.eigvalsh(singular).min() < 0
+    inverse, log_det = _spd_inverse(jnp.asarray(singular))
+    assert np.all(np.isfinite(inverse)) and np.isfinite(log_det)
+    assert np.all(np.linalg.eigvalsh(np.asarray(inverse)) > 0)
+    np.testing.assert_allclose(v @ np.asarray(inverse) @ v, 1.0, rtol=1e-3)

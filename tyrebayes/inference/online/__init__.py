@@ -11,9 +11,11 @@ detector (:mod:`.change`), the slip errors' inflation (:mod:`.inflation`), the s
 
 from .config import OnlineConfig as OnlineConfig
 from .config import default_config as default_config
+from .estimator import COMPILER_OPTIONS as COMPILER_OPTIONS
 from .estimator import OnlineEstimator as OnlineEstimator
 from .estimator import online_estimate as online_estimate
 from .estimator import run_online as run_online
+from .estimator import run_online_cars as run_online_cars
 from .linear_ekf import LinearEkfTrajectory as LinearEkfTrajectory
 from .linear_ekf import linear_ekf as linear_ekf
 from .parameters import GaussianPrior as GaussianPrior

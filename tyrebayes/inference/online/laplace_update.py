@@ -66,8 +66,8 @@ _REFRESH_SD = 1.0
 _GOOD_GAIN = 0.75
 _POOR_GAIN = 0.25
 _MIN_DAMPING = 1e-2
-# Relative eigenvalue floor of a covariance's inverse (a predicted covariance is positive
-# definite; the floor only keeps round-off from making it otherwise).
+# Relative eigenvalue floor of a matrix inverted (a predicted covariance and a Newton matrix are
+# positive definite; the floor only keeps round-off from making them otherwise).
 _EIGEN_FLOOR = 1e-12
 
 
@@ -94,14 +94,31 @@ def _next_damping(
     return jnp.where(settled, 0.0, new)
 
 
-def _floored_inverse(matrix: Float[Array, "p p"]) -> Float[Array, "p p"]:
+def _spd_inverse(matrix: Float[Array, "p p"]) -> tuple[Float[Array, "p p"], Float[Array, ""]]:
+    """Inverse of a matrix positive definite by construction (a covariance, a precision plus a
+    positive semi-definite information), and the matrix's own log-determinant.
+
+    By Cholesky, a fraction of an eigendecomposition's cost at this size. Where round-off has
+    made the matrix fail it (a non-finite factor), by its eigendecomposition instead, with the
+    eigenvalues floored at :data:`_EIGEN_FLOOR` of the largest (and a non-finite matrix read as
+    the identity): the inverse and log-determinant of the nearest matrix that is positive.
+    """
     symmetric = 0.5 * (matrix + matrix.T)
-    finite = jnp.all(jnp.isfinite(symmetric))
-    symmetric = jnp.where(finite, symmetric, jnp.eye(matrix.shape[0], dtype=matrix.dtype))
-    eigenvalues, vectors = jnp.linalg.eigh(symmetric)
-    floor = _EIGEN_FLOOR * jnp.max(jnp.abs(eigenvalues))
-    inverse_values = 1.0 / jnp.maximum(eigenvalues, floor)
-    return (vectors * inverse_values[None, :]) @ vectors.T
+    factor = jnp.linalg.cholesky(symmetric)
+
+    def by_cholesky():
+        identity = jnp.eye(matrix.shape[0], dtype=matrix.dtype)
+        inverse = jax.scipy.linalg.cho_solve((factor, True), identity)
+        return inverse, 2.0 * jnp.sum(jnp.log(jnp.diagonal(factor)))
+
+    def by_eigenvalues():
+        finite = jnp.all(jnp.isfinite(symmetric))
+        clean = jnp.where(finite, symmetric, jnp.eye(matrix.shape[0], dtype=matrix.dtype))
+        eigenvalues, vectors = jnp.linalg.eigh(clean)
+        floored = jnp.maximum(eigenvalues, _EIGEN_FLOOR * jnp.max(jnp.abs(eigenvalues)))
+        return (vectors / floored[None, :]) @ vectors.T, jnp.sum(jnp.log(floored))
+
+    return jax.lax.cond(jnp.all(jnp.isfinite(factor)), by_cholesky, by_eigenvalues)
 
 
 def _informations(
@@ -224,7 +241,7 @@ def laplace_update(
     >>> [round(float(v), 6) for v in u.mean], round(float(u.cov[0, 0]), 6)
     ([0.5, 0.5], 0.5)
     """
-    precision = _floored_inverse(cov)
+    precision, log_det_cov = _spd_inverse(cov)
 
     def objective(theta):
         d = theta - mean
@@ -245,7 +262,7 @@ def laplace_update(
         # The informations of a Hessian and the inverse of the Newton matrix they give: all
         # that changes when the Hessian is taken again, so iterations in between reuse them.
         information, absolute = _informations(curvature)
-        return information, absolute, _floored_inverse(precision + absolute)
+        return information, absolute, _spd_inverse(precision + absolute)[0]
 
     def evaluated(theta):
         # The objective and its gradient at θ from one pass (the gradient is the next
@@ -264,7 +281,7 @@ def laplace_update(
         )
         inverse = jax.lax.cond(
             refresh | (damping != damped_with),
-            lambda: _floored_inverse((1.0 + damping) * precision + absolute),
+            lambda: _spd_inverse((1.0 + damping) * precision + absolute)[0],
             lambda: inverse,
         )
         step = inverse @ g
@@ -334,8 +351,9 @@ def laplace_update(
         inf,
     )
     _, mode, value, _, information, *_ = jax.lax.while_loop(more, newton, start)
-    post_cov = _floored_inverse(precision + information)
-    _, log_det_ratio = jnp.linalg.slogdet(post_cov @ precision)
+    post_cov, log_det_newton = _spd_inverse(precision + information)
+    # log(|Σ|/|P|) with Σ = (P⁻¹ + information)⁻¹.
+    log_det_ratio = -(log_det_newton + log_det_cov)
     log_evidence = -value + 0.5 * log_det_ratio
     return GaussianUpdate(
         mean=mode,

@@ -177,6 +177,30 @@ class OnlineSummary(eqx.Module):
     coordinate_names: tuple[str, ...] = eqx.field(static=True, default=())
 
 
+class StateMoments(eqx.Module):
+    """What a step's summary reads of the filter state: θ's mean and sds, the mean and sd of
+    log C_x at the mean tyre temperature since the (re)start, and the counters and flags
+    (every field with the caller's leading axes).
+
+    The covariance enters a summary only through these, so a trajectory keeps them per step
+    and summarises every step at once after the scan (:meth:`~.estimator.OnlineEstimator.run`).
+    """
+
+    time_s: Float[Array, "*t"]
+    mean: Float[Array, "*t p"]
+    sd: Float[Array, "*t p"]
+    log_c_x_mean: Float[Array, "*t"]
+    log_c_x_sd: Float[Array, "*t"]
+    n_slip_windows: Float[Array, "*t"]
+    n_excited_windows: Float[Array, "*t"]
+    n_limit_windows: Float[Array, "*t"]
+    alarm: Bool[Array, "*t"]
+    swap_alarm: Bool[Array, "*t"]
+    n_alarms: Int[Array, "*t"]
+    log_bayes_factor: Float[Array, "*t"]
+    slip_inflation: Float[Array, "*t"]
+
+
 def joint_prior_sds(offset: Float[Array, "k"], prior_cov: Float[Array, "k k"]) -> Float[Array, ""]:
     """How far k coordinates lie from their prior mean together, in one coordinate's sds.
 
@@ -325,6 +349,7 @@ __all__ = [
     "REASONS",
     "LogNormalSummary",
     "OnlineSummary",
+    "StateMoments",
     "log_normal_summary",
     "joint_prior_sds",
     "readiness",
