@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -84,25 +85,46 @@ def _tyre_fit(
     )
 
 
+# Compiled as one program, not op by op; given the curve's shape sites alone (their draws have
+# one shape for every fit, where the per-drive sites' depend on the number of drives).
+_draws_slip = eqx.filter_jit(curve_slip)
+_CURVE_SHAPE_SITES = ("curve_shape", "curve_shape_c", "curve_curvature_e")
+
+
 def _secant_stiffness(samples: dict, kind: str, force: float) -> np.ndarray:
     """Draws of ρ/σ(ρ) of the fitted curve at ``force`` (first surface, C_x at the mean T)."""
     if force <= 0:
         return np.asarray(samples["c_x"], float)
     mu = np.asarray(samples["mu_max"])[:, 0]
     force = np.minimum(force, 0.999 * mu)
-    slip = np.asarray(curve_slip(kind, force, samples["c_x"], mu, samples))
+    shape = {k: samples[k] for k in _CURVE_SHAPE_SITES if k in samples}
+    slip = np.asarray(_draws_slip(kind, np.asarray(force), samples["c_x"], mu, shape))
     with np.errstate(invalid="ignore", divide="ignore"):
         return force / slip
+
+
+@eqx.filter_jit
+def _point_residuals(point: dict, obs: TyreObservations, kind: str):
+    """Each window's slip residual σ_obs − loc at one point θ, and the residual standardised
+    with the block offset taken out, (σ_obs − loc − offset)/scale (:func:`window_likelihood`).
+
+    Compiled as one program per data shape: run op by op, its hundred-odd operations were each
+    a program of its own, traced, lowered and looked up in the compilation cache at every new
+    padded shape (a fleet worker's first fit of a shape).
+    """
+    lik = window_likelihood(point, obs, kind)
+    residual = obs.slip - lik.slip_loc
+    return residual, (residual - lik.block_offset) / lik.slip_scale
 
 
 def _adequacy(
     obs: TyreObservations, samples: dict, kind: str, priors: TyrePriors, mu_observed: dict
 ) -> Adequacy:
     """:func:`.adequacy.assess_adequacy` at the posterior mean (slip windows, time order)."""
-    point = {k: jnp.mean(jnp.asarray(v), axis=0) for k, v in samples.items()}
-    lik = window_likelihood(point, obs, kind)
+    point = {k: np.mean(np.asarray(v), axis=0) for k, v in samples.items()}
+    residual, z = (np.asarray(x) for x in _point_residuals(point, obs, kind))
     slip_window = np.asarray(obs.mask & ~obs.at_limit)
-    z = np.asarray((obs.slip - lik.slip_loc - lik.block_offset) / lik.slip_scale)[slip_window]
+    z = z[slip_window]
     shape_sds = {}
     if kind == "magic":
         shape_sds = {
@@ -121,7 +143,7 @@ def _adequacy(
     blocks = np.asarray(obs.block_index)[slip_window]
     # Each block's mean slip residual (the model's block offset included where it has them):
     # a step in it is a change of tyre or radius. Blocks are numbered in time order.
-    residual = np.asarray(obs.slip - lik.slip_loc)[slip_window]
+    residual = residual[slip_window]
     per_drive = []
     for d in range(obs.n_drives):
         ids, inverse = np.unique(blocks[drives == d], return_inverse=True)
@@ -175,8 +197,7 @@ def _weighted_by_correlation(obs: TyreObservations, point: dict, kind: str):
     for them. Where they are the weights ``obs`` has (every drive's VIF 1), ``obs`` itself is
     returned.
     """
-    lik = window_likelihood({k: jnp.asarray(v) for k, v in point.items()}, obs, kind)
-    z = np.asarray((obs.slip - lik.slip_loc - lik.block_offset) / lik.slip_scale)
+    z = np.asarray(_point_residuals({k: jnp.asarray(v) for k, v in point.items()}, obs, kind)[1])
     slip_window = np.asarray(obs.mask & ~obs.at_limit)
     weights, inflation = slip_weights(z, slip_window, np.asarray(obs.drive_index), obs.n_drives)
     if np.array_equal(weights, np.asarray(obs.slip_weight)):

@@ -171,10 +171,12 @@ def _attach_pointwise(
     # Single precision, like the stored result (on ten one-hour drives it took 6.7 s against
     # 7.7 s in float64, measured with numpyro's log_likelihood and Predictive before
     # window_likelihood replaced them).
-    thinned = {
-        k: jnp.asarray(v[:, keep].reshape((-1,) + v.shape[2:]), dtype=jnp.float32)
-        for k, v in posterior.items()
-    }
+    # A failed fit's draws can lie beyond float32's range: they become ±inf, as intended.
+    with np.errstate(over="ignore"):
+        thinned = {
+            k: jnp.asarray(v[:, keep].reshape((-1,) + v.shape[2:]), dtype=jnp.float32)
+            for k, v in posterior.items()
+        }
     core = _predictive_core(kind, _obs_key(obs), len(keep) * n_chains)
     loglik, ppc = core(thinned, _single_precision(obs), key)
 
