@@ -249,6 +249,19 @@ def fleet_in_child(args) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
+def _alternated(runs: dict, first: str, second: str) -> dict:
+    """Two alternated Magic Formula car-hour timings (30 s steps): each side's runs and median,
+    and the speedup of ``second`` over ``first``."""
+    median = {side: float(np.median(runs[side])) for side in (first, second)}
+    return {
+        "kind": "magic",
+        "max_step_s": STEP_S,
+        **{f"car_hour_s_{side}": runs[side] for side in (first, second)},
+        **{f"car_hour_s_{side}_median": median[side] for side in (first, second)},
+        "speedup": median[first] / median[second],
+    }
+
+
 def compiler_options_gain(steps, hours: float, pairs: int, reps: int) -> dict:
     """The Magic Formula car-hour (30 s steps) compiled with XLA's default options and with the
     estimator's :data:`~tyrebayes.inference.online.COMPILER_OPTIONS`, alternated ``pairs`` times
@@ -265,17 +278,10 @@ def compiler_options_gain(steps, hours: float, pairs: int, reps: int) -> dict:
     sd = np.sqrt(np.diag(np.asarray(final["default"].cov)))
     mean_sds = np.abs(np.asarray(final["estimator"].mean - final["default"].mean)) / sd
     c_x = {side: np.asarray(outputs[side][1].c_x.mean) for side in outputs}
-    default_s, options_s = (float(np.median(runs[side])) for side in ("default", "estimator"))
     return {
-        "kind": "magic",
-        "max_step_s": STEP_S,
+        **_alternated(runs, "default", "estimator"),
         "options": COMPILER_OPTIONS,
         "pairs": pairs,
-        "car_hour_s_default": runs["default"],
-        "car_hour_s_estimator": runs["estimator"],
-        "car_hour_s_default_median": default_s,
-        "car_hour_s_estimator_median": options_s,
-        "speedup": default_s / options_s,
         "final_mean_max_diff_posterior_sds": float(np.max(mean_sds)),
         "c_x_trajectory_max_rel_diff": float(
             np.max(np.abs(c_x["estimator"] - c_x["default"]) / c_x["default"])
@@ -298,17 +304,10 @@ def before_and_after(revision: str, pairs: int, reps: int) -> dict:
             for side, where in (("before", code), ("after", None)):
                 child = run_child(_CAR_HOUR_CHILD, [CORE, here, reps], where, {})
                 runs[side].append(child["car_hour_s"])
-    before, after = (float(np.median(runs[side])) for side in ("before", "after"))
     return {
-        "kind": "magic",
-        "max_step_s": STEP_S,
+        **_alternated(runs, "before", "after"),
         "before_revision": revision,
         "pairs": pairs,
-        "car_hour_s_before": runs["before"],
-        "car_hour_s_after": runs["after"],
-        "car_hour_s_before_median": before,
-        "car_hour_s_after_median": after,
-        "speedup": before / after,
         "note": "each value the median of its child's runs; children alternate on one core",
     }
 
