@@ -307,35 +307,35 @@ class OnlineEstimator(eqx.Module):
             ),
         )
 
-    def summary_of(self, state: StateMoments) -> OnlineSummary:
+    def summary_of(self, moments: StateMoments) -> OnlineSummary:
         """The estimate from a state's :meth:`moments` (unbatched; vmap for many)."""
         idx = self._index
-        sd = state.sd
-        c_x = log_normal_summary(state.log_c_x_mean, state.log_c_x_sd)
+        sd = moments.sd
+        c_x = log_normal_summary(moments.log_c_x_mean, moments.log_c_x_sd)
         gain_i, offset_i, c_i = idx["log_force_gain"], idx["slip_offset"], idx["log_c_xr"]
-        prior_sds = (state.mean - self.prior.mean) / jnp.sqrt(jnp.diag(self.prior.cov))
+        prior_sds = (moments.mean - self.prior.mean) / jnp.sqrt(jnp.diag(self.prior.cov))
         prior_z = prior_sds[c_i]
         checked = jnp.asarray([n in PRIOR_CHECKED for n in self.prior.names])
         checked_sds = jnp.where(checked, prior_sds, 0.0)
         worst = jnp.argmax(jnp.abs(checked_sds))
         rows = np.asarray([i for i, n in enumerate(self.prior.names) if n in PRIOR_CHECKED])
         joint = joint_prior_sds(
-            (state.mean - self.prior.mean)[rows], self.prior.cov[np.ix_(rows, rows)]
+            (moments.mean - self.prior.mean)[rows], self.prior.cov[np.ix_(rows, rows)]
         )
         conflict = (jnp.abs(checked_sds[worst]) > self.config.max_prior_z) | (
             joint > self.config.max_prior_z
         )
         ready, reason = readiness(
-            c_x, state.n_slip_windows, state.n_excited_windows, prior_z, self.config, conflict
+            c_x, moments.n_slip_windows, moments.n_excited_windows, prior_z, self.config, conflict
         )
         mu_i = idx["log_mu_max"]
         mu_contraction = 1.0 - sd[mu_i] / jnp.sqrt(self.prior.cov[mu_i, mu_i])
-        mu_observed = (state.n_limit_windows > 0) & (
+        mu_observed = (moments.n_limit_windows > 0) & (
             mu_contraction >= self.config.mu_observed_contraction
         )
         mu_prior_z = prior_sds[mu_i]
         likelier, label_log_bf = likelier_surface(
-            state.mean[mu_i],
+            moments.mean[mu_i],
             sd[mu_i],
             self.prior.surface,
             SURFACES,
@@ -343,12 +343,12 @@ class OnlineEstimator(eqx.Module):
             self.priors.mu_log_sd(SURFACES),
         )
         return OnlineSummary(
-            time_s=state.time_s,
+            time_s=moments.time_s,
             c_x=c_x,
-            c_xr=log_normal_summary(state.mean[c_i], sd[c_i]),
-            mu_max=log_normal_summary(state.mean[mu_i], sd[mu_i]),
-            force_gain=log_normal_summary(state.mean[gain_i], sd[gain_i]),
-            slip_offset_mean=state.mean[offset_i],
+            c_xr=log_normal_summary(moments.mean[c_i], sd[c_i]),
+            mu_max=log_normal_summary(moments.mean[mu_i], sd[mu_i]),
+            force_gain=log_normal_summary(moments.mean[gain_i], sd[gain_i]),
+            slip_offset_mean=moments.mean[offset_i],
             slip_offset_sd=sd[offset_i],
             ready=ready,
             reason=reason,
@@ -356,14 +356,14 @@ class OnlineEstimator(eqx.Module):
             mu_prior_z=mu_prior_z,
             mu_likelier_surface=likelier.astype(jnp.int32),
             mu_label_log_bf=label_log_bf,
-            alarm=state.alarm,
-            swap_alarm=state.swap_alarm,
-            n_alarms=state.n_alarms,
-            swap_log_bayes_factor=state.log_bayes_factor,
-            n_slip_windows=state.n_slip_windows,
-            n_excited_windows=state.n_excited_windows,
-            n_limit_windows=state.n_limit_windows,
-            slip_inflation=state.slip_inflation,
+            alarm=moments.alarm,
+            swap_alarm=moments.swap_alarm,
+            n_alarms=moments.n_alarms,
+            swap_log_bayes_factor=moments.log_bayes_factor,
+            n_slip_windows=moments.n_slip_windows,
+            n_excited_windows=moments.n_excited_windows,
+            n_limit_windows=moments.n_limit_windows,
+            slip_inflation=moments.slip_inflation,
             prior_conflict=conflict,
             conflict_prior_sds=checked_sds[worst],
             conflict_joint_prior_sds=joint,

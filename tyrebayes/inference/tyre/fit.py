@@ -19,6 +19,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, Float
 
 from .adequacy import Adequacy, assess_adequacy, likelier_surface
 from .data import TyreObservations
@@ -104,7 +105,9 @@ def _secant_stiffness(samples: dict, kind: str, force: float) -> np.ndarray:
 
 
 @eqx.filter_jit
-def _point_residuals(point: dict, obs: TyreObservations, kind: str):
+def _point_residuals(
+    point: dict, obs: TyreObservations, kind: str
+) -> tuple[Float[Array, " n"], Float[Array, " n"]]:
     """Each window's slip residual σ_obs − loc at one point θ, and the residual standardised
     with the block offset taken out, (σ_obs − loc − offset)/scale (:func:`window_likelihood`).
 
