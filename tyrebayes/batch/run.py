@@ -265,32 +265,31 @@ def fleet_run(
         # first, each worker meets each fit shape about once and the longest fits start first.
         if not ready_sets or drives_left > _task_slots(client):
             return
-        for s in sorted(ready_sets, key=set_size, reverse=True):
-            submit_set(s)
+        finished = {
+            s: [
+                drive_records[d.drive_id]
+                for d in by_set[s]
+                if drive_records[d.drive_id].get("status") == "done"
+            ]
+            for s in ready_sets
+        }
+        # The padded number of windows of each set's fit, from its finished drives.
+        size = {s: pad_size(sum(r["windows"] for r in drives)) for s, drives in finished.items()}
+        for s in sorted(ready_sets, key=size.get, reverse=True):
+            submit_set(s, finished[s], size[s])
         ready_sets.clear()
 
-    def set_size(s: str) -> int:
-        # The padded number of windows of the set's fit, from its finished drives.
-        return pad_size(sum(r["windows"] for r in finished_drives(s)))
-
-    def finished_drives(s: str) -> list[dict]:
-        return [
-            drive_records[d.drive_id]
-            for d in by_set[s]
-            if drive_records[d.drive_id].get("status") == "done"
-        ]
-
-    def submit_set(s: str) -> None:
+    def submit_set(s: str, finished: list[dict], size: int) -> None:
         fut = client.submit(
             fit_tyre_set,
             s,
             set_type[s],
-            finished_drives(s),
+            finished,
             out_s,
             settings,
             key=f"tyre-set-{set_file_name(s)}",
             pure=False,
-            priority=set_size(s) - _SET_PRIORITY_OFFSET,
+            priority=size - _SET_PRIORITY_OFFSET,
         )
         futures[fut] = ("tyre_set", s)
         completed.add(fut)
