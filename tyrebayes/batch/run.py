@@ -1,14 +1,15 @@
 """A fleet run on dask.distributed: drives map over workers, tyre sets reduce, the fleet closes.
 
-:func:`fleet_run` submits one task per drive (:func:`~.drive_stage.process_drive`). A set's
-joint fit (:func:`~.tyre_set_stage.fit_tyre_set`) is ready once its drives have finished (done,
-failed or skipped); ready fits are held on the client until the drives still to finish are no
-more than the cluster's task slots, then submitted at a priority below every drive's, larger
-padded shapes higher: they fill the drive stage's idle tail, and a worker meets each fit shape
-about once (it keeps one shape's programs). When all sets are in, it writes the run's tables and
-runs the fleet stage (:func:`~.fleet_stage.run_fleet_stage`) on the client. Every item writes its
-own outputs atomically when it finishes, so a killed run loses only the items in flight, and a
-rerun skips what its records say is unchanged.
+:func:`fleet_run` submits one task per drive (:func:`~.drive_stage.process_drive`). A set's joint
+fit (:func:`~.tyre_set_stage.fit_tyre_set`) is ready once its drives have finished (done, failed or
+skipped); ready fits are held on the client until the drives still to finish are no more than the
+cluster's task slots, then submitted at a priority below every drive's, larger padded shapes
+higher: they fill the drive stage's idle tail. Each worker is given a contiguous run of them, of
+about equal work (:func:`~.placement.place_sets`), so that it meets few fit shapes, each once (it
+keeps one shape's programs). When all sets are in, it writes the run's tables and runs the fleet
+stage (:func:`~.fleet_stage.run_fleet_stage`) on the client. Every item writes its own outputs
+atomically when it finishes, so a killed run loses only the items in flight, and a rerun skips what
+its records say is unchanged.
 
 Outputs in ``out``: ``drives/`` (per drive: ``ID.windows.parquet``, the windows table a set's
 fit reads; ``ID.summary.parquet``; the record), ``tyre_sets/`` (per set: ``ID.fit.nc``,
@@ -33,6 +34,7 @@ from .._io import atomic_write_bytes, to_jsonable
 from .drive_stage import DRIVES_DIR, process_drive
 from .fleet_stage import run_fleet_stage
 from .manifest import DriveItem
+from .placement import place_sets
 from .records import write_parquet
 from .settings import RunSettings
 from .tyre_set_stage import fit_tyre_set, pad_size, set_file_name, tyre_set_table
@@ -253,6 +255,9 @@ def fleet_run(
 
     ready_sets: list[str] = []
     drives_left = len(items)
+    # Padded windows of fits sent to each worker, and the worker last sent each padded size.
+    placed: dict[str, float] = defaultdict(float)
+    shape_worker: dict[int, str] = {}
 
     def release_sets() -> None:
         # Ready sets wait here, not in the workers, until the drive stage's tail: a task sent
@@ -262,7 +267,8 @@ def fleet_run(
         # stage's with them: a 1-worker run of 200 drives dropped them at 48 tasks and took
         # 1.9 times the CPU seconds of the same work in a warm plain loop
         # (benchmarks/results/fleet_run_b8b3867.json). Sent together, the largest padded shape
-        # first, each worker meets each fit shape about once and the longest fits start first.
+        # first, the longest fits start first, and each worker is given the sets of a few
+        # shapes (place_sets) and meets each of them once.
         if not ready_sets or drives_left > _task_slots(client):
             return
         finished = {
@@ -275,11 +281,16 @@ def fleet_run(
         }
         # The padded number of windows of each set's fit, from its finished drives.
         size = {s: pad_size(sum(r["windows"] for r in drives)) for s, drives in finished.items()}
+        worker = place_sets(size, client.nthreads(), placed, shape_worker)
         for s in sorted(ready_sets, key=size.get, reverse=True):
-            submit_set(s, finished[s], size[s])
+            submit_set(s, finished[s], size[s], worker[s])
+            placed[worker[s]] += size[s]
+            shape_worker[size[s]] = worker[s]
         ready_sets.clear()
 
-    def submit_set(s: str, finished: list[dict], size: int) -> None:
+    def submit_set(s: str, finished: list[dict], size: int, worker: str) -> None:
+        # A loose restriction: an idle worker still takes the set, and a lost worker's runs
+        # elsewhere.
         fut = client.submit(
             fit_tyre_set,
             s,
@@ -290,6 +301,8 @@ def fleet_run(
             key=f"tyre-set-{set_file_name(s)}",
             pure=False,
             priority=size - _SET_PRIORITY_OFFSET,
+            workers=[worker],
+            allow_other_workers=True,
         )
         futures[fut] = ("tyre_set", s)
         completed.add(fut)
