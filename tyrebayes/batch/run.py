@@ -281,14 +281,17 @@ def fleet_run(
         }
         # The padded number of windows of each set's fit, from its finished drives.
         size = {s: pad_size(sum(r["windows"] for r in drives)) for s, drives in finished.items()}
-        worker = place_sets(size, client.nthreads(), placed, shape_worker)
+        slots = client.nthreads()
+        # No worker at the moment (all lost, or not yet joined): the scheduler places them.
+        worker = place_sets(size, slots, placed, shape_worker) if slots else {}
         for s in sorted(ready_sets, key=size.get, reverse=True):
-            submit_set(s, finished[s], size[s], worker[s])
-            placed[worker[s]] += size[s]
-            shape_worker[size[s]] = worker[s]
+            submit_set(s, finished[s], size[s], worker.get(s))
+            if s in worker:
+                placed[worker[s]] += size[s]
+                shape_worker[size[s]] = worker[s]
         ready_sets.clear()
 
-    def submit_set(s: str, finished: list[dict], size: int, worker: str) -> None:
+    def submit_set(s: str, finished: list[dict], size: int, worker: str | None) -> None:
         # A loose restriction: an idle worker still takes the set, and a lost worker's runs
         # elsewhere.
         fut = client.submit(
@@ -301,8 +304,8 @@ def fleet_run(
             key=f"tyre-set-{set_file_name(s)}",
             pure=False,
             priority=size - _SET_PRIORITY_OFFSET,
-            workers=[worker],
-            allow_other_workers=True,
+            workers=[worker] if worker else None,
+            allow_other_workers=bool(worker),
         )
         futures[fut] = ("tyre_set", s)
         completed.add(fut)
