@@ -42,7 +42,7 @@ def tyre_fit_file(tmp_path_factory):
 
 
 def test_tyre_fit_file_stores_window_conditions_and_is_criticised(tyre_fit_file):
-    with xr.open_datatree(tyre_fit_file, engine="h5netcdf") as tree:
+    with xr.open_datatree(tyre_fit_file, engine="netcdf4") as tree:
         stored = set(tree["constant_data"].data_vars)
     assert {"at_limit", "temperature_c", "drive_index", "block_index", "surface_index"} <= stored
     result = criticize_tyre_fit(tyre_fit_file)

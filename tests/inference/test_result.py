@@ -120,7 +120,7 @@ def test_files_that_are_not_fits_are_bad_input(tmp_path):
     with pytest.raises(BadInputError, match="expected a saved fit"):
         load_fit(junk)
     plain = tmp_path / "plain.nc"
-    _tree().to_netcdf(plain, engine="h5netcdf")
+    _tree().to_netcdf(plain, engine="netcdf4")
     with pytest.raises(BadInputError, match="without one"):
         load_fit(plain)
     with pytest.raises(BadInputError, match="file not found"):
