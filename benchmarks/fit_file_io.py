@@ -1,16 +1,16 @@
 """Writing and reading a saved fit: the netCDF libraries xarray can use, on one fit file.
 
 A fleet run saves a fit file per tyre set and ``criticize`` / ``predict`` read them back, so the
-file's write and read are part of every set's cost. The fit is a fast fit of one simulated
-one-hour drive (compact FWD car, summer tyres, two ABS stops), saved as
+file's write and read are part of every set's cost. The fit is a fast fit of one simulated one-hour
+drive (compact FWD car, summer tyres, two ABS stops), saved as
 :meth:`tyrebayes.inference.result.Fit.save` writes it. Each engine installed (``netcdf4``, the
 package's :data:`~tyrebayes.inference.result.NETCDF_ENGINE`; ``h5netcdf``, which the package used
 before, where installed) writes the same tree ``--repeats`` times and reads it back as
-:func:`~tyrebayes.inference.result.load_fit` does; the median of each is kept, with the file
-sizes and whether each engine's file reads back identical to the tree written (values, dtypes,
-attributes): the file with the per-window pointwise draws (``fit-tyre``'s default) and without
-them (as ``fleet-run`` saves a set's fit). The package's own ``save`` and ``load_fit`` are timed
-too (with them).
+:func:`~tyrebayes.inference.result.load_fit` does; the median of each is kept, with the file sizes
+and whether each engine's file reads back identical to the tree written (values, dtypes,
+attributes), and whether each reads the other's file identical too: the file with the per-window
+pointwise draws (``fit-tyre``'s default) and without them (as ``fleet-run`` saves a set's fit). The
+package's own ``save`` and ``load_fit`` are timed too (with them).
 
 Usage: ``python benchmarks/fit_file_io.py [--repeats N] [--out PATH]``.
 """
@@ -101,6 +101,16 @@ def main() -> int:
                 "file_mb": path.stat().st_size / 2**20,
                 "reads_back_identical": bool(read().identical(written)),
             }
+    # Each engine reading the other's file: the old fit files stay readable.
+    installed = [e for e in ENGINES if engines[e]["installed"]]
+    for engine in installed:
+        for other in installed:
+            if other != engine:
+                for label, written in trees.items():
+                    path = folder / f"{other}_{label}.nc"
+                    with xr.open_datatree(path, engine=engine) as opened:
+                        same = bool(opened.load().identical(written))
+                    engines[engine][label][f"reads_{other}_file_identical"] = same
     package = {
         "engine": NETCDF_ENGINE,
         "save_seconds_median": _median_seconds(
