@@ -148,9 +148,10 @@ class _Progress:
             self.bar.close()
 
 
-def _task_slots(client) -> int:
-    """The cluster's task threads now (at least 1): the tasks it runs at once."""
-    return max(1, sum(client.nthreads().values()))
+def _task_slots(slots: dict[str, int]) -> int:
+    """The cluster's task threads (at least 1), from its workers' threads: the tasks it runs at
+    once."""
+    return max(1, sum(slots.values()))
 
 
 def _stage_stats(records: list[dict]) -> dict:
@@ -269,7 +270,10 @@ def fleet_run(
         # (benchmarks/results/fleet_run_b8b3867.json). Sent together, the largest padded shape
         # first, the longest fits start first, and each worker is given the sets of a few
         # shapes (place_sets) and meets each of them once.
-        if not ready_sets or drives_left > _task_slots(client):
+        if not ready_sets:
+            return
+        slots = client.nthreads()  # worker address → task threads, now
+        if drives_left > _task_slots(slots):
             return
         finished = {
             s: [
@@ -281,7 +285,6 @@ def fleet_run(
         }
         # The padded number of windows of each set's fit, from its finished drives.
         size = {s: pad_size(sum(r["windows"] for r in drives)) for s, drives in finished.items()}
-        slots = client.nthreads()
         # No worker at the moment (all lost, or not yet joined): the scheduler places them.
         worker = place_sets(size, slots, placed, shape_worker) if slots else {}
         for s in sorted(ready_sets, key=size.get, reverse=True):
