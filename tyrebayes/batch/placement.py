@@ -2,10 +2,10 @@
 
 A worker's first fit of a padded shape loads that shape's compiled programs, and a worker keeps
 one shape's programs at a time (:meth:`.worker_memory.ProgramBudget.keep_one_fit_shape`): in
-``benchmarks/results/fleet_run_7347de6.json`` the warm plain loop's first fit of each of its 5
-shapes took 2.2-2.4 s, the median of its 50 fits 0.52 s. Sent to whichever worker was free, the
-ready sets of every shape reached every worker: 2 workers loaded 9 shapes where one worker
-loaded 5 (``programs_dropped``).
+the ``fleet_run`` benchmark a warm loop's first fit of a shape takes about four times its median
+fit. Sent to whichever worker is free, the ready sets of every shape reach every worker, and
+each worker loads nearly every shape (2 workers loaded 9 shapes where one worker loaded 5,
+``programs_dropped``).
 
 :func:`place_sets` splits the sets, in the order they run (largest padded shape first), into
 one contiguous run per worker of about equal work (padded windows summed: a fast fit's cost

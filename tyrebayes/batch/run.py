@@ -42,8 +42,8 @@ from .worker_memory import peak_rss_mb
 
 #: Memory limit of each local worker, the hard stop above the tasks' budget
 #: (``RunSettings.memory_budget_mb``): without the budget a fast fit of a set of four 10-60 min
-#: drives held up to 1.8 GB at its peak and a drive task up to 1.9 GB
-#: (benchmarks/results/fleet_run_df9f71f.json, full size; 3.2 GB for a set in an earlier run).
+#: drives held up to 1.8 GB at its peak and a drive task up to 1.9 GB (the ``fleet_run``
+#: benchmark at full size); the limit leaves room above that for a larger set.
 DEFAULT_MEMORY_LIMIT = "4GiB"
 # Tyre-set tasks' priorities are their padded shape minus this: below every drive task's 0.
 _SET_PRIORITY_OFFSET = 1 << 40
@@ -266,8 +266,8 @@ def fleet_run(
         # scheduler has not sent yet, whatever its priority. Sent early, fits and drives
         # alternated, and each fit at a new shape dropped the worker's programs, the drive
         # stage's with them: a 1-worker run of 200 drives dropped them at 48 tasks and took
-        # 1.9 times the CPU seconds of the same work in a warm plain loop
-        # (benchmarks/results/fleet_run_b8b3867.json). Sent together, the largest padded shape
+        # 1.9 times the CPU seconds of the same work in a warm plain loop (the fleet_run
+        # benchmark). Sent together, the largest padded shape
         # first, the longest fits start first, and each worker is given the sets of a few
         # shapes (place_sets) and meets each of them once.
         if not ready_sets:

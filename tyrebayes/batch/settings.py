@@ -29,9 +29,8 @@ class RunSettings:
         Window length of the windowed observations [s].
     pointwise : bool
         Keep each tyre set's per-window log-likelihood and posterior predictive draws in its fit
-        file. Off by default: they were most of a file (37-50 MB per set in
-        ``benchmarks/results/fleet_run_reduced_58b918d.json`` and ``fleet_run_mid_58b918d.json``)
-        and their computation part of every fit, and
+        file. Off by default: they are most of a file (37-50 MB per set in the ``fleet_run``
+        benchmark's reduced and mid sizes) and their computation part of every fit, and
         :func:`tyrebayes.inference.tyre.predictive.with_pointwise` (what ``criticize`` calls)
         recomputes them from the file when wanted.
     jax_cache : str

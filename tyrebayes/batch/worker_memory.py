@@ -6,7 +6,7 @@ stay resident after a task and count towards every later task's peak:
 * heap that glibc keeps after the task freed it (:func:`release_free_memory` gives it back);
 * the programs JAX compiled: a fit's programs of one padded shape and each padded drive
   length's force-density EM and temperature scan (344 MB in one process at the end of the warm
-  loop of ``benchmarks/results/fleet_run.json``). Keeping them is what makes the next task of
+  loop of the ``fleet_run`` benchmark). Keeping them is what makes the next task of
   the same shape fast (a dropped program is reloaded from the shared cache), so they are dropped
   only when keeping them would take the next task past the worker's memory budget
   (:class:`ProgramBudget`), and when a fit's padded shape changes
@@ -59,15 +59,15 @@ def release_free_memory() -> None:
 
     A worker's tasks free what they allocate, but glibc keeps freed heap below chunks still in
     use: after a tyre-set fit most of a worker's resident memory can be such free heap, and it
-    counts towards the worker's limit and every later task's peak (``fleet_run*.json`` have
-    the per-task peaks). No-op where there is no glibc.
+    counts towards the worker's limit and every later task's peak (the ``fleet_run``
+    benchmark's result has the per-task peaks). No-op where there is no glibc.
     """
     import ctypes
 
     # No gc.collect() here: arrays go when their last reference does, and a full collection
     # walks every object of a worker that has traced fits. With one before and after each task
-    # the full-size benchmark spent 1.5 CPU s per drive-hour outside the drive stage's steps
-    # (fleet_run_full_gc.json), 0.1 s without (fleet_run_reduced_58b918d.json).
+    # the full-size fleet_run benchmark spent 1.5 CPU s per drive-hour outside the drive
+    # stage's steps, 0.1 s without.
     try:
         ctypes.CDLL("libc.so.6").malloc_trim(0)
     except (OSError, AttributeError):
