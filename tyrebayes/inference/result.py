@@ -52,9 +52,9 @@ except importlib.metadata.PackageNotFoundError:  # run from a source tree that i
 #: Version of the saved-fit layout (``attrs["tyrebayes_fit_format"]``).
 FILE_FORMAT = 1
 #: xarray's netCDF engine for fit files: the netCDF-C library. A fleet set's fit file (no pointwise
-#: draws) took 0.018 s to write and 0.013 s to read with it, 0.082 and 0.078 s with h5netcdf, which
-#: the package used before (``benchmarks/results/fit_file_io.json``; a set's fast fit takes about
-#: half a second, ``fleet_run.json``). Each library reads the other's files back identical.
+#: draws) took 0.018 s to write and 0.013 s to read with it, 0.082 and 0.078 s with h5netcdf, the
+#: other engine xarray offers (the ``fit_file_io`` benchmark; a set's fast fit takes about half a
+#: second, the ``fleet_run`` benchmark). Each library reads the other's files back identical.
 NETCDF_ENGINE = "netcdf4"
 
 

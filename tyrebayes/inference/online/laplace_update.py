@@ -23,8 +23,8 @@ blocks from a wide prior, the Gauss-Newton information leaves out the large resi
 and its full steps overshoot by many prior sds, from which shortened steps of the same
 direction climb back only slowly (a swap test's challenger, started from the type prior on a
 simulated drive, stopped so far short of the mode after 10 iterations that its log Bayes factor
-fell to −1,587 nats, ``benchmarks/results/online_change_undamped_463e925.json``, pair 26;
-damped, the swap is found). A settled filter's steps are predicted well, and damping leaves
+fell to −1,587 nats in the ``online_change`` benchmark run without damping, pair 26; damped,
+the swap is found). A settled filter's steps are predicted well, and damping leaves
 them as they were. The Hessian, most of an iteration's cost, is taken again only after a step
 longer than :data:`_REFRESH_SD` posterior sds in the coordinates the block's curvature depends
 on: a settled filter's first step from the predicted mean is mostly a fraction of an sd in those,

@@ -304,7 +304,7 @@ def observations_from_features(
     # below zero would drop out, so the windows kept near zero force would average only the
     # samples the noise pushed up (+0.021 to +0.023 on the window force near zero with doubled
     # noise, against +0.004 to +0.008 without the cut, on two drives; C_x did not move measurably
-    # with this change alone). Every sample of free rolling, traction and braking enters a
+    # from the cut alone). Every sample of free rolling, traction and braking enters a
     # window, the force with the traction split throughout (continuous through zero), and the
     # selection is then made on the window's force, which the model conditions on anyway.
     usable = (

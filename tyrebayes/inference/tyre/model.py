@@ -33,7 +33,7 @@ exactly: given ρ_obs, ρ_true has mean ρ̂ and variance v, and
 v = η²(1 + η² s′(ρ_obs))/g² with η = λ_ρ sρ and s the score of the density of the drive's
 measured forces (:func:`tyrebayes.inference.tyre.force_density.force_density_score`, a deconvolved
 mixture): it holds whatever the distribution of the true forces. A Gaussian population of true
-forces (the previous model) shrinks the dense cruising cluster too little and the tail of hard
+forces (the simpler alternative) shrinks the dense cruising cluster too little and the tail of hard
 accelerations too much; the brush curve read that as curvature: C_x +20 % and μ_max at half the
 truth on two simulated one-hour drives with the true slips and Gaussian force noise of 0.012,
 against C_x +4 % and μ_max −9 % and −15 % with this form. The score has to be smooth as well as
@@ -165,10 +165,10 @@ class TyrePriors(eqx.Module):
         moves with p (a straighter start fits the same bending data with a lower C_x), so the
         prior's pull on p is a pull on C_x. On 30 + 30 one-hour drives
         (``benchmarks/results/shape_prior.json``) brush truth gave C_x −0.6 % (fitted p 1.06)
-        and Magic Formula truth +1.2 % with this prior, −1.6 % (p 1.16) and +1.4 % with the
-        previous one (p ≥ 1: p − 1 log-normal, median 0.5, log-sd 1). p < 1 (bending before the
-        brush) once read force noise as early bending; with the deconvolved force density it
-        does not (skewed-force test windows, seeds 3-5: C_x −1.9 to −4.7 % with this prior,
+        and Magic Formula truth +1.2 % with this prior, −1.6 % (p 1.16) and +1.4 % with a prior
+        bounded at p ≥ 1 (p − 1 log-normal, median 0.5, log-sd 1). p < 1 (bending before the
+        brush) reads force noise as early bending without the deconvolved force density; with it
+        it does not (skewed-force test windows, seeds 3-5: C_x −1.9 to −4.7 % with this prior,
         −1.1 to −4.2 % with p ≥ 1). Log-normal rather than half-normal: the sampler sees log b,
         whose prior tail is then Gaussian (with a half-normal NUTS did not converge on a
         one-hour drive: R-hat 1.021, a divergence).
