@@ -17,6 +17,10 @@ keys added at the top level:
     (``{"op": "<=", "value": 0.05}`` or ``None``), ``met`` (``None`` without a target), ``count``
     (how many cases the figure summarises) and ``exclusions`` (cases left out, and why).
 
+A script imports it as ``from _results import figure, write_result`` (the script's own folder is
+on ``sys.path`` when it runs as ``python benchmarks/NAME.py``, which is how ``python -m
+benchmarks NAME`` starts it).
+
 A full run writes ``benchmarks/results/NAME.json`` (the latest run per benchmark; git keeps the
 earlier ones). A quick run (``quick=True``) writes ``benchmarks/results/quick/NAME.json``, which git
 ignores, so that a smoke test never replaces a measured figure.
@@ -50,6 +54,8 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 QUICK_RESULTS = RESULTS / "quick"
+#: Set to "1" by ``python -m benchmarks --quick``: the script's result is a quick one.
+QUICK_ENV = "TYREBAYES_BENCHMARK_QUICK"
 
 # Keys the writer owns; a payload that uses one of them for something else is refused.
 RESERVED = ("benchmark", "run", "figures")
@@ -291,7 +297,7 @@ def write_result(
     name: str,
     payload: Mapping[str, Any],
     *,
-    quick: bool = False,
+    quick: bool | None = None,
     figures: Iterable[Mapping[str, Any]] | None = None,
     started: tuple[float, Any] | None = None,
     path: str | os.PathLike | None = None,
@@ -308,7 +314,8 @@ def write_result(
         ``name``.
     quick
         A reduced run: written under ``benchmarks/results/quick/`` (ignored by git) unless
-        ``path`` says otherwise, and marked ``"quick": true``.
+        ``path`` says otherwise, and marked ``"quick": true``. ``None`` (the default): quick
+        when the runner started the script with ``--quick`` (``TYREBAYES_BENCHMARK_QUICK=1``).
     figures
         The headline figures (:func:`figure`), which the docs' validation tables read.
     started
@@ -319,6 +326,8 @@ def write_result(
     The file is written atomically (a temporary file renamed into place), so a killed run leaves
     the previous result whole.
     """
+    if quick is None:
+        quick = os.environ.get(QUICK_ENV) == "1"
     result = build_result(name, payload, quick=quick, figures=figures, started=started)
     target = Path(path) if path is not None else result_path(name, quick=quick)
     target.parent.mkdir(parents=True, exist_ok=True)
