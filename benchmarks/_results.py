@@ -11,7 +11,9 @@ keys added at the top level:
     ``machine`` (``cores`` seen, ``cores_usable`` by this process, ``cpu_model``, ``platform``,
     ``python`` and the versions of the numerical libraries), ``wall_s`` and ``cpu_s`` (this process
     and its finished child processes, since the writer was imported, or since ``started``),
-    ``peak_rss_mb`` (this process) and ``peak_rss_children_mb`` (its largest finished child).
+    ``peak_rss_mb`` (this process) and ``peak_rss_children_mb`` (its largest finished child; Linux
+    counts a child's memory from the fork, so a child of a large process reads at least the
+    parent's size then).
 ``figures``
     the headline figures, each made by :func:`figure`: ``name``, ``value``, ``unit``, ``target``
     (``{"op": "<=", "value": 0.05}`` or ``None``), ``met`` (``None`` without a target), ``count``
@@ -217,21 +219,25 @@ def run_record(*, quick: bool = False, started: tuple[float, Any] | None = None)
     (:func:`start`); by default the time this module was imported.
     """
     wall0, cpu0 = started if started is not None else (_IMPORTED_WALL, _IMPORTED_CPU)
+    # Measured before the git calls below, which are child processes too.
+    wall = time.perf_counter() - wall0
     cpu1 = os.times()
     cpu = (cpu1.user - cpu0.user) + (cpu1.system - cpu0.system)
     cpu_children = (cpu1.children_user - cpu0.children_user) + (
         cpu1.children_system - cpu0.children_system
     )
+    peak_self = _peak_rss_mb(resource.RUSAGE_SELF)
+    peak_children = _peak_rss_mb(resource.RUSAGE_CHILDREN)
     return {
         "revision": revision(),
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "quick": quick,
         "machine": machine(),
-        "wall_s": round(time.perf_counter() - wall0, 3),
+        "wall_s": round(wall, 3),
         "cpu_s": round(cpu + cpu_children, 3),
         "cpu_children_s": round(cpu_children, 3),
-        "peak_rss_mb": _peak_rss_mb(resource.RUSAGE_SELF),
-        "peak_rss_children_mb": _peak_rss_mb(resource.RUSAGE_CHILDREN),
+        "peak_rss_mb": peak_self,
+        "peak_rss_children_mb": peak_children,
         "argv": sys.argv[1:],
     }
 
@@ -321,7 +327,8 @@ def write_result(
     started
         :func:`start`'s value when the measurement began; default the import of this module.
     path
-        Write here instead (a variant run a study keeps apart from the benchmark's result).
+        Write here instead (a variant run a study keeps apart from the benchmark's result). A
+        quick run's file in ``benchmarks/results/`` goes to ``benchmarks/results/quick/``.
 
     The file is written atomically (a temporary file renamed into place), so a killed run leaves
     the previous result whole.
@@ -330,6 +337,9 @@ def write_result(
         quick = os.environ.get(QUICK_ENV) == "1"
     result = build_result(name, payload, quick=quick, figures=figures, started=started)
     target = Path(path) if path is not None else result_path(name, quick=quick)
+    if quick and target.resolve().parent == RESULTS:
+        # A quick run never replaces a measured result, whatever file the script names.
+        target = QUICK_RESULTS / target.name
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
     try:

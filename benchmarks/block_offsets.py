@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 import jax
+from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
@@ -82,9 +83,7 @@ def main() -> None:
         "summary": summary,
         "drives": rows,
     }
-    tmp = RESULTS.with_suffix(".tmp")
-    tmp.write_text(json.dumps(result, indent=1) + "\n")
-    os.replace(tmp, RESULTS)
+    write_result("block_offsets", result, path=RESULTS)
     print(json.dumps(summary, indent=1))
 
 

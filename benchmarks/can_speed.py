@@ -38,8 +38,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _results import write_result  # noqa: E402
 
-from tyrebayes._commands._common import atomic_write_bytes
 from tyrebayes._domain import load_vehicle
 from tyrebayes.simulate.can_log import stream_messages
 from tyrebayes.streams.can import load_dbc, load_profile
@@ -367,8 +367,7 @@ def main() -> int:
             top["s_per_hour"] / min(fast, key=lambda r: r["hours"])["s_per_hour"]
         )
     print(json.dumps({k: v for k, v in summary.items() if k != "runs"}, indent=1))
-    atomic_write_bytes(RESULTS, json.dumps(summary, indent=1).encode())
-    print(f"saved {RESULTS}")
+    print(f"saved {write_result('can_speed', summary, quick=args.quick)}")
     return 0
 
 

@@ -25,6 +25,7 @@ import os
 import tempfile
 from pathlib import Path
 
+from _results import write_result  # noqa: E402
 from _revisions import run_child
 from stored_program import _windows
 
@@ -99,8 +100,7 @@ def main() -> None:
         "settings interleaved, the fastest first fit of each kept; load averages recorded",
         "cpu_count": os.cpu_count(),
     }
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(result, indent=2))
+    write_result("compile_backend", result, path=RESULTS)
     print(json.dumps(result, indent=2))
 
 

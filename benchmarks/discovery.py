@@ -41,8 +41,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _results import RESERVED, write_result  # noqa: E402
 
-from tyrebayes._io import atomic_write_bytes
 from tyrebayes.criticism import criticize_table
 from tyrebayes.simulate.fleet import THESIS_AGED_TYRE_EFFECT, simulate_fleet
 
@@ -287,8 +287,7 @@ def main(argv: list[str] | None = None) -> int:
             "machine": MACHINE,
             "settings": rows,
         }
-        atomic_write_bytes(MORE_NULL, json.dumps(payload, indent=2).encode())
-        print(f"saved {MORE_NULL}")
+        print(f"saved {write_result('discovery', payload, path=MORE_NULL)}")
         return 0
     if args.fits or args.real_log:
         added = {}
@@ -297,10 +296,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.fits:
             added["fleet_fit_files"] = fleet_fits(args.fits)
         # Read only now: the main run may have rewritten the file meanwhile.
-        payload = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
+        old = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
+        payload = {k: v for k, v in old.items() if k not in RESERVED}
         payload.update(added)
-        atomic_write_bytes(RESULTS, json.dumps(payload, indent=2).encode())
-        print(f"saved {RESULTS}")
+        print(f"saved {write_result('discovery', payload, path=RESULTS)}")
         return 0
 
     rows = []
@@ -361,8 +360,7 @@ def main(argv: list[str] | None = None) -> int:
         "targets": targets,
         **{k: old[k] for k in ("real_rav4", "fleet_fit_files") if k in old},
     }
-    atomic_write_bytes(RESULTS, json.dumps(payload, indent=2).encode())
-    print(f"saved {RESULTS}")
+    print(f"saved {write_result('discovery', payload, path=RESULTS)}")
     return 0
 
 

@@ -5,19 +5,19 @@ mu rises 0.012 per mm of tread depth; age, pressure, load index and four decoy c
 effect) are criticised with ``criticize_table``; reported per table: the findings, the tread
 candidate's p-value, ELPD gain and SE, and how many tables found it.
 
-Run ``python benchmarks/discovery_tread.py --label after``; results go to
-``benchmarks/results/discovery_tread_<label>.json`` (atomic write).
+Run ``python -m benchmarks discovery_tread``; results go to
+``benchmarks/results/discovery_tread.json`` (``discovery_tread_<label>.json`` with ``--label``).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
 
-from tyrebayes._io import atomic_write_bytes
+from _results import write_result  # noqa: E402
+
 from tyrebayes.criticism import criticize_table
 from tyrebayes.simulate.fleet import simulate_fleet
 
@@ -26,7 +26,7 @@ RESULTS = Path(__file__).resolve().parent / "results"
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--label", default="after", help="suffix of the JSON file")
+    parser.add_argument("--label", default="", help="suffix of the JSON file (a variant run)")
     parser.add_argument("--tables", type=int, default=10)
     args = parser.parse_args(argv)
     rows = []
@@ -56,9 +56,8 @@ def main(argv: list[str] | None = None) -> int:
         "tables": rows,
     }
     print(f"tread effect found in {hits} of {args.tables} tables")
-    out = RESULTS / f"discovery_tread_{args.label}.json"
-    atomic_write_bytes(out, json.dumps(payload, indent=2).encode())
-    print(f"saved {out}")
+    name = f"discovery_tread_{args.label}" if args.label else "discovery_tread"
+    print(f"saved {write_result('discovery_tread', payload, path=RESULTS / f'{name}.json')}")
     return 0
 
 

@@ -41,6 +41,7 @@ import tomllib
 from pathlib import Path
 
 import jax
+from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
@@ -283,10 +284,7 @@ def main() -> None:
         },
         "drives": rows,
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.out.with_suffix(".tmp")
-    tmp.write_text(json.dumps(result, indent=1) + "\n")
-    os.replace(tmp, args.out)
+    write_result("external_drives", result, path=args.out)
     print(json.dumps({k: v for k, v in result.items() if k != "drives"}, indent=1))
 
 

@@ -26,6 +26,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _results import write_result  # noqa: E402
+
 RESULTS = Path(__file__).parent / "results" / "fit_file_io.json"
 ENGINES = ("netcdf4", "h5netcdf")
 
@@ -130,10 +132,7 @@ def main() -> int:
         "cpu_count": os.cpu_count(),
     }
     print(json.dumps(results, indent=1))
-    from tyrebayes._io import atomic_write_bytes
-
-    atomic_write_bytes(args.out, (json.dumps(results, indent=1) + "\n").encode())
-    print(f"saved {args.out}")
+    print(f"saved {write_result('fit_file_io', results, path=args.out)}")
     for path in folder.iterdir():
         path.unlink()
     folder.rmdir()

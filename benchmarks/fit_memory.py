@@ -22,6 +22,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _results import write_result  # noqa: E402
+
 RESULTS = Path(__file__).parent / "results" / "fit_memory.json"
 TARGET_PEAK_MB = 2048.0
 HOUR_S = 3600.0
@@ -125,12 +127,7 @@ def main() -> None:
                     flush=True,
                 )
     res["load_average_end"] = list(os.getloadavg())
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp_out = out.with_suffix(".json.tmp")
-    tmp_out.write_text(json.dumps(res, indent=1))
-    tmp_out.replace(out)
-    print(f"saved {out}")
+    print(f"saved {write_result('fit_memory', res, path=args.out)}")
 
 
 if __name__ == "__main__":

@@ -16,19 +16,18 @@ from __future__ import annotations
 
 import argparse
 import inspect
-import json
 import os
 import tempfile
 import time
 
 import numpyro
+from _results import write_result  # noqa: E402
 
 numpyro.set_host_device_count(2)
 
 import jax  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tyrebayes._io import atomic_write_bytes  # noqa: E402
 from tyrebayes.inference.fleet import fit_fleet  # noqa: E402
 from tyrebayes.internal.jax_cache import enable_compilation_cache  # noqa: E402
 from tyrebayes.simulate.fleet import simulate_fleet  # noqa: E402
@@ -92,9 +91,7 @@ def main() -> int:
         **runs,
         "machine": {"cpu_count": os.cpu_count(), "load_average_1min": os.getloadavg()[0]},
     }
-    os.makedirs(RESULTS, exist_ok=True)
-    path = os.path.join(RESULTS, "fleet_nuts.json")
-    atomic_write_bytes(path, (json.dumps(result, indent=1) + "\n").encode())
+    path = write_result("fleet_nuts", result)
     for name, run in runs.items():
         print(
             f"{name}: {run['n_converged']}/{run['n_fits']} converged, "

@@ -45,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from _results import write_result  # noqa: E402
 
 from tyrebayes.batch.worker_memory import peak_rss_mb, rss_mb
 
@@ -411,10 +412,10 @@ def main() -> int:
             "plain_loop_cold_cache", "plain_loop_warm_cache", "one_worker", "one_worker_one_core",
             "two_workers")},
             indent=1))  # fmt: skip
-        from tyrebayes._io import atomic_write_bytes, to_jsonable
-
-        atomic_write_bytes(args.out, json.dumps(to_jsonable(results), indent=1).encode())
-        print(f"saved {args.out}")
+        # Only the size is the benchmark's result; a smaller run is a quick one.
+        quick = True if not args.full else None
+        saved = write_result("fleet_run", results, path=args.out, quick=quick)
+        print(f"saved {saved}")
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return 0

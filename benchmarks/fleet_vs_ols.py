@@ -16,12 +16,12 @@ and ``benchmarks/results/fleet_vs_ols_braking.png``.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
 
 import numpyro
+from _results import write_result  # noqa: E402
 
 numpyro.set_host_device_count(2)
 
@@ -32,7 +32,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from tyrebayes._domain import SURFACES, TYRE_TYPES  # noqa: E402
-from tyrebayes._io import atomic_path, atomic_write_bytes  # noqa: E402
+from tyrebayes._io import atomic_path  # noqa: E402
 from tyrebayes.inference.fleet import (  # noqa: E402
     fit_fleet,
     load_tyre_type_priors,
@@ -241,9 +241,7 @@ def main(argv=None) -> int:
         "braking_data": {"fit": braking_fit, "rows": braking},
         "total_seconds": time.perf_counter() - t_start,
     }
-    atomic_write_bytes(
-        os.path.join(RESULTS, "fleet_vs_ols.json"), json.dumps(result, indent=2).encode()
-    )
+    write_result("fleet_vs_ols", result, quick=args.quick)
     print(
         "setting  | ELPD/set LOO hier vs OLS | held-out hier vs OLS | RMSE hier/OLS | cov90 h/OLS"
     )

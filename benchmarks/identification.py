@@ -42,6 +42,7 @@ import time
 from pathlib import Path
 
 import jax
+from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
@@ -209,10 +210,7 @@ def main() -> None:
         "cases": rows,
         "online_e00_by_label": online,
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp_out = args.out.with_suffix(".tmp")
-    tmp_out.write_text(json.dumps(result, indent=1) + "\n")
-    os.replace(tmp_out, args.out)
+    write_result("identification", result, path=args.out)
 
 
 if __name__ == "__main__":

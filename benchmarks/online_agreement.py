@@ -42,6 +42,7 @@ import time
 from pathlib import Path
 
 import jax
+from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
@@ -307,8 +308,7 @@ def main() -> None:
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "machine": machine(),
     }
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(result, indent=2))
+    write_result("online_agreement", result, path=args.out)
     print(json.dumps(result["pooled"], indent=2))
 
 

@@ -38,6 +38,7 @@ import time
 from pathlib import Path
 
 import jax
+from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
@@ -335,7 +336,7 @@ def main() -> None:
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "machine": machine(),
     }
-    Path(args.out).write_text(json.dumps(result, indent=2))
+    write_result("online_change", result, path=args.out)
     print(json.dumps({k: v for k, v in result.items() if k != "detection"}, indent=2))
     print(json.dumps({k: v for k, v in result["detection"].items() if k != "swaps"}, indent=2))
     print(json.dumps({k: v for k, v in result["controls_same_tyre"].items() if k != "pairs"}))

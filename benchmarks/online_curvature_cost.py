@@ -27,6 +27,8 @@ from __future__ import annotations
 
 import os
 
+from _results import write_result  # noqa: E402
+
 os.sched_setaffinity(0, {max(os.sched_getaffinity(0))})
 os.environ["XLA_FLAGS"] = (
     "--xla_cpu_multi_thread_eigen=false " + os.environ.get("XLA_FLAGS", "")
@@ -147,10 +149,7 @@ def main() -> None:
         "machine": machine(),
         "note": "each time includes one call's dispatch from Python (tens of microseconds)",
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.out.with_suffix(".tmp")
-    tmp.write_text(json.dumps(result, indent=1) + "\n")
-    os.replace(tmp, args.out)
+    write_result("online_curvature_cost", result, path=args.out)
     print(json.dumps(result, indent=1))
 
 

@@ -31,6 +31,7 @@ import time
 from pathlib import Path
 
 import jax
+from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
@@ -161,8 +162,7 @@ def main() -> None:
         "machine": machine(),
     }
     print(json.dumps(result["pooled"], indent=2))
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(result, indent=2))
+    write_result("online_outliers", result, path=args.out)
 
 
 if __name__ == "__main__":

@@ -3,8 +3,8 @@
 One simulated one-hour drive (compact_fwd, Magic Formula truth) through the stream pipeline
 gives the windows (steps of 30 s, padded to 121 windows). Timed after compilation, median of
 ``--reps`` runs, on one core: the process is pinned to one CPU before JAX starts
-(``os.sched_setaffinity``), so XLA's CPU client sizes its thread pool to it. XLA_FLAGS alone did
-not do that: ``online_speed_df9f71f.json`` was taken with them and two threads shared the work.
+(``os.sched_setaffinity``), so XLA's CPU client sizes its thread pool to it. XLA_FLAGS alone do
+not do that: with them two threads still share the work.
 
 * one car-hour per model kind (target ≤ 40 ms, i.e. ≥ 10^5× real time), in the default 30 s
   clock steps and with sparse driving packed into steps of up to ``PACKED_STEP_S``
@@ -43,6 +43,8 @@ says it was not run).
 from __future__ import annotations
 
 import os
+
+from _results import write_result  # noqa: E402
 
 os.environ["XLA_FLAGS"] = os.environ.get("XLA_FLAGS", "") + " --xla_cpu_multi_thread_eigen=false"
 # One core (module docstring): the last CPU this process may run on.
@@ -416,14 +418,8 @@ def main() -> None:
         "before_and_after": compared,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "machine": {**machine(), "load_average_1min_at_start": load_at_start},
-        "previous": "online_speed_exact_hessian.json: the same benchmark with the exact Hessian "
-        "as the filter's curvature (revision 31df558), on a slower day; "
-        "online_speed_f0e5ce6.json: before the slip offset's "
-        "steps stopped taking new Hessians and one-drive sites were broadcast; "
-        "online_speed_779f035.json: before packed steps existed; "
-        "online_speed_vs_31df558.json: revision 463e925 (Gauss-Newton) timed beside 31df558",
     }
-    Path(args.out).write_text(json.dumps(result, indent=2))
+    write_result("online_speed", result, path=args.out)
 
 
 if __name__ == "__main__":

@@ -24,7 +24,6 @@ Writes ``benchmarks/results/physics_speed.json`` (``physics_speed_x64.json`` wit
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
 import sys
@@ -32,6 +31,7 @@ import time
 from pathlib import Path
 
 import jax
+from _results import write_result  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 TARGET_RATIO = 0.5
@@ -134,10 +134,7 @@ def main(argv: list[str] | None = None) -> int:
         f"parameter gradient {summary['meets_target_force_and_param_grad']}"
     )
     out = RESULTS / ("physics_speed_x64.json" if args.x64 else "physics_speed.json")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(summary, indent=1))
-    os.replace(tmp, out)
+    out = write_result("physics_speed", summary, path=out)
     print(f"saved {out}")
     return 0
 

@@ -21,19 +21,19 @@ Usage: python benchmarks/real_log_features.py [--quick]   (the log is small; --q
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import time
 from pathlib import Path
 
 import matplotlib
+from _results import write_result  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes._io import atomic_path, atomic_write_bytes  # noqa: E402
+from tyrebayes._io import atomic_path  # noqa: E402
 from tyrebayes._resources import data_dir  # noqa: E402
 from tyrebayes.streams import (  # noqa: E402
     SEGMENT_KINDS,
@@ -102,7 +102,7 @@ def _plot(feats, ref, fit, path: Path) -> None:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="same as the full run (60 s log)")
-    parser.parse_args()
+    args = parser.parse_args()
     vehicle = load_vehicle("suv_rav4")
     t0 = time.perf_counter()
     stream = validate_stream(read_stream(data_dir() / "comma2k19_rav4_segment.csv"), vehicle)
@@ -184,9 +184,7 @@ def main() -> int:
     }
     RESULTS.mkdir(parents=True, exist_ok=True)
     _plot(feats, ref, fit, RESULTS / "real_log_features.png")
-    atomic_write_bytes(
-        RESULTS / "real_log_features.json", json.dumps(result, indent=1, default=float).encode()
-    )
+    write_result("real_log_features", result, quick=args.quick or None)
     print(
         f"RAV4 log: {stream.duration_s:.1f} s at {stream.sample_rate_hz:.1f} Hz "
         f"in {seconds:.2f} s\n"

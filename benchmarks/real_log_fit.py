@@ -30,6 +30,7 @@ import time
 from pathlib import Path
 
 import numpyro
+from _results import write_result  # noqa: E402
 
 # One JAX device per core, as the ``tyrebayes`` command does: NUTS chains run side by side.
 numpyro.set_host_device_count(max(1, min(4, os.cpu_count() or 1)))
@@ -144,12 +145,9 @@ def main() -> None:
             "rho_range": [float(rho[ok].min()), float(rho[ok].max())],
         },
     }
-    out = RESULTS / "real_log_fit.json"
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
     from tyrebayes._io import to_jsonable as _to_jsonable
 
-    tmp.write_text(json.dumps(_to_jsonable(payload), indent=2) + "\n")
-    os.replace(tmp, out)
+    write_result("real_log_fit", _to_jsonable(payload))
     print(json.dumps(_to_jsonable(payload["summary"]["c_x"])), payload["posterior_predictive"])
 
 

@@ -19,7 +19,6 @@ Usage: ``python benchmarks/real_vs_sim.py [--quick] [--seeds N]`` (``--quick``: 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -28,6 +27,7 @@ from pathlib import Path
 import jax
 import numpy as np
 import pandas as pd
+from _results import write_result  # noqa: E402
 from scipy.signal import savgol_filter, welch
 
 jax.config.update("jax_enable_x64", True)
@@ -255,10 +255,7 @@ def main(argv: list[str] | None = None) -> int:
         "known_differences": KNOWN_DIFFERENCES,
     }
     RESULTS.mkdir(parents=True, exist_ok=True)
-    out = RESULTS / "real_vs_sim.json"
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(result, indent=2) + "\n")
-    os.replace(tmp, out)
+    out = write_result("real_vs_sim", result, quick=args.quick or None)
     _plot(real_df, sim_df, RESULTS / "real_vs_sim.png", radius)
 
     print(f"real vs simulated ({n_seeds} seed(s)), suv_rav4 at the real speeds, {rate} Hz")

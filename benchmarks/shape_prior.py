@@ -21,12 +21,11 @@ Reported per variant: C_x bias, its Monte Carlo standard error, RMSE, the mean p
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import time
 from pathlib import Path
 
 import jax
+from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
@@ -126,11 +125,7 @@ def main() -> None:
         "wall_time_s": time.perf_counter() - t0,
         "results": results,
     }
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(payload, indent=2) + "\n")
-    os.replace(tmp, out)
+    out = write_result("shape_prior", payload, path=args.out)
     print(f"wrote {out} in {payload['wall_time_s']:.0f} s")
 
 

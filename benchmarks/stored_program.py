@@ -29,6 +29,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from _results import write_result  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results" / "stored_program.json"
 
@@ -114,8 +116,7 @@ def main() -> None:
         "load averages recorded",
         "cpu_count": os.cpu_count(),
     }
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(result, indent=2))
+    write_result("stored_program", result, path=RESULTS)
     print(json.dumps(result, indent=2))
 
 

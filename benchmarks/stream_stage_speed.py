@@ -29,6 +29,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from _results import write_result  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).parent))
 from _revisions import package_at, run_child  # noqa: E402
@@ -103,7 +105,6 @@ def main() -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--out", type=Path, default=RESULTS, help="JSON to write")
     args = parser.parse_args()
-    from tyrebayes._io import atomic_write_bytes
 
     results: dict = {
         "target_cpu_s_per_hour": TARGET_CPU_S_PER_HOUR,
@@ -134,8 +135,7 @@ def main() -> int:
             entry["meets_target"] = entry["after"]["cpu_s"]["total"] <= TARGET_CPU_S_PER_HOUR
             results["runs"][name] = entry
             print(name, json.dumps({k: v for k, v in entry.items()}, indent=1), flush=True)
-    atomic_write_bytes(args.out, json.dumps(results, indent=1).encode())
-    print(f"saved {args.out}")
+    print(f"saved {write_result('stream_stage_speed', results, path=args.out)}")
     return 0
 
 

@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from _results import write_result  # noqa: E402
 
 from tyrebayes._domain import load_vehicle
-from tyrebayes._io import atomic_write_bytes
 from tyrebayes.streams import write_stream
 from tyrebayes.streams.synthetic import synthetic_stream
 
@@ -148,8 +148,7 @@ def main() -> int:
             t10 = next(r["total_s"] for r in runs if r["hours"] == 10 and r["format"] == fmt)
             summary[f"ratio_10h_over_1h_{fmt}"] = t10 / t1
     print(json.dumps({k: v for k, v in summary.items() if k != "runs"}, indent=1))
-    atomic_write_bytes(RESULTS, json.dumps(summary, indent=1).encode())
-    print(f"saved {RESULTS}")
+    print(f"saved {write_result('streams_speed', summary, quick=args.quick or None)}")
     return 0
 
 

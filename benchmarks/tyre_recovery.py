@@ -63,11 +63,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import time
 from pathlib import Path
 
 import jax
+from _results import RESERVED, write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
@@ -569,10 +569,8 @@ def _finite(x):
 
 
 def write(out: Path, data: dict) -> None:
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(_finite(data), indent=2, allow_nan=False) + "\n")
-    os.replace(tmp, out)
+    data = {k: v for k, v in data.items() if k not in RESERVED}
+    write_result("tyre_recovery", _finite(data), path=out)
 
 
 if __name__ == "__main__":

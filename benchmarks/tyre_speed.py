@@ -30,7 +30,6 @@ Usage: ``python benchmarks/tyre_speed.py [--skip-nuts]``.
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import os
 import resource
@@ -38,6 +37,7 @@ import time
 from pathlib import Path
 
 import numpyro
+from _results import write_result  # noqa: E402
 
 numpyro.set_host_device_count(max(1, min(4, os.cpu_count() or 1)))
 
@@ -147,10 +147,7 @@ def main() -> None:
     def save() -> None:
         res["load_average_now"] = list(os.getloadavg())
         res["peak_rss_mb"] = peak_mb()
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
-        tmp.write_text(json.dumps(res, indent=2, default=lambda o: np.asarray(o).tolist()) + "\n")
-        os.replace(tmp, out)
+        write_result("tyre_speed", res, path=out)
 
     def stage_done(name: str) -> None:
         """Record the peak memory after a stage and save what is measured so far."""

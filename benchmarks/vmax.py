@@ -18,11 +18,12 @@ import time
 import jax
 import jax.numpy as jnp
 import numpy as np
+from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
 from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes._io import atomic_path, atomic_write_bytes  # noqa: E402
+from tyrebayes._io import atomic_path  # noqa: E402
 from tyrebayes.inference import vmax as vm  # noqa: E402
 from tyrebayes.physics.lanechange import (  # noqa: E402
     Driver,
@@ -157,7 +158,7 @@ def main() -> None:
     }
 
     _plot(df, sets)
-    atomic_write_bytes(os.path.join(OUT, "vmax.json"), json.dumps(res, indent=2).encode())
+    write_result("vmax", res, quick=args.quick or None)
     print(json.dumps({k: v for k, v in res.items() if k not in ("sets", "power")}, indent=1))
     for s in sets:
         print(

@@ -29,13 +29,14 @@ import time
 from pathlib import Path
 
 import jax
+from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
 from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes._io import atomic_write_bytes, to_jsonable  # noqa: E402
+from tyrebayes._io import to_jsonable  # noqa: E402
 from tyrebayes.inference.result import hdi  # noqa: E402
 from tyrebayes.inference.wear.history import drive_history, tread_readings  # noqa: E402
 from tyrebayes.inference.wear.history_fit import fit_wear_history  # noqa: E402
@@ -205,8 +206,7 @@ def _write(years: list[dict], args, start: float) -> dict:
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "machine": "shared 2-core CPU machine, other jobs running: timings are indicative",
     }
-    RESULTS.parent.mkdir(exist_ok=True)
-    atomic_write_bytes(RESULTS, json.dumps(to_jsonable(out), indent=2).encode())
+    write_result("wear_history", to_jsonable(out), path=RESULTS)
     return out
 
 

@@ -17,19 +17,18 @@ Run ``python benchmarks/wear_recovery.py [--quick]``; results go to
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
 
 import jax
+from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tyrebayes._io import atomic_write_bytes  # noqa: E402
 from tyrebayes._io import to_jsonable as _to_jsonable  # noqa: E402
 from tyrebayes.inference.result import hdi  # noqa: E402
 from tyrebayes.inference.wear import WearSet, build_wear_data, fit_wear  # noqa: E402
@@ -195,7 +194,7 @@ def main(argv=None) -> int:
         "summary": summary,
         "seconds": {"simulate": sim_s, "total": time.perf_counter() - t0},
     }
-    atomic_write_bytes(RESULTS, json.dumps(_to_jsonable(out), indent=2).encode())
+    write_result("wear_recovery", _to_jsonable(out), quick=args.quick or None)
     print(f"km until median 90% HDI half-width <= 20%: {km_needed}")
     print(f"overall: {summary}; seconds {out['seconds']}")
     return 0

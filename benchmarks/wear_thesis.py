@@ -28,6 +28,7 @@ import warnings
 from pathlib import Path
 
 import jax
+from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
@@ -41,7 +42,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from numpyro.infer import log_likelihood  # noqa: E402
 
-from tyrebayes._io import atomic_path, atomic_write_bytes  # noqa: E402
+from tyrebayes._io import atomic_path  # noqa: E402
 from tyrebayes._io import to_jsonable as _to_jsonable  # noqa: E402
 from tyrebayes._resources import data_dir  # noqa: E402
 from tyrebayes.inference.result import loo as psis_loo  # noqa: E402
@@ -545,9 +546,7 @@ def main(argv=None) -> int:
         plot_extension(ext, RESULTS / "wear_thesis_extension.png")
         out["extension"] = {k: v for k, v in ext.items() if k != "_fits"}
     out["quick"] = args.quick
-    atomic_write_bytes(
-        RESULTS / "wear_thesis.json", json.dumps(_to_jsonable(out), indent=2).encode()
-    )
+    write_result("wear_thesis", _to_jsonable(out), quick=args.quick or None)
     _print_summary(out)
     return 0
 

@@ -34,6 +34,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _results import write_result  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).parent))
@@ -199,7 +200,6 @@ def main() -> int:
         "--reference-steps", type=int, default=10_000, help="plain-EM steps of the reference"
     )
     args = parser.parse_args()
-    from tyrebayes._io import atomic_write_bytes
 
     revision = subprocess.run(
         ["git", "rev-parse", args.before], cwd=ROOT, capture_output=True, text=True, check=True
@@ -269,8 +269,7 @@ def main() -> int:
     )
     for key in (*summary, *(k for k in results if k.startswith("score_difference"))):
         print(key, json.dumps(results[key]))
-    atomic_write_bytes(RESULTS, json.dumps(results, indent=1).encode())
-    print(f"saved {RESULTS}")
+    print(f"saved {write_result('windows_step_speed', results, path=RESULTS)}")
     return 0
 
 
