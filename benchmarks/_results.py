@@ -64,6 +64,8 @@ RESERVED = ("benchmark", "run", "figures")
 
 # What a target's comparison means: ``met`` is ``OPS[op](value, bound)``.
 OPS = {
+    "abs<=": lambda v, b: abs(v) <= b,  # |value| <= bound
+    "in": lambda v, b: b[0] <= v <= b[1],  # bound is [low, high]
     "<=": lambda v, b: v <= b,
     "<": lambda v, b: v < b,
     ">=": lambda v, b: v >= b,
@@ -87,8 +89,9 @@ def figure(
     count: int | None = None,
     exclusions: Iterable[str] | Mapping[str, Any] | None = None,
     note: str = "",
+    headline: bool = False,
 ) -> dict[str, Any]:
-    """One headline figure of a benchmark, as the results schema stores it.
+    """One figure of a benchmark, as the results schema stores it.
 
     Parameters
     ----------
@@ -99,7 +102,8 @@ def figure(
     unit
         Its unit ("s", "%", "GB"; empty for a ratio or a count).
     target
-        ``(op, bound)`` with ``op`` one of ``<=``, ``<``, ``>=``, ``>``, ``==``: the value the
+        ``(op, bound)`` with ``op`` one of ``<=``, ``<``, ``>=``, ``>``, ``==``, ``abs<=``
+        (``|value| <= bound``) or ``in`` (``bound`` is ``[low, high]``): the value the
         benchmark was written to reach. ``None`` for a figure reported without a target.
     met
         Whether the target was met; computed from ``target`` when not given. A figure whose target
@@ -110,18 +114,21 @@ def figure(
         The cases left out of the figure and why (a list of reasons or a mapping case -> reason).
     note
         One line a reader needs to read the figure right.
+    headline
+        One of the package's headline figures: the README's results table shows it.
 
     Returns
     -------
     dict
-        ``{"name", "value", "unit", "target", "met", "count", "exclusions", "note"}``.
+        ``{"name", "value", "unit", "target", "met", "count", "exclusions", "note",
+        "headline"}``.
     """
     target_dict = None
     if target is not None:
         op, bound = target
         if op not in OPS:
             raise ValueError(f"figure {name!r}: target op must be one of {list(OPS)}, got {op!r}")
-        target_dict = {"op": op, "value": bound}
+        target_dict = {"op": op, "value": list(bound) if op == "in" else bound}
         if met is None and value is not None and not _is_nan(value):
             met = bool(OPS[op](value, bound))
     if isinstance(exclusions, Mapping):
@@ -137,6 +144,7 @@ def figure(
         "count": count,
         "exclusions": exclusions if exclusions is not None else [],
         "note": note,
+        "headline": headline,
     }
 
 
