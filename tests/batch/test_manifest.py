@@ -108,3 +108,63 @@ def test_bad_manifest_files(tmp_path):
     with pytest.raises(BadInputError, match="only with a glob"):
         read_manifest(_write(tmp_path, [{"path": "a", "vehicle": "v", "tyre_set_id": "s"}]),
                       vehicle="compact_fwd")  # fmt: skip
+
+
+# --- contradictions between rows, refused before any work (issue 57) ---------------------------
+
+
+def test_one_tyre_set_with_two_tyre_types_is_refused_with_both_rows(tmp_path):
+    rows = [
+        {"path": "a.parquet", "vehicle": "v", "tyre_set_id": "s1", "tyre_type": "winter"},
+        {"path": "b.parquet", "vehicle": "v", "tyre_set_id": "s2", "tyre_type": "summer"},
+        {"path": "c.parquet", "vehicle": "v", "tyre_set_id": "s1", "tyre_type": ""},
+        {"path": "d.parquet", "vehicle": "v", "tyre_set_id": "s1", "tyre_type": "summer"},
+    ]
+    with pytest.raises(BadInputError) as err:
+        read_manifest(_write(tmp_path, rows))
+    message = str(err.value)
+    assert message.startswith("manifest rows 1 and 4: expected one tyre_type per tyre set")
+    assert "'s1' as 'winter' (row 1) and 'summer' (row 4)" in message and "\n" not in message
+    # A row without a type takes its set's: no contradiction.
+    rows[3]["tyre_type"] = "winter"
+    items = read_manifest(_write(tmp_path, rows))
+    assert [i.tyre_set_id for i in items] == ["s1", "s2", "s1", "s1"]
+
+
+def test_one_log_under_two_sets_names_both_rows_and_sets(tmp_path):
+    rows = [
+        {"path": "logs/a.parquet", "vehicle": "v", "tyre_set_id": "s1"},
+        {"path": "b.parquet", "vehicle": "v", "tyre_set_id": "s1"},
+        {"path": str(tmp_path / "logs" / "a.parquet"), "vehicle": "v", "tyre_set_id": "s2"},
+    ]
+    with pytest.raises(BadInputError) as err:
+        read_manifest(_write(tmp_path, rows))
+    message = str(err.value)
+    assert message.startswith("manifest row 3: expected each log once, got ")
+    assert "again (row 1) under tyre sets 's1' (row 1) and 's2'" in message
+    assert "\n" not in message
+
+
+def test_one_log_under_two_names_through_a_link_is_one_log(tmp_path):
+    (tmp_path / "a.parquet").write_bytes(b"")
+    (tmp_path / "link.parquet").symlink_to(tmp_path / "a.parquet")
+    rows = [
+        {"path": "a.parquet", "vehicle": "v", "tyre_set_id": "s1"},
+        {"path": "link.parquet", "vehicle": "v", "tyre_set_id": "s2"},
+    ]
+    with pytest.raises(BadInputError, match=r"row 2: expected each log once.*\(row 1\)"):
+        read_manifest(_write(tmp_path, rows))
+
+
+def test_fleet_run_refuses_a_contradiction_before_any_work(tmp_path, capsys):
+    from tyrebayes.cli import main
+
+    rows = [
+        {"path": "a.parquet", "vehicle": "compact_fwd", "tyre_set_id": "s", "tyre_type": "winter"},
+        {"path": "b.parquet", "vehicle": "compact_fwd", "tyre_set_id": "s", "tyre_type": "summer"},
+    ]
+    out = tmp_path / "out"
+    assert main(["fleet-run", str(_write(tmp_path, rows)), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "manifest rows 1 and 2" in err
+    assert not out.exists()  # no cluster started, nothing written

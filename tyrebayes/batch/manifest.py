@@ -13,9 +13,11 @@ A manifest is a table (CSV or Parquet) with one row per drive log:
 Or a glob pattern (``"logs/*.parquet"``) with one vehicle: every match is a drive of one tyre set
 named after the vehicle.
 
-Rows are checked for their form here (columns, types, known surfaces and tyre types, unique
-paths); whether a file exists, can be read or names a known vehicle is the per-drive stage's
-question, so that one bad row is recorded as a failed drive and never stops a fleet run.
+Rows are checked for their form here (columns, types, known surfaces and tyre types) and
+against each other before any work starts: a log listed twice (under any name, through links) and
+a tyre set given two tyre types are refused with their row numbers. Whether a file exists, can
+be read or names a known vehicle is the per-drive stage's question, so that one bad row is
+recorded as a failed drive and never stops a fleet run.
 
 Examples
 --------
@@ -122,7 +124,8 @@ def manifest_from_table(table: pd.DataFrame, base: str | os.PathLike = ".") -> l
     BadInputError
         One line naming the row: a missing column, an empty ``path``/``vehicle``/
         ``tyre_set_id``, an unknown ``tyre_type`` or ``surface``, a non-numeric ``ambient_c``,
-        a log listed twice.
+        a log listed twice (both rows, and the two tyre sets where they differ), a tyre set
+        given two tyre types (both rows).
     """
     missing = [c for c in REQUIRED if c not in table.columns]
     if missing:
@@ -159,11 +162,19 @@ def manifest_from_table(table: pd.DataFrame, base: str | os.PathLike = ".") -> l
         if ambient_text and not -60.0 <= ambient <= 60.0:
             raise BadInputError(f"{line}: ambient_c expected -60..60 °C, got {ambient:g}")
         path = _resolve(values["path"], base, is_path=True)
-        if path in seen:
-            raise BadInputError(
-                f"{line}: expected each log once, got {path} again (row {seen[path]})"
+        # The file itself, through links: one log under two names is still one drive.
+        real = os.path.realpath(path)
+        if real in seen:
+            first, first_set = seen[real]
+            sets = (
+                f" under tyre sets {first_set!r} (row {first}) and {values['tyre_set_id']!r}"
+                if first_set != values["tyre_set_id"]
+                else ""
             )
-        seen[path] = i + 1
+            raise BadInputError(
+                f"{line}: expected each log once, got {path} again (row {first}){sets}"
+            )
+        seen[real] = (i + 1, values["tyre_set_id"])
         items.append(
             DriveItem(
                 drive_id=_drive_id(path),
@@ -176,7 +187,26 @@ def manifest_from_table(table: pd.DataFrame, base: str | os.PathLike = ".") -> l
                 profile=_resolve(values["profile"], base, is_path=False),
             )
         )
+    _check_one_type_per_set(items)
     return items
+
+
+def _check_one_type_per_set(items: list[DriveItem]) -> None:
+    """A tyre set has one tyre type: rows that name two are a contradiction, not a choice.
+
+    A row without ``tyre_type`` takes the set's type from the rows that name it.
+    """
+    named: dict[str, tuple[str, int]] = {}
+    for row, item in enumerate(items, start=1):
+        if not item.tyre_type:
+            continue
+        first = named.setdefault(item.tyre_set_id, (item.tyre_type, row))
+        if first[0] != item.tyre_type:
+            raise BadInputError(
+                f"manifest rows {first[1]} and {row}: expected one tyre_type per tyre set, got "
+                f"tyre set {item.tyre_set_id!r} as {first[0]!r} (row {first[1]}) and "
+                f"{item.tyre_type!r} (row {row})"
+            )
 
 
 def read_manifest(
