@@ -89,6 +89,8 @@ class Vehicle(eqx.Module):
         a_x (1 + g·k) (see :func:`body_pitch_gain`). Passenger cars pitch about 1°/g, i.e.
         k ≈ 0.002, the default.
 
+    Notes
+    -----
     Numeric fields may be arrays of one shape: a batch of vehicles for ``eqx.filter_vmap``
     (``drive`` is static and shared by the batch).
     """
