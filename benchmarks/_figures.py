@@ -571,6 +571,207 @@ def _real_log_fit(r: Result) -> list[dict]:
     ]
 
 
+def _shape_prior(r: Result) -> list[dict]:
+    out = []
+    for truth, variants in r["results"].items():
+        for prior, s in variants.items():
+            out.append(
+                F(
+                    f"{truth}, prior {prior}: C_x bias",
+                    _pct(s["c_x_bias"]),
+                    unit="%",
+                    count=s["n_converged"],
+                    note=f"90 % coverage {s['c_x_coverage_90']:.2f}",
+                )
+            )
+    return out
+
+
+def _block_offsets(r: Result) -> list[dict]:
+    n = r["n_drives"]
+    return [
+        F(
+            f"C_x RMSE {k.replace('_', ' ')}",
+            _pct(s["c_x_rmse"]),
+            unit="%",
+            count=n,
+            note=f"90 % interval covers {s['cover_90']} of {n}",
+        )
+        for k, s in r["summary"].items()
+    ]
+
+
+def _stored_program(r: Result) -> list[dict]:
+    runs = r["runs"]
+    return [
+        F(
+            f"first fit in a new process, {k.replace('_', ' ')} cache",
+            v["first_fit_s"],
+            unit="s",
+            note=f"second fit {v['second_fit_s']:.2f} s",
+        )
+        for k, v in runs.items()
+    ] + [F("the same C_x in every run", r["same_c_x_in_every_run"], target=("==", True))]
+
+
+def _compile_backend(r: Result) -> list[dict]:
+    return [
+        F(
+            "compile time, older over newer XLA:CPU code generator",
+            r["compile_ratio_llvm_to_fusion"],
+        ),
+        F("steady fit time, older over newer", r["steady_fit_ratio_llvm_to_fusion"]),
+        F("C_x relative difference", r["c_x_mean_relative_difference"]),
+    ]
+
+
+def _fit_file_io(r: Result) -> list[dict]:
+    out = []
+    for engine, e in r["engines"].items():
+        s = e.get("without_pointwise")
+        if not e.get("installed") or not s:
+            continue
+        out.append(
+            F(
+                f"{engine}: write a fleet set's fit file",
+                s["write_seconds_median"],
+                unit="s",
+                note=f"read {s['read_seconds_median']:.3f} s, {s['file_mb']:.1f} MB",
+            )
+        )
+    return out
+
+
+def _online_curvature_cost(r: Result) -> list[dict]:
+    return [
+        F(
+            f"{k}: Gauss-Newton pass on one step",
+            v["gauss_newton"] / 1000.0,
+            unit="ms",
+            note=f"exact Hessian {r['hessian_over_gauss_newton'][k]:.2f}× that",
+        )
+        for k, v in r["fastest_us"].items()
+    ]
+
+
+def _online_speed_fleet(r: Result) -> list[dict]:
+    return [
+        F(
+            f"{r['n_cars']:,} cars in one call, per car-hour",
+            r["per_car_hour_s"],
+            unit="s",
+            note=f"{r['compile_and_first_run_s']:.0f} s compiling and a first run",
+        ),
+        F("peak RSS", r["peak_rss_mb"], unit="MB"),
+    ]
+
+
+def _stream_stage_speed(r: Result) -> list[dict]:
+    return [
+        F(
+            f"{k.replace('_', ' ')}: per-drive stage CPU s per hour",
+            v["after"]["cpu_s"]["total"],
+            unit="s",
+            target=("<=", r["target_cpu_s_per_hour"]),
+        )
+        for k, v in r["runs"].items()
+    ]
+
+
+def _windows_step_speed(r: Result) -> list[dict]:
+    return [
+        F("force-density EM speed-up", r["speedup"], count=r["drives"]),
+        F(
+            "drives at least as likely as with the plain EM",
+            r["drives_after_at_least_as_likely_as_before"],
+            count=r["drives"],
+        ),
+    ]
+
+
+def _streams_speed(r: Result) -> list[dict]:
+    return [
+        F(
+            f"{x['hours']} h {x['format']}: read, validate, features",
+            x["s_per_hour"],
+            unit="s/h",
+            target=("<=", r["target_s_per_hour"]),
+            note=f"peak {x['peak_mb']:.0f} MB, CPU {x['cpu_s']:.1f} s",
+        )
+        for x in r["runs"]
+    ]
+
+
+def _can_speed(r: Result) -> list[dict]:
+    return [
+        F(
+            "candump decode, wall s per hour of bus",
+            r["candump_s_per_hour"],
+            unit="s",
+            target=("<=", r["target_s_per_hour_candump"]),
+        ),
+        F(
+            "candump peak over baseline",
+            r["candump_peak_over_baseline_mb"],
+            unit="MB",
+            target=("<=", r["target_peak_mb"]),
+        ),
+        F(
+            "speed-up over per-frame decoding",
+            r["speedup_vs_per_frame_wall"],
+            target=(">=", r["target_speedup_vs_per_frame"]),
+        ),
+        F("BLF, s per hour", r["blf_s_per_hour"], unit="s"),
+        F("ASC, s per hour", r["asc_s_per_hour"], unit="s"),
+    ]
+
+
+def _simulate_speed(r: Result) -> list[dict]:
+    return [
+        F(f"simulate {x['hours']:g} h, {x['tyre_model']} truth", x["median_wall_s"], unit="s")
+        for x in r["rows"]
+    ]
+
+
+def _physics_speed(r: Result) -> list[dict]:
+    return [
+        F(
+            f"{k}: throughput over a copy",
+            v["ratio_to_copy"],
+            note=f"{v['elements_per_s'] / 1e6:.0f} M slips/s",
+        )
+        for k, v in r["results"].items()
+    ] + [
+        F(
+            "force and slope at ≥ half a copy's speed",
+            r["meets_target_force_and_slope"],
+            target=("==", True),
+        ),
+        F(
+            "force and parameter gradient at ≥ half a copy's speed",
+            r["meets_target_force_and_param_grad"],
+            target=("==", True),
+        ),
+    ]
+
+
+def _real_log_features(r: Result) -> list[dict]:
+    return [F(k.replace("_", " "), bool(v), target=("==", True)) for k, v in r["checks"].items()]
+
+
+def _real_vs_sim(r: Result) -> list[dict]:
+    m = r["metrics"]
+    out = r["outside_factor_1.33"]
+    return [
+        F(
+            "metrics within a factor 1.33 of the real log",
+            len(m) - len(out),
+            count=len(m),
+            note="outside: " + ", ".join(out),
+        ),
+    ]
+
+
 EXTRACTORS: dict[str, Callable[[Result], list[dict]]] = {
     "external_drives": _external_drives,
     "tyre_recovery": _tyre_recovery,
@@ -592,6 +793,21 @@ EXTRACTORS: dict[str, Callable[[Result], list[dict]]] = {
     "wear_recovery": _wear_recovery,
     "vmax": _vmax,
     "real_log_fit": _real_log_fit,
+    "shape_prior": _shape_prior,
+    "block_offsets": _block_offsets,
+    "stored_program": _stored_program,
+    "compile_backend": _compile_backend,
+    "fit_file_io": _fit_file_io,
+    "online_curvature_cost": _online_curvature_cost,
+    "online_speed_fleet": _online_speed_fleet,
+    "stream_stage_speed": _stream_stage_speed,
+    "windows_step_speed": _windows_step_speed,
+    "streams_speed": _streams_speed,
+    "can_speed": _can_speed,
+    "simulate_speed": _simulate_speed,
+    "physics_speed": _physics_speed,
+    "real_log_features": _real_log_features,
+    "real_vs_sim": _real_vs_sim,
 }
 
 
@@ -606,4 +822,15 @@ def figures(stem: str, result: Result | None = None, folder: Path = RESULTS) -> 
     if result.get("figures"):
         return result["figures"]
     extract = EXTRACTORS.get(stem)
-    return extract(result) if extract else []
+    if extract is not None:
+        return extract(result)
+    # A variant run of a benchmark (external_drives_load_sensitivity): its benchmark's figures,
+    # none of them a headline.
+    base = max((k for k in EXTRACTORS if stem.startswith(k + "_")), key=len, default=None)
+    if base is None:
+        return []
+    try:
+        figs = EXTRACTORS[base](result)
+    except (KeyError, TypeError, ValueError):
+        return []
+    return [{**f, "headline": False} for f in figs]
