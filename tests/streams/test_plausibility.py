@@ -63,6 +63,23 @@ def test_ay_sign_flipped_alone():
     assert "ay vs speed x yaw_rate: expected the same sign" in message
 
 
+@pytest.mark.parametrize(
+    ("column", "named"),
+    [
+        ("ay", "ay: expected left positive"),
+        ("yaw_rate", "yaw_rate: expected left positive"),
+        ("steering_wheel_angle", "steering_wheel_angle: expected left positive"),
+    ],
+)
+def test_one_lateral_sign_flipped_on_a_straight_drive_is_named(column, named):
+    # The real log varies too little for the scale checks (yaw rate sd ~0.004 rad/s, ay ~0.08
+    # m/s²); its yaw rate, steering and ay still agree in sign (correlations +0.89 and +0.65
+    # after the z-down frame is turned), so the one flipped channel is the odd one out.
+    message = _error(REAL.assign(**{column: -REAL[column]}), RAV4)
+    assert message.startswith(named)
+    assert "with the steering's V·δ/(i·L)" in message and "of ay with V·yaw_rate" in message
+
+
 @pytest.mark.parametrize("source", ["real", "synthetic"])
 def test_time_in_milliseconds(source):
     df, vehicle = (REAL, RAV4) if source == "real" else (_synthetic(), COMPACT)

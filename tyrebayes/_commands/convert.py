@@ -9,6 +9,7 @@ all. Exit status 2 with one line on stderr on a bad log, profile or DBC.
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -22,12 +23,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "convert",
         help="decode a raw CAN log with a car profile into a stream file",
         description=(
-            "Decode a CAN log (candump .log, Vector .asc/.blf, python-can .csv, MF4 bus logging) "
+            "Decode a CAN log (candump .log, Vector .asc/.blf, python-can .csv, MF4 bus logging, "
+            "a comma raw_can folder or .npz) "
             "with a car profile and its DBC, validate and resample it onto one time base, and "
             "write a stream file (.parquet, .csv or .mf4)."
         ),
     )
-    parser.add_argument("log", help="CAN log file")
+    parser.add_argument("log", help="CAN log file, or a comma raw_can folder")
     add_can_arguments(parser)
     parser.add_argument(
         "--vehicle",
@@ -42,8 +44,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def convert_log(args: argparse.Namespace) -> dict[str, Any]:
     """Decode, validate and write; the summary as a JSON-ready dict."""
     from .._domain import load_vehicle
-    from ..streams import validate_stream, write_stream
-    from ..streams.can import load_profile, read_can_log
+    from ..streams import write_stream
+    from ..streams.can import load_profile, read_can_log, validate_conversion
     from ..streams.io import SUPPORTED_SUFFIXES
 
     if not args.out.lower().endswith(SUPPORTED_SUFFIXES):
@@ -59,10 +61,10 @@ def convert_log(args: argparse.Namespace) -> dict[str, Any]:
         vehicle = load_vehicle(args.vehicle or profile.vehicle)
     except ValueError as err:
         raise BadInputError(str(err).splitlines()[0]) from None
-    conv = read_can_log(
-        existing_file(args.log), profile, dbc=args.dbc, vehicle=vehicle, bus=args.bus
-    )
-    stream = validate_stream(conv.data, vehicle)
+    # A comma raw_can log is a folder of arrays; every other log is one file.
+    log = Path(args.log) if Path(args.log).is_dir() else existing_file(args.log)
+    conv = read_can_log(log, profile, dbc=args.dbc, vehicle=vehicle, bus=args.bus)
+    stream = validate_conversion(conv, profile, vehicle)
     write_stream(stream.data, args.out)
     data = stream.data
     counts = conv.counts

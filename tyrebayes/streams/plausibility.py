@@ -48,6 +48,11 @@ _SIGN_CORRELATION = -0.5
 # dV_x/dt must vary by this much [m/s²] for its correlation with ax to mean anything: IMU noise
 # after 0.5 s smoothing is ~0.03 m/s²; 0.15 is gentle but real speed change.
 _MIN_ACCEL_SD = 0.15
+# Gyro noise after 0.5 s smoothing is ~1e-3 rad/s, the lateral accelerometer's ~0.03 m/s²: the
+# lateral sign comparisons need their channels to vary by more (the real RAV4 highway minute:
+# yaw rate sd 0.0036 rad/s, V·yaw rate 0.06 m/s², ay 0.08 m/s²).
+_MIN_YAW_SD = 0.002
+_MIN_AY_SD = 0.04
 # Steering-implied over measured yaw rate: ~1-2 in rad (understeer, offsets, noise lower the
 # measured side), 57x that in degrees. 15 leaves a factor 4 to each side.
 _STEER_DEGREES_RATIO = 15.0
@@ -178,6 +183,75 @@ def check_steering_scale(
             f"steering_wheel_angle: expected rad, got values that look like degrees (99th "
             f"percentile {p99:.3g}; it implies {ratio:.0f} x the measured yaw rate through V·δ/L)"
         )
+
+
+def _correlation(x: np.ndarray, y: np.ndarray, min_sd: float) -> float:
+    """Pearson correlation over the finite pairs; NaN with < 50 of them or a flat side."""
+    ok = np.isfinite(x) & np.isfinite(y)
+    if ok.sum() < 50:
+        return float("nan")
+    x, y = x[ok], y[ok]
+    if not (np.std(x) > min_sd and np.std(y) > min_sd):
+        return float("nan")
+    return float(np.corrcoef(x, y)[0, 1])
+
+
+def check_lateral_signs(
+    steer_rad: Float[np.ndarray, "n"],
+    yaw_rate: Float[np.ndarray, "n"],
+    ay_mps2: Float[np.ndarray, "n"],
+    speed_mps: Float[np.ndarray, "n"],
+    wheelbase_m: float,
+    steering_ratio: float,
+    rate_hz: float,
+) -> None:
+    """Name the one lateral channel whose sign is flipped, from two comparisons that share it.
+
+    The yaw rate is compared with the steering's kinematic V·δ/(i·L) and with ay / V (as V·ψ̇
+    with ay), over 0.5 s averages above 5 m/s. Each comparison alone cannot say which of its two
+    channels is flipped, and on a straight highway drive neither varies enough for the scale
+    checks (real RAV4 log: yaw rate sd 0.004 rad/s, ay sd 0.08 m/s²), but the signs still show
+    clearly (correlations +0.90 and +0.83 there). When both comparisons are strong, the channel
+    they disagree on is named: both negative, yaw_rate; only the steering one, the steering angle
+    (or yaw_rate and ay together: a z-down IMU logged without az, which the reason says); only
+    the ay one, ay. A comparison weaker than ±0.5 or too flat decides nothing.
+
+    Raises
+    ------
+    BadInputError
+        Naming ``yaw_rate``, ``steering_wheel_angle`` or ``ay``, with both correlations.
+    """
+    window = window_samples(0.5, rate_hz)
+    moving = np.isfinite(speed_mps) & (speed_mps > 5.0)
+    speed = np.where(moving, speed_mps, np.nan)
+    kinematic = nan_moving_average(speed * steer_rad / (steering_ratio * wheelbase_m), window)
+    yaw = nan_moving_average(np.where(moving, yaw_rate, np.nan), window)
+    centripetal = nan_moving_average(speed * yaw_rate, window)
+    ay = nan_moving_average(np.where(moving, ay_mps2, np.nan), window)
+    c_steer = _correlation(kinematic, yaw, _MIN_YAW_SD)
+    c_ay = _correlation(centripetal, ay, _MIN_AY_SD)
+    strong = abs(c_steer) > -_SIGN_CORRELATION and abs(c_ay) > -_SIGN_CORRELATION
+    if not strong or (c_steer > 0 and c_ay > 0):
+        return
+    evidence = (
+        f"correlation {c_steer:.2f} with the steering's V·δ/(i·L) and {c_ay:.2f} of ay with "
+        "V·yaw_rate"
+    )
+    if c_steer < 0 and c_ay < 0:
+        raise BadInputError(
+            f"yaw_rate: expected left positive (ISO 8855) like steering_wheel_angle and ay, got "
+            f"{evidence} (yaw_rate sign flipped?)"
+        )
+    if c_steer < 0:
+        raise BadInputError(
+            f"steering_wheel_angle: expected left positive (ISO 8855) like yaw_rate and ay, got "
+            f"{evidence} (steering angle sign flipped, or yaw_rate and ay both, as a z-down IMU "
+            "gives them?)"
+        )
+    raise BadInputError(
+        f"ay: expected left positive (ISO 8855) like yaw_rate and steering_wheel_angle, got "
+        f"{evidence} (ay sign flipped?)"
+    )
 
 
 def dropped_fraction(time_s: Float[np.ndarray, "m"]) -> float:

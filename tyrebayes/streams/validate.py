@@ -39,6 +39,7 @@ from .order_stats import median as _median
 from .order_stats import nanmedian
 from .plausibility import (
     check_ax_sign,
+    check_lateral_signs,
     check_steering_scale,
     check_time_base,
     dropped_fraction,
@@ -665,6 +666,9 @@ def _unit_checks(data: dict[str, np.ndarray], vehicle: Vehicle | None, rate_hz: 
     check_ax_sign(speed, view["ax"], rate)
     _lateral_check(speed, view["yaw_rate"], view["ay"], rate)
     _steering_check(view["steering_wheel_angle"], view["yaw_rate"], speed, wheelbase, ratio, rate)
+    check_lateral_signs(
+        view["steering_wheel_angle"], view["yaw_rate"], view["ay"], speed, wheelbase, ratio, rate
+    )
     check_steering_scale(
         view["steering_wheel_angle"], view["yaw_rate"], speed, wheelbase, ratio, rate
     )

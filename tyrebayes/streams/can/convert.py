@@ -19,8 +19,10 @@ Examples
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -29,6 +31,9 @@ from ..._errors import BadInputError
 from .dbc import SignalLayout, decode_signal, load_dbc, signal_layout
 from .frames import CanFrames, FrameCounts, read_frames
 from .profile import CarProfile, ProfileChannel, load_profile
+
+if TYPE_CHECKING:
+    from ..validate import ValidatedStream
 
 
 @dataclass(frozen=True)
@@ -179,13 +184,15 @@ def decode_frames(
                 "or the profile's bus"
             )
         lengths = frames.length[rows]
-        wrong = lengths != message.length
+        # Without the DLC in the log (comma raw_can) only bytes beyond the DBC's length show.
+        wrong = lengths != message.length if frames.exact_length else lengths > message.length
         if wrong.any():
             got = sorted({int(n) for n in np.unique(lengths[wrong])})
             raise BadInputError(
                 f"CAN log {log_name}: the DBC does not match: message {message.name} "
                 f"(0x{message.frame_id:X}) has {message.length} bytes in the DBC, got "
-                f"{int(wrong.sum())} of {rows.size} frames with {got} bytes"
+                f"{int(wrong.sum())} of {rows.size} frames with "
+                f"{'' if frames.exact_length else 'at least '}{got} bytes"
             )
         # Loggers merging channels (BLF) may write frames slightly out of order.
         rows = rows[np.argsort(frames.time_s[rows], kind="stable")]
@@ -215,7 +222,8 @@ def read_can_log(
     Parameters
     ----------
     path : path-like
-        CAN log (see :func:`tyrebayes.streams.can.read_frames` for the formats).
+        CAN log file, or a comma ``raw_can`` folder (see
+        :func:`tyrebayes.streams.can.read_frames` for the formats).
     profile : CarProfile, str or path-like
         Profile, or a name in ``models/profiles/`` or a TOML path.
     dbc : path-like, optional
@@ -270,3 +278,55 @@ def read_can_log(
         invalid_per_column=invalid,
         time_origin_s=origin,
     )
+
+
+def validate_conversion(
+    conversion: CanConversion, profile: CarProfile | str | os.PathLike, vehicle=None
+) -> ValidatedStream:
+    """Validate a decoded log; a refusal says which profile signals make the channels it names.
+
+    :func:`tyrebayes.streams.validate_stream` names stream columns ("ax: expected the sign of the
+    wheel speeds' dV_x/dt ..."); on a decoded log the fix is in the profile, so its one-line
+    reason gains where each named column comes from.
+
+    Parameters
+    ----------
+    conversion : CanConversion
+        From :func:`read_can_log`.
+    profile : CarProfile, str or path-like
+        The profile it was decoded with.
+    vehicle : Vehicle, optional
+        Passed to :func:`tyrebayes.streams.validate_stream`.
+
+    Returns
+    -------
+    ValidatedStream
+
+    Raises
+    ------
+    BadInputError
+        As :func:`tyrebayes.streams.validate_stream`, with
+        ``(profile NAME: ax = -1 x KINEMATICS.ACCEL_X [m/s^2]; check its sign or unit)`` appended
+        when the reason names profile channels.
+    """
+    from ..validate import validate_stream
+
+    if not isinstance(profile, CarProfile):
+        profile = load_profile(profile)
+    try:
+        return validate_stream(conversion.data, vehicle)
+    except BadInputError as err:
+        reason = str(err)
+        # The channels a plausibility refusal is about come before its first colon.
+        subject = reason.split(":", 1)[0]
+        named = [ch for ch in profile.channels if re.search(rf"\b{ch.column}\b", subject)]
+        if not named:
+            raise
+        where = "; ".join(
+            f"{ch.column} = {ch.sign:+g} x {ch.message}.{'+'.join(ch.signals)} [{ch.unit}]"
+            for ch in named
+        )
+        raise BadInputError(
+            f"{reason} (profile {profile.name}: {where}; check "
+            f"{'its' if len(named) == 1 else 'their'} sign or unit)"
+        ) from None

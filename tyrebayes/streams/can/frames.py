@@ -1,8 +1,10 @@
 """Raw CAN frames from a bus log: the frame table, the counts, and the readers by file type.
 
 candump logs (``.log``) are parsed with NumPy (:mod:`.candump`), because python-can's line reader
-spends ~5 µs per frame in Python and a full bus logs ~9 million frames an hour. Vector ASC, BLF,
-python-can CSV, MF4 bus logging (through asammdf) and PEAK TRC are read with python-can's readers.
+spends ~5 µs per frame in Python and a full bus logs ~9 million frames an hour. comma.ai
+``raw_can`` folders (and ``.npz`` archives of their arrays) are read with NumPy (:mod:`.comma`).
+Vector ASC, BLF, python-can CSV, MF4 bus logging (through asammdf) and PEAK TRC are read with
+python-can's readers.
 Only the frames of the wanted identifiers are kept; error and remote frames are counted and
 skipped; timestamps are kept as logged [s].
 
@@ -33,8 +35,9 @@ from jaxtyping import Float, Int, UInt8
 
 from ..._errors import BadInputError
 
-#: Suffixes read as CAN bus logs (candump, Vector ASC/BLF, python-can CSV, MF4 bus logging, TRC).
-CAN_SUFFIXES: tuple[str, ...] = (".log", ".asc", ".blf", ".csv", ".mf4", ".trc")
+#: Suffixes read as CAN bus logs (candump, Vector ASC/BLF, python-can CSV, MF4 bus logging, TRC,
+#: comma raw_can arrays in one archive). A folder is read as a comma raw_can folder.
+CAN_SUFFIXES: tuple[str, ...] = (".log", ".asc", ".blf", ".csv", ".mf4", ".trc", ".npz")
 
 
 @dataclass(frozen=True)
@@ -56,6 +59,10 @@ class CanFrames:
         Bus of each frame, an index into ``bus_names``.
     bus_names : tuple of str
         The buses, as the reader names them.
+    exact_length : bool
+        Whether ``length`` is the logged DLC. False where the log does not store it (comma
+        raw_can drops trailing zero bytes): ``length`` then counts the bytes up to the last
+        non-zero one, a lower bound on the DLC.
     """
 
     time_s: Float[np.ndarray, "n"]
@@ -64,6 +71,7 @@ class CanFrames:
     length: Int[np.ndarray, "n"]
     bus: Int[np.ndarray, "n"]
     bus_names: tuple[str, ...]
+    exact_length: bool = True
 
 
 @dataclass(frozen=True)
@@ -257,7 +265,8 @@ def read_frames(
     ----------
     path : path-like
         ``.log`` (candump -L), ``.asc``, ``.blf``, ``.csv`` (python-can CSV), ``.mf4`` (ASAM MDF
-        bus logging) or ``.trc``.
+        bus logging), ``.trc``, or a comma ``raw_can`` folder (``address``, ``data``, ``src``,
+        ``t`` arrays) or ``.npz`` archive of those arrays.
     ids : collection of int, optional
         Identifiers to keep (default: all).
     bus : str, optional
@@ -273,6 +282,10 @@ def read_frames(
         Missing file, unknown suffix, garbage lines, a truncated or corrupt file.
     """
     path = Path(path)
+    if path.is_dir():
+        from .comma import read_comma_raw_can
+
+        return read_comma_raw_can(path, ids=ids, bus=bus)
     suffix = path.suffix.lower()
     if suffix not in CAN_SUFFIXES:
         raise BadInputError(
@@ -284,4 +297,8 @@ def read_frames(
         from .candump import read_candump
 
         return read_candump(path, ids=ids, bus=bus)
+    if suffix == ".npz":
+        from .comma import read_comma_raw_can
+
+        return read_comma_raw_can(path, ids=ids, bus=bus)
     return _read_python_can(path, ids, bus)
