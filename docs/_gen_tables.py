@@ -103,7 +103,9 @@ def _exclusions(fig: dict) -> str:
     ex = fig.get("exclusions") or []
     if isinstance(ex, dict):
         ex = [f"{k}: {v}" for k, v in ex.items()]
-    return "; ".join(ex) if ex else "none"
+    if ex:
+        return "; ".join(ex)
+    return "none" if fig.get("count") is not None else ""
 
 
 def provenance(result: dict) -> str:
