@@ -96,11 +96,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def _stream_flags(path, vehicle_name: str) -> list[str]:
-    """The stream's flags (low rate, long gaps, dropped samples) for the fit to carry.
+def _validated(path, vehicle_name: str):
+    """The validated stream and its vehicle: its flags (low rate, long gaps, dropped samples)
+    qualify the answer, and its frame is what the lateral fit reads.
 
-    Validation runs again inside the fit's data preparation; a second pass here costs well under
-    a second against the minutes of a fit, and keeps the flags next to the answer they qualify.
+    Validation runs again inside the longitudinal fit's data preparation; a second pass here
+    costs well under a second against the fit.
     """
     from .._domain import load_vehicle
     from ..streams import read_stream, validate_stream
@@ -109,7 +110,30 @@ def _stream_flags(path, vehicle_name: str) -> list[str]:
         vehicle = load_vehicle(vehicle_name)
     except ValueError as err:
         raise BadInputError(str(err).splitlines()[0]) from None
-    return list(validate_stream(read_stream(path), vehicle).flags)
+    return validate_stream(read_stream(path), vehicle), vehicle
+
+
+def _lateral(validated, vehicle, method: str, surface: str, seed: int, stream: str):
+    """The drive's lateral fit and "" , or None and the one-line reason there is none."""
+    from ..inference.lateral import NoCornering, cornering_observations, fit_lateral
+
+    try:
+        obs = cornering_observations(validated.data, vehicle)
+    except NoCornering as err:
+        return None, str(err)
+    lateral = fit_lateral(
+        obs,
+        "nuts" if method == "nuts" else "laplace",
+        surface=surface,
+        seed=seed,
+        inputs=(stream,),
+    )
+    if not lateral.identified:
+        return None, (
+            "lateral: not identified: the drive's cornering did not narrow the understeer "
+            "gradient to half its prior's spread (kinematic or too gentle turning)"
+        )
+    return lateral, ""
 
 
 def _text(summary: dict[str, Any], diagnostics) -> str:
@@ -126,11 +150,42 @@ def _text(summary: dict[str, Any], diagnostics) -> str:
         line("slip offset", "slip_offset"),
         line("force gain", "force_gain"),
         *([line("load sens. q", "load_sensitivity")] if "load_sensitivity" in summary else []),
+        *_lateral_text(summary),
         f"{summary['n_samples_used']} windows ({summary['n_abs_windows']} ABS), "
         f"model {summary['model']}",
     ]
     flags = [f"stream flag: {flag}" for flag in summary["stream_flags"]]
     return "\n".join([*lines, diagnostics_text(diagnostics), *flags])
+
+
+def _lateral_text(summary: dict[str, Any]) -> list[str]:
+    lateral = summary["lateral"]
+    if lateral is None:
+        return [summary["lateral_reason"]]
+
+    def line(name: str, s: dict) -> str:
+        lo, hi = s["hdi_90"]
+        return f"{name:12s} {s['mean']:.4g} ± {s['sd']:.2g}  (90% HDI {lo:.4g} … {hi:.4g})"
+
+    lines = [
+        line("c_y front", lateral["c_y_front"]),
+        line("c_y rear", lateral["c_y_rear"]),
+        line("understeer K", lateral["understeer_gradient"]),
+    ]
+    if lateral["steering_ratio"] is not None:
+        lines.append(line("steer ratio", lateral["steering_ratio"]))
+    lines.append(
+        line("mu_y", lateral["mu_y"])
+        if lateral["mu_y"] is not None
+        else "mu_y         not observed"
+    )
+    if not (lateral["converged"] and lateral["adequate"]):
+        lines.append(
+            "lateral fit: "
+            + ("not converged" if not lateral["converged"] else "")
+            + ("; ".join(lateral["adequacy_reasons"]) if not lateral["adequate"] else "")
+        )
+    return lines
 
 
 def run(args: argparse.Namespace) -> int:
@@ -153,7 +208,8 @@ def run(args: argparse.Namespace) -> int:
     from ..inference.tyre.model import TyrePriors
 
     with stream_file(args, args.vehicle) as path:
-        stream_flags = _stream_flags(path, args.vehicle)
+        validated, vehicle = _validated(path, args.vehicle)
+        stream_flags = list(validated.flags)
         obs = observations_from_stream(
             path,
             args.vehicle,
@@ -163,8 +219,13 @@ def run(args: argparse.Namespace) -> int:
         )
     priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
     fit = fit_tyre(obs, priors=priors, method=args.method, kind=args.model, seed=args.seed)
+    lateral, lateral_reason = _lateral(
+        validated, vehicle, args.method, args.surface, args.seed, args.stream
+    )
     fit = dataclasses.replace(
         fit,
+        lateral=lateral,
+        lateral_reason=lateral_reason,
         provenance=provenance(
             args.method,
             args.model,

@@ -44,7 +44,7 @@ from .diagnostics import loo as loo
 from .diagnostics import posterior_predictive_adequacy as posterior_predictive_adequacy
 
 #: The kinds of fit, one per fitter.
-FIT_KINDS: tuple[str, ...] = ("tyre", "fleet", "wear", "vmax", "wear_history")
+FIT_KINDS: tuple[str, ...] = ("tyre", "fleet", "wear", "vmax", "wear_history", "lateral")
 try:
     PACKAGE_VERSION = importlib.metadata.version("tyrebayes")
 except importlib.metadata.PackageNotFoundError:  # run from a source tree that is not installed
@@ -93,6 +93,17 @@ class Provenance(eqx.Module):
             "settings": json.loads(self.settings),
             "package_version": self.package_version,
         }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Provenance:
+        """Inverse of :meth:`as_dict` (a loaded fit's provenance)."""
+        return cls(
+            method=d["method"],
+            model=d["model"],
+            inputs=tuple(d["inputs"]),
+            settings=json.dumps(d["settings"], sort_keys=True),
+            package_version=d["package_version"],
+        )
 
 
 def provenance(
@@ -219,11 +230,5 @@ def load_fit(path: str | os.PathLike, *, kind: str | None = None) -> Fit:
         data=tree,
         diagnostics=diagnostics,
         kind=fit_kind,
-        provenance=Provenance(
-            method=prov["method"],
-            model=prov["model"],
-            inputs=tuple(prov["inputs"]),
-            settings=json.dumps(prov["settings"], sort_keys=True),
-            package_version=prov["package_version"],
-        ),
+        provenance=Provenance.from_dict(prov),
     )

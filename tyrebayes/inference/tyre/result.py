@@ -9,9 +9,13 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..result import Diagnostics, Fit, Provenance
+from ..lateral.result import LateralFit
+from ..result import Diagnostics, Fit, Provenance, _finite_json
 from ..summary import summarize
 from .adequacy import Adequacy
+
+#: The node of a tyre fit's data that holds its lateral fit (:class:`LateralFit`), if any.
+LATERAL_NODE = "lateral"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,6 +51,10 @@ class TyreFit:
         C_x, the slope at zero, is that secant extrapolated through the curve's shape.
     provenance : Provenance, optional
         Method, model, inputs and settings (default: method and model only).
+    lateral : LateralFit or None
+        The same drive's cornering fit (per-axle c_y, understeer gradient, μ_y), or None.
+    lateral_reason : str
+        Why there is no lateral fit (no usable cornering, not identified); "" when there is.
     """
 
     idata: xr.DataTree
@@ -60,6 +68,8 @@ class TyreFit:
     force_range: float
     secant_stiffness: np.ndarray
     provenance: Provenance | None = None
+    lateral: LateralFit | None = None
+    lateral_reason: str = ""
 
     @property
     def converged(self) -> bool:
@@ -81,8 +91,11 @@ class TyreFit:
                 "adequacy": json.dumps(self.adequacy.as_dict()),
                 "force_range": float(self.force_range),
                 "secant_stiffness": json.dumps([float(x) for x in self.secant_stiffness]),
+                "lateral_reason": self.lateral_reason,
             }
         )
+        if self.lateral is not None:
+            data[LATERAL_NODE] = _lateral_node(self.lateral)
         prov = self.provenance or Provenance(method=self.diagnostics.method, model=self.kind)
         return Fit(data=data, diagnostics=self.diagnostics, kind="tyre", provenance=prov)
 
@@ -104,6 +117,8 @@ class TyreFit:
             force_range=float(attrs["force_range"]),
             secant_stiffness=np.asarray(fit.attr("secant_stiffness"), dtype=float),
             provenance=fit.provenance,
+            lateral=_lateral_from_node(fit.data),
+            lateral_reason=str(attrs.get("lateral_reason", "")),
         )
 
     def save(self, path) -> Path:
@@ -154,7 +169,37 @@ class TyreFit:
                 "secant_stiffness": summarize(self.secant_stiffness),
             },
         }
+        summary["lateral"] = None if self.lateral is None else self.lateral.to_dict()
+        summary["lateral_reason"] = self.lateral_reason
         # Fit files written before the model had a load sensitivity lack it.
         if "load_sensitivity" in self.idata["posterior"]:
             summary["load_sensitivity"] = summarize(self.draws("load_sensitivity"))
         return summary
+
+
+def _lateral_node(lateral: LateralFit) -> xr.DataTree:
+    """The lateral fit as a node of the tyre fit's data, its diagnostics and provenance in attrs."""
+    node = lateral.fit.data.copy()
+    node.attrs = {
+        **node.attrs,
+        "tyrebayes_diagnostics": json.dumps(_finite_json(lateral.fit.diagnostics.as_dict())),
+        "tyrebayes_provenance": json.dumps(lateral.fit.provenance.as_dict()),
+    }
+    return node
+
+
+def _lateral_from_node(data: xr.DataTree) -> LateralFit | None:
+    if LATERAL_NODE not in data.children:
+        return None
+    node = data[LATERAL_NODE].copy()
+    attrs = dict(node.attrs)
+    prov = json.loads(attrs.pop("tyrebayes_provenance"))
+    diagnostics = Diagnostics.from_dict(json.loads(attrs.pop("tyrebayes_diagnostics")))
+    node.attrs = attrs
+    fit = Fit(
+        data=node,
+        diagnostics=diagnostics,
+        kind="lateral",
+        provenance=Provenance.from_dict(prov),
+    )
+    return LateralFit.from_fit(fit)

@@ -1,0 +1,204 @@
+"""The lateral model: per-axle cornering stiffness, μ_y and the nuisances of a real car.
+
+Single-track (bicycle) dynamics, written as two measurement equations that need no lateral
+velocity (which no production car measures). With the measured lateral acceleration corrected
+for the sensor's roll and offset, a = (a_y,meas − b)/G, the axle forces over the static axle
+loads are (thesis eq. 4.22/4.23 solved for the forces, normalised as eq. 5.5)
+
+    ρ_f = a/g + J_z ṙ/(m g l_r),        ρ_r = a/g − J_z ṙ/(m g l_f),
+
+and each axle's slip angle is the tyre curve's inverse, α = f⁻¹(ρ; c_y, μ_y, C, E) (the Magic
+Formula of :func:`~tyrebayes.physics.tyre.magic_formula_inverse_and_slope`, slope c_y at zero,
+peak μ_y). Then
+
+1. **steering**: α_f − α_r = δ − L r/V_x (the lateral velocity cancels), with the road-wheel
+   angle δ = (δ_sw − δ_0)/i_s. In steady cornering ṙ = 0 and this is δ = L/R + K a_y: only the
+   understeer gradient K = (1/c_f − 1/c_r)/g is seen. Yaw transients (ṙ ≠ 0) load the axles
+   differently and, with J_z, separate them.
+2. **lateral kinematics**: a = V_x r + v̇_y − g sin φ_bank with v_y = l_r r − V_x α_r (the rear
+   axle's slip angle gives the lateral velocity), so a_y,meas = G (V_x r + l_r ṙ − d(V_x α_r)/dt)
+   + b + ε. This is what fixes the roll gain G (a body-fixed sensor that rolls by k_φ a reads
+   a (1 + g k_φ)) and, in transients, the rear axle alone. Road bank is in ε.
+
+Nuisances: the steering ratio i_s (prior centred on the vehicle file's, not fixed), the
+steering-wheel offset δ_0, the a_y offset b, the roll gradient k_φ, the yaw inertia J_z (prior
+±15 % about the vehicle file's), the noise scales of both equations.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpyro
+import numpyro.distributions as dist
+
+from ...physics.tyre import magic_formula_inverse_and_slope
+from ..tyre.model import _MU_LOG_SD, _MU_MEDIAN
+from .data import CorneringObservations, G
+
+
+class LateralPriors(eqx.Module):
+    """Prior scales of the lateral model.
+
+    Attributes
+    ----------
+    c_y_median, c_y_log_sd : float
+        Per-axle cornering stiffness over static axle load [1/rad]: median and log-sd. The
+        median is the measured car and SUV tyres' K_y/F_z at nominal load (16.5,
+        ``models/tyre_curves/mf_lateral_sets.csv``, 8 sets); the log-sd 0.5 is three times
+        theirs (0.16): an axle's value includes compliance steer, load and pressure.
+    steering_ratio_log_sd : float
+        Of the steering ratio about the vehicle file's value [-]: real racks differ from the
+        nominal ratio by a few percent and vary with angle.
+    steering_offset_sd_rad : float
+        Steering-wheel angle offset [rad] (about 3°).
+    ay_offset_sd : float
+        a_y sensor offset [m/s²].
+    roll_gradient_median, roll_gradient_log_sd : float
+        Body roll per unit lateral acceleration [rad/(m/s²)]: 0.006 is 3.5°/g, passenger cars
+        roll 2-7°/g.
+    yaw_inertia_log_sd : float
+        Of J_z about the vehicle file's value: rarely measured, often m·l_f·l_r.
+    curve_shape_excess_log_mean, curve_shape_excess_log_sd : float
+        Magic Formula shape C = 1 + exp(N(mean, sd)): the measured tyres' C − 1 has median
+        0.344 and log-sd 0.268 (``models/tyre_curves/derive_lateral_prior.py``).
+    curve_curvature_gap_log_mean, curve_curvature_gap_log_sd : float
+        Curvature E = 1 − exp(N(mean, sd)) (E < 1): the measured tyres' E has mean −0.63 and
+        sd 0.47, i.e. 1 − E ≈ 1.63 (log 0.489) with log-sd 0.47/1.63.
+    peak_margin : float
+        How far above μ_y a measured axle force may lie as noise [-]: an axle cannot give more
+        than its peak, so a μ_y below the measured forces is penalised (half-normal beyond it).
+    steer_noise_median, kinematic_noise_median : float
+        Medians of the noise scales of the two equations [rad], [m/s²] (log-sd 1).
+    """
+
+    c_y_median: float = 16.5
+    c_y_log_sd: float = 0.5
+    steering_ratio_log_sd: float = 0.05
+    steering_offset_sd_rad: float = 0.05
+    ay_offset_sd: float = 0.3
+    roll_gradient_median: float = 0.006
+    roll_gradient_log_sd: float = 0.5
+    yaw_inertia_log_sd: float = 0.15
+    curve_shape_excess_log_mean: float = -1.066
+    curve_shape_excess_log_sd: float = 0.268
+    curve_curvature_gap_log_mean: float = 0.489
+    curve_curvature_gap_log_sd: float = 0.29
+    peak_margin: float = 0.02
+    steer_noise_median: float = 1e-3
+    kinematic_noise_median: float = 0.2
+
+    def mu_y_prior(self, surface: str) -> tuple[float, float]:
+        """Median and log-sd of μ_y on ``surface`` (the longitudinal μ_max prior's)."""
+        if surface not in _MU_MEDIAN:
+            raise ValueError(f"surface: expected one of {tuple(_MU_MEDIAN)}, got {surface!r}")
+        return _MU_MEDIAN[surface], _MU_LOG_SD[surface]
+
+
+class AxleState(eqx.Module):
+    """Per-sample axle loads and slip angles at one parameter point."""
+
+    rho_front: jnp.ndarray
+    rho_rear: jnp.ndarray
+    alpha_front: jnp.ndarray
+    alpha_rear: jnp.ndarray
+    ay_true: jnp.ndarray
+
+
+def axle_state(obs: CorneringObservations, p: dict) -> AxleState:
+    """ρ and α per axle at the parameters ``p`` (module docstring)."""
+    m, lf, lr = obs.mass_kg, obs.cog_to_front_axle_m, obs.cog_to_rear_axle_m
+    gain = 1.0 + G * p["roll_gradient"]
+    a = (obs.ay - p["ay_offset"]) / gain
+    jz = obs.yaw_inertia_kgm2 * p["yaw_inertia_factor"]
+    rho_f = a / G + jz * obs.yaw_acceleration / (m * G * lr)
+    rho_r = a / G - jz * obs.yaw_acceleration / (m * G * lf)
+    shape = 1.0 + p["curve_shape_excess"]
+    curvature = 1.0 - p["curve_curvature_gap"]
+    alpha_f, _ = magic_formula_inverse_and_slope(rho_f, p["c_y_front"], p["mu_y"], shape, curvature)
+    alpha_r, _ = magic_formula_inverse_and_slope(rho_r, p["c_y_rear"], p["mu_y"], shape, curvature)
+    return AxleState(rho_f, rho_r, alpha_f, alpha_r, a)
+
+
+def residuals(obs: CorneringObservations, p: dict) -> tuple[jnp.ndarray, jnp.ndarray]:
+    """The two equations' residuals (steering [rad], kinematics [m/s²]) at ``p``."""
+    s = axle_state(obs, p)
+    ratio = 1.0 if obs.road_wheel else p["steering_ratio"]
+    delta = (obs.steering - p["steering_offset"]) / ratio
+    steer = delta - obs.wheelbase_m * obs.yaw_rate / obs.speed - (s.alpha_front - s.alpha_rear)
+    va = obs.speed * s.alpha_rear
+    dva = jnp.gradient(va, obs.dt_s)
+    gain = 1.0 + G * p["roll_gradient"]
+    kin_mean = obs.speed * obs.yaw_rate + obs.cog_to_rear_axle_m * obs.yaw_acceleration - dva
+    kinematic = obs.ay - (gain * kin_mean + p["ay_offset"])
+    return steer, kinematic
+
+
+def lateral_model(
+    obs: CorneringObservations,
+    priors: LateralPriors,
+    surface: str = "dry",
+    weights=(1.0, 1.0),
+):
+    """NumPyro model of one drive's cornering (module docstring).
+
+    ``weights`` are the two equations' likelihood weights, 1/VIF of their residuals'
+    correlation between samples (:func:`.fit.residual_inflation`).
+    """
+    mu_median, mu_log_sd = priors.mu_y_prior(surface)
+    p = {
+        "c_y_front": numpyro.sample(
+            "c_y_front", dist.LogNormal(jnp.log(priors.c_y_median), priors.c_y_log_sd)
+        ),
+        "c_y_rear": numpyro.sample(
+            "c_y_rear", dist.LogNormal(jnp.log(priors.c_y_median), priors.c_y_log_sd)
+        ),
+        "mu_y": numpyro.sample("mu_y", dist.LogNormal(jnp.log(mu_median), mu_log_sd)),
+        "curve_shape_excess": numpyro.sample(
+            "curve_shape_excess",
+            dist.LogNormal(priors.curve_shape_excess_log_mean, priors.curve_shape_excess_log_sd),
+        ),
+        "curve_curvature_gap": numpyro.sample(
+            "curve_curvature_gap",
+            dist.LogNormal(priors.curve_curvature_gap_log_mean, priors.curve_curvature_gap_log_sd),
+        ),
+        "steering_offset": numpyro.sample(
+            "steering_offset", dist.Normal(0.0, priors.steering_offset_sd_rad)
+        ),
+        "ay_offset": numpyro.sample("ay_offset", dist.Normal(0.0, priors.ay_offset_sd)),
+        "roll_gradient": numpyro.sample(
+            "roll_gradient",
+            dist.LogNormal(jnp.log(priors.roll_gradient_median), priors.roll_gradient_log_sd),
+        ),
+        "yaw_inertia_factor": numpyro.sample(
+            "yaw_inertia_factor", dist.LogNormal(0.0, priors.yaw_inertia_log_sd)
+        ),
+    }
+    if not obs.road_wheel:
+        p["steering_ratio"] = numpyro.sample(
+            "steering_ratio",
+            dist.LogNormal(jnp.log(obs.steering_ratio), priors.steering_ratio_log_sd),
+        )
+    steer_noise = numpyro.sample(
+        "steer_noise", dist.LogNormal(jnp.log(priors.steer_noise_median), 1.0)
+    )
+    kinematic_noise = numpyro.sample(
+        "kinematic_noise", dist.LogNormal(jnp.log(priors.kinematic_noise_median), 1.0)
+    )
+    numpyro.deterministic("understeer_gradient", (1.0 / p["c_y_front"] - 1.0 / p["c_y_rear"]) / G)
+    steer, kinematic = residuals(obs, p)
+    state = axle_state(obs, p)
+    beyond = jnp.maximum(
+        jnp.maximum(jnp.abs(state.rho_front), jnp.abs(state.rho_rear)) - p["mu_y"], 0
+    )
+    numpyro.factor(
+        "peak_bound",
+        -0.5 * jnp.sum(jnp.where(obs.mask, (beyond / priors.peak_margin) ** 2, 0.0)),
+    )
+    log_steer = dist.Normal(0.0, steer_noise).log_prob(steer)
+    log_kin = dist.Normal(0.0, kinematic_noise).log_prob(kinematic)
+    numpyro.factor("steering_equation", weights[0] * jnp.sum(jnp.where(obs.mask, log_steer, 0.0)))
+    numpyro.factor(
+        "kinematic_equation",
+        weights[1] * jnp.sum(jnp.where(obs.mask_kinematic, log_kin, 0.0)),
+    )
