@@ -59,8 +59,8 @@ class CorneringObservations(eqx.Module):
     mask : Bool[Array, "n"]
         Samples that enter the steering equation (speed above :data:`MIN_SPEED_MPS`, finite).
     mask_kinematic : Bool[Array, "n"]
-        Samples that enter the lateral-kinematics equation (their neighbours valid too: it
-        differentiates V_x·α_r).
+        Samples that enter the lateral-kinematics equation (two neighbours each side valid
+        too: it differentiates V_x·α_r).
     dt_s : float
         Sample interval [s].
     road_wheel : bool
@@ -208,9 +208,13 @@ def cornering_observations(frame: pd.DataFrame, vehicle: Vehicle) -> CorneringOb
     )
     finite = np.isfinite(speed) & np.isfinite(steering) & np.isfinite(yaw_rate) & np.isfinite(ay)
     mask = finite & (np.nan_to_num(speed) > MIN_SPEED_MPS)
+    # The kinematic equation differentiates with a five-point stencil: both neighbours on
+    # each side must be valid.
     kinematic = mask.copy()
-    kinematic[1:-1] &= mask[:-2] & mask[2:]
-    kinematic[[0, -1]] = False
+    for shift in (1, 2):
+        kinematic[shift:] &= mask[:-shift]
+        kinematic[:-shift] &= mask[shift:]
+    kinematic[:2] = kinematic[-2:] = False
     dt = step / rate
     cornering = mask & (np.abs(np.nan_to_num(ay)) > CORNERING_AY_MPS2)
     cornering &= np.nan_to_num(speed) >= CORNERING_SPEED_MPS

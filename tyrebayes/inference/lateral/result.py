@@ -72,10 +72,17 @@ class LateralFit:
             "converged": bool(self.converged),
             "adequate": bool(self.adequate),
             "adequacy_reasons": list(self.fit.diagnostics.adequacy_reasons),
-            "roll_gradient": summarize(self.draws("roll_gradient")),
-            "steering_offset": summarize(self.draws("steering_offset")),
-            "ay_offset": summarize(self.draws("ay_offset")),
-            "yaw_inertia_factor": summarize(self.draws("yaw_inertia_factor")),
+            **{
+                name: summarize(self.draws(name))
+                for name in (
+                    "roll_gradient",
+                    "steering_offset",
+                    "ay_offset",
+                    "yaw_inertia_factor",
+                    "relaxation_length",
+                )
+                if name in post
+            },
             "front_rear_correlation": float(
                 np.corrcoef(np.log(self.draws("c_y_front")), np.log(self.draws("c_y_rear")))[0, 1]
             ),
