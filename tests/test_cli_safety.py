@@ -214,6 +214,23 @@ def test_a_1700_tonne_vehicle_is_rejected(capsys, tmp_path):
     assert "mass_kg: expected a road car's value in [300, 10000], got 1700000.0" in err
 
 
+@pytest.mark.parametrize("sd", ["1e300", "inf", "0", "-1", "90"])
+def test_fit_fleet_c_xr_sd_is_range_checked_before_the_fit(capsys, tmp_path, no_fleet_fit, sd):
+    # 1e300 ran the sampler into 2,000 divergences (exit 3) where c_xr itself is checked.
+    table = tmp_path / "fleet.csv"
+    table.write_text(
+        f"tyre_id,tyre_type,c_xr,c_xr_sd,mu\na,winter,40,1.5,0.3\nb,winter,42,{sd},0.3\n"
+    )
+    err = _one_line_error(capsys, ["fit-fleet", str(table), "--out", str(tmp_path / "f.nc")])
+    assert "c_xr_sd: expected a standard error in (0, c_xr]" in err and "data row 2" in err
+
+
+def test_predict_c_xr_sd_above_the_stiffness_is_refused(capsys, tmp_path):
+    argv = ["predict", str(tmp_path / "missing.nc"), "--c-xr", "30", "--type", "winter"]
+    err = _one_line_error(capsys, [*argv, "--c-xr-sd", "1e300"])
+    assert "--c-xr-sd: expected a standard error in [0, --c-xr] (30), got 1e+300" in err
+
+
 # --- closed pipes and signals ------------------------------------------------------------------
 
 
@@ -230,7 +247,7 @@ def test_json_into_a_closed_pipe_is_quiet():
     assert err == ""
 
 
-def test_sigterm_while_writing_leaves_no_temporary_file(tmp_path, monkeypatch):
+def test_sigterm_while_writing_leaves_no_temporary_file(tmp_path, monkeypatch, capsys):
     target = tmp_path / "out.csv"
     real_to_csv = pd.DataFrame.to_csv
 
@@ -244,8 +261,7 @@ def test_sigterm_while_writing_leaves_no_temporary_file(tmp_path, monkeypatch):
         wear, "run_thesis", lambda args: write_stream(pd.DataFrame({"time": [0.0]}), target)
     )
     before = signal.getsignal(signal.SIGTERM)
-    with pytest.raises(SystemExit) as info:
-        main(["wear-thesis"])
-    assert info.value.code == 128 + signal.SIGTERM
+    assert main(["wear-thesis"]) == 128 + signal.SIGTERM
+    assert capsys.readouterr().err == "tyrebayes wear-thesis: interrupted (SIGTERM)\n"
     assert list(tmp_path.iterdir()) == []
     assert signal.getsignal(signal.SIGTERM) is before

@@ -2,20 +2,27 @@
 
 A writer never leaves a half-written file where a reader looks: it writes beside the target under
 a recognisable temporary name (``.NAME.PID.tmp*``) and renames into place; the next writer of the
-same target sweeps what a killed one left behind.
+same target sweeps what a killed one left behind. A signal (SIGINT, SIGTERM in the command line:
+:mod:`tyrebayes._interrupts`) that arrives while a file is written is held until it is written,
+and then drops the temporary file instead of replacing the previous one. Files are created with
+the permissions the umask gives (0644 under the usual 022), as ``open`` would.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from . import _interrupts
 
 
 def to_jsonable(value: Any) -> Any:
@@ -73,10 +80,30 @@ def sweep_stale_temporaries(path: str | os.PathLike) -> list[Path]:
     ['.fit.nc.999999999.tmp.nc']
     """
     path = Path(path)
-    pattern = re.compile(rf"^\.{re.escape(path.name)}\.(\d+)\.tmp")
-    removed = []
+    return _sweep(path.parent, re.compile(rf"^\.{re.escape(path.name)}\.(\d+)\.tmp"))
+
+
+def sweep_folder_temporaries(folder: str | os.PathLike) -> list[Path]:
+    """Remove every stale temporary file (``.NAME.PID.tmp*``) in ``folder``, whatever its target.
+
+    For a folder whose writers are known to be gone (a fleet run's, after its local cluster
+    closed); the rules are :func:`sweep_stale_temporaries`' (a live writer's file stays).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = (folder / ".a.json.999999999.tmpab12").write_bytes(b"{")
+    >>> [p.name for p in sweep_folder_temporaries(folder)]
+    ['.a.json.999999999.tmpab12']
+    """
+    return _sweep(Path(folder), re.compile(r"^\..+\.(\d+)\.tmp"))
+
+
+def _sweep(folder: Path, pattern: re.Pattern) -> list[Path]:
+    removed: list[Path] = []
     try:
-        candidates = list(path.parent.iterdir())
+        candidates = list(folder.iterdir())
     except OSError:
         return removed  # no folder yet: nothing to sweep
     for candidate in candidates:
@@ -108,23 +135,47 @@ def _process_alive(pid: int) -> bool:
     return True
 
 
+def _umask() -> int:
+    """The process's umask, read without changing it where Linux says it (threads may write)."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def _as_if_opened(fd: int) -> None:
+    """Give a ``mkstemp`` file (0600) the mode ``open`` would have given it: 0666 less the
+    umask. A result file is for the user's tools and colleagues as much as for this process."""
+    os.fchmod(fd, 0o666 & ~_umask())
+
+
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
     """Write ``data`` to a temporary file beside ``path`` and rename it into place.
 
     The temporary file is ``.NAME.PID.tmpXXXXXXXX``; stale ones of earlier, killed writers of the
-    same target are swept first (:func:`sweep_stale_temporaries`).
+    same target are swept first (:func:`sweep_stale_temporaries`). The file gets the mode the
+    umask gives. An interruption while writing leaves the previous file as it was.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     sweep_stale_temporaries(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=_temporary_prefix(path))
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    _interrupts.check()
+    with _interrupts.deferred():
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=_temporary_prefix(path))
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                _as_if_opened(fh.fileno())
+                fh.write(data)
+            if _interrupts.pending() is None:
+                os.replace(tmp, path)
+        finally:
+            Path(tmp).unlink(missing_ok=True)
 
 
 def atomic_path(path: str | os.PathLike) -> tuple[Path, Path]:
@@ -133,9 +184,42 @@ def atomic_path(path: str | os.PathLike) -> tuple[Path, Path]:
     Write to the temporary path ``.NAME.PID.tmp.SUFFIX`` (the suffix keeps format detection by
     name working), then call ``os.replace(tmp, final)``; remove the temporary path if writing
     fails. Stale temporary files of earlier, killed writers of the same target are swept first.
+    After an interruption (one that code on the way swallowed) it raises it again instead:
+    nothing new is written then. :func:`atomic_output` does all of this, and holds signals
+    while the file is written.
     """
     path = Path(path)
+    _interrupts.check()
     path.parent.mkdir(parents=True, exist_ok=True)
     sweep_stale_temporaries(path)
     tmp = path.with_name(f"{_temporary_prefix(path)}{path.suffix}")
     return tmp, path
+
+
+@contextlib.contextmanager
+def atomic_output(path: str | os.PathLike) -> Iterator[Path]:
+    """A temporary path to write ``path`` under; renamed into place when the block succeeds.
+
+    SIGINT and SIGTERM are held while the block runs (a netCDF or Parquet library is not
+    stopped half-way through a file, where it can hang or crash); if one came, the temporary
+    file is removed, the previous ``path`` is left as it was, and the signal is raised then
+    (:class:`tyrebayes._interrupts.Interrupted`). An exception in the block removes the
+    temporary file too.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> target = Path(tempfile.mkdtemp()) / "out.txt"
+    >>> with atomic_output(target) as tmp:
+    ...     _ = tmp.write_text("complete")
+    >>> target.read_text(), [p.name for p in target.parent.iterdir()]
+    ('complete', ['out.txt'])
+    """
+    tmp, final = atomic_path(path)
+    try:
+        with _interrupts.deferred():
+            yield tmp
+            if _interrupts.pending() is None:
+                os.replace(tmp, final)
+    finally:
+        tmp.unlink(missing_ok=True)

@@ -2,20 +2,22 @@
 
 Each sub-command lives in ``tyrebayes/_commands/<name>.py`` and exposes ``register(subparsers)``,
 which adds its parser and sets ``func``; ``func(args)`` returns the exit code. Bad input raises
-:class:`tyrebayes.BadInputError` and becomes exit code 2 with one line on stderr.
+:class:`tyrebayes.BadInputError` and becomes exit code 2 with one line on stderr; SIGINT and
+SIGTERM end any command with exit code 130 / 143 and one line (:func:`main`).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import io
 import os
 import signal
 import sys
-import threading
 from typing import NoReturn
 
+from . import _interrupts
 from ._errors import BadInputError
 
 # Order is the order shown in ``tyrebayes --help``.
@@ -63,54 +65,111 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _terminate(signum: int, frame) -> NoReturn:
-    # SIGTERM as an exception: the writers' ``finally`` blocks then remove their temporary files.
-    raise SystemExit(128 + signum)
+def _quiet_closing_logs() -> None:
+    """On the first signal: a closing dask cluster's warnings would bury the one line."""
+    import logging
 
-
-def _on_sigterm(handler):
-    """Install a SIGTERM handler and return the previous one (a no-op off the main thread)."""
-    if threading.current_thread() is not threading.main_thread():
-        return None
-    # None: the previous handler was not set from Python; restore the default then.
-    return signal.signal(signal.SIGTERM, signal.SIG_DFL if handler is None else handler)
+    for name in ("distributed", "tornado", "asyncio"):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; returns the exit status (0 ok, 2 bad input, 3 not converged).
+    """Run the command line; returns the exit status.
+
+    0 ok; 2 bad input; 3 a fit that did not converge; 4 ``fleet-run`` finished with failed
+    items; 130 / 143 stopped by SIGINT (Ctrl-C) / SIGTERM.
 
     Bad input (:class:`BadInputError`, and an operating-system error on a named file such as a
-    full disk or a vanished folder) is one line on stderr and exit 2. A closed stdout (``--json |
-    head``) ends the command quietly.
+    full disk or a vanished folder) is one line on stderr and exit 2. A signal is one line too
+    (``tyrebayes CMD: interrupted (SIGINT)``), after the clean-up it triggers: temporary files
+    removed, a previous output left as it was (:mod:`tyrebayes._interrupts`). A closed stdout
+    (``--json | head``) ends the command quietly.
     """
-    try:
-        args = build_parser().parse_args(argv)
-        previous = _on_sigterm(_terminate)
+    command = "tyrebayes"
+    with _interrupts.signals_as_interruptions():
+        _interrupts.on_interrupt(_quiet_closing_logs)
         try:
-            code = int(args.func(args))
-            sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
-            return code
-        except BadInputError as err:
-            print(f"tyrebayes {args.command}: {err}", file=sys.stderr)
-            return 2
+            args = build_parser().parse_args(argv)
+            command = f"tyrebayes {args.command}"
+            try:
+                code = int(args.func(args))
+                _interrupts.check()  # one that code on the way swallowed: not a success
+                sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+                return code
+            except BadInputError as err:
+                if _interrupts.pending() is not None:
+                    raise
+                print(f"{command}: {err}", file=sys.stderr)
+                return 2
+            except BrokenPipeError:
+                raise
+            except OSError as err:
+                if err.filename is None or _interrupts.pending() is not None:
+                    raise  # not about a file the user named: a bug, keep its traceback
+                print(
+                    f"{command}: expected a usable file, got '{err.filename}' "
+                    f"({err.strerror or err})",
+                    file=sys.stderr,
+                )
+                return 2
         except BrokenPipeError:
-            raise
-        except OSError as err:
-            if err.filename is None:
-                raise  # not about a file the user named: a bug, keep its traceback
-            print(
-                f"tyrebayes {args.command}: expected a usable file, got '{err.filename}' "
-                f"({err.strerror or err})",
-                file=sys.stderr,
-            )
-            return 2
-        finally:
-            _on_sigterm(previous)
-    except BrokenPipeError:
-        # The reader went away (``| head``): the output it wanted was written. Point stdout at
-        # /dev/null so that the interpreter's final flush does not raise again.
-        _silence_stdout()
-        return 1
+            # The reader went away (``| head``): the output it wanted was written. Point stdout
+            # at /dev/null so that the interpreter's final flush does not raise again.
+            _silence_stdout()
+            return 1
+        except BaseException as err:
+            signum = _interruption(err)
+            if signum is None:
+                raise
+            print(f"{command}: interrupted ({signal.Signals(signum).name})", file=sys.stderr)
+            if argv is None:
+                _exit_now(128 + signum)
+            with contextlib.suppress(Exception):
+                sys.stdout.flush()
+            return 128 + signum
+
+
+def _exit_now(status: int) -> NoReturn:
+    """End the process after a signal without the interpreter's teardown.
+
+    A signal raised inside JAX's machinery (a Python step of a C++ dispatch or trace) can leave
+    its runtime half-way; the teardown's clearing of its caches then crashed ``online`` with a
+    segmentation fault after the one line (2 of 2 Ctrl-C's). Every ``finally`` block and
+    context manager has run by now (temporary files removed, a cluster closed); what is skipped
+    is the exit handlers, so the ones that matter run here: the output streams and the log
+    handlers are flushed, and multiprocessing's (a closed cluster's semaphores released, which
+    its resource tracker otherwise reports as leaked). Only when :func:`main` owns the process
+    (it read ``sys.argv``), never for a caller.
+    """
+    import logging
+
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    with contextlib.suppress(Exception):
+        logging.shutdown()
+    if "multiprocessing" in sys.modules:
+        with contextlib.suppress(Exception):
+            from multiprocessing import util
+
+            util._exit_function()
+    os._exit(status)
+
+
+def _interruption(err: BaseException) -> int | None:
+    """The signal that ended the command, or None for an error that is not one.
+
+    Any exception after a signal is taken for its consequence (a dask connection closed under
+    a task, a library's own error around a ``KeyboardInterrupt``), and a plain
+    ``KeyboardInterrupt`` (raised by a library that installed its own handler) is SIGINT.
+    """
+    if isinstance(err, _interrupts.Interrupted):
+        return err.signum
+    if _interrupts.pending() is not None:
+        return _interrupts.pending()
+    if isinstance(err, KeyboardInterrupt):
+        return int(signal.SIGINT)
+    return None
 
 
 def _silence_stdout() -> None:

@@ -310,8 +310,10 @@ def test_cli_runs_on_an_existing_cluster_at_its_address(
     args = ["fleet-run", str(small), "--out", str(out), "--scheduler", separate_cluster]
     assert main([*args, "--workers", "1"]) == 2  # a cluster brings its own workers
     assert "--workers: expected only without --scheduler" in capsys.readouterr().err
-    assert main([*args, "--model", MODEL, "--json"]) == 0
+    # 4: finished with failures (the corrupt file; one set is no fleet to fit either).
+    assert main([*args, "--model", MODEL, "--json"]) == 4
     summary = json.loads(capsys.readouterr().out)
+    assert summary["outcome"] == "failures"
     assert summary["workers"] == 1
     assert (summary["drives"]["done"], summary["drives"]["failed"]) == (2, 1)
     assert (summary["tyre_sets"]["done"], summary["tyre_sets"]["failed"]) == (1, 0)

@@ -12,12 +12,15 @@ import tempfile
 from pathlib import Path
 
 from .._errors import BadInputError
+from .._io import atomic_output as atomic_output
 from .._io import atomic_path as atomic_path
 from .._io import atomic_write_bytes as atomic_write_bytes
 from .._io import to_jsonable as _to_jsonable
 
 #: Exit status of a command whose fit did not converge (its result is still written and printed).
 EXIT_NOT_CONVERGED = 3
+#: Exit status of a batch command that finished with failed items (the rest is written).
+EXIT_FAILURES = 4
 
 
 def print_json(payload: dict) -> None:
@@ -224,6 +227,14 @@ def stream_file(args, vehicle: str | None = None):
         path = Path(tmp) / f"{Path(args.stream).stem}.parquet"
         write_stream(conversion.data, path)
         yield path
+
+
+def save_fit(fit, path: str | os.PathLike) -> str:
+    """Write a fit to ``--out`` whole or not at all: a signal while it is written leaves the
+    previous file and no temporary one (:func:`tyrebayes._io.atomic_output`)."""
+    with atomic_output(path) as tmp:
+        fit.save(tmp)
+    return str(path)
 
 
 def exit_status(fit, command: str) -> int:

@@ -25,6 +25,7 @@ from ._common import (
     exit_status,
     output_file,
     print_json,
+    save_fit,
     stream_file,
 )
 
@@ -243,7 +244,7 @@ def run(args: argparse.Namespace) -> int:
     summary["surface"] = args.surface
     summary["stream_flags"] = stream_flags
     if args.out is not None:
-        summary["out"] = str(fit.save(args.out))
+        summary["out"] = save_fit(fit, args.out)
     if args.json:
         print_json(summary)
     else:

@@ -23,7 +23,14 @@ import argparse
 from pathlib import Path
 
 from .._errors import BadInputError
-from ._common import diagnostics_text, existing_file, exit_status, output_file, print_json
+from ._common import (
+    diagnostics_text,
+    existing_file,
+    exit_status,
+    output_file,
+    print_json,
+    save_fit,
+)
 
 #: Order columns of a drive-summary table, in order of preference.
 ORDER_COLUMNS = ("drive_order", "start_time", "odometer_start_km")
@@ -210,7 +217,7 @@ def run(args: argparse.Namespace) -> int:
     out["diagnostics"] = fit.diagnostics.as_dict()
     fit.data.attrs["predictions"] = json.dumps(to_jsonable(out))
     if args.out is not None:
-        out["out"] = str(fit.save(args.out))
+        out["out"] = save_fit(fit, args.out)
     if args.json:
         print_json(out)
     else:

@@ -24,6 +24,7 @@ from ._common import (
     fit_file,
     output_file,
     print_json,
+    save_fit,
 )
 
 # The library (JAX, NumPyro, pandas) is imported inside the run functions: ``tyrebayes --help``
@@ -105,6 +106,7 @@ def run_fit(args: argparse.Namespace) -> int:
             f"--outcome: expected a column of the table, got {args.outcome!r} "
             f"(columns {list(table.columns)})"
         )
+    _check_c_xr_sd_column(table)
     method = args.method or ("nuts" if len(table) <= 2000 else "svi")
     for name in ("samples", "warmup", "chains"):
         if getattr(args, name) < 1:
@@ -119,7 +121,7 @@ def run_fit(args: argparse.Namespace) -> int:
         num_chains=args.chains,
         source=str(args.table),
     )
-    final = fit.save(out)
+    final = save_fit(fit, out)
     summary = {"out": str(final), **fit_summary(fit)}
     if args.json:
         print_json(summary)
@@ -136,11 +138,38 @@ def run_fit(args: argparse.Namespace) -> int:
     return exit_status(fit, "fit-fleet")
 
 
+def _check_c_xr_sd_column(table) -> None:
+    """``c_xr_sd``: finite, positive and no larger than the stiffness it qualifies.
+
+    A standard error above the value itself says the stiffness was not measured; 1e300 ran
+    the sampler into 2,000 divergences and exit 3 where ``c_xr`` itself is range-checked.
+    Rows whose ``c_xr`` is missing or unusable are left to the fleet table's own checks.
+    """
+    import pandas as pd
+
+    if "c_xr_sd" not in table.columns or "c_xr" not in table.columns:
+        return
+    sd = pd.to_numeric(table["c_xr_sd"], errors="coerce").to_numpy(float)
+    c_xr = pd.to_numeric(table["c_xr"], errors="coerce").to_numpy(float)
+    usable = np.isfinite(c_xr) & (c_xr > 0)
+    with np.errstate(invalid="ignore"):
+        bad = usable & ~(np.isfinite(sd) & (sd > 0) & (sd <= c_xr))
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise BadInputError(
+            f"c_xr_sd: expected a standard error in (0, c_xr], got {table['c_xr_sd'].iloc[k]!r} "
+            f"for c_xr {c_xr[k]:g} in data row {k + 1} ({int(bad.sum())} such rows)"
+        )
+
+
 def _check_c_xr(args) -> str | None:
     if not (math.isfinite(args.c_xr) and args.c_xr > 0):
         raise BadInputError(f"--c-xr: expected a positive stiffness, got {args.c_xr}")
-    if not (math.isfinite(args.c_xr_sd) and args.c_xr_sd >= 0):
-        raise BadInputError(f"--c-xr-sd: expected >= 0, got {args.c_xr_sd}")
+    if not (math.isfinite(args.c_xr_sd) and 0 <= args.c_xr_sd <= args.c_xr):
+        raise BadInputError(
+            f"--c-xr-sd: expected a standard error in [0, --c-xr] ({args.c_xr:g}), "
+            f"got {args.c_xr_sd:g}"
+        )
     return None if args.tyre_type == "unknown" else args.tyre_type
 
 

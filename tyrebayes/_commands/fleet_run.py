@@ -3,21 +3,33 @@
 Runs the three stages of :mod:`tyrebayes.batch` on dask.distributed: with no ``--scheduler`` a
 ``LocalCluster`` of ``--workers`` single-threaded processes (default one per core) with a memory
 limit each; with an address the existing cluster. Prints the run's summary (items done, skipped,
-failed, time per stage; JSON with ``--json``). Exit status 0 when the run finished, even with
-failed items (they are listed with their reasons); 2 on a bad manifest or option.
+failed, time per stage; JSON with ``--json``). ``--out`` and its parent folders are created.
+
+Exit status (:data:`EXIT_STATUS`):
+
+* 0 — every drive, tyre set and the fleet model done (now, or unchanged since a run before);
+* 4 — finished with failures: some items failed (listed with their one-line reasons, and in
+  ``failures.csv``), the rest is written;
+* 2 — nothing usable: no tyre set has a fit (every drive failed, say), and the last run's
+  ``tyre_sets.parquet`` is left as it was; or a bad manifest or option (one line, nothing run);
+* 130 / 143 — stopped by Ctrl-C / SIGTERM: the items in flight are not recorded as failed and run
+  again on the rerun, no table is written, the cluster is closed.
 """
 
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
+import sys
 
 from .._errors import BadInputError
 from ..internal.jax_cache import default_cache_dir
-from ._common import print_json
+from ._common import EXIT_FAILURES, output_folder, print_json
 
 # tyrebayes.inference.tyre.model.MODEL_KINDS (spelled out: importing it would start JAX).
 MODEL_CHOICES = ("magic", "shaped", "brush", "linear")
+
+#: Exit status by the run's outcome (:func:`tyrebayes.batch.run.run_outcome`).
+EXIT_STATUS = {"ok": 0, "failures": EXIT_FAILURES, "nothing_usable": 2}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -28,11 +40,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "Process every drive of a manifest (CSV/Parquet: path, vehicle, tyre_set_id, "
             "optional tyre_type, surface, ambient_c, profile) or a glob of logs with --vehicle: "
             "per drive a windows table and summary row, per tyre set a joint fit, then the "
-            "fleet model. Reruns skip unchanged items."
+            "fleet model. Reruns skip unchanged items. Exit status 0: all done; 4: finished "
+            "with failed items (listed); 2: nothing usable (no tyre set fitted) or bad input; "
+            "130/143: interrupted (items in flight run again on the rerun)."
         ),
     )
     parser.add_argument("manifest", help="manifest (.csv, .parquet) or a quoted glob of logs")
-    parser.add_argument("--out", required=True, help="output folder")
+    parser.add_argument("--out", required=True, help="output folder (created, with its parents)")
     parser.add_argument("--scheduler", help="address of a dask scheduler (default: a local one)")
     parser.add_argument("--workers", type=int, help="local workers (default: one per core)")
     parser.add_argument(
@@ -72,15 +86,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..batch import RunSettings, dask_client, fleet_run, read_manifest
+    from ..batch.run import prepare_out, sweep_run_temporaries
 
     if args.workers is not None and args.workers < 1:
         raise BadInputError(f"--workers: expected >= 1, got {args.workers}")
     if args.workers is not None and args.scheduler:
         raise BadInputError("--workers: expected only without --scheduler, got both")
     items = read_manifest(args.manifest, vehicle=args.vehicle)
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise BadInputError(f"--out: expected a folder, got the file '{out}'")
+    out = output_folder(args.out)
     if not args.memory_budget > 0:
         raise BadInputError(f"--memory-budget: expected > 0 MB, got {args.memory_budget}")
     settings = RunSettings(
@@ -92,11 +105,26 @@ def run(args: argparse.Namespace) -> int:
         pointwise=args.pointwise,
         jax_cache=default_cache_dir() if args.jax_cache is None else args.jax_cache,
     )
-    with dask_client(args.scheduler, args.workers, args.memory_limit) as client:
-        summary = fleet_run(items, out, client, settings)
+    prepare_out(out)  # a file where a stage folder belongs: one line, before the cluster
+    try:
+        with dask_client(args.scheduler, args.workers, args.memory_limit) as client:
+            summary = fleet_run(items, out, client, settings)
+    finally:
+        if not args.scheduler:
+            # The local workers are gone: what the ones killed in a write left is stale now.
+            sweep_run_temporaries(out)
+    status = EXIT_STATUS[summary["outcome"]]
+    if status == 2:
+        drives, sets = summary["drives"], summary["tyre_sets"]
+        print(
+            f"tyrebayes fleet-run: nothing usable: no tyre set was fitted ({drives['failed']} of "
+            f"{drives['items']} drives and {sets['failed']} of {sets['items']} tyre sets failed; "
+            f"reasons in {out / 'failures.csv'})",
+            file=sys.stderr,
+        )
     if args.json:
         print_json(summary)
-        return 0
+        return status
     for stage in ("drives", "tyre_sets"):
         s = summary[stage]
         print(
@@ -110,4 +138,4 @@ def run(args: argparse.Namespace) -> int:
     for failure in summary["failures"]:
         print(f"failed {failure['item']} {failure['id']}: {failure['reason']}")
     print(f"{summary['wall_seconds']:.1f} s on {summary['workers']} workers -> {out}")
-    return 0
+    return status

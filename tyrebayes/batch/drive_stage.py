@@ -23,6 +23,7 @@ from .records import (
     file_hash,
     read_record,
     record_path,
+    stopping,
     unchanged,
     value_hash,
     write_parquet,
@@ -174,6 +175,8 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
             "outputs": [f"{item.drive_id}.windows.parquet", f"{item.drive_id}.summary.parquet"],
         }
     except Exception as err:  # noqa: BLE001 -- any bad log is recorded, never raised
+        if stopping():
+            raise  # the interruption's failure, not the item's: no record, redone next run
         record |= {"status": "failed", "reason": one_line(err), "outputs": []}
     record |= {
         "seconds": time.perf_counter() - start,

@@ -24,6 +24,7 @@ from .drive_stage import one_line
 from .records import (
     read_record,
     record_path,
+    stopping,
     unchanged,
     value_hash,
     write_parquet,
@@ -156,6 +157,8 @@ def run_fleet_stage(out_dir: str, tyre_sets: pd.DataFrame, settings: RunSettings
             "outputs": ["fleet_table.csv", "fleet.nc", "predictions.parquet"],
         }
     except Exception as err:  # noqa: BLE001 -- recorded: the per-set results stand without it
+        if stopping():
+            raise  # the interruption's failure, not the item's: no record, redone next run
         record |= {"status": "failed", "reason": one_line(err), "outputs": ["fleet_table.csv"]}
     record |= {
         "seconds": time.perf_counter() - start,

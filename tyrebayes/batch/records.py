@@ -5,7 +5,9 @@ Every item (a drive, a tyre set, the fleet) writes its outputs first and then it
 "settings", "reason", "outputs", "seconds", ...}``. A rerun skips an item whose record carries the
 same input hash and settings (a failed one too: a corrupt file stays corrupt); an item killed
 before its record was written has no record and runs again, its half-written temporary files
-swept by the next writer (:mod:`tyrebayes._io`).
+swept by the next writer (:mod:`tyrebayes._io`). So does an item stopped by an interruption:
+a failure while the process or its worker is being stopped (:func:`stopping`) is the
+interruption's, not the item's, and is never recorded.
 """
 
 from __future__ import annotations
@@ -13,11 +15,13 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import sys
 from pathlib import Path
 
 import pandas as pd
 
-from .._io import atomic_path, atomic_write_bytes, to_jsonable
+from .. import _interrupts
+from .._io import atomic_output, atomic_write_bytes, to_jsonable
 
 _CHUNK = 1 << 20
 
@@ -49,6 +53,26 @@ def read_record(path: Path) -> dict | None:
         return None
 
 
+def stopping() -> bool:
+    """Whether this process is being stopped: interrupted (SIGINT, SIGTERM in the command), its
+    dask worker closing (its cluster was closed, its nanny restarts it), or Python exiting.
+
+    A task that fails then failed because of it (a fit whose runtime is torn down under it, a
+    connection closed), so its failure must not be recorded: an interrupted fleet run recorded
+    the set in flight as failed ("ConnectionPool is closed"), and every rerun skipped it.
+    """
+    if _interrupts.pending() is not None or sys.is_finalizing():
+        return True
+    try:
+        from distributed import get_worker
+        from distributed.core import Status
+
+        worker = get_worker()
+    except (ImportError, ValueError):
+        return False  # not in a dask worker
+    return worker.status not in (Status.running, Status.paused)
+
+
 def write_record(path: Path, record: dict) -> None:
     atomic_write_bytes(path, (json.dumps(to_jsonable(record), indent=1) + "\n").encode())
 
@@ -65,10 +89,6 @@ def unchanged(record: dict | None, input_hash: str, settings: dict) -> bool:
 
 def write_parquet(table: pd.DataFrame, path: Path) -> Path:
     """Write a table to Parquet atomically (temporary file beside it, then rename)."""
-    tmp, final = atomic_path(path)
-    try:
+    with atomic_output(path) as tmp:
         table.to_parquet(tmp, index=False)
-        os.replace(tmp, final)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return final
+    return Path(path)

@@ -15,7 +15,14 @@ Outputs in ``out``: ``drives/`` (per drive: ``ID.windows.parquet``, the windows 
 fit reads; ``ID.summary.parquet``; the record), ``tyre_sets/`` (per set: ``ID.fit.nc``,
 ``ID.row.parquet``, the record), ``drive_summaries.parquet`` and ``tyre_sets.parquet`` (the
 rows gathered), ``failures.csv`` (item, id, path, one-line reason), ``fleet/`` and
-``summary.json`` (:func:`fleet_run`'s return value).
+``summary.json`` (:func:`fleet_run`'s return value). A gathered table replaces the previous one
+only when the run has rows for it: a run in which every tyre set failed leaves the last
+``tyre_sets.parquet`` as it was (the summary says it was not written).
+
+An interruption (SIGINT, SIGTERM: :mod:`tyrebayes._interrupts`) ends the run without recording
+the items in flight: they have no record and run again next time, and the tables are not
+written. A local cluster's workers ignore Ctrl-C (it reaches the terminal's whole process
+group): the client stops them when it closes the cluster.
 """
 
 from __future__ import annotations
@@ -30,14 +37,16 @@ from pathlib import Path
 
 import pandas as pd
 
-from .._io import atomic_write_bytes, to_jsonable
+from .. import _interrupts
+from .._errors import BadInputError
+from .._io import atomic_write_bytes, sweep_folder_temporaries, to_jsonable
 from .drive_stage import DRIVES_DIR, process_drive
-from .fleet_stage import run_fleet_stage
+from .fleet_stage import FLEET_DIR, run_fleet_stage
 from .manifest import DriveItem
 from .placement import place_sets
 from .records import write_parquet
 from .settings import RunSettings
-from .tyre_set_stage import fit_tyre_set, pad_size, set_file_name, tyre_set_table
+from .tyre_set_stage import TYRE_SETS_DIR, fit_tyre_set, pad_size, set_file_name, tyre_set_table
 from .worker_memory import peak_rss_mb
 
 #: Memory limit of each local worker, the hard stop above the tasks' budget
@@ -98,11 +107,13 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, memory
     and ``memory_limit`` (default :data:`DEFAULT_MEMORY_LIMIT`). With an address the cluster's
     own workers run the tasks (dask-jobqueue, Kubernetes, cloud: the same code). Either way the
     workers import the package before their first task (:class:`.worker_plugin.ImportTasks`).
+    The local workers ignore SIGINT (:class:`.worker_plugin.IgnoreCtrlC`): Ctrl-C stops the
+    client, which closes them.
     """
     import dask
     from distributed import Client, LocalCluster
 
-    from .worker_plugin import ImportTasks
+    from .worker_plugin import IgnoreCtrlC, ImportTasks
 
     if scheduler:
         with Client(scheduler) as client:
@@ -122,8 +133,27 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, memory
         ) as cluster,
         Client(cluster) as client,
     ):
+        client.register_plugin(IgnoreCtrlC())
         client.register_plugin(ImportTasks())
-        yield client
+        try:
+            yield client
+        except BaseException:
+            if _interrupts.pending() is not None:
+                _quiet_workers(client)
+            raise
+
+
+def _quiet_workers(client) -> None:
+    """Before a local cluster closes on a signal: its workers' warnings about the tasks the
+    closing cancels would print around the command's one line."""
+
+    def quiet() -> None:
+        import logging
+
+        logging.getLogger("distributed").setLevel(logging.CRITICAL + 1)
+
+    with contextlib.suppress(Exception):
+        client.run(quiet, on_error="ignore")
 
 
 class _Progress:
@@ -181,10 +211,15 @@ def _write_tables(out: Path, drive_records: list[dict], set_records: list[dict])
         for k, r in enumerate(drive_records)
         if r.get("status") == "done"
     ]
+    written = []
     if summaries:
         write_parquet(pd.concat(summaries, ignore_index=True), out / "drive_summaries.parquet")
+        written.append("drive_summaries")
     sets = tyre_set_table(str(out), set_records)
-    write_parquet(sets, out / "tyre_sets.parquet")
+    if len(sets):
+        # An empty table (every set failed) would replace the last run's results with nothing.
+        write_parquet(sets, out / "tyre_sets.parquet")
+        written.append("tyre_sets")
     failures = [
         {"item": "drive", "id": r["drive_id"], "path": r.get("path", ""), "reason": r["reason"]}
         for r in drive_records
@@ -196,7 +231,54 @@ def _write_tables(out: Path, drive_records: list[dict], set_records: list[dict])
     ]
     table = pd.DataFrame(failures, columns=["item", "id", "path", "reason"])
     atomic_write_bytes(out / "failures.csv", table.to_csv(index=False).encode())
-    return sets
+    return sets, written
+
+
+def run_outcome(drives: list[dict], sets: list[dict], fleet: dict) -> str:
+    """``"ok"`` (every item done, now or before), ``"failures"`` (some drive, tyre set or the
+    fleet model failed; the rest stands) or ``"nothing_usable"`` (no tyre set has a fit).
+
+    ``fleet-run`` exits 0, 4 and 2 for them.
+    """
+    if not any(r.get("status") == "done" for r in sets):
+        return "nothing_usable"
+    records = [*drives, *sets, fleet]
+    return "failures" if any(r.get("status") == "failed" for r in records) else "ok"
+
+
+def prepare_out(out: str | os.PathLike) -> Path:
+    """Make the output folder and its stage folders; refuse a file where one belongs.
+
+    Checked before a cluster starts: a file named ``drives`` in ``out`` failed every drive on
+    the workers, with their tracebacks, where one line says it.
+
+    Raises
+    ------
+    BadInputError
+        ``out`` or one of its stage folders exists and is not a folder.
+    """
+    out = Path(out)
+    for folder in (out, out / DRIVES_DIR, out / TYRE_SETS_DIR, out / FLEET_DIR):
+        if folder.exists() and not folder.is_dir():
+            raise BadInputError(
+                f"--out: expected {folder} to be a folder (or not to exist), got a file"
+            )
+    for folder in (out / DRIVES_DIR, out / TYRE_SETS_DIR, out / FLEET_DIR):
+        folder.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def sweep_run_temporaries(out: str | os.PathLike) -> list[Path]:
+    """Remove the temporary files that workers killed in the middle of a write left in ``out``.
+
+    For a local cluster, after it closed (its workers' PIDs are this host's). A remote
+    cluster's writers are not this host's processes: leave theirs to the next writer.
+    """
+    out = Path(out)
+    removed = []
+    for folder in (out, out / DRIVES_DIR, out / TYRE_SETS_DIR, out / FLEET_DIR):
+        removed += sweep_folder_temporaries(folder)
+    return removed
 
 
 def fleet_run(
@@ -228,14 +310,21 @@ def fleet_run(
         Written to ``out/summary.json`` too: ``drives``, ``tyre_sets``, ``fleet`` (per stage:
         items, done, skipped, failed, seconds and CPU seconds summed over the items, the largest
         worker peak RSS), ``failures`` (id and one-line reason), ``wall_seconds``,
-        ``workers``, ``settings``, ``drive_hours`` (processed this run), ``outputs``.
+        ``workers``, ``settings``, ``drive_hours`` (processed this run), ``outputs``,
+        ``written`` (the tables this run replaced) and ``outcome`` (:func:`run_outcome`).
+
+    Raises
+    ------
+    BadInputError
+        A file where ``out`` or one of its stage folders belongs (:func:`prepare_out`).
+    tyrebayes._interrupts.Interrupted
+        A signal (in the command line): the items in flight are not recorded, no table written.
     """
     from distributed import as_completed
 
     settings = settings or RunSettings()
     start = time.perf_counter()
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = prepare_out(out)
     out_s = str(out.resolve())
     by_set: dict[str, list[DriveItem]] = defaultdict(list)
     for item in items:
@@ -318,6 +407,9 @@ def fleet_run(
         try:
             record = future.result()
         except Exception as err:  # noqa: BLE001 -- a lost worker or a bug: recorded, run goes on
+            # After a signal the cluster is being torn down under its tasks: their errors are
+            # the interruption's, and an item left without a record runs again next time.
+            _interrupts.check()
             from .drive_stage import one_line
 
             name = item.drive_id if kind == "drive" else item
@@ -336,9 +428,10 @@ def fleet_run(
             set_records[item] = record
             bar.update(f"set {item}")
     bar.close()
+    _interrupts.check()  # swallowed on the way (a dask callback): no tables from a cut run
     ordered_drives = [drive_records[i.drive_id] for i in items]
     ordered_sets = [set_records[s] for s in by_set]
-    sets = _write_tables(out, ordered_drives, ordered_sets)
+    sets, written = _write_tables(out, ordered_drives, ordered_sets)
     fleet_record = run_fleet_stage(out_s, sets, settings)
     processed = [r for r in ordered_drives if r.get("status") == "done" and not r.get("skipped")]
     summary = {
@@ -377,6 +470,9 @@ def fleet_run(
             "failures": "failures.csv",
             "fleet": "fleet/",
         },
+        # The tables this run wrote; one left out kept the last run's (no rows this time).
+        "written": [*written, "failures"],
+        "outcome": run_outcome(ordered_drives, ordered_sets, fleet_record),
     }
     atomic_write_bytes(
         out / "summary.json", (json.dumps(to_jsonable(summary), indent=1) + "\n").encode()

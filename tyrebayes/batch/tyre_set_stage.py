@@ -22,6 +22,7 @@ from .drive_stage import DRIVES_DIR, one_line
 from .records import (
     read_record,
     record_path,
+    stopping,
     unchanged,
     value_hash,
     write_parquet,
@@ -192,6 +193,8 @@ def fit_tyre_set(
             "outputs": [f"{name}.fit.nc", f"{name}.row.parquet"],
         }
     except Exception as err:  # noqa: BLE001 -- a set that cannot be fitted is recorded
+        if stopping():
+            raise  # the interruption's failure, not the item's: no record, redone next run
         record |= {"status": "failed", "reason": one_line(err), "outputs": []}
     record |= {
         "seconds": time.perf_counter() - start,

@@ -1,4 +1,5 @@
-"""The worker plugin of a fleet run: workers import the package when they join, not in a task.
+"""The worker plugins of a fleet run: workers import the package when they join, not in a task;
+a local cluster's workers leave Ctrl-C to their client.
 
 Without it a worker's first task pays the imports of the package, JAX and NumPyro (seconds),
 on every worker of every run; with it they are paid while the cluster starts, and a worker that
@@ -26,4 +27,21 @@ class ImportTasks(WorkerPlugin):
         import tyrebayes.inference.tyre.fit  # noqa: F401
 
 
-__all__ = ["ImportTasks"]
+class IgnoreCtrlC(WorkerPlugin):
+    """A local worker ignores SIGINT (registered by ``run.dask_client`` for its own cluster only).
+
+    Ctrl-C in a terminal reaches its whole process group, the local workers too: each then shut
+    itself down under its task, and the task, its fit torn down, failed and was recorded as
+    failed for good. The client gets the signal too and closes the cluster, which stops them.
+    Not for a cluster at an address: its workers are not this command's to change.
+    """
+
+    name = "tyrebayes-ignore-ctrl-c"
+
+    def setup(self, worker) -> None:
+        from .._interrupts import ignore_in_child
+
+        ignore_in_child()
+
+
+__all__ = ["IgnoreCtrlC", "ImportTasks"]

@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from .._errors import BadInputError
-from .._io import atomic_path
+from .._io import atomic_output
 from .schema import CHANNELS, OPTIONAL_COLUMNS, REQUIRED_COLUMNS
 
 _CSV = (".csv",)
@@ -237,15 +237,12 @@ def write_stream(df: pd.DataFrame, path: str | os.PathLike) -> None:
         Target file; its suffix selects the format.
     """
     suffix = _suffix(Path(path))
-    tmp, path = atomic_path(path)  # sweeps what a killed writer of this file left behind
-    try:
+    # Sweeps what a killed writer of this file left behind; an interruption while writing
+    # leaves the previous file.
+    with atomic_output(path) as tmp:
         if suffix in _CSV:
             df.to_csv(tmp, index=False, float_format="%.12g")
         elif suffix in _PARQUET:
             df.to_parquet(tmp, index=False)
         else:
             _write_mdf(df, tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise

@@ -1,0 +1,152 @@
+"""Interruptions (SIGINT, SIGTERM) as one exception, raised where it is safe to stop.
+
+The command line (:func:`tyrebayes.cli.main`) turns both signals into :class:`Interrupted`, a
+:class:`KeyboardInterrupt`, so that every ``finally`` block runs (temporary files removed, a dask
+cluster closed) and the command ends with exit status 128 + the signal's number (130, 143) and one
+line. Three rules keep an interruption from doing harm on its way out:
+
+* **Outputs are all or nothing.** Inside :func:`deferred` (an output file being written and moved
+  into place) a signal is held, not raised, so that no C library (HDF5, Arrow) is stopped half-way
+  through a file; the writer then drops its temporary file instead of replacing the previous
+  output (:func:`tyrebayes._io.atomic_output`).
+* **An interruption is never swallowed.** Python drops an exception raised in a ``__del__``, a
+  weakref callback or code that catches :class:`BaseException`; the signal is also recorded
+  (:func:`pending`), and :func:`check` raises it again at the next safe point: before an output
+  replaces the previous one, and before a command returns success.
+* **An interruption is not a failure.** Code that records failures as data (a fleet run's items)
+  asks :func:`pending` before it records one: an item stopped by the interruption is left without
+  a record and is run again next time.
+
+Outside the command line nothing is installed: a program that imports the library keeps its own
+signal handlers, and :func:`deferred` and :func:`check` then do nothing but their bookkeeping.
+
+Examples
+--------
+>>> with deferred():
+...     pass  # write and rename an output; a signal here is raised after the block
+>>> pending() is None
+True
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import threading
+from collections.abc import Callable, Iterator
+
+#: The signals a command ends on, cleanly.
+SIGNALS: tuple[int, ...] = (signal.SIGINT, signal.SIGTERM)
+
+_pending: int | None = None
+_defer_depth = 0
+_count = 0
+_on_first: list[Callable[[], None]] = []
+
+
+class Interrupted(KeyboardInterrupt):
+    """The command was stopped by a signal (SIGINT, SIGTERM): not a failure of its work.
+
+    Attributes
+    ----------
+    signum : int
+        The signal's number; the command's exit status is ``128 + signum``.
+    """
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = int(signum)
+
+    @property
+    def exit_status(self) -> int:
+        return 128 + self.signum
+
+
+def pending() -> int | None:
+    """The number of the signal that interrupted this process, or None."""
+    return _pending
+
+
+def check() -> None:
+    """Raise :class:`Interrupted` if a signal came (and was held or swallowed) since the start."""
+    if _pending is not None and _defer_depth == 0:
+        raise Interrupted(_pending)
+
+
+@contextlib.contextmanager
+def deferred() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM for the block; a held one is raised when the block ends.
+
+    For short sections that must not be cut: writing an output file and moving it into place.
+    Nested blocks raise at the end of the outermost. Off the main thread, where no signal
+    handler runs, the block only ends with :func:`check`.
+    """
+    global _defer_depth
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        check()
+        return
+    _defer_depth += 1
+    try:
+        yield
+    finally:
+        _defer_depth -= 1
+    check()
+
+
+def on_interrupt(callback: Callable[[], None]) -> None:
+    """Call ``callback`` (quickly, without raising) when the first signal arrives.
+
+    For quieting what would otherwise print during the way out (a cluster's closing logs).
+    """
+    _on_first.append(callback)
+
+
+def _handler(signum: int, frame) -> None:
+    global _pending, _count
+    _count += 1
+    if _pending is None:
+        _pending = signum
+        for callback in _on_first:
+            with contextlib.suppress(Exception):
+                callback()
+    if _count >= 3:
+        # Two signals more while the first one's clean-up runs: the user wants out now.
+        os.write(2, b"tyrebayes: interrupted again, stopping without clean-up\n")
+        os._exit(128 + _pending)
+    if _count == 1 and _defer_depth == 0:
+        raise Interrupted(signum)
+    # A second signal while the first is being handled, or one inside deferred(): held.
+
+
+@contextlib.contextmanager
+def signals_as_interruptions() -> Iterator[None]:
+    """Within the block, SIGINT and SIGTERM raise :class:`Interrupted` (main thread only).
+
+    The previous handlers and the pending state are restored after it, so that a test or a
+    program that calls :func:`tyrebayes.cli.main` twice starts each call afresh.
+    """
+    global _pending, _count
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {s: signal.getsignal(s) for s in SIGNALS}
+    _pending, _count = None, 0
+    for s in SIGNALS:
+        signal.signal(s, _handler)
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            # None: the previous handler was not set from Python; restore the default then.
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
+        _pending, _count = None, 0
+        _on_first.clear()
+
+
+def ignore_in_child() -> None:
+    """Ignore SIGINT in this (worker) process: Ctrl-C reaches a terminal's whole process group,
+    and a fleet run's local workers are stopped by their client, not by the key."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
