@@ -84,6 +84,11 @@ def test_every_item_failed_is_exit_2_and_keeps_the_last_table(tmp_path, capsys):
     assert "2 of 2 drives and 2 of 2 tyre sets failed" in err
     summary = json.loads(captured.out)
     assert summary["outcome"] == "nothing_usable" and "tyre_sets" not in summary["written"]
+    # Every failure that makes the exit status is listed, the fleet model's too.
+    assert (
+        sorted(f["item"] for f in summary["failures"])
+        == ["drive"] * 2 + ["fleet"] + ["tyre_set"] * 2
+    )
     # Not replaced by an empty table: the last complete one stands.
     pd.testing.assert_frame_equal(pd.read_parquet(out / "tyre_sets.parquet"), last)
     failures = pd.read_csv(out / "failures.csv")

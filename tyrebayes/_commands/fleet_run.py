@@ -136,6 +136,7 @@ def run(args: argparse.Namespace) -> int:
         f"fleet     {fleet['status']}{' (skipped)' if fleet['skipped'] else ''} {fleet['reason']}"
     )
     for failure in summary["failures"]:
-        print(f"failed {failure['item']} {failure['id']}: {failure['reason']}")
+        if failure["item"] != "fleet":  # its line is above
+            print(f"failed {failure['item']} {failure['id']}: {failure['reason']}")
     print(f"{summary['wall_seconds']:.1f} s on {summary['workers']} workers -> {out}")
     return status

@@ -453,7 +453,12 @@ def fleet_run(
             {"item": "tyre_set", "id": r["tyre_set_id"], "reason": r["reason"]}
             for r in ordered_sets
             if r.get("status") == "failed"
-        ],
+        ]
+        + (
+            [{"item": "fleet", "id": "fleet", "reason": fleet_record.get("reason", "")}]
+            if fleet_record.get("status") == "failed"
+            else []
+        ),
         "drive_hours": sum(float(r.get("duration_s", 0.0)) for r in processed) / 3600.0,
         "wall_seconds": time.perf_counter() - start,
         "workers": len(client.scheduler_info().get("workers", {})),
