@@ -131,6 +131,10 @@ def test_load_sensitivity_flag_gives_the_fit_the_measured_prior(tmp_path, capsys
     stream = data_dir() / "comma2k19_rav4_segment.csv"
     argv = ["fit-tyre", str(stream), "--vehicle", "suv_rav4", "--method", "fast", "--json"]
     assert main([*argv, "--load-sensitivity", "--out", str(out)]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    # the real RAV4's highway minute has no cornering to speak of: no lateral numbers
+    assert payload["lateral"] is None
+    assert payload["lateral_reason"].startswith("lateral: no usable cornering")
     assert given["priors"].load_sensitive and given["priors"].load_sensitivity_sd == 0.246
     assert json.loads(load_fit(out).provenance.settings)["load_sensitivity"] is True
     capsys.readouterr()
@@ -148,9 +152,10 @@ def _slow_stream(path):
 
 
 def test_stream_flags_are_read_for_the_fit(tmp_path):
-    from tyrebayes._commands.fit_tyre import _stream_flags
+    from tyrebayes._commands.fit_tyre import _validated
 
-    (flag,) = _stream_flags(_slow_stream(tmp_path / "slow.csv"), "compact_fwd")
+    validated, _ = _validated(_slow_stream(tmp_path / "slow.csv"), "compact_fwd")
+    (flag,) = validated.flags
     assert flag.startswith("sample rate 10 Hz")
 
 
@@ -184,3 +189,57 @@ def test_diagnostics_text_has_no_r_hat_for_independent_draws():
     assert "R-hat max –," in fast and "nan" not in fast.lower()
     nuts = diagnostics_text(Diagnostics(method="nuts", r_hat_max=1.0042, **common))
     assert "R-hat max 1.004," in nuts
+
+
+def _cornering_stream(path, **changes):
+    from tyrebayes._domain import load_vehicle
+    from tyrebayes.simulate.cornering import simulate_cornering
+    from tyrebayes.streams import write_stream
+
+    frame, truth = simulate_cornering(load_vehicle("compact_fwd"), duration_s=240.0, seed=11)
+    for column, factor in changes.items():
+        frame[column] = frame[column] * factor
+    write_stream(frame, path)
+    return path, truth
+
+
+@pytest.mark.early
+def test_fit_tyre_prints_and_saves_the_lateral_fit(tmp_path, capsys, monkeypatch):
+    """The CLI end to end for the lateral part (the longitudinal fit stubbed as above)."""
+    from tyrebayes.inference.result import load_fit
+    from tyrebayes.inference.tyre import fit as tyre_fit
+    from tyrebayes.inference.tyre.data import stack_drives
+    from tyrebayes.inference.tyre.result import TyreFit
+
+    from .inference.tyre.test_model import PAD, linear_region_windows
+
+    fit = tyre_fit.fit_tyre(
+        stack_drives([linear_region_windows(3)], ["dry"], pad_to=PAD), method="fast"
+    )
+    monkeypatch.setattr(tyre_fit, "fit_tyre", lambda *args, **kwargs: fit)
+    stream, truth = _cornering_stream(tmp_path / "corners.csv")
+    out = tmp_path / "fit.nc"
+    argv = ["fit-tyre", str(stream), "--vehicle", "compact_fwd", "--method", "fast"]
+    assert main([*argv, "--json", "--out", str(out)]) == 0
+    lateral = json.loads(capsys.readouterr().out)["lateral"]
+    for key in ("c_y_front", "c_y_rear", "understeer_gradient", "steering_ratio"):
+        assert set(lateral[key]) == {"mean", "sd", "hdi_90"}, key
+    assert lateral["mu_y"] is None and lateral["mu_y_observed"] is False
+    assert lateral["converged"] is True and isinstance(lateral["adequate"], bool)
+    lo, hi = lateral["understeer_gradient"]["hdi_90"]
+    assert lo <= truth.understeer_gradient <= hi
+    saved = TyreFit.from_fit(load_fit(out, kind="tyre")).lateral
+    assert saved is not None and saved.to_dict() == lateral
+    assert main(argv) == 0 and "c_y front" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("change", "named"),
+    [({"ay": -1.0}, "ay"), ({"steering_wheel_angle": 57.29577951308232}, "steering")],
+)
+def test_a_flipped_ay_or_steering_in_degrees_is_refused(tmp_path, capsys, change, named):
+    stream, _ = _cornering_stream(tmp_path / "bad.csv", **change)
+    argv = ["fit-tyre", str(stream), "--vehicle", "compact_fwd", "--method", "fast"]
+    assert main(argv) == 2
+    err = _one_line_error(capsys)
+    assert named in err, err

@@ -84,6 +84,8 @@ def _plan(kind: str, rng, n: int, dt: float, vehicle: Vehicle, k_guess: float):
         ay = 0.05 * _smooth(rng, n, dt, 0.1)
     else:
         raise ValueError(f"kind: expected 'mixed', 'steady' or 'straight', got {kind!r}")
+    # Start from straight running: the car starts at rest in yaw (v_y = r = 0).
+    ay = ay * np.clip(np.arange(n) * dt / 3.0, 0.0, 1.0)
     delta = (wheelbase / speed**2 + k_guess) * ay
     return speed, delta
 

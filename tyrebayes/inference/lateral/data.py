@@ -183,10 +183,11 @@ def cornering_observations(frame: pd.DataFrame, vehicle: Vehicle) -> CorneringOb
     >>> t = np.arange(0, 60, 0.01)
     >>> f = pd.DataFrame({"time": t, "yaw_rate": 0.0 * t, "ay": 0.0 * t,
     ...                   "speed_reference": 20 + 0 * t, "steering_wheel_angle": 0 * t})
-    >>> cornering_observations(f, load_vehicle("compact_fwd"))
-    Traceback (most recent call last):
-    ...
-    tyrebayes.inference.lateral.data.NoCornering: lateral: no usable cornering: 0.0 s with |a_y| > 1 m/s² above 8 m/s (need 15 s)
+    >>> try:
+    ...     cornering_observations(f, load_vehicle("compact_fwd"))
+    ... except NoCornering as err:
+    ...     print(err)
+    lateral: no usable cornering: 0.0 s with |a_y| > 1 m/s² above 8 m/s (need 15 s)
     """
     for name in ("time", "yaw_rate", "ay"):
         if name not in frame:

@@ -38,7 +38,6 @@ from ...physics.tyre import magic_formula_inverse_and_slope
 from ..tyre.model import _MU_LOG_SD, _MU_MEDIAN
 from .data import CorneringObservations, G
 
-
 #: The nuisance effects the model carries: the a_y sensor's roll gain and offset, the steering
 #: angle offset, the tyres' relaxation length and the yaw inertia's uncertainty.
 LATERAL_EFFECTS = ("roll", "ay_offset", "steering_offset", "relaxation", "yaw_inertia")
@@ -124,7 +123,8 @@ class LateralPriors(eqx.Module):
         unknown = set(self.effects) - set(LATERAL_EFFECTS)
         if unknown:
             raise ValueError(
-                f"LateralPriors.effects: expected a subset of {LATERAL_EFFECTS}, got {sorted(unknown)}"
+                f"LateralPriors.effects: expected a subset of {LATERAL_EFFECTS}, "
+                f"got {sorted(unknown)}"
             )
 
     def without(self, effect: str) -> LateralPriors:

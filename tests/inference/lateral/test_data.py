@@ -1,0 +1,75 @@
+"""Cornering observations: channels, selection, and the reasons a drive has no lateral fit."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tyrebayes._domain import load_vehicle
+from tyrebayes.inference.lateral import NoCornering, cornering_observations
+from tyrebayes.inference.lateral.data import MIN_SPEED_MPS, RATE_HZ
+from tyrebayes.simulate.cornering import simulate_cornering
+
+VEHICLE = load_vehicle("compact_fwd")
+
+
+def test_a_cornering_drive_is_decimated_and_masked():
+    frame, _ = simulate_cornering(VEHICLE, duration_s=120.0, seed=3)
+    obs = cornering_observations(frame, VEHICLE)
+    assert obs.speed.shape == (int(120.0 * RATE_HZ),)
+    assert obs.dt_s == pytest.approx(1.0 / RATE_HZ)
+    assert not obs.road_wheel and float(obs.steering_ratio) == float(VEHICLE.steering_ratio)
+    assert obs.cornering_seconds > 15.0
+    # the kinematic equation's samples are a subset with two valid neighbours each side
+    kin, mask = np.asarray(obs.mask_kinematic), np.asarray(obs.mask)
+    assert np.all(mask[kin]) and not kin[:2].any() and not kin[-2:].any()
+
+
+def test_slow_samples_are_left_out():
+    frame, _ = simulate_cornering(VEHICLE, duration_s=120.0, seed=3)
+    frame.loc[frame.index[:3000], [c for c in frame if c.startswith("wheel_speed")]] = 1.0 / float(
+        VEHICLE.wheel_radius_m
+    )
+    obs = cornering_observations(frame, VEHICLE)
+    assert not np.asarray(obs.mask)[: int(25 * RATE_HZ)].any()
+    assert MIN_SPEED_MPS > 1.0
+
+
+def test_a_straight_drive_has_no_cornering():
+    frame, _ = simulate_cornering(VEHICLE, kind="straight", duration_s=120.0, seed=3)
+    with pytest.raises(NoCornering, match="no usable cornering: 0.0 s"):
+        cornering_observations(frame, VEHICLE)
+
+
+def test_a_road_wheel_angle_log_needs_no_wheel_speeds():
+    frame, truth = simulate_cornering(VEHICLE, duration_s=120.0, seed=3)
+    log = pd.DataFrame(
+        {
+            "time": frame["time"],
+            "yaw_rate": frame["yaw_rate"],
+            "ay": frame["ay"],
+            "speed_reference": frame["wheel_speed_rl"] * float(VEHICLE.wheel_radius_m),
+            "wheel_angle_front": frame["steering_wheel_angle"] / truth.steering_ratio,
+        }
+    )
+    assert cornering_observations(log, VEHICLE).road_wheel
+
+
+@pytest.mark.parametrize(
+    ("drop", "message"),
+    [
+        (["yaw_rate"], "expected a yaw_rate column"),
+        (["steering_wheel_angle"], "steering_wheel_angle or wheel_angle_front"),
+        (["wheel_speed_rl", "wheel_speed_rr"], "wheel speeds or a speed_reference"),
+    ],
+)
+def test_missing_channels_are_named(drop, message):
+    frame, _ = simulate_cornering(VEHICLE, duration_s=30.0, seed=3)
+    with pytest.raises(NoCornering, match=message):
+        cornering_observations(frame.drop(columns=drop), VEHICLE)
+
+
+def test_time_must_increase():
+    frame, _ = simulate_cornering(VEHICLE, duration_s=30.0, seed=3)
+    frame.loc[10, "time"] = frame.loc[5, "time"]
+    with pytest.raises(NoCornering, match="strictly increasing"):
+        cornering_observations(frame, VEHICLE)

@@ -1,0 +1,55 @@
+"""The lateral model's pieces: the derivative, the residuals at the truth, the priors' effects."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from tyrebayes._domain import load_vehicle
+from tyrebayes.inference.lateral import LateralPriors, cornering_observations
+from tyrebayes.inference.lateral.model import LATERAL_EFFECTS, derivative, residuals
+from tyrebayes.simulate.cornering import simulate_cornering
+
+VEHICLE = load_vehicle("compact_fwd")
+
+
+def test_five_point_derivative_is_exact_on_a_quartic():
+    t = np.linspace(0.0, 2.0, 41)
+    x = 0.3 * t**4 - t**3 + 2 * t
+    d = np.asarray(derivative(jnp.asarray(x), float(t[1] - t[0])))
+    np.testing.assert_allclose(d[2:-2], (1.2 * t**3 - 3 * t**2 + 2)[2:-2], rtol=1e-10)
+
+
+def test_residuals_vanish_at_the_truth_of_a_noise_free_drive():
+    """Both equations at the simulator's own parameters: only the low-pass filter is left."""
+    frame, truth = simulate_cornering(VEHICLE, duration_s=120.0, seed=5, noise=False)
+    obs = cornering_observations(frame, VEHICLE)
+    point = {
+        "c_y_front": truth.c_y_front,
+        "c_y_rear": truth.c_y_rear,
+        "mu_y": truth.mu_y,
+        "curve_shape_excess": truth.shape - 1.0,
+        "curve_curvature_gap": 1.0 - truth.curvature,
+        "steering_ratio": truth.steering_ratio,
+        "steering_offset": truth.steering_offset_rad,
+        "ay_offset": truth.ay_offset,
+        "roll_gradient": truth.roll_gradient,
+        "yaw_inertia_factor": 1.0,
+        "relaxation_length": 0.0,
+    }
+    steer, kin = residuals(obs, {k: jnp.asarray(v) for k, v in point.items()})
+    mask, mask_kin = np.array(obs.mask), np.array(obs.mask_kinematic)
+    mask[:20] = mask_kin[:20] = False  # the low-pass filter's start
+    signal = np.asarray(obs.steering)[mask] / truth.steering_ratio
+    # 1e-4 rad against a road-wheel angle of ~0.05 rad; 0.05 m/s² against a_y of ~2 m/s²
+    assert np.std(np.asarray(steer)[mask]) < 2e-3 * np.std(signal) + 1e-4
+    assert np.std(np.asarray(kin)[mask_kin]) < 0.05
+
+
+def test_effects_can_be_left_out_one_by_one():
+    priors = LateralPriors()
+    assert priors.effects == LATERAL_EFFECTS
+    assert "roll" not in priors.without("roll").effects
+    with pytest.raises(ValueError, match="expected one of"):
+        priors.without("bank")
+    with pytest.raises(ValueError, match="expected a subset"):
+        LateralPriors(effects=("roll", "wind"))
