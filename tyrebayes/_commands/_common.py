@@ -200,6 +200,44 @@ def add_can_arguments(parser) -> None:
     parser.add_argument(
         "--bus", default=None, help="with --profile: use frames of this bus only (e.g. can0, 0)"
     )
+    parser.add_argument(
+        "--max-time-faults",
+        type=_fraction,
+        default=None,
+        metavar="FRACTION",
+        help="with --profile: the fraction of a message's frames that may be out of time order "
+        "or duplicated (default 0.01); up to it they are dropped (a reversed log sorted) with a "
+        "warning on stderr, above it the log is refused; 0 refuses any",
+    )
+
+
+def _fraction(text: str) -> float:
+    """An argparse type: a number in [0, 1] (a fraction, not a percentage)."""
+    import argparse
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a fraction in [0, 1], got {text!r}") from None
+    if not 0.0 <= value <= 1.0:
+        hint = " (a percentage? divide by 100)" if 1.0 < value <= 100.0 else ""
+        raise argparse.ArgumentTypeError(f"expected a fraction in [0, 1], got {text}{hint}")
+    return value
+
+
+def max_time_faults(args) -> float:
+    """``--max-time-faults``, or the library's default."""
+    from ..streams.can.time_faults import DEFAULT_MAX_TIME_FAULTS
+
+    value = getattr(args, "max_time_faults", None)
+    return DEFAULT_MAX_TIME_FAULTS if value is None else value
+
+
+def warn_time_faults(args, conversion) -> None:
+    """One line on stderr when a CAN log's time faults were repaired (they are in the JSON)."""
+    text = conversion.time_faults_text()
+    if text:
+        print(f"tyrebayes {args.command}: warning: {text}", file=sys.stderr)
 
 
 @contextlib.contextmanager
@@ -207,22 +245,29 @@ def stream_file(args, vehicle: str | None = None):
     """The stream file of a command: ``args.stream``, or a CAN log decoded into a temporary file.
 
     With ``--profile`` the log is decoded (:func:`tyrebayes.streams.can.read_can_log`, wheel
-    speeds converted with ``vehicle``'s nominal radius) and written to a temporary Parquet file
-    that lives for the ``with`` block, so that commands that read stream files take CAN logs
-    unchanged.
+    speeds converted with ``vehicle``'s nominal radius, time faults up to ``--max-time-faults``
+    repaired with a warning line) and written to a temporary Parquet file that lives for the
+    ``with`` block, so that commands that read stream files take CAN logs unchanged.
     """
     if getattr(args, "profile", None) is None:
-        for name in ("dbc", "bus"):
+        for name in ("dbc", "bus", "max_time_faults"):
             if getattr(args, name, None) is not None:
-                raise BadInputError(f"--{name}: expected together with --profile, got it alone")
+                option = f"--{name.replace('_', '-')}"
+                raise BadInputError(f"{option}: expected together with --profile, got it alone")
         yield existing_file(args.stream)
         return
     from ..streams import write_stream
     from ..streams.can import read_can_log
 
     conversion = read_can_log(
-        existing_file(args.stream), args.profile, dbc=args.dbc, vehicle=vehicle, bus=args.bus
+        existing_file(args.stream),
+        args.profile,
+        dbc=args.dbc,
+        vehicle=vehicle,
+        bus=args.bus,
+        max_time_faults=max_time_faults(args),
     )
+    warn_time_faults(args, conversion)
     with tempfile.TemporaryDirectory(prefix="tyrebayes-can-") as tmp:
         path = Path(tmp) / f"{Path(args.stream).stem}.parquet"
         write_stream(conversion.data, path)

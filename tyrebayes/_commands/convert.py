@@ -4,6 +4,12 @@ Decodes a raw CAN log with a car profile's DBC, validates it and puts it on one 
 the stream pipeline (:func:`tyrebayes.streams.validate_stream`), and writes a stream file in the
 DESIGN.md contract (Parquet, CSV or MDF4 by the suffix). The output appears complete or not at
 all. Exit status 2 with one line on stderr on a bad log, profile or DBC.
+
+Time faults (:mod:`tyrebayes.streams.can.time_faults`: frames whose timestamps go back, frames
+written twice, a reversed log) are counted per message: above ``--max-time-faults`` (default 1 %
+of a message's frames) the log is refused with exit 2 and one line; up to it they are repaired
+(dropped; a reversed message sorted), counted in the JSON (``time_faults``) and named in a
+warning line on stderr.
 """
 
 from __future__ import annotations
@@ -15,7 +21,14 @@ from typing import Any
 import numpy as np
 
 from .._errors import BadInputError
-from ._common import add_can_arguments, existing_file, output_file, print_json
+from ._common import (
+    add_can_arguments,
+    existing_file,
+    max_time_faults,
+    output_file,
+    print_json,
+    warn_time_faults,
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -63,7 +76,15 @@ def convert_log(args: argparse.Namespace) -> dict[str, Any]:
         raise BadInputError(str(err).splitlines()[0]) from None
     # A comma raw_can log is a folder of arrays; every other log is one file.
     log = Path(args.log) if Path(args.log).is_dir() else existing_file(args.log)
-    conv = read_can_log(log, profile, dbc=args.dbc, vehicle=vehicle, bus=args.bus)
+    conv = read_can_log(
+        log,
+        profile,
+        dbc=args.dbc,
+        vehicle=vehicle,
+        bus=args.bus,
+        max_time_faults=max_time_faults(args),
+    )
+    warn_time_faults(args, conv)
     stream = validate_conversion(conv, profile, vehicle)
     write_stream(stream.data, args.out)
     data = stream.data
@@ -81,6 +102,10 @@ def convert_log(args: argparse.Namespace) -> dict[str, Any]:
         "buses": list(counts.buses),
         "frames_used": counts.kept,
         "frames_used_per_message": conv.frames_per_message,
+        # Per message: frames duplicated or out of time order (dropped; a reversed log sorted).
+        "time_faults": {name: f.as_dict() for name, f in conv.time_faults.items()},
+        "time_faults_repaired": conv.time_faults_repaired,
+        "max_time_faults": max_time_faults(args),
         "invalid_samples_per_channel": conv.invalid_per_column,
         "time_origin_s": conv.time_origin_s,
         "duration_s": stream.duration_s,
@@ -111,6 +136,12 @@ def _text(summary: dict[str, Any]) -> str:
         f"rates: {rates}",
         f"NaN: {dropped or 'none'}",
     ]
+    repaired = [
+        f"{k} {f['duplicates'] + f['out_of_order']}"
+        for k, f in summary["time_faults"].items()
+        if f["duplicates"] + f["out_of_order"]
+    ]
+    lines.append(f"time faults repaired: {', '.join(repaired) or 'none'}")
     lines.extend(f"note: {note}" for note in summary["notes"])
     lines.extend(f"flag: {flag}" for flag in summary["flags"])
     return "\n".join(lines)
