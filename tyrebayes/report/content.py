@@ -37,6 +37,23 @@ class TyreSection:
 
 
 @dataclasses.dataclass
+class LateralSection:
+    """One drive's cornering: each axle's force against its slip angle, and the fitted curves.
+
+    ``rho``/``alpha`` map ``"front"``/``"rear"`` to the samples' ρ_y (over the static axle
+    load) and the slip angle the steering equation gives them (a partial-residual plot: no car
+    measures a slip angle); ``curve`` maps the axle to ``(alpha_grid, q05, q50, q95)`` of
+    ρ_y = f(α; c_y, μ_y, C, E) over posterior draws; ``summary`` is the fit's ``to_dict()``.
+    """
+
+    name: str
+    rho: dict
+    alpha: dict
+    curve: dict
+    summary: dict
+
+
+@dataclasses.dataclass
 class FleetSection:
     """Friction against 1/C_xr by tyre type (thesis Fig. 6.2) with hierarchical and OLS bands.
 
@@ -64,8 +81,10 @@ class VmaxSection:
     """Predictive V_max of the ISO 3888-2 lane change per tyre set.
 
     ``rows``: ``{"tyre", "tyre_type", "c_xr", "draws" (km/h), "summary", "measured_lo",
-    "measured_hi"}`` (measured bounds NaN for sets without a test); ``comparison``: driver-free
-    vs extended model against the measured Table 6.2 (ELPD, SE), or empty.
+    "measured_hi"}`` (measured bounds NaN for sets without a test), and where the builder set
+    them ``"lateral_source"``, ``"mu_y_source"``, ``"surface"``, ``"source_note"``
+    (:class:`~tyrebayes.inference.vmax.VmaxInputs`); ``comparison``: driver-free vs extended
+    model against the measured Table 6.2 (ELPD, SE), or empty.
     """
 
     vehicle: str
@@ -97,6 +116,7 @@ class Report:
     title: str
     subtitle: str
     tyres: list = dataclasses.field(default_factory=list)
+    laterals: list = dataclasses.field(default_factory=list)
     fleet: FleetSection | None = None
     vmax: VmaxSection | None = None
     wear: WearSection | None = None

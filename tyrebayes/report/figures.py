@@ -65,6 +65,31 @@ def tyre_curves(tyres) -> bytes:
     return _png(fig)
 
 
+def lateral_curves(laterals) -> bytes:
+    """Each axle's ρ_y against its slip angle, with the posterior median curve and 90 % band."""
+    plt = _plt()
+    n = len(laterals)
+    fig, axes = plt.subplots(n, 2, figsize=(8.6, 3.5 * n), squeeze=False)
+    for row, lat in zip(axes, laterals, strict=True):
+        for ax, axle, colour in zip(row, ("front", "rear"), ("tab:blue", "tab:red"), strict=True):
+            ax.plot(lat.alpha[axle], lat.rho[axle], ".", ms=2.0, alpha=0.3, color=colour)
+            grid, lo, mid, hi = lat.curve[axle]
+            ax.fill_between(grid, lo, hi, color=colour, alpha=0.25, lw=0)
+            ax.plot(grid, mid, color=colour, lw=1.6)
+            c = lat.summary[f"c_y_{axle}"]
+            ax.set_title(
+                f"{lat.name}, {axle}: c_y {c['mean']:.1f} ± {c['sd']:.1f} /rad", fontsize=9
+            )
+            ax.axhline(0.0, color="0.8", lw=0.6, zorder=0)
+            ax.axvline(0.0, color="0.8", lw=0.6, zorder=0)
+            ax.set_xlabel(f"{axle} slip angle α [rad] (steering equation)", fontsize=8)
+            ax.set_ylabel("ρ_y = F_y / F_z,static [-]", fontsize=8)
+            ax.tick_params(labelsize=7)
+    fig.suptitle("Cornering: axle force against slip angle (median, 90 % band)", fontsize=11)
+    fig.tight_layout()
+    return _png(fig)
+
+
 def friction_vs_inverse_stiffness(fleet) -> bytes:
     """Thesis Fig. 6.2 done right: μ vs 100/C_xr by type, hierarchical bands, OLS line and R²."""
     plt = _plt()
@@ -148,7 +173,13 @@ def vmax_distributions(vmax) -> bytes:
             )
         )
     ax.set_yticks(y)
-    ax.set_yticklabels([f"{r['tyre']} (C_xr {r['c_xr']:.0f})" for r in rows], fontsize=8)
+    labels = [
+        f"{r['tyre']} (c_y measured)"
+        if r.get("lateral_source") == "measured"
+        else f"{r['tyre']} (C_xr {r['c_xr']:.0f})"
+        for r in rows
+    ]
+    ax.set_yticklabels(labels, fontsize=8)
     ax.set_xlabel("critical lane-change speed V_max [km/h]")
     ax.set_title(f"ISO 3888-2 V_max: predictive vs measured ({vmax.vehicle})")
     ax.grid(axis="x", alpha=0.3)

@@ -25,7 +25,7 @@ from ..physics.tyre import (
     magic_formula_inverse_and_slope,
     shaped_longitudinal_inverse_and_slope,
 )
-from .content import FleetSection, TyreSection, VmaxSection
+from .content import FleetSection, LateralSection, TyreSection, VmaxSection
 
 #: Posterior draws used for the drawn curves and bands (a band needs a few hundred, not 4000).
 CURVE_DRAWS = 400
@@ -195,6 +195,27 @@ def tyre_section(
     )
 
 
+def lateral_section(lateral, name: str) -> LateralSection:
+    """Each axle's force–slip-angle samples and posterior curve band of a ``LateralFit``."""
+    data = lateral.fit.data
+    const = data["constant_data"]
+    idx = _thin(lateral.draws("c_y_front").shape[0])
+    mu = lateral.draws("mu_y")[idx]
+    shape = 1.0 + lateral.draws("curve_shape_excess")[idx]
+    curvature = 1.0 - lateral.draws("curve_curvature_gap")[idx]
+    rho, alpha, curve = {}, {}, {}
+    for axle in ("front", "rear"):
+        rho[axle] = np.asarray(const[f"rho_{axle}"], float)
+        alpha[axle] = np.asarray(const[f"alpha_{axle}_partial"], float)
+        edge = max(float(np.quantile(np.abs(alpha[axle]), 0.995)), 0.01) * 1.15
+        grid = np.linspace(-edge, edge, GRID_POINTS)
+        c_y = lateral.draws(f"c_y_{axle}")[idx]
+        f = _shaped_curves(grid, c_y, mu, shape, curvature)
+        q = np.quantile(f, BAND, axis=0)
+        curve[axle] = (grid, q[0], q[1], q[2])
+    return LateralSection(name=name, rho=rho, alpha=alpha, curve=curve, summary=lateral.to_dict())
+
+
 def fleet_section(
     fit: Fit, *, surface: str | None = None, seed: int = 0, source: str = ""
 ) -> FleetSection:
@@ -263,7 +284,10 @@ def vmax_section(
 ) -> VmaxSection:
     """Predictive V_max per set; measured sets (``measured_lo`` given) also test the models.
 
-    ``sets``: ``{"tyre", "tyre_type", "c_xr" (value or posterior draws), ["measured_lo"]}``.
+    ``sets``: ``{"tyre", "tyre_type", "c_xr" (value or posterior draws), ["measured_lo"],
+    ["inputs"]}``. A set with ``inputs`` (a :class:`~tyrebayes.inference.vmax.VmaxInputs`, e.g.
+    :func:`~tyrebayes.inference.vmax.fit_vmax_inputs` of a fit with a lateral posterior) runs on
+    those draws; the others on the type relations at their C_xr. Each row says its sources.
     Driver-free model: censored log predictive density of the measured intervals
     (:func:`tyrebayes.inference.vmax.censored_loglik`); extended (driver offset, adaptation,
     noise): PSIS-LOO of :func:`~tyrebayes.inference.vmax.fit_extended`.
@@ -271,22 +295,24 @@ def vmax_section(
     vehicle = load_vehicle(vehicle_name)
     key = jax.random.PRNGKey(seed)
     rows = []
-    cy_all, mu_all = [], []
+    inputs = []
     for i, s in enumerate(sets):
-        k = jax.random.fold_in(key, i)
-        c = np.atleast_1d(np.asarray(s["c_xr"], float))
-        k_ratio, mu_y = vm.lateral_draws(k, 1.0, s["tyre_type"], n_draws)
-        c_draws = c[np.asarray(jax.random.randint(jax.random.fold_in(k, 7), (n_draws,), 0, c.size))]
-        cy_all.append(np.asarray(k_ratio) * c_draws)
-        mu_all.append(np.asarray(mu_y))
+        if "inputs" in s:
+            inputs.append(s["inputs"])
+        else:
+            k = jax.random.fold_in(key, i)
+            inputs.append(vm.type_vmax_inputs(k, s["c_xr"], s["tyre_type"], n_draws))
     # one vmapped batch: a single compilation for every set
     v = np.asarray(
         vm.vmax_draws(
-            vehicle, jnp.asarray(np.concatenate(cy_all)), jnp.asarray(np.concatenate(mu_all))
+            vehicle,
+            jnp.asarray(np.concatenate([x.c_y_front for x in inputs])),
+            jnp.asarray(np.concatenate([x.mu_y for x in inputs])),
+            c_y_rear=jnp.asarray(np.concatenate([x.c_y_rear for x in inputs])),
         )
     )
-    v = v.reshape(len(sets), n_draws)
-    for s, draws in zip(sets, v, strict=True):
+    v = np.split(v, np.cumsum([x.n_draws for x in inputs])[:-1])
+    for s, draws, x in zip(sets, v, inputs, strict=True):
         lo = float(s.get("measured_lo", np.nan))
         c = np.atleast_1d(np.asarray(s["c_xr"], float))
         rows.append(
@@ -299,6 +325,10 @@ def vmax_section(
                 "not_bracketed": int(np.sum(~np.isfinite(draws))),
                 "measured_lo": lo,
                 "measured_hi": lo + vm.SPEED_STEP_KMH if np.isfinite(lo) else float("nan"),
+                "lateral_source": x.lateral_source,
+                "mu_y_source": x.mu_y_source,
+                "surface": x.surface,
+                "source_note": x.note,
             }
         )
     measured = [r for r in rows if np.isfinite(r["measured_lo"])]

@@ -25,6 +25,12 @@ def render_figures(report: Report) -> dict:
             F.tyre_curves(report.tyres),
             "Force–slip windows and posterior brush curve (median, 90 % band) per tyre set",
         )
+    if report.laterals:
+        out["lateral_curves"] = (
+            F.lateral_curves(report.laterals),
+            "Cornering: each axle's lateral force over its static load against its slip angle "
+            "(the steering equation's), posterior median curve and 90 % band",
+        )
     if report.fleet is not None:
         out["friction_vs_inverse_stiffness"] = (
             F.friction_vs_inverse_stiffness(report.fleet),

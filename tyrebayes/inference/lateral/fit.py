@@ -19,6 +19,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
+import xarray as xr
 from numpyro.infer import MCMC, NUTS, init_to_value
 from numpyro.infer.util import constrain_fn, potential_energy
 
@@ -218,6 +219,38 @@ def _identification(
     return identified, bool(narrowed and use >= MU_Y_USE_OBSERVED), use
 
 
+#: Samples of a drive kept in its fit for the report's slip-angle plot (thinned evenly).
+PLOT_SAMPLES = 1500
+
+
+def _partial_slips(obs: CorneringObservations, state, samples: dict) -> xr.Dataset:
+    """Each axle's force against its slip angle as the data see it, at the posterior mean.
+
+    No car measures a slip angle; the steering equation measures the difference
+    α_f − α_r = δ − L r/V_x. Each axle's "data" slip angle is that measured difference with the
+    other axle's model slip added back: points that scatter about the axle's fitted curve by the
+    steering equation's misfit (a partial-residual plot).
+    """
+    point = {k: float(np.mean(v)) for k, v in samples.items() if np.ndim(v) == 2}
+    ratio = 1.0 if obs.road_wheel else point["steering_ratio"]
+    offset = point.get("steering_offset", 0.0)
+    mask = np.asarray(obs.mask)
+    measured = (np.asarray(obs.steering) - offset) / ratio - np.asarray(
+        obs.wheelbase_m * obs.yaw_rate / obs.speed
+    )
+    keep = np.flatnonzero(mask)
+    keep = keep[np.linspace(0, keep.size - 1, min(PLOT_SAMPLES, keep.size)).astype(int)]
+    alpha_f, alpha_r = np.asarray(state.alpha_front), np.asarray(state.alpha_rear)
+    return xr.Dataset(
+        {
+            "rho_front": ("sample", np.asarray(state.rho_front)[keep]),
+            "rho_rear": ("sample", np.asarray(state.rho_rear)[keep]),
+            "alpha_front_partial": ("sample", (measured + alpha_r)[keep]),
+            "alpha_rear_partial": ("sample", (alpha_f - measured)[keep]),
+        }
+    )
+
+
 def _mean_point(samples: dict) -> dict:
     return {k: jnp.asarray(np.mean(v, axis=0)) for k, v in samples.items()}
 
@@ -362,6 +395,8 @@ def fit_lateral(
     data = azb.from_dict(groups)
     flat_samples = {k: v.reshape((-1,) + v.shape[2:]) for k, v in samples.items()}
     state = _state_at(_mean_point(flat_samples), obs)
+    data["constant_data"] = xr.DataTree(_partial_slips(obs, state, samples))
+    flat_samples = {k: v.reshape((-1,) + v.shape[2:]) for k, v in samples.items()}
     identified, mu_observed, use = _identification(priors, surface, flat_samples, state, obs, seed)
     diagnostics = diagnose(
         data,
