@@ -215,7 +215,7 @@ def fleet_fits(n_fits: int) -> dict:
         eff = ("age",) if i % 2 == 0 else ()
         table, _ = simulate_fleet(7000 + i, 26, effects=eff, n_decoys=2)
         start = time.perf_counter()
-        fit = fit_fleet(table, "mu", num_warmup=300, num_samples=300, key=i)
+        fit = fit_fleet(table, "mu", num_warmup=300, num_samples=300, seed=i)
         fit_s = time.perf_counter() - start
         with tempfile.TemporaryDirectory() as tmp:
             saved = fit.save(Path(tmp) / "fleet.nc")

@@ -47,7 +47,7 @@ def _run(settings: dict, seeds: list[int]) -> dict:
     for seed in seeds:
         table, _ = simulate_fleet(seed, 120, type_shares=SHARES)
         start = time.perf_counter()
-        fit = fit_fleet(table, key=3, num_chains=2, **settings)
+        fit = fit_fleet(table, seed=3, num_chains=2, **settings)
         d = fit.diagnostics
         rows.append(
             {

@@ -52,8 +52,8 @@ N_TEST = 500
 def _fit(table, n_sets, seed, quick):
     if n_sets <= 100:
         draws = 300 if quick else 500
-        return fit_fleet(table, key=seed, num_warmup=draws, num_samples=draws, num_chains=2)
-    return fit_fleet(table, key=seed, num_warmup=300, num_samples=300, num_chains=2)
+        return fit_fleet(table, seed=seed, num_warmup=draws, num_samples=draws, num_chains=2)
+    return fit_fleet(table, seed=seed, num_warmup=300, num_samples=300, num_chains=2)
 
 
 def accuracy_setting(n_sets: int, reps: int, quick: bool) -> dict:
@@ -111,12 +111,12 @@ def timing(quick: bool) -> dict:
     a, _ = simulate_fleet(1, 26)
     b, _ = simulate_fleet(2, 26)
     t0 = time.perf_counter()
-    fit_fleet(a, key=0)
+    fit_fleet(a, seed=0)
     first = time.perf_counter() - t0
     times = []
     for key, table in enumerate((b, a) if not quick else (b,)):
         t0 = time.perf_counter()
-        fit = fit_fleet(table, key=key + 1)
+        fit = fit_fleet(table, seed=key + 1)
         times.append(time.perf_counter() - t0)
     out["nuts_26_sets"] = {
         "settings": "2 chains x (500 warm-up + 500 draws), parallel chains on 2 host devices",
@@ -127,11 +127,11 @@ def timing(quick: bool) -> dict:
     }
     big, _ = simulate_fleet(3, 10_000)
     t0 = time.perf_counter()
-    fit = fit_fleet(big, method="svi", key=0)
+    fit = fit_fleet(big, method="svi", seed=0)
     first = time.perf_counter() - t0
     big2, _ = simulate_fleet(4, 10_000)
     t0 = time.perf_counter()
-    fit = fit_fleet(big2, method="svi", key=1)
+    fit = fit_fleet(big2, method="svi", seed=1)
     second = time.perf_counter() - t0
     post = fit.posterior
     out["svi_10000_sets"] = {
@@ -151,7 +151,7 @@ def timing(quick: bool) -> dict:
 def braking_comparison(quick: bool) -> tuple[list[dict], dict]:
     table, _ = simulate_fleet(7, 26, surface=SURFACES)
     fit = fit_fleet(
-        table, key=0, num_warmup=300 if quick else 500, num_samples=300 if quick else 500
+        table, seed=0, num_warmup=300 if quick else 500, num_samples=300 if quick else 500
     )
     priors = load_tyre_type_priors()
     pred = {}

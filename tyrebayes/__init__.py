@@ -16,7 +16,17 @@ Physics lives in :mod:`tyrebayes.physics`; simulated drives and fleets with know
 """
 
 # The imports are grouped by task, not sorted: the order is the documentation.
-# ruff: noqa: I001
+# ruff: noqa: I001, E402
+
+# Float64 before anything of the package makes an array. Slips are ~1e-3 with noise of ~1e-4,
+# so a tyre fit in single precision could only end as not converged; the fitters refuse float32
+# observations with a ValueError rather than return such a fit. A library that needs a precision
+# sets it up itself instead of making every script repeat the line (the commands, the fleet
+# workers and the tests already did). It is JAX's process-wide switch: code that needs float32
+# alongside can scope it with ``jax.enable_x64(False)``, which the fitters will then refuse.
+import jax as _jax
+
+_jax.config.update("jax_enable_x64", True)
 
 # 1. read and validate streams, vehicles, measured data
 from ._domain import SURFACES as SURFACES
@@ -39,6 +49,7 @@ from .streams.validate import validate_stream as validate_stream
 from .inference.fleet import fit_fleet as fit_fleet
 from .inference.fleet import load_tyre_type_priors as load_tyre_type_priors
 from .inference.ols import fit_ols as fit_ols
+from .inference.result import FIT_METHODS as FIT_METHODS
 from .inference.result import POLICY as POLICY
 from .inference.result import ConvergencePolicy as ConvergencePolicy
 from .inference.result import Diagnostics as Diagnostics

@@ -27,7 +27,7 @@ def fit120():
     table, truth = simulate_fleet(
         11, 120, type_shares={"winter": 0.4, "all_season": 0.3, "summer": 0.3}
     )
-    fit = fit_fleet(table, key=3, num_chains=2)  # the default sampler settings
+    fit = fit_fleet(table, seed=3, num_chains=2)  # the default sampler settings
     return table, truth, fit
 
 
@@ -128,6 +128,11 @@ def test_other_bad_inputs_rejected():
         fleet_data_from_table(dup)
     with pytest.raises(BadInputError, match="method"):
         fit_fleet(_table(), method="mcmc")
+    # one word for randomness in every fitter: the old keyword names the new one
+    with pytest.raises(TypeError, match="'key' is now 'seed'"):
+        fit_fleet(_table(), key=0)
+    with pytest.raises(TypeError, match="seed: expected an int"):
+        fit_fleet(_table(), seed=0.5)
 
 
 def test_table_without_sd_or_surface_uses_defaults():
@@ -173,7 +178,7 @@ def test_saved_fleet_fit_loads_back_and_predicts_the_same(fit120, tmp_path):
 
 def test_too_short_a_run_is_reported_not_converged():
     table, _ = simulate_fleet(5, 26)
-    fit = fit_fleet(table, key=0, num_warmup=10, num_samples=10, num_chains=2)
+    fit = fit_fleet(table, seed=0, num_warmup=10, num_samples=10, num_chains=2)
     assert not fit.converged
     assert any("ESS" in r for r in fit.diagnostics.reasons), fit.diagnostics.reasons
 
@@ -255,7 +260,7 @@ def test_bad_prediction_inputs(fit120):
 @pytest.mark.slow
 def test_svi_recovers_type_level_parameters_on_large_multi_surface_fleet():
     table, _ = simulate_fleet(21, 3000, surface=("snow", "ice"))
-    fit = fit_fleet(table, method="svi", key=0, svi_steps=3000)
+    fit = fit_fleet(table, method="svi", seed=0, svi_steps=3000)
     assert fit.converged and fit.diagnostics.optimiser_result == "successful"
     for s in ("snow", "ice"):
         for t in TYRE_TYPES:

@@ -205,7 +205,7 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
     steps.start("fleet model")
     table, _truth = simulate_fleet(seed + 7, sizes.fleet_sets, surface="snow", effects=("age",))
     fleet = fit_fleet(
-        table, key=seed, num_warmup=sizes.fleet_draws, num_samples=sizes.fleet_draws, num_chains=2
+        table, seed=seed, num_warmup=sizes.fleet_draws, num_samples=sizes.fleet_draws, num_chains=2
     )
     fits["fleet"] = fleet
     report.fleet = fleet_section(

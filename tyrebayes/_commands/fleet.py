@@ -115,7 +115,7 @@ def run_fit(args: argparse.Namespace) -> int:
         table,
         outcome=args.outcome,
         method=method,
-        key=args.seed,
+        seed=args.seed,
         num_warmup=args.warmup,
         num_samples=args.samples,
         num_chains=args.chains,

@@ -145,7 +145,7 @@ def run_fleet_stage(out_dir: str, tyre_sets: pd.DataFrame, settings: RunSettings
 
         method = "nuts" if len(table) <= 2000 else "svi"
         fit = fit_fleet(
-            table, outcome="mu", method=method, key=settings.seed, source="fleet-run tyre sets"
+            table, outcome="mu", method=method, seed=settings.seed, source="fleet-run tyre sets"
         )
         fit.save(folder / "fleet.nc")
         write_parquet(_predictions(fit, tyre_sets, settings.seed), folder / "predictions.parquet")

@@ -17,6 +17,33 @@ import equinox as eqx
 import numpy as np
 import xarray as xr
 
+#: The fit methods: every fitter's ``method=`` takes these words, and every fit records one of
+#: them in ``Diagnostics.method`` and ``Provenance.method``. Randomness enters every fitter as
+#: ``seed: int``.
+#:
+#: Default chain counts: 4 for a tyre fit, the number for which Vehtari et al. (2021) set their
+#: R-hat advice, affordable because a tyre posterior has a handful of parameters (seconds per
+#: chain); 2 for the fleet, wear and wear-history fits, whose chains take minutes on a small
+#: machine, which is why :data:`POLICY` allows an R-hat of 1.02 rather than 1.01.
+FIT_METHODS: dict[str, str] = {
+    "nuts": "NUTS (numpyro): Markov chains; R-hat, ESS and divergences judge convergence",
+    "laplace": (
+        "MAP by an optimiser, then independent draws from a Gaussian at the mode with the "
+        "inverse Hessian as covariance; the optimiser's result judges convergence "
+        "(fit_tyre, fit_wear)"
+    ),
+    "fast": (
+        "the tyre fit's name for 'laplace' (BFGS to the MAP, Laplace draws), kept by the "
+        "command line (--method fast) and the tyre fits it saved; fit_tyre and fit_wear take "
+        "either word"
+    ),
+    "svi": (
+        "mean-field stochastic variational inference (numpyro AutoNormal), independent draws "
+        "of the guide; for fleets of thousands of sets (fit_fleet)"
+    ),
+}
+#: The words :data:`FIT_METHODS` that name the same MAP + Laplace fit.
+LAPLACE_METHODS: tuple[str, ...] = ("laplace", "fast")
 #: Methods whose draws are Markov chains (R-hat, ESS and divergences apply).
 MCMC_METHODS: tuple[str, ...] = ("nuts",)
 #: Methods whose draws are independent draws of an approximation (MAP + Laplace, SVI): there
@@ -73,7 +100,7 @@ class Diagnostics(eqx.Module):
     Attributes
     ----------
     method : str
-        ``"nuts"``, ``"fast"`` (MAP + Laplace), ``"laplace"`` or ``"svi"``.
+        One of :data:`FIT_METHODS`.
     n_chains, n_draws : int
         Chains and draws per chain of the posterior.
     r_hat_max : float

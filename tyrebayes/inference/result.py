@@ -34,6 +34,8 @@ from .._io import atomic_path
 
 # The diagnostics are part of the result type's contract: re-exported here.
 from .diagnostics import APPROXIMATE_METHODS as APPROXIMATE_METHODS
+from .diagnostics import FIT_METHODS as FIT_METHODS
+from .diagnostics import LAPLACE_METHODS as LAPLACE_METHODS
 from .diagnostics import MCMC_METHODS as MCMC_METHODS
 from .diagnostics import POLICY as POLICY
 from .diagnostics import ConvergencePolicy as ConvergencePolicy
@@ -64,7 +66,7 @@ class Provenance(eqx.Module):
     Attributes
     ----------
     method : str
-        Fitting method (``"nuts"``, ``"fast"``, ``"svi"``, ``"laplace"``).
+        Fitting method, one of :data:`~tyrebayes.inference.diagnostics.FIT_METHODS`.
     model : str
         Model variant (tyre curve ``"shaped"``/``"brush"``/``"linear"``; ``"baseline"`` or
         ``"extended"`` for wear; ``"hierarchical"`` for the fleet).

@@ -16,13 +16,13 @@ import numpy as np
 import numpyro
 import pandas as pd
 import xarray as xr
-from jaxtyping import Array
 from numpyro.infer import SVI, Predictive, Trace_ELBO
 from numpyro.infer.autoguide import AutoNormal
 from numpyro.infer.initialization import init_to_mean
 
 from ..._domain import SURFACES, TYRE_TYPES
 from ..._errors import BadInputError
+from ...internal.renamed import renamed_keyword
 from ..nuts import run_nuts
 from ..result import Fit, diagnose, posterior_predictive_adequacy, provenance
 from .data import FleetData, fleet_data_from_table
@@ -126,12 +126,13 @@ def _run_svi(data, priors, key, num_steps, num_draws, learning_rate):
     return samples, info
 
 
+@renamed_keyword("key", "seed")
 def fit_fleet(
     table: pd.DataFrame,
     outcome: str = "mu",
     method: str = "nuts",
     *,
-    key: int | Array = 0,
+    seed: int = 0,
     num_warmup: int = 1000,
     num_samples: int = 1000,
     num_chains: int = 2,
@@ -153,13 +154,16 @@ def fit_fleet(
     outcome : str
         Column with the friction potential mu_max (thesis eq. 3.3), dimensionless.
     method : {"nuts", "svi"}
-        NUTS (exact, for tens to hundreds of sets) or mean-field SVI (10,000 sets in seconds).
-    key : int or PRNG key
-        Randomness of the sampler.
+        NUTS (exact, for tens to hundreds of sets) or mean-field SVI (10,000 sets in seconds);
+        see :data:`~tyrebayes.inference.diagnostics.FIT_METHODS`.
+    seed : int
+        Randomness of the sampler (``key=`` before; now a TypeError naming ``seed``).
     num_warmup, num_samples, num_chains, target_accept
-        NUTS settings. At 500 warm-up steps and draws and 0.9 target acceptance, 7 of 16 fits
-        of simulated 120-set fleets missed the convergence policy (R-hat, bulk ESS, divergences);
-        at these defaults none did (``benchmarks/results/fleet_nuts.json``).
+        NUTS settings; two chains, as for every fit but the per-tyre one
+        (:data:`~tyrebayes.inference.diagnostics.FIT_METHODS` says why). At 500 warm-up steps
+        and draws and 0.9 target acceptance, 7 of 16 fits of simulated 120-set fleets missed
+        the convergence policy (R-hat, bulk ESS, divergences); at these defaults none
+        did (``benchmarks/results/fleet_nuts.json``).
     svi_steps, svi_draws, svi_learning_rate
         SVI settings (Adam steps, posterior draws kept, step size).
     priors : FleetPriors, optional
@@ -192,7 +196,9 @@ def fit_fleet(
         raise BadInputError(f"method: expected 'nuts' or 'svi', got {method!r}")
     priors = load_tyre_type_priors() if priors is None else priors
     data = fleet_data_from_table(table, outcome, default_c_xr_sd=priors.default_c_xr_sd)
-    rng_key = jax.random.key(key) if isinstance(key, int) else key
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
+        raise TypeError(f"seed: expected an int, got {type(seed).__name__}")
+    rng_key = jax.random.key(int(seed))
     if method == "nuts":
         samples, info = _run_nuts(
             data, priors, rng_key, num_warmup, num_samples, num_chains, target_accept
@@ -222,13 +228,9 @@ def fit_fleet(
         diagnostics=diagnostics,
         kind="fleet",
         provenance=provenance(
-            method, "hierarchical", (source,), outcome=outcome, key=_seed_of(key), **settings
+            method, "hierarchical", (source,), outcome=outcome, seed=int(seed), **settings
         ),
     )
-
-
-def _seed_of(key) -> int | str:
-    return key if isinstance(key, int) else "PRNG key"
 
 
 def _to_datatree(samples, data, priors, info, rng_key) -> xr.DataTree:

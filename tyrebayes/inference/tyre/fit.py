@@ -21,6 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ..diagnostics import LAPLACE_METHODS
 from .adequacy import Adequacy, assess_adequacy, likelier_surface
 from .data import TyreObservations
 from .laplace import LaplaceCore, _laplace_core, optimiser_outcome
@@ -352,12 +353,15 @@ def fit_tyre(
     ----------
     obs : TyreObservations
         Windowed observations (:func:`~tyrebayes.inference.tyre.data.stack_drives`).
-    method : {"nuts", "fast"}
-        Full NUTS (:func:`fit_tyre_nuts`) or MAP + Laplace (:func:`fit_tyre_fast`).
+    method : {"nuts", "fast", "laplace"}
+        Full NUTS (:func:`fit_tyre_nuts`) or MAP + Laplace (:func:`fit_tyre_fast`; ``"laplace"``
+        is the same fit, recorded as ``"fast"``):
+        :data:`~tyrebayes.inference.diagnostics.FIT_METHODS`.
     priors, kind, seed
         Priors (default :class:`TyrePriors`), tyre-curve model, randomness: both methods.
     num_chains, num_warmup, num_samples
-        NUTS settings (ignored by the fast path).
+        NUTS settings (ignored by the fast path). Four chains here, two in the other fitters:
+        :data:`~tyrebayes.inference.diagnostics.FIT_METHODS` says why.
     num_draws, max_steps
         Fast-path settings: Laplace draws and BFGS steps (ignored by NUTS).
     pointwise : bool
@@ -399,7 +403,7 @@ def fit_tyre(
             seed=seed,
             pointwise=pointwise,
         )
-    if method == "fast":
+    if method in LAPLACE_METHODS:
         return fit_tyre_fast(
             obs,
             priors=priors,
@@ -409,4 +413,4 @@ def fit_tyre(
             max_steps=max_steps,
             pointwise=pointwise,
         )
-    raise ValueError(f"fit method: expected 'nuts' or 'fast', got {method!r}")
+    raise ValueError(f"fit method: expected 'nuts', 'fast' or 'laplace', got {method!r}")

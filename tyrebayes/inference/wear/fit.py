@@ -18,13 +18,14 @@ from numpyro.infer.autoguide import AutoLaplaceApproximation
 from numpyro.optim import Adam
 
 from ...physics.thermal import StiffnessTemperature
+from ..diagnostics import LAPLACE_METHODS
 from ..nuts import run_nuts
 from ..result import Fit, diagnose, provenance
 from .data import WearData, WearPriors
 from .model import init_values, wear_model
 
 #: Methods of :func:`fit_wear`.
-WEAR_METHODS = ("nuts", "laplace")
+WEAR_METHODS = ("nuts", "laplace", "fast")
 #: Deterministic sites of :func:`wear_model` (not checked for a collapsed covariance).
 _DETERMINISTIC_SITES = ("tau", "c_xr", "gamma")
 
@@ -53,13 +54,15 @@ def fit_wear(
         From :func:`~tyrebayes.inference.wear.build_wear_data`.
     extended : bool
         Add the temperature sensitivity κ of abrasability per tyre type.
-    method : {"nuts", "laplace"}
+    method : {"nuts", "laplace", "fast"}
         NUTS (dense mass: the data fix γ / C_xr, a correlated ridge), or the MAP by Adam with a
         decaying step followed by a Gaussian at the mode (Hessian covariance): NUTS needs
         minutes on a small machine along that ridge, the Laplace approximation captures the
-        correlation at the cost of a few thousand gradient steps.
+        correlation at the cost of a few thousand gradient steps. ``"fast"`` is the same fit
+        (recorded as ``"laplace"``): :data:`~tyrebayes.inference.diagnostics.FIT_METHODS`.
     num_warmup, num_samples, num_chains
-        NUTS settings.
+        NUTS settings; two chains (:data:`~tyrebayes.inference.diagnostics.FIT_METHODS` says
+        why).
     laplace_steps, laplace_draws, laplace_learning_rate
         Laplace settings: Adam steps, draws, first step size (decays to 1 % of it).
     seed : int
@@ -81,6 +84,7 @@ def fit_wear(
     """
     if method not in WEAR_METHODS:
         raise ValueError(f"method: expected one of {WEAR_METHODS}, got {method!r}")
+    method = "laplace" if method in LAPLACE_METHODS else method  # one word in the fit
     comp = StiffnessTemperature() if comp is None else comp
     priors = WearPriors() if priors is None else priors
     if method == "nuts":
