@@ -29,6 +29,7 @@ import pandas as pd
 from .._errors import BadInputError
 from .._io import atomic_output
 from .schema import CHANNELS, OPTIONAL_COLUMNS, REQUIRED_COLUMNS
+from .time_bases import merge_time_bases
 
 _CSV = (".csv",)
 _PARQUET = (".parquet", ".pq")
@@ -86,18 +87,6 @@ def _read_table(path: Path, suffix: str) -> pd.DataFrame:
         ) from None
 
 
-def _merge_time_bases(columns: dict[str, tuple[np.ndarray, np.ndarray]]) -> pd.DataFrame:
-    """Put channels sampled at their own instants into one table on the union of the instants."""
-    union = np.unique(np.concatenate([t for t, _ in columns.values()]))
-    data = {"time": union}
-    for name, (t, x) in columns.items():
-        col = np.full(union.shape, np.nan)
-        # asammdf timestamps are sorted per channel; duplicates within a channel keep the last.
-        col[np.searchsorted(union, t)] = x
-        data[name] = col
-    return pd.DataFrame(data)
-
-
 def _read_mdf(path: Path, channel_map: Mapping[str, str] | None) -> pd.DataFrame:
     from asammdf import MDF  # slow import, only when an MDF file is read
 
@@ -136,7 +125,7 @@ def _read_mdf(path: Path, channel_map: Mapping[str, str] | None) -> pd.DataFrame
             f"{list(REQUIRED_COLUMNS[1:])} "
             "(or a channel_map to them), got none"
         )
-    return _merge_time_bases(columns)
+    return merge_time_bases(columns)
 
 
 def read_stream(

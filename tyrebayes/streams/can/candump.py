@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._errors import BadInputError
-from .frames import CanFrames, FrameCounts, empty_frames
+from .frame_table import CanFrames, FrameCounts, empty_frames
 
 _CAN_ERR_FLAG = 0x20000000
 _ID_MASK = 0x1FFFFFFF

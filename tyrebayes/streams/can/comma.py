@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._errors import BadInputError
-from .frames import CanFrames, FrameCounts, empty_frames
+from .frame_table import CanFrames, FrameCounts, empty_frames
 
 #: The arrays of a comma ``raw_can`` folder, in the order they are named in messages.
 ARRAYS: tuple[str, ...] = ("address", "data", "src", "t")
