@@ -4,7 +4,10 @@ Each profile message is decoded on its own time base (the frames' timestamps); t
 merged onto the union of those instants, NaN where a message was not sent, like an MDF4 logger
 file, so that :func:`tyrebayes.streams.validate_stream` puts them onto one uniform time base with
 its resampling. Time is counted from the first kept frame; the logged time of that frame is kept
-as :attr:`CanConversion.time_origin_s`.
+as :attr:`CanConversion.time_origin_s`. A message whose timestamps do not go forward (frames out
+of order, duplicated, a reversed log: :mod:`.time_faults`) is refused above an allowance
+(``max_time_faults``, 1 % of its frames by default) and repaired below it, its counts kept in
+:attr:`CanConversion.time_faults`.
 
 Examples
 --------
@@ -20,7 +23,7 @@ from __future__ import annotations
 
 import os
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -31,6 +34,7 @@ from ..._errors import BadInputError
 from .dbc import SignalLayout, decode_signal, load_dbc, signal_layout
 from .frames import CanFrames, FrameCounts, read_frames
 from .profile import CarProfile, ProfileChannel, load_profile
+from .time_faults import DEFAULT_MAX_TIME_FAULTS, TimeFaults, repair_time_faults
 
 if TYPE_CHECKING:
     from ..validate import ValidatedStream
@@ -64,6 +68,9 @@ class CanConversion:
         Column -> samples set to NaN by the profile's ``invalid`` signals.
     time_origin_s : float
         Logged timestamp of the first kept frame [s].
+    time_faults : dict
+        Message name -> :class:`~.time_faults.TimeFaults` (what was repaired; all zero on a
+        sound log).
     """
 
     data: pd.DataFrame
@@ -71,6 +78,17 @@ class CanConversion:
     frames_per_message: dict[str, int]
     invalid_per_column: dict[str, int]
     time_origin_s: float
+    time_faults: dict[str, TimeFaults] = field(default_factory=dict)
+
+    @property
+    def time_faults_repaired(self) -> int:
+        """Frames dropped or put back in order over all messages (0 on a sound log)."""
+        return sum(f.faulty for f in self.time_faults.values())
+
+    def time_faults_text(self) -> str:
+        """One line on what was repaired, for a warning (empty when nothing was)."""
+        faulty = [f.describe(name) for name, f in self.time_faults.items() if f.faulty]
+        return f"CAN time faults repaired: {'; '.join(faulty)}" if faulty else ""
 
 
 def bind_profile(profile: CarProfile, db) -> dict[str, BoundMessage]:
@@ -161,11 +179,21 @@ def decode_frames(
     profile: CarProfile,
     wheel_radius_m: float,
     log_name: str = "log",
-) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], dict[str, int], dict[str, int]]:
-    """Decode every profile channel on its message's timestamps (logged time, sorted)."""
+    max_time_faults: float = DEFAULT_MAX_TIME_FAULTS,
+) -> tuple[
+    dict[str, tuple[np.ndarray, np.ndarray]], dict[str, int], dict[str, int], dict[str, TimeFaults]
+]:
+    """Decode every profile channel on its message's timestamps (logged time, forward).
+
+    Each message's time faults are counted and repaired (:func:`.time_faults.repair_time_faults`)
+    when they are at most ``max_time_faults`` of its frames, and refused above. Returns the
+    columns, the frames decoded per message, the invalid samples per column and the time faults
+    per message.
+    """
     columns: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     per_message: dict[str, int] = {}
     invalid: dict[str, int] = {}
+    time_faults: dict[str, TimeFaults] = {}
     for message in bound.values():
         rows = np.flatnonzero(frames.arbitration_id == message.frame_id)
         if rows.size == 0:
@@ -194,8 +222,16 @@ def decode_frames(
                 f"{int(wrong.sum())} of {rows.size} frames with "
                 f"{'' if frames.exact_length else 'at least '}{got} bytes"
             )
-        # Loggers merging channels (BLF) may write frames slightly out of order.
-        rows = rows[np.argsort(frames.time_s[rows], kind="stable")]
+        faults, keep = repair_time_faults(frames.time_s[rows], frames.data[rows])
+        if faults.fraction > max_time_faults:
+            raise BadInputError(
+                f"CAN log {log_name}: expected timestamps that go forward, got "
+                f"{faults.describe(message.name)}: {100 * faults.fraction:.3g} % of its frames, "
+                f"above the {100 * max_time_faults:.3g} % allowed (max_time_faults; more "
+                "would be repaired by dropping them, or sorting a reversed log)"
+            )
+        time_faults[message.name] = faults
+        rows = rows[keep]
         t = frames.time_s[rows]
         data = frames.data[rows, : message.length]
         per_message[message.name] = int(rows.size)
@@ -205,7 +241,7 @@ def decode_frames(
             values, n_invalid = _decode_channel(ch, message, data, t, wheel_radius_m)
             columns[ch.column] = (t, values)
             invalid[ch.column] = n_invalid
-    return columns, per_message, invalid
+    return columns, per_message, invalid, time_faults
 
 
 def read_can_log(
@@ -216,6 +252,7 @@ def read_can_log(
     vehicle=None,
     bus: str | None = None,
     check_complete: bool = True,
+    max_time_faults: float = DEFAULT_MAX_TIME_FAULTS,
 ) -> CanConversion:
     """Decode a CAN log into a stream table with a car profile.
 
@@ -235,6 +272,10 @@ def read_can_log(
     check_complete : bool
         Require every profile message to be present (default). With False, messages with no frame
         in the log are left out instead.
+    max_time_faults : float
+        Fraction of a message's frames that may be out of time order or duplicated (default
+        0.01): up to it they are dropped (a reversed message sorted) and counted in
+        :attr:`CanConversion.time_faults`; above it the log is refused. 0 refuses any.
 
     Returns
     -------
@@ -245,12 +286,18 @@ def read_can_log(
     BadInputError
         An unreadable, truncated or garbled log; a profile message or signal missing from the
         DBC; no frames of the profile's messages (on the chosen bus); frames whose length differs
-        from the DBC's; a signal outside its DBC range.
+        from the DBC's; a signal outside its DBC range; a message with more time faults than
+        ``max_time_faults`` allows.
     """
     from ..._domain import load_vehicle
     from ..time_bases import merge_time_bases
 
     path = Path(path)
+    if not 0.0 <= max_time_faults <= 1.0:
+        raise BadInputError(
+            f"max_time_faults: expected a fraction of a message's frames in [0, 1], "
+            f"got {max_time_faults:g}"
+        )
     if not isinstance(profile, CarProfile):
         profile = load_profile(profile)
     try:
@@ -266,10 +313,11 @@ def read_can_log(
     if not check_complete:
         present = set(np.unique(frames.arbitration_id).tolist())
         bound = {k: m for k, m in bound.items() if m.frame_id in present}
-    columns, per_message, invalid = decode_frames(
-        frames, bound, profile, float(vehicle.wheel_radius_m), path.name
+    columns, per_message, invalid, time_faults = decode_frames(
+        frames, bound, profile, float(vehicle.wheel_radius_m), path.name, max_time_faults
     )
-    origin = float(frames.time_s.min())
+    # The first frame kept (a frame dropped as out of order may lie before it).
+    origin = float(min(t[0] for t, _ in columns.values()))
     shifted = {name: (t - origin, x) for name, (t, x) in columns.items()}
     return CanConversion(
         data=merge_time_bases(shifted),
@@ -277,6 +325,7 @@ def read_can_log(
         frames_per_message=per_message,
         invalid_per_column=invalid,
         time_origin_s=origin,
+        time_faults=time_faults,
     )
 
 
