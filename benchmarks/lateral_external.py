@@ -1,4 +1,6 @@
-"""Lateral inference on cornering drives the package did not make (``../shared/data/external_lateral``).
+"""Lateral inference on cornering drives the package did not make (``external_lateral``).
+
+The drives are in ``../shared/data/external_lateral``.
 
 The 8 ten-minute drives come from a generator written apart from the package: a two-track car on
 Magic Formula lateral tyres whose cornering stiffness and peak depend on the wheel load, lateral

@@ -1,0 +1,114 @@
+"""What the simulator's lateral assumptions get wrong, named and measured (issue 54, item 5).
+
+The package's simulator, and a textbook single-track model, assume that the accelerometer reads
+the tyres' lateral force, that the steering sensor has no offset, that the tyres answer at once
+and that the vehicle file's yaw inertia is right. On drives the package did not make (the
+external cornering drives) and on real cars (the Stanford track log and the Niki GTI, from
+``lateral_real.py``'s loaders) each assumption is tested by fitting the full lateral model and the
+model without that effect (:func:`tyrebayes.criticism.lateral.criticize_lateral_effects`):
+the ELPD gain of each effect (its SE inflated by the residuals' correlation) and, where truth
+exists, the change in the c_y and understeer-gradient errors.
+
+Usage: ``python benchmarks/lateral_effects.py [--drives l00,l01]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import jax
+from _results import figure, write_result  # noqa: E402
+
+jax.config.update("jax_enable_x64", True)
+
+import numpy as np  # noqa: E402
+from lateral_real import HERE, _niki, _stanford  # noqa: E402
+
+from tyrebayes import load_vehicle  # noqa: E402
+from tyrebayes.criticism.lateral import criticize_lateral_effects  # noqa: E402
+from tyrebayes.inference.lateral import cornering_observations  # noqa: E402
+from tyrebayes.inference.lateral.model import LATERAL_EFFECTS  # noqa: E402
+from tyrebayes.streams import read_stream, validate_stream  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+EXTERNAL = ROOT.parent / "shared" / "data" / "external_lateral"
+KEYS = ("c_y_front", "c_y_rear", "understeer_gradient")
+
+
+def _errors(summary: dict, truth: dict | None) -> dict | None:
+    if truth is None:
+        return None
+    return {k: summary[k]["mean"] / truth[k] - 1.0 for k in KEYS}
+
+
+def _row(name: str, obs, surface: str, truth: dict | None) -> dict:
+    result = criticize_lateral_effects(obs, surface=surface)
+    full_errors = _errors(result.full, truth)
+    gains = []
+    for g in result.gains:
+        entry = {
+            "effect": g.effect,
+            "elpd_gain": g.elpd_gain,
+            "elpd_gain_se": g.elpd_gain_se,
+            "found": g.found,
+        }
+        errors = _errors(g.without, truth)
+        if errors is not None:
+            entry["abs_error_without"] = {k: abs(v) for k, v in errors.items()}
+            entry["abs_error_change"] = {k: abs(full_errors[k]) - abs(errors[k]) for k in KEYS}
+        gains.append(entry)
+    print(name, {g["effect"]: (round(g["elpd_gain"], 1), g["found"]) for g in gains}, flush=True)
+    return {"log": name, "full_errors": full_errors, "gains": gains}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--drives", default="")
+    args = parser.parse_args()
+    truth_all = json.loads((EXTERNAL / "truth.json").read_text())
+    names = sorted(truth_all)
+    if args.drives:
+        names = [n for n in names if n.split(".")[0] in args.drives.split(",")]
+    rows = []
+    for name in names:
+        truth = truth_all[name]
+        vehicle = load_vehicle(EXTERNAL / "drives" / truth["vehicle"])
+        frame = validate_stream(read_stream(EXTERNAL / "drives" / name), vehicle).data
+        rows.append(_row(name, cornering_observations(frame, vehicle), truth["surface"], truth))
+    real = {
+        "stanford_2014_250lm": (_stanford, "stanford_250lm"),
+        "niki_gti_high_speed": (lambda: _niki("High_Speed"), "niki_gti"),
+    }
+    for name, (load, vehicle_name) in real.items():
+        vehicle = load_vehicle(HERE / "vehicles" / f"{vehicle_name}.toml")
+        frame = load().drop(columns=["lateral_velocity"])
+        rows.append(_row(name, cornering_observations(frame, vehicle), "dry", None))
+    figures = []
+    for effect in LATERAL_EFFECTS:
+        entries = [g for r in rows for g in r["gains"] if g["effect"] == effect]
+        found = sum(g["found"] for g in entries)
+        changes = [
+            np.mean(list(g["abs_error_change"].values()))
+            for g in entries
+            if "abs_error_change" in g
+        ]
+        figures.append(
+            figure(
+                f"{effect}: logs where its ELPD gain exceeds 2 SE",
+                found,
+                count=len(entries),
+                note=(
+                    f"median ELPD gain {np.median([g['elpd_gain'] for g in entries]):.0f}; "
+                    f"mean |error| change with it, external drives "
+                    f"{100 * float(np.median(changes)):+.1f} points (negative: better)"
+                ),
+            )
+        )
+    path = write_result("lateral_effects", {"logs": rows}, figures=figures)
+    print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,113 @@
+"""Speed and memory of the lateral fit: a one-hour drive on one core, and the whole command.
+
+1. The lateral part of a one-hour drive's fast fit (``cornering_observations`` + ``fit_lateral``,
+   Laplace) in this process held to one core (affinity set before JAX starts, XLA's CPU thread
+   pools at one thread): compile time, then the median of three fits after compilation
+   (target ≤ 2 s).
+2. ``tyrebayes fit-tyre STREAM --method fast --json`` on the same drive in a fresh child process:
+   wall time and the child's peak RSS (the whole fit: reading, validation, longitudinal and
+   lateral fits).
+
+The drive is the package's cornering simulator's (``simulate_cornering``, mixed, 3,600 s at
+100 Hz); its content does not change the cost of a fit of this length.
+
+Usage: ``python benchmarks/lateral_speed.py [--duration 3600]``.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
+os.environ["XLA_FLAGS"] = (
+    os.environ.get("XLA_FLAGS", "")
+    + " --xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
+)
+
+import argparse  # noqa: E402
+import resource  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import jax  # noqa: E402
+from _results import figure, write_result  # noqa: E402
+
+jax.config.update("jax_enable_x64", True)
+
+import numpy as np  # noqa: E402
+
+from tyrebayes._domain import load_vehicle  # noqa: E402
+from tyrebayes.inference.lateral import cornering_observations, fit_lateral  # noqa: E402
+from tyrebayes.simulate.cornering import simulate_cornering  # noqa: E402
+from tyrebayes.streams import write_stream  # noqa: E402
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--duration", type=float, default=3600.0)
+    args = parser.parse_args()
+    vehicle = load_vehicle("compact_fwd")
+    frame, _ = simulate_cornering(vehicle, duration_s=args.duration, seed=21)
+    start = time.perf_counter()
+    obs = cornering_observations(frame, vehicle)
+    observations_s = time.perf_counter() - start
+    start = time.perf_counter()
+    fit_lateral(obs)
+    first_s = time.perf_counter() - start
+    times = []
+    for seed in range(3):
+        start = time.perf_counter()
+        fit = fit_lateral(obs, seed=seed)
+        times.append(time.perf_counter() - start)
+    after = float(np.median(times))
+    with tempfile.TemporaryDirectory() as tmp:
+        stream = Path(tmp) / "hour.parquet"
+        write_stream(frame, stream)
+        start = time.perf_counter()
+        command = [sys.executable, "-m", "tyrebayes.cli", "fit-tyre", str(stream)]
+        child = subprocess.run(
+            [*command, "--vehicle", "compact_fwd", "--method", "fast", "--json"],
+            capture_output=True,
+            text=True,
+        )
+        command_s = time.perf_counter() - start
+    peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
+    payload = {
+        "duration_s": args.duration,
+        "samples_decimated": int(obs.speed.shape[0]),
+        "observations_s": observations_s,
+        "first_fit_s_with_compilation": first_s,
+        "fit_s_after_compilation": times,
+        "converged": fit.converged,
+        "command_exit_status": child.returncode,
+        "command_wall_s": command_s,
+        "command_peak_rss_mb": peak_mb,
+        "command_stderr_tail": child.stderr[-500:],
+    }
+    figures = [
+        figure(
+            "lateral fit of a one-hour drive after compilation, one core",
+            after,
+            unit="s",
+            target=("<=", 2.0),
+            count=3,
+            headline=True,
+        ),
+        figure("its first fit, compilation included", first_s, unit="s", count=1),
+        figure(
+            "fit-tyre --method fast on the one-hour drive: peak RSS of the process",
+            peak_mb,
+            unit="MB",
+            count=1,
+            note=f"exit status {child.returncode}, {command_s:.0f} s wall",
+        ),
+    ]
+    path = write_result("lateral_speed", payload, figures=figures)
+    print(payload, f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()
