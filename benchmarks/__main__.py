@@ -65,6 +65,23 @@ BENCHMARKS: dict[str, Benchmark] = {
             "identification", "drives that cannot measure C_x, or contradict their label", minutes=5
         ),
         Benchmark(
+            "lateral_external",
+            "lateral fit and a paramsd-style EKF on the 8 independent cornering drives",
+            quick=("--drives", "l00,l04"),
+            minutes=5,
+        ),
+        Benchmark(
+            "lateral_real",
+            "lateral fit on real cars against a stiffness fitted with the measured v_y",
+            minutes=3,
+        ),
+        Benchmark(
+            "lateral_effects",
+            "each nuisance of the lateral model: ELPD gain and error change",
+            quick=("--drives", "l00"),
+            minutes=20,
+        ),
+        Benchmark(
             "real_log_fit", "the real 60 s RAV4 log, NUTS", quick=("--method", "fast"), minutes=5
         ),
         Benchmark(
@@ -162,6 +179,12 @@ BENCHMARKS: dict[str, Benchmark] = {
             minutes=20,
         ),
         # speed and memory
+        Benchmark(
+            "lateral_speed",
+            "the lateral fit of a one-hour drive on one core; fit-tyre's peak memory",
+            quick=("--duration", "600"),
+            minutes=5,
+        ),
         Benchmark(
             "tyre_speed",
             "one-hour drive: fast fit, NUTS, peak memory, ten drives",
