@@ -44,6 +44,10 @@ from .streams.tyre_temperature import driven_tyre_temperature as driven_tyre_tem
 from .streams.tyre_temperature import features_tyre_temperature as features_tyre_temperature
 from .streams.validate import ValidatedStream as ValidatedStream
 from .streams.validate import validate_stream as validate_stream
+from .streams.wear_evidence import WEAR_EVIDENCE_COLUMNS as WEAR_EVIDENCE_COLUMNS
+from .streams.wear_evidence import DriveWearEvidence as DriveWearEvidence
+from .streams.wear_evidence import drive_wear_evidence as drive_wear_evidence
+from .streams.wear_evidence import wear_evidence_table as wear_evidence_table
 
 # 2. fit: observations, fitters, the one result type
 from .inference.fleet import fit_fleet as fit_fleet
@@ -68,6 +72,10 @@ from .inference.tyre.model import TyrePriors as TyrePriors
 from .inference.tyre.predictive import with_pointwise as with_pointwise
 from .inference.wear import build_wear_data as build_wear_data
 from .inference.wear import fit_wear as fit_wear
+from .inference.wear.history import drive_history as drive_history
+from .inference.wear.history import tread_readings as tread_readings
+from .inference.wear.changepoint import detect_tyre_changes as detect_tyre_changes
+from .inference.wear.history_fit import fit_wear_history as fit_wear_history
 from .inference.online import OnlineConfig as OnlineConfig
 from .inference.online import OnlineEstimator as OnlineEstimator
 from .inference.online import online_estimate as online_estimate
@@ -81,6 +89,7 @@ from .inference.fleet import predict_friction as predict_friction
 from .inference.summary import summarize as summarize
 from .inference.vmax import vmax_draws as vmax_draws
 from .inference.wear import predict_wear_volume as predict_wear_volume
+from .inference.wear.history_predict import wear_history_predictions as wear_history_predictions
 from .physics.lanechange import critical_speed as critical_speed
 from .physics.lanechange import iso3888_2_course as iso3888_2_course
 from .physics.thermal import StiffnessTemperature as StiffnessTemperature
@@ -119,13 +128,90 @@ from .batch import read_manifest as read_manifest
 
 __version__ = "0.2.0"
 
-# tread wear from a car's own drive history (fit-wear)
-from .inference.wear.changepoint import detect_tyre_changes as detect_tyre_changes
-from .inference.wear.history import drive_history as drive_history
-from .inference.wear.history import tread_readings as tread_readings
-from .inference.wear.history_fit import fit_wear_history as fit_wear_history
-from .inference.wear.history_predict import wear_history_predictions as wear_history_predictions
-from .streams.wear_evidence import WEAR_EVIDENCE_COLUMNS as WEAR_EVIDENCE_COLUMNS
-from .streams.wear_evidence import DriveWearEvidence as DriveWearEvidence
-from .streams.wear_evidence import drive_wear_evidence as drive_wear_evidence
-from .streams.wear_evidence import wear_evidence_table as wear_evidence_table
+# The public names, in the task order of the imports above (the documentation's order too).
+__all__ = [
+    "SURFACES",
+    "TYRE_TYPES",
+    "load_vehicle",
+    "BadInputError",
+    "Vehicle",
+    "read_can_log",
+    "load_profile",
+    "StreamFeatures",
+    "compute_features",
+    "read_stream",
+    "write_stream",
+    "driven_tyre_temperature",
+    "features_tyre_temperature",
+    "ValidatedStream",
+    "validate_stream",
+    "WEAR_EVIDENCE_COLUMNS",
+    "DriveWearEvidence",
+    "drive_wear_evidence",
+    "wear_evidence_table",
+    "fit_fleet",
+    "load_tyre_type_priors",
+    "fit_ols",
+    "FIT_METHODS",
+    "POLICY",
+    "ConvergencePolicy",
+    "Diagnostics",
+    "Fit",
+    "Provenance",
+    "diagnose",
+    "load_fit",
+    "TyreObservations",
+    "observations_from_features",
+    "observations_from_stream",
+    "stack_drives",
+    "windowed_observations",
+    "TyreFit",
+    "fit_tyre",
+    "TyrePriors",
+    "with_pointwise",
+    "build_wear_data",
+    "fit_wear",
+    "drive_history",
+    "tread_readings",
+    "detect_tyre_changes",
+    "fit_wear_history",
+    "OnlineConfig",
+    "OnlineEstimator",
+    "online_estimate",
+    "stream_steps",
+    "stream_windows",
+    "summary_record",
+    "window_blocks",
+    "predict_friction",
+    "summarize",
+    "vmax_draws",
+    "predict_wear_volume",
+    "wear_history_predictions",
+    "critical_speed",
+    "iso3888_2_course",
+    "StiffnessTemperature",
+    "compensate_stiffness",
+    "stiffness_at_temperature",
+    "BrushTyre",
+    "MagicFormulaLongitudinal",
+    "brush_longitudinal",
+    "relative_wear",
+    "wear_integral",
+    "cost_threshold",
+    "derive_mu_min_snow",
+    "high_wear_warning",
+    "winter_verdict",
+    "CandidateResult",
+    "CriticismResult",
+    "criticize_fleet_fit",
+    "criticize_stream",
+    "criticize_table",
+    "criticize_tyre_fit",
+    "posterior_predictive_check",
+    "Report",
+    "write_report",
+    "RunSettings",
+    "dask_client",
+    "fleet_run",
+    "read_manifest",
+]

@@ -40,6 +40,11 @@ class RunSettings:
         compiled for earlier tasks when keeping them would take the next task past this
         (:mod:`.worker_memory`). The issue's 1.5 GB per worker by default. Results do not
         depend on it.
+
+    Examples
+    --------
+    >>> RunSettings().method, RunSettings().seed
+    ('fast', 0)
     """
 
     method: str = "fast"

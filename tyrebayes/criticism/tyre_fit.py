@@ -118,7 +118,9 @@ def criticize_tyre_fit(
     >>> from tyrebayes.inference.tyre.data import observations_from_stream  # doctest: +SKIP
     >>> from tyrebayes.inference import fit_tyre  # doctest: +SKIP
     >>> from tyrebayes._resources import data_dir  # doctest: +SKIP
-    >>> obs = observations_from_stream(data_dir() / "comma2k19_rav4_segment.csv", "suv_rav4")
+    >>> obs = observations_from_stream(  # doctest: +SKIP
+    ...     data_dir() / "comma2k19_rav4_segment.csv", "suv_rav4"
+    ... )
     >>> criticize_tyre_fit(fit_tyre(obs, method="fast").fit).found  # doctest: +SKIP
     []
     """

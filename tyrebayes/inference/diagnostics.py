@@ -69,6 +69,13 @@ class ConvergencePolicy(eqx.Module):
         Largest fraction of divergent NUTS transitions allowed: 0.1 %, one in a thousand draws.
         A lone divergence in a hierarchical posterior is usually a step into the tail of a
         scale parameter; more mean a region the sampler cannot reach.
+
+    Examples
+    --------
+    >>> POLICY.r_hat_max
+    1.02
+    >>> ConvergencePolicy(r_hat_max=1.01).r_hat_max  # Vehtari et al.'s for four chains
+    1.01
     """
 
     r_hat_max: float = 1.02

@@ -76,6 +76,13 @@ class Provenance(eqx.Module):
         The fitter's settings as JSON (seed, chains, draws, ...).
     package_version : str
         tyrebayes version that made the fit.
+
+    Examples
+    --------
+    >>> from tyrebayes.inference.result import provenance
+    >>> p = provenance("nuts", "hierarchical", ("fleet.csv",), seed=0)
+    >>> p.method, p.settings
+    ('nuts', '{"seed": 0}')
     """
 
     method: str

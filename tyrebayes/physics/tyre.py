@@ -95,7 +95,7 @@ def brush_longitudinal(
     Examples
     --------
     >>> round(float(brush_longitudinal(1e-4, 30.0, 1.0) / 1e-4), 3)
-    29.991
+    29.97
     >>> float(brush_longitudinal(0.5, 30.0, 1.0))
     1.0
     """

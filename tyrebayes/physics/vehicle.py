@@ -200,6 +200,7 @@ def body_pitch_gain(vehicle: Vehicle) -> Param:
 
     Examples
     --------
+    >>> from tyrebayes._domain import load_vehicle
     >>> round(float(body_pitch_gain(load_vehicle("compact_fwd"))), 4)
     1.0196
     """
@@ -211,6 +212,7 @@ def axle_loads(vehicle: Vehicle, ax: Batch) -> tuple[Float[Array, "..."], Float[
 
     Examples
     --------
+    >>> from tyrebayes._domain import load_vehicle
     >>> v = load_vehicle("compact_fwd")
     >>> front, rear = axle_loads(v, 0.0)
     >>> round(float(front + rear) / v.mass_kg, 5)
@@ -247,6 +249,7 @@ def static_wheel_loads(vehicle: Vehicle) -> Float[Array, "4"]:
 
     Examples
     --------
+    >>> from tyrebayes._domain import load_vehicle
     >>> round(float(static_wheel_loads(load_vehicle("compact_fwd"))[0]))
     4865
     """
@@ -356,6 +359,7 @@ def single_track_inverse(
 
     Examples
     --------
+    >>> from tyrebayes._domain import load_vehicle
     >>> v = load_vehicle("compact_fwd")
     >>> fx1, fy1, fx2, fy2 = single_track_inverse(v, 1.0, 0.0, 0.0, 0.0)
     >>> round(float(fx1)), round(float(fx2))

@@ -367,7 +367,7 @@ def volume_to_depth_mm(volume_mm3: Float[ArrayLike, "..."], geom: TreadGeometry)
     Examples
     --------
     >>> round(float(volume_to_depth_mm(20000.0, TreadGeometry())), 4)
-    0.09
+    0.0899
     """
     return jnp.asarray(volume_mm3) / geom.wear_area_mm2
 

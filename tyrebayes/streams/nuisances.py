@@ -195,8 +195,8 @@ IMU_UNCALIBRATED_PRIOR = 0.05
 class ImuGainCorrection(eqx.Module):
     """What the stream pipeline does about the IMU's scale factor (:func:`imu_gain_correction`).
 
-    Fields
-    ------
+    Attributes
+    ----------
     estimate, estimate_sd : float
         Slope of ax on dV_x/dt and its standard error [-] (:func:`estimate_ax_gain`); NaN when
         the log has no accelerations to check it with.

@@ -13,7 +13,7 @@ Examples
 --------
 >>> import numpy as np
 >>> x = np.random.default_rng(0).normal(size=10_000)
->>> median(x) == np.median(x), quantile(x, 0.25) == np.quantile(x, 0.25)
+>>> bool(median(x) == np.median(x)), bool(quantile(x, 0.25) == np.quantile(x, 0.25))
 (True, True)
 """
 

@@ -465,8 +465,23 @@ def drive_wear_evidence(
 
 
 def wear_evidence_table(paths, vehicle: Vehicle, vehicle_name: str = "") -> pd.DataFrame:
-    """Evidence rows of several stream files, in the given order, with ``drive_id`` (file stem),
-    ``vehicle`` and ``drive_order`` columns added (the fleet-run summary table's layout)."""
+    """Tread-wear evidence of several stream files, one row per drive, in the given order.
+
+    Parameters
+    ----------
+    paths : sequence of path-like
+        Stream files (:func:`tyrebayes.streams.read_stream`), in driving order.
+    vehicle : Vehicle
+        The car that drove them.
+    vehicle_name : str
+        Written to the ``vehicle`` column.
+
+    Returns
+    -------
+    pandas.DataFrame
+        :func:`drive_wear_evidence`'s row per drive, with ``drive_id`` (file stem), ``vehicle``
+        and ``drive_order`` columns added (the fleet-run summary table's layout).
+    """
     from .io import read_stream
     from .validate import validate_stream
 

@@ -77,8 +77,8 @@ def _int(value) -> Int[Array, ""]:
 class OnlineConfig(eqx.Module):
     """How the online estimator filters, detects change and judges readiness.
 
-    Fields
-    ------
+    Attributes
+    ----------
     drift_sd_per_sqrt_s : Float[Array, "p"]
         Random-walk sd of each θ coordinate per √s (:data:`DRIFT_PER_SQRT_S`, 0 elsewhere).
     reversion_s : Float[Array, "p"]

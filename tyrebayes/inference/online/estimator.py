@@ -81,8 +81,8 @@ from .windows import STEP_S, WindowBlocks
 class OnlineEstimator(eqx.Module):
     """Recursive estimator of one tyre set's parameters (module docstring).
 
-    Fields
-    ------
+    Attributes
+    ----------
     prior : GaussianPrior
         The type prior it starts from and restarts at after a change alarm.
     config : OnlineConfig

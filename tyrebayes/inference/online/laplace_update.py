@@ -150,8 +150,8 @@ def _informations(
 class GaussianUpdate(eqx.Module):
     """The result of one Laplace update.
 
-    Fields
-    ------
+    Attributes
+    ----------
     mean : Float[Array, "p"]
         Mode θ* of prior × block.
     cov : Float[Array, "p p"]

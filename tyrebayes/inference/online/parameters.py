@@ -80,8 +80,8 @@ def parameter_names(kind: str, load_sensitive: bool = False) -> tuple[str, ...]:
 class GaussianPrior(eqx.Module):
     """A Gaussian over θ: the type prior the filter starts from and restarts at.
 
-    Fields
-    ------
+    Attributes
+    ----------
     mean : Float[Array, "p"]
         Prior mean of θ (unconstrained coordinates, :func:`parameter_names`).
     cov : Float[Array, "p p"]

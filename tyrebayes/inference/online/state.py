@@ -17,8 +17,8 @@ class InflationSums(eqx.Module):
     (:func:`~tyrebayes.inference.tyre.window_correlation.variance_inflation`).
     These are that estimate's sums, accrued as residuals arrive (each at the mode of its step).
 
-    Fields
-    ------
+    Attributes
+    ----------
     sum_z, sum_z2 : Float[Array, ""]
         Σz and Σz² over all slip windows so far.
     n_z : Float[Array, ""]
@@ -46,8 +46,8 @@ class InflationSums(eqx.Module):
 class FilterState(eqx.Module):
     """State of the online estimator of one car (leading axes for many cars under vmap).
 
-    Fields
-    ------
+    Attributes
+    ----------
     mean : Float[Array, "p"]
         Posterior mean of θ (:func:`~.parameters.parameter_names`).
     cov : Float[Array, "p p"]

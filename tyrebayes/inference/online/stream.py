@@ -41,12 +41,23 @@ def stream_windows(
 def stream_steps(
     windows: dict[str, np.ndarray], surface: str = "dry", *, max_step_s: float | None = None
 ) -> WindowBlocks:
-    """The windows in steps (:func:`~.windows.window_blocks`), padded to the width of
-    :data:`STEP_S` of windows.
+    """The windows in steps (:func:`~.windows.window_blocks`), padded to STEP_S of windows.
 
     STEP_S of 0.25 s windows holds STEP_S / 0.25 + 1 of them at most; every stream then shares
-    one compiled filter (per number of steps). ``max_step_s`` packs sparse driving into
-    fewer steps (:func:`~.windows.window_blocks`).
+    one compiled filter (per number of steps).
+
+    Parameters
+    ----------
+    windows : dict of str to ndarray
+        Slip windows (:func:`stream_windows`), with ``time_s``.
+    surface : str
+        One of :data:`tyrebayes.SURFACES`.
+    max_step_s : float, optional
+        Packs sparse driving into fewer steps (:func:`~.windows.window_blocks`).
+
+    Returns
+    -------
+    WindowBlocks
     """
     times = np.asarray(windows["time_s"], dtype=float)
     spacing = float(np.median(np.diff(np.sort(times)))) if times.size > 1 else 0.25

@@ -63,8 +63,8 @@ REASONS = {
 class LogNormalSummary(eqx.Module):
     """A log-normal posterior summary (all fields with the caller's leading axes).
 
-    Fields
-    ------
+    Attributes
+    ----------
     mean, sd : Float[Array, "*t"]
         Mean and sd of the value.
     low, high : Float[Array, "*t"]
@@ -92,8 +92,8 @@ def log_normal_summary(log_mean, log_sd) -> LogNormalSummary:
 class OnlineSummary(eqx.Module):
     """The estimate at one step (or a trajectory: every field gains a leading time axis).
 
-    Fields
-    ------
+    Attributes
+    ----------
     time_s : Float[Array, "*t"]
         Drive time [s].
     c_x, c_xr, mu_max, force_gain : LogNormalSummary

@@ -63,8 +63,8 @@ _WINDOW_FIELDS = {
 class WindowBlocks(eqx.Module):
     """Blocks of windows, padded to a common width, in time order.
 
-    Fields
-    ------
+    Attributes
+    ----------
     slip, rho, slip_sd, rho_sd : Float[Array, "*b w"]
         As :class:`~tyrebayes.inference.tyre.data.TyreObservations` [-].
     temperature_c : Float[Array, "*b w"]

@@ -41,8 +41,8 @@ BLOCK_S = 5.0
 class TyreObservations(eqx.Module):
     """Window-averaged observations of one tyre set (the driven axle), padded with a mask.
 
-    Fields
-    ------
+    Attributes
+    ----------
     slip : Float[Array, "n"]
         Measured longitudinal slip σ_x of the driven axle [-] (window mean).
     rho : Float[Array, "n"]

@@ -117,8 +117,8 @@ MEASURED_LOAD_SENSITIVITY = (0.263, 0.246)
 class TyrePriors(eqx.Module):
     """Prior scales of the per-tyre model (reviewed numbers; each says where it comes from).
 
-    Fields
-    ------
+    Attributes
+    ----------
     c_xr_median : float
         Median of C_xr [-]; 35 is mid-range of the thesis' Table 6.2 (29–60).
     c_xr_log_sd : float
@@ -197,6 +197,12 @@ class TyrePriors(eqx.Module):
         6 twenty-minute drives with ABS: C_x RMSE 6.1 % with them, 3.8 % without; one drive
         whose slip errors drift, variance inflation 6.9, +12.7 % against +3.0 %): within 5 s
         that drive's slip and force do not follow the curve, and why has not been found.
+
+    Examples
+    --------
+    >>> priors = TyrePriors()
+    >>> TyrePriors(c_xr_median=2 * priors.c_xr_median).c_xr_median > priors.c_xr_median
+    True
     """
 
     c_xr_median: float = 35.0
