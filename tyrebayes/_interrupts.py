@@ -9,10 +9,13 @@ line. Three rules keep an interruption from doing harm on its way out:
   into place) a signal is held, not raised, so that no C library (HDF5, Arrow) is stopped half-way
   through a file; the writer then drops its temporary file instead of replacing the previous
   output (:func:`tyrebayes._io.atomic_output`).
-* **An interruption is never swallowed.** Python drops an exception raised in a ``__del__``, a
-  weakref callback or code that catches :class:`BaseException`; the signal is also recorded
-  (:func:`pending`), and :func:`check` raises it again at the next safe point: before an output
-  replaces the previous one, and before a command returns success.
+* **An interruption is never swallowed.** Python drops an exception raised in a ``__del__`` or
+  a gc callback (JAX has one: ``online`` once printed "Exception ignored in _xla_gc_callback"
+  and ran to its end); such a one is raised again 20 ms later (and later again if it lands in
+  such a place again), silently. Code that catches
+  :class:`BaseException` drops it for good, so the signal is also recorded (:func:`pending`),
+  and :func:`check` raises it at the next safe point: before an output replaces the previous
+  one, and before a command returns success.
 * **An interruption is not a failure.** Code that records failures as data (a fleet run's items)
   asks :func:`pending` before it records one: an item stopped by the interruption is left without
   a record and is run again next time.
@@ -30,18 +33,24 @@ True
 
 from __future__ import annotations
 
+import _thread
 import contextlib
 import os
 import signal
+import sys
 import threading
 from collections.abc import Callable, Iterator
 
 #: The signals a command ends on, cleanly.
 SIGNALS: tuple[int, ...] = (signal.SIGINT, signal.SIGTERM)
 
-_pending: int | None = None
+_pending: int | None = None  # the first signal's number
+_signals = 0  # signals received
+_armed = False  # the next handler call raises (again, after one was swallowed)
+_redelivering = False
+_redeliveries = 0
+_timer: threading.Timer | None = None
 _defer_depth = 0
-_count = 0
 _on_first: list[Callable[[], None]] = []
 
 
@@ -70,7 +79,9 @@ def pending() -> int | None:
 
 def check() -> None:
     """Raise :class:`Interrupted` if a signal came (and was held or swallowed) since the start."""
+    global _armed
     if _pending is not None and _defer_depth == 0:
+        _armed = False
         raise Interrupted(_pending)
 
 
@@ -104,20 +115,52 @@ def on_interrupt(callback: Callable[[], None]) -> None:
 
 
 def _handler(signum: int, frame) -> None:
-    global _pending, _count
-    _count += 1
-    if _pending is None:
-        _pending = signum
-        for callback in _on_first:
-            with contextlib.suppress(Exception):
-                callback()
-    if _count >= 3:
-        # Two signals more while the first one's clean-up runs: the user wants out now.
-        os.write(2, b"tyrebayes: interrupted again, stopping without clean-up\n")
-        os._exit(128 + _pending)
-    if _count == 1 and _defer_depth == 0:
-        raise Interrupted(signum)
-    # A second signal while the first is being handled, or one inside deferred(): held.
+    global _pending, _signals, _armed, _redelivering
+    if _redelivering:
+        _redelivering = False  # a swallowed one, raised again (_unraisable)
+    else:
+        _signals += 1
+        if _pending is None:
+            _pending = signum
+            for callback in _on_first:
+                with contextlib.suppress(Exception):
+                    callback()
+        if _signals >= 3:
+            # Two signals more while the first one's clean-up runs: the user wants out now.
+            os.write(2, b"tyrebayes: interrupted again, stopping without clean-up\n")
+            os._exit(128 + _pending)
+    if _armed and _defer_depth == 0:
+        _armed = False
+        raise Interrupted(_pending)
+    # A signal while the first is being handled, or inside deferred(): held.
+
+
+def _unraisable(unraisable) -> None:
+    """Python dropped an :class:`Interrupted` (raised in a gc callback or a ``__del__``, where
+    an exception cannot propagate): raise it again shortly, from wherever the command is then,
+    instead of printing "Exception ignored in ..." with a traceback and running on."""
+    global _armed, _redeliveries, _timer
+    if not isinstance(unraisable.exc_value, Interrupted):
+        _previous_hook(unraisable)
+        return
+    # Soon, and later each time it lands in such a place again (a run of collections).
+    delay = min(0.02 * 2**_redeliveries, 0.5)
+    _redeliveries += 1
+    _armed = True
+    _timer = threading.Timer(delay, _redeliver)
+    _timer.daemon = True
+    _timer.start()
+
+
+def _redeliver() -> None:
+    global _redelivering
+    if _active and _armed and _pending is not None:
+        _redelivering = True
+        _thread.interrupt_main(_pending)
+
+
+_active = False
+_previous_hook = sys.unraisablehook
 
 
 @contextlib.contextmanager
@@ -127,21 +170,27 @@ def signals_as_interruptions() -> Iterator[None]:
     The previous handlers and the pending state are restored after it, so that a test or a
     program that calls :func:`tyrebayes.cli.main` twice starts each call afresh.
     """
-    global _pending, _count
+    global _pending, _signals, _armed, _redelivering, _redeliveries, _active, _previous_hook
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     previous = {s: signal.getsignal(s) for s in SIGNALS}
-    _pending, _count = None, 0
+    _pending, _signals, _armed, _redelivering, _redeliveries = None, 0, True, False, 0
+    _previous_hook, sys.unraisablehook = sys.unraisablehook, _unraisable
+    _active = True
     for s in SIGNALS:
         signal.signal(s, _handler)
     try:
         yield
     finally:
+        _active = False
+        if _timer is not None:
+            _timer.cancel()
         for s, handler in previous.items():
             # None: the previous handler was not set from Python; restore the default then.
             signal.signal(s, signal.SIG_DFL if handler is None else handler)
-        _pending, _count = None, 0
+        sys.unraisablehook = _previous_hook
+        _pending, _signals, _armed = None, 0, False
         _on_first.clear()
 
 

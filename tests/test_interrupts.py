@@ -1,0 +1,101 @@
+"""Signals as one exception (tyrebayes._interrupts): held while an output is written, raised again
+when Python swallowed it, restored after the command."""
+
+from __future__ import annotations
+
+import gc
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from tyrebayes import _interrupts
+
+
+def _signal_in(seconds: float, sig=signal.SIGINT) -> threading.Timer:
+    timer = threading.Timer(seconds, os.kill, (os.getpid(), sig))
+    timer.start()
+    return timer
+
+
+def test_a_signal_is_an_interruption_with_its_exit_status():
+    before = {s: signal.getsignal(s) for s in _interrupts.SIGNALS}
+    with _interrupts.signals_as_interruptions():
+        with pytest.raises(_interrupts.Interrupted) as info:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5.0)
+        assert info.value.exit_status == 143 and isinstance(info.value, KeyboardInterrupt)
+        assert _interrupts.pending() == signal.SIGTERM
+    assert {s: signal.getsignal(s) for s in _interrupts.SIGNALS} == before
+    assert _interrupts.pending() is None
+
+
+def test_held_inside_deferred_and_raised_at_its_end():
+    with _interrupts.signals_as_interruptions():
+        finished = False
+        with pytest.raises(_interrupts.Interrupted):
+            with _interrupts.deferred():
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.2)  # not cut short
+                finished = True
+        assert finished
+
+
+def test_one_raised_in_a_gc_callback_is_raised_again_without_a_word(capfd):
+    # JAX registers a gc callback; a signal that lands in it is "Exception ignored in ...",
+    # a traceback on stderr, and the command ran on to its end (online, SIGTERM).
+    first = [True]
+
+    def slow_callback(phase, info):
+        if phase == "start" and first[0]:
+            first[0] = False
+            time.sleep(0.5)  # the signal arrives in here
+
+    gc.callbacks.append(slow_callback)
+    try:
+        with _interrupts.signals_as_interruptions():
+            _signal_in(0.1, signal.SIGTERM)
+            start = time.monotonic()
+            with pytest.raises(_interrupts.Interrupted):
+                for _ in range(200):
+                    gc.collect(0)
+                    time.sleep(0.02)
+            assert time.monotonic() - start < 2.0
+    finally:
+        gc.callbacks.remove(slow_callback)
+    assert capfd.readouterr().err == ""
+
+
+def test_three_signals_end_the_process_at_once():
+    # A clean-up that hangs: the third Ctrl-C stops without it, with one line.
+    code = (
+        "import time\n"
+        "from tyrebayes import _interrupts\n"
+        "with _interrupts.signals_as_interruptions():\n"
+        "    print('ready', flush=True)\n"
+        "    try:\n"
+        "        time.sleep(60)\n"
+        "    finally:\n"
+        "        print('cleaning up', flush=True)\n"
+        "        time.sleep(60)\n"
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
+    try:
+        assert proc.stdout.readline() == b"ready\n"
+        proc.send_signal(signal.SIGINT)
+        assert proc.stdout.readline() == b"cleaning up\n"
+        for _ in range(2):
+            time.sleep(0.2)
+            proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130
+    assert err.decode() == "tyrebayes: interrupted again, stopping without clean-up\n"
