@@ -126,7 +126,8 @@ def _fit(frame: pd.DataFrame, vehicle, surface: str = "dry") -> dict:
             frame.drop(columns=["lateral_velocity"], errors="ignore"), vehicle
         )
     except NoCornering as err:
-        return {"status": "no usable cornering", "reason": str(err)}
+        status = "not identified" if "not identified" in str(err) else "no usable cornering"
+        return {"status": status, "reason": str(err)}
     start = time.perf_counter()
     fit = fit_lateral(obs, surface=surface)
     d = fit.to_dict()

@@ -49,7 +49,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=None,
         help="vehicle preset or TOML path for the wheel radius (default: the profile's)",
     )
-    parser.add_argument("--out", required=True, help="stream file to write (.parquet, .csv, .mf4)")
+    parser.add_argument(
+        "--out",
+        required=True,
+        help="stream file to write (.parquet, .csv, .mf4; missing folders are created)",
+    )
     parser.add_argument("--json", action="store_true", help="machine-readable output")
     parser.set_defaults(func=run)
 

@@ -30,7 +30,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "Most of a first run is compilation, which JAX's cache keeps for the next run "
         "(--quick: a smaller fleet, fast fits only).",
     )
-    p.add_argument("--out", default="demo_out", help="output folder (default ./demo_out)")
+    p.add_argument(
+        "--out",
+        default="demo_out",
+        help="output folder (default ./demo_out; created with its parents)",
+    )
     p.add_argument("--quick", action="store_true", help="smaller fleet, fast fits only")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", action="store_true", help="machine-readable summary on stdout")

@@ -69,7 +69,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--samples", type=int, default=500, help="NUTS warm-up and draws per chain (2 chains)"
     )
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", help="write the fit (netCDF, read back with tyrebayes.load_fit)")
+    parser.add_argument(
+        "--out",
+        help="write the fit (netCDF, read back with tyrebayes.load_fit; missing folders are "
+        "created)",
+    )
     parser.add_argument("--json", action="store_true", help="machine-readable output")
     parser.set_defaults(func=run)
 

@@ -46,7 +46,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     fit.add_argument("table", help="fleet table (.csv or .parquet)")
     fit.add_argument("--outcome", default="mu", help="outcome column (default mu)")
-    fit.add_argument("--out", help="output netCDF (default TABLE stem + .fleet.nc)")
+    fit.add_argument(
+        "--out",
+        help="output netCDF (default TABLE stem + .fleet.nc; missing folders are created)",
+    )
     fit.add_argument(
         "--method",
         choices=("nuts", "svi"),

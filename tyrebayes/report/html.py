@@ -6,6 +6,7 @@ import base64
 import html
 
 from .content import Report
+from .lateral import LATERAL_TEXT, lateral_table
 from .sections_text import SECTION_TEXT, headline
 from .tables import (
     Table,
@@ -80,6 +81,10 @@ def render_html(report: Report, figures: dict) -> str:
         parts += ["<h2>Per-tyre posteriors: force against slip</h2>", _p(SECTION_TEXT["tyres"])]
         fig("tyre_curves")
         parts.append(_table(tyre_table(report)))
+    if report.laterals:
+        parts += ["<h2>Cornering: axle force against slip angle</h2>", _p(LATERAL_TEXT)]
+        fig("lateral_curves")
+        parts.append(_table(lateral_table(report)))
     if report.fleet is not None:
         parts += ["<h2>Friction against 1/C_xr by tyre type</h2>", _p(SECTION_TEXT["fleet"])]
         fig("friction_vs_inverse_stiffness")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from .content import Report
+from .lateral import LATERAL_TEXT, lateral_table
 from .sections_text import SECTION_TEXT, headline
 from .tables import (
     Table,
@@ -52,6 +53,10 @@ def render_markdown(report: Report, figures: dict) -> str:
         section(
             "Per-tyre posteriors: force against slip", "tyres", "tyre_curves", [tyre_table(report)]
         )
+    if report.laterals:
+        out.extend(["## Cornering: axle force against slip angle", "", LATERAL_TEXT, ""])
+        fig("lateral_curves")
+        out.extend([_table(lateral_table(report)), ""])
     if report.fleet is not None:
         section(
             "Friction against 1/C_xr by tyre type",

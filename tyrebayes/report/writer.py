@@ -69,6 +69,7 @@ def summary_json(report: Report) -> dict:
         }
         for t in report.tyres
     ]
+    out["laterals"] = [{"name": lat.name, "summary": lat.summary} for lat in report.laterals]
     if report.fleet is not None:
         f = report.fleet
         out["fleet"] = {

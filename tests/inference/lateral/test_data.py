@@ -73,3 +73,13 @@ def test_time_must_increase():
     frame.loc[10, "time"] = frame.loc[5, "time"]
     with pytest.raises(NoCornering, match="strictly increasing"):
         cornering_observations(frame, VEHICLE)
+
+
+def test_turning_at_walking_pace_is_not_identified():
+    frame, _ = simulate_cornering(VEHICLE, duration_s=120.0, seed=3)
+    slow = frame.copy()
+    wheels = [c for c in frame if c.startswith("wheel_speed")]
+    slow[wheels] = frame[wheels] * 0.25  # 2-8 m/s: the same steering, a quarter of the speed
+    slow["ay"] = frame["ay"] * 0.25**2 * 8  # tight turns: a_y above 1 m/s² below 8 m/s
+    with pytest.raises(NoCornering, match="not identified"):
+        cornering_observations(slow, VEHICLE)

@@ -220,6 +220,14 @@ def cornering_observations(frame: pd.DataFrame, vehicle: Vehicle) -> CorneringOb
     cornering = mask & (np.abs(np.nan_to_num(ay)) > CORNERING_AY_MPS2)
     cornering &= np.nan_to_num(speed) >= CORNERING_SPEED_MPS
     seconds = float(cornering.sum() * dt)
+    turning = float((mask & (np.abs(np.nan_to_num(ay)) > CORNERING_AY_MPS2)).sum() * dt)
+    if seconds < MIN_CORNERING_S <= turning:
+        # Turning at walking pace is kinematic (δ = L/R): the slip angles are too small against
+        # the steering's resolution to show any stiffness.
+        raise NoCornering(
+            f"lateral: not identified: {turning:.0f} s of turning, {seconds:.1f} s of it above "
+            f"{CORNERING_SPEED_MPS:g} m/s (kinematic turning shows no cornering stiffness)"
+        )
     if seconds < MIN_CORNERING_S:
         raise NoCornering(
             f"lateral: no usable cornering: {seconds:.1f} s with |a_y| > "
