@@ -265,3 +265,40 @@ def test_sigterm_while_writing_leaves_no_temporary_file(tmp_path, monkeypatch, c
     assert capsys.readouterr().err == "tyrebayes wear-thesis: interrupted (SIGTERM)\n"
     assert list(tmp_path.iterdir()) == []
     assert signal.getsignal(signal.SIGTERM) is before
+
+
+# --- --out into folders that do not exist yet --------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["convert", "x.log", "--out", "new/sub/s.parquet"],
+        ["fit-tyre", "x.csv", "--vehicle", "compact_fwd", "--out", "new/sub/f.nc"],
+        ["fit-fleet", "t.csv", "--out", "new/sub/f.nc"],
+        ["fleet-run", "m.csv", "--out", "new/sub"],
+    ],
+)
+def test_out_into_missing_folders_is_one_rule_and_said(capsys, argv):
+    # Every command makes the folders of --out (issue 57: say so, or refuse as others do): the
+    # check before the work accepts them, and the help says it.
+    from tyrebayes._commands._common import output_file, output_folder
+
+    target = argv[argv.index("--out") + 1]
+    (output_folder if argv[0] == "fleet-run" else output_file)(target)
+    with pytest.raises(SystemExit):
+        main([argv[0], "--help"])
+    options = " ".join(capsys.readouterr().out.split()).split(" --")
+    assert "created" in [o for o in options if o.startswith("out OUT ")][-1]
+
+
+def test_a_stream_written_into_missing_folders(tmp_path):
+    target = tmp_path / "new" / "sub" / "s.csv"
+    write_stream(pd.DataFrame({"time": [0.0]}), target)
+    assert target.is_file() and (target.stat().st_mode & 0o777) == 0o666 & ~_umask()
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
