@@ -128,3 +128,19 @@ def test_a_raw_can_log_with_a_profile(tmp_path):
     assert record["status"] == "done", record["reason"]
     windows = pd.read_parquet(tmp_path / "drives" / f"{item.drive_id}.windows.parquet")
     assert len(windows) == record["windows"] > 0
+    assert record["time_faults_repaired"] == ""
+    # Time faults (issue 57): a few frames written late are repaired and said in the record; a
+    # reversed log fails the drive with its one-line reason.
+    lines = log.read_text().splitlines(keepends=True)
+    late = lines[:1000] + lines[1004:1008] + lines[1000:1004] + lines[1008:]
+    reversed_ = lines[::-1]
+    for name, text in (("late", late), ("reversed", reversed_)):
+        faulty = tmp_path / f"{name}.log"
+        faulty.write_text("".join(text))
+        row = table.assign(path=str(faulty))
+        record = process_drive(manifest_from_table(row)[0], str(tmp_path), RunSettings())
+        if name == "late":
+            assert record["status"] == "done", record["reason"]
+            assert "CAN time faults repaired: WHEEL_SPEEDS: 1 of" in record["time_faults_repaired"]
+        else:
+            assert record["status"] == "failed" and "a reversed log?" in record["reason"]

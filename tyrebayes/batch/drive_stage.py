@@ -34,6 +34,7 @@ from .windows import windows_table
 from .worker_memory import WORKER, release_free_memory
 
 DRIVES_DIR = "drives"
+_REPAIRED = "time_faults_repaired"
 
 
 def _content(path_or_name, resolve=Path) -> str:
@@ -73,14 +74,16 @@ def drive_input_hash(item: DriveItem) -> str:
     return value_hash(parts)
 
 
-def _read_log(item: DriveItem, vehicle):
+def _read_log(item: DriveItem, vehicle) -> tuple[pd.DataFrame, str]:
+    """The drive's table, and what was repaired in a CAN log's timestamps ("" if nothing)."""
     from ..streams import read_stream
 
     if not item.profile:
-        return read_stream(item.path)
+        return read_stream(item.path), ""
     from ..streams.can import read_can_log
 
-    return read_can_log(item.path, item.profile, vehicle=vehicle).data
+    conversion = read_can_log(item.path, item.profile, vehicle=vehicle)
+    return conversion.data, conversion.time_faults_text()
 
 
 def _windows_and_summary(
@@ -97,7 +100,7 @@ def _windows_and_summary(
         vehicle = load_vehicle(item.vehicle)
     except ValueError as err:
         raise BadInputError(str(err).splitlines()[0]) from None
-    log = _read_log(item, vehicle)
+    log, repaired = _read_log(item, vehicle)
     cpu.append(time.process_time())
     stream = validate_stream(log, vehicle)
     cpu.append(time.process_time())
@@ -115,6 +118,7 @@ def _windows_and_summary(
     )
     row = drive_summary(item, stream, features, windows, vehicle)
     row["ambient_c"] = float(ambient)
+    row[_REPAIRED] = repaired  # for the record, not the summary table (process_drive)
     cpu.append(time.process_time())
     steps = ("read", "validate", "features", "windows_and_summary")
     return table, row, {k: b - a for k, a, b in zip(steps, cpu[:-1], cpu[1:], strict=True)}
@@ -139,7 +143,9 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
     on), ``seconds`` and ``cpu_seconds`` of this call (``step_cpu_seconds``: read, validate,
     features, windows and summary), ``peak_rss_mb`` of the worker process, the
     ``rss_mb_at_start`` and ``programs_dropped`` (the worker dropped its compiled programs
-    first to keep within ``settings.memory_budget_mb``: :mod:`.worker_memory`).
+    first to keep within ``settings.memory_budget_mb``: :mod:`.worker_memory`) and, for a raw
+    CAN log, ``time_faults_repaired`` (the time faults repaired, :mod:`tyrebayes.streams.can`,
+    as one line; "" when none; a log with more than 1 % of a message's frames at fault fails).
     """
     rss_at_start, dropped = WORKER.start("drive", settings.memory_budget_mb)
     start, cpu = time.perf_counter(), time.process_time()
@@ -162,6 +168,7 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
     }
     try:
         table, row, step_cpu = _windows_and_summary(item, settings)
+        repaired = row.pop(_REPAIRED)
         windows_path = write_parquet(table, folder / f"{item.drive_id}.windows.parquet")
         write_parquet(pd.DataFrame([row]), folder / f"{item.drive_id}.summary.parquet")
         record |= {
@@ -172,6 +179,8 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
             "windows": int(len(table)),
             "duration_s": row["duration_s"],
             "step_cpu_seconds": step_cpu,
+            # A CAN log's timestamps repaired (tyrebayes.streams.can.time_faults), or "".
+            "time_faults_repaired": repaired,
             "outputs": [f"{item.drive_id}.windows.parquet", f"{item.drive_id}.summary.parquet"],
         }
     except Exception as err:  # noqa: BLE001 -- any bad log is recorded, never raised
