@@ -47,36 +47,47 @@ def test_cost_threshold():
 
 def test_clear_cases():
     good = winter_verdict(_normal(0.45, 0.035))
-    assert good["verdict"] == "ok" and good["probability"] < 0.001
+    assert good.verdict == "ok" and good.probability < 0.001
     summer = winter_verdict(_normal(0.18, 0.035))
-    assert summer["verdict"] == "warn" and summer["probability"] > 0.98
-    for key in ("verdict", "probability", "threshold", "mu_min", "mu", "interval_90", "reason"):
-        assert key in good
+    assert summer.verdict == "warn" and summer.probability > 0.98
+    # the warn command's JSON keys, in their order (issue 58: unchanged by the typed result)
+    assert list(good.to_dict()) == [
+        "verdict",
+        "probability",
+        "threshold",
+        "mu_min",
+        "mu",
+        "interval_90",
+        "costs",
+        "straddle_tol",
+        "n_draws",
+        "reason",
+    ]
 
 
 def test_borderline_cases_follow_the_cost_threshold():
     # Well-known set just above mu_min: P(mu < 0.26) ~ 0.05 < 0.1 -> ok.
     near_ok = winter_verdict(_normal(0.31, 0.03))
-    assert near_ok["verdict"] == "ok" and 0.02 < near_ok["probability"] < 0.08
+    assert near_ok.verdict == "ok" and 0.02 < near_ok.probability < 0.08
     # Slightly closer: P ~ 0.16 > 0.1 -> warn (a miss costs 9x a false alarm).
     near_warn = winter_verdict(_normal(0.29, 0.03))
-    assert near_warn["verdict"] == "warn" and 0.1 < near_warn["probability"] < 0.25
+    assert near_warn.verdict == "warn" and 0.1 < near_warn.probability < 0.25
     # Same draws with equal costs: threshold 0.5 -> ok.
-    assert winter_verdict(_normal(0.29, 0.03), cost_miss=1.0)["verdict"] == "ok"
+    assert winter_verdict(_normal(0.29, 0.03), cost_miss=1.0).verdict == "ok"
     # Exactly at mu_min with a tight prediction is still decidable (warn), not "insufficient".
     at = winter_verdict(_normal(0.26, 0.03))
-    assert at["verdict"] == "warn"
+    assert at.verdict == "warn"
 
 
 def test_insufficient_evidence_when_interval_straddles_widely():
     vague = winter_verdict(_normal(0.30, 0.12))
-    assert vague["verdict"] == "insufficient_evidence"
-    assert vague["interval_90"][0] < 0.26 - 0.08 < 0.26 + 0.08 < vague["interval_90"][1]
+    assert vague.verdict == "insufficient_evidence"
+    assert vague.interval_90[0] < 0.26 - 0.08 < 0.26 + 0.08 < vague.interval_90[1]
     # A wide prediction that lies wholly on one side is still decided.
-    assert winter_verdict(_normal(0.60, 0.12))["verdict"] == "ok"
+    assert winter_verdict(_normal(0.60, 0.12)).verdict == "ok"
     # Bimodal (unknown type, winter or summer): insufficient, not a warning.
     mix = np.concatenate([_normal(0.45, 0.03, 2000), _normal(0.18, 0.03, 2000, seed=1)])
-    assert winter_verdict(mix)["verdict"] == "insufficient_evidence"
+    assert winter_verdict(mix).verdict == "insufficient_evidence"
 
 
 def test_bad_draws():

@@ -106,6 +106,8 @@ from .decisions import cost_threshold as cost_threshold
 from .decisions import derive_mu_min_snow as derive_mu_min_snow
 from .decisions import high_wear_warning as high_wear_warning
 from .decisions import winter_verdict as winter_verdict
+from .decisions import WearWarning as WearWarning
+from .decisions import WinterVerdict as WinterVerdict
 
 # 5. criticise
 from .criticism import CandidateResult as CandidateResult
@@ -201,6 +203,8 @@ __all__ = [
     "derive_mu_min_snow",
     "high_wear_warning",
     "winter_verdict",
+    "WearWarning",
+    "WinterVerdict",
     "CandidateResult",
     "CriticismResult",
     "criticize_fleet_fit",

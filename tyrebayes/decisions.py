@@ -35,6 +35,8 @@ uncertain.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 
@@ -50,6 +52,87 @@ DEFAULT_COST_FALSE_ALARM: float = 1.0
 #: How far the 90 % predictive interval may reach past mu_min on both sides before the verdict
 #: becomes "insufficient_evidence".
 DEFAULT_STRADDLE_TOL: float = 0.08
+
+
+@dataclasses.dataclass(frozen=True)
+class WinterVerdict:
+    """A set's winter-suitability verdict (:func:`winter_verdict`).
+
+    Attributes
+    ----------
+    verdict : str
+        ``"ok"``, ``"warn"`` or ``"insufficient_evidence"``.
+    probability : float
+        P(mu_snow < mu_min) over the predictive draws.
+    threshold : float
+        The cost threshold ``c_fa / (c_fa + c_miss)`` the probability is judged against.
+    mu_min : float
+        Minimum acceptable mu on snow.
+    mu : dict
+        Summary of the draws (:func:`~tyrebayes.inference.summary.summarize`).
+    interval_90 : list of float
+        Central 90 % interval of the draws.
+    costs : dict
+        ``false_alarm`` and ``miss``.
+    straddle_tol : float
+        Reach past ``mu_min`` on both sides that makes the evidence insufficient.
+    n_draws : int
+        Finite draws used.
+    reason : str
+        One sentence.
+
+    Examples
+    --------
+    >>> v = winter_verdict(np.random.default_rng(0).normal(0.18, 0.03, 4000))
+    >>> v.verdict, v.to_dict()["verdict"]
+    ('warn', 'warn')
+    """
+
+    verdict: str
+    probability: float
+    threshold: float
+    mu_min: float
+    mu: dict
+    interval_90: list[float]
+    costs: dict[str, float]
+    straddle_tol: float
+    n_draws: int
+    reason: str
+
+    def to_dict(self) -> dict:
+        """The fields as a dict, in order (the ``warn`` command's JSON)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+
+@dataclasses.dataclass(frozen=True)
+class WearWarning:
+    """The "unexpectedly high wear" decision (:func:`high_wear_warning`).
+
+    Attributes
+    ----------
+    warning : bool
+        P(wear rate ratio > threshold) reached the decision probability.
+    probability : float
+        P(ratio > threshold) over the draws.
+    threshold : float
+        Ratio of the wear rate to its reference that counts as high.
+    message : str
+        One line.
+
+    Examples
+    --------
+    >>> high_wear_warning(np.full(100, 1.3)).to_dict()["warning"]
+    True
+    """
+
+    warning: bool
+    probability: float
+    threshold: float
+    message: str
+
+    def to_dict(self) -> dict:
+        """The fields as a dict, in order (``fit-wear``'s ``"high_wear"`` object)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
 
 def check_mu_min(mu_min: float, name: str = "mu_min") -> float:
@@ -180,7 +263,7 @@ def winter_verdict(
     cost_false_alarm: float = DEFAULT_COST_FALSE_ALARM,
     cost_miss: float = DEFAULT_COST_MISS,
     straddle_tol: float = DEFAULT_STRADDLE_TOL,
-) -> dict:
+) -> WinterVerdict:
     """Verdict on a set's winter suitability from predictive draws of its snow friction.
 
     Parameters
@@ -197,14 +280,14 @@ def winter_verdict(
 
     Returns
     -------
-    dict
+    WinterVerdict
         ``verdict`` ("ok", "warn", "insufficient_evidence"), ``probability`` (P(mu < mu_min)),
         ``threshold``, ``mu_min``, ``mu`` (summary), ``interval_90`` (central), ``costs``,
-        ``straddle_tol``, ``n_draws``, ``reason`` (one sentence).
+        ``straddle_tol``, ``n_draws``, ``reason`` (one sentence); ``to_dict()`` for JSON.
 
     Examples
     --------
-    >>> winter_verdict(np.random.default_rng(0).normal(0.45, 0.03, 4000))["verdict"]
+    >>> winter_verdict(np.random.default_rng(0).normal(0.45, 0.03, 4000)).verdict
     'ok'
     """
     x = np.asarray(mu_draws, float).ravel()
@@ -230,26 +313,26 @@ def winter_verdict(
     else:
         verdict = "ok"
         reason = f"P(mu < {mu_min:.2f}) = {p:.3f} is within the cost threshold {threshold:.3f}"
-    return {
-        "verdict": verdict,
-        "probability": p,
-        "threshold": threshold,
-        "mu_min": float(mu_min),
-        "mu": summarize(x),
-        "interval_90": [lo, hi],
-        "costs": {"false_alarm": float(cost_false_alarm), "miss": float(cost_miss)},
-        "straddle_tol": float(straddle_tol),
-        "n_draws": int(x.size),
-        "reason": reason,
-    }
+    return WinterVerdict(
+        verdict=verdict,
+        probability=p,
+        threshold=threshold,
+        mu_min=float(mu_min),
+        mu=summarize(x),
+        interval_90=[lo, hi],
+        costs={"false_alarm": float(cost_false_alarm), "miss": float(cost_miss)},
+        straddle_tol=float(straddle_tol),
+        n_draws=int(x.size),
+        reason=reason,
+    )
 
 
 def high_wear_warning(
     ratio_draws: np.ndarray, threshold: float = 1.25, decision_probability: float = 0.8
-) -> dict:
+) -> WearWarning:
     """Warn "unexpectedly high wear" when P(I_now / I_ref > threshold) >= decision_probability.
 
-    Returns ``{"warning": bool, "probability": p, "threshold": ..., "message": ...}``.
+    Returns a :class:`WearWarning` (``warning``, ``probability``, ``threshold``, ``message``).
     """
     p = float(np.mean(np.asarray(ratio_draws) > threshold))
     warn = p >= decision_probability
@@ -258,4 +341,4 @@ def high_wear_warning(
         if warn
         else f"no wear warning: P(wear rate > {threshold:.2f} x reference) = {p:.2f}"
     )
-    return {"warning": warn, "probability": p, "threshold": threshold, "message": msg}
+    return WearWarning(warning=warn, probability=p, threshold=threshold, message=msg)

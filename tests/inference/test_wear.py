@@ -158,8 +158,8 @@ def test_warning_and_relative_forms_by_hand():
     assert rel["i_rel"]["mean"] == pytest.approx(1.5)
     assert rel["i_rel_thesis"]["mean"] == pytest.approx(1 / 3)
     w = high_wear_warning(rel["draws"], threshold=1.25)
-    assert w["warning"] and w["probability"] == 1.0
-    assert "unexpectedly high wear" in w["message"]
+    assert w.warning and w.probability == 1.0
+    assert "unexpectedly high wear" in w.message
     ratio = np.concatenate([np.full(70, 1.3), np.full(30, 1.1)])
     w2 = high_wear_warning(ratio, threshold=1.25, decision_probability=0.8)
-    assert not w2["warning"] and w2["probability"] == pytest.approx(0.7)
+    assert not w2.warning and w2.probability == pytest.approx(0.7)

@@ -215,7 +215,7 @@ def run(args: argparse.Namespace) -> int:
         source=" ".join(args.drives),
     )
     out, ratio = wear_history_predictions(fit, history, readings, tyre_type=args.tyre_type)
-    out["high_wear"] = high_wear_warning(ratio)
+    out["high_wear"] = high_wear_warning(ratio).to_dict()
     out["vehicle"] = _vehicle_name(args.vehicle)
     out["converged"] = fit.converged
     out["diagnostics"] = fit.diagnostics.as_dict()

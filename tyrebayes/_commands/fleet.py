@@ -266,7 +266,7 @@ def run_warn(args: argparse.Namespace) -> int:
     draws, pred = prediction(args)
     verdict = decisions.winter_verdict(
         draws, mu_min=mu_min, cost_false_alarm=c_fa, cost_miss=c_miss
-    )
+    ).to_dict()
     verdict.update(
         {
             k: pred[k]

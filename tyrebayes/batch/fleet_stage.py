@@ -92,10 +92,10 @@ def _predictions(fit, tyre_sets: pd.DataFrame, seed: int) -> pd.DataFrame:
                 "mu_sd": float(np.std(draws)),
                 "mu_q05": float(lo),
                 "mu_q95": float(hi),
-                "verdict": verdict["verdict"],
-                "p_below_mu_min": float(verdict["probability"]),
-                "mu_min": float(verdict["mu_min"]),
-                "reason": verdict["reason"],
+                "verdict": verdict.verdict,
+                "p_below_mu_min": float(verdict.probability),
+                "mu_min": float(verdict.mu_min),
+                "reason": verdict.reason,
                 "set_converged": bool(rec.get("converged", False)),
             }
         )

@@ -392,13 +392,13 @@ def warning_rows(fleet: Fit, tyres: list[TyreSection], *, seed: int = 0) -> list
                 "tyre_type": t.tyre_type or "unknown",
                 "c_xr": c,
                 "quantity": "mu on snow",
-                "predicted": v["mu"],
-                "interval_90": v["interval_90"],
-                "event": f"mu < {v['mu_min']:.2f}",
-                "probability": v["probability"],
-                "threshold": v["threshold"],
-                "verdict": v["verdict"],
-                "reason": v["reason"],
+                "predicted": v.mu,
+                "interval_90": v.interval_90,
+                "event": f"mu < {v.mu_min:.2f}",
+                "probability": v.probability,
+                "threshold": v.threshold,
+                "verdict": v.verdict,
+                "reason": v.reason,
             }
         )
     return out
