@@ -146,6 +146,12 @@ BENCHMARKS: dict[str, Benchmark] = {
             minutes=5,
         ),
         Benchmark(
+            "vmax_lateral",
+            "V_max from the lateral posterior against the external drives' true parameters",
+            quick=("--drives", "l00,l01", "--draws", "200"),
+            minutes=8,
+        ),
+        Benchmark(
             "wear_thesis", "the thesis' wear simulation and its fix", quick=("--quick",), minutes=20
         ),
         Benchmark(

@@ -54,3 +54,22 @@ def test_sensitivity_sign() -> None:
     s = critical_speed_sensitivity(VEH, Tyres(18.0, 0.8), COURSE, tol_mps=0.05)
     assert bool(jnp.isfinite(s["dv_dmu_y"]))
     assert float(s["dv_dmu_y"]) > 0.0
+
+
+def test_axle_tyres_convert_per_axle_stiffness_and_reduce_to_one_stiffness() -> None:
+    from tyrebayes.physics.lanechange import AxleTyres, static_axle_loads
+    from tyrebayes.physics.vehicle import GRAVITY_MPS2
+
+    # c_y over the static axle load: C_f = c_y_front · m g l_r / L, C_r = c_y_rear · m g l_f / L
+    tyres = AxleTyres(14.0, 17.0, 1.0)
+    c_f, c_r = tyres.cornering_stiffness_n_per_rad(VEH)
+    m, wb = VEH.mass_kg, VEH.wheelbase_m
+    assert float(c_f) == pytest.approx(14.0 * m * GRAVITY_MPS2 * VEH.cog_to_rear_axle_m / wb)
+    assert float(c_r) == pytest.approx(17.0 * m * GRAVITY_MPS2 * VEH.cog_to_front_axle_m / wb)
+    assert sum(static_axle_loads(VEH)) == pytest.approx(m * GRAVITY_MPS2)
+    back = AxleTyres.from_cornering_stiffness(VEH, c_f, c_r, 1.0)
+    assert float(back.c_y_front) == pytest.approx(14.0)
+    assert float(back.c_y_rear) == pytest.approx(17.0)
+    # equal axles are the one-stiffness model
+    f = jax.jit(lambda t, v: run_margin(VEH, t, v, COURSE))
+    assert float(f(AxleTyres(16.0, 16.0, 0.9), 18.0)) == float(f(Tyres(16.0, 0.9), 18.0))

@@ -4,7 +4,8 @@ Each FIT is a netCDF written by ``tyrebayes fit-tyre --out`` (a per-tyre posteri
 ``tyrebayes fit-fleet --out`` (a fleet fit). The report shows every section the fits allow:
 force–slip curves and diagnostics for tyre fits; friction against 1/C_xr with the OLS line for a
 fleet fit; with both, the winter-suitability warnings of the tyre sets (``--type`` gives their
-tyre type) and their predictive V_max.
+tyre type). The predictive V_max covers every tyre fit that carries a lateral posterior (its
+measured cornering stiffness and μ_y) and, with ``--type``, the others (type relations).
 """
 
 from __future__ import annotations
@@ -32,7 +33,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         choices=TYRE_TYPES,
         default=None,
         dest="tyre_type",
-        help="tyre type of the per-tyre fits (enables warnings and V_max)",
+        help="tyre type of the per-tyre fits (enables warnings, and V_max of fits without a "
+        "lateral posterior)",
     )
     p.add_argument("--vehicle", default="compact_fwd", help="vehicle of the V_max simulation")
     p.add_argument("--seed", type=int, default=0)
@@ -49,6 +51,39 @@ def _load(path: str):
             f"fit {path}: expected a tyre or fleet fit (fit-tyre, fit-fleet), got a {fit.kind} fit"
         )
     return fit.kind, fit
+
+
+#: Posterior draws per tyre set of the V_max section.
+VMAX_DRAWS = 200
+
+
+def _vmax_sets(sections, fits, tyre_type: str | None, seed: int) -> list[dict]:
+    """The V_max section's sets: every tyre fit with a converged lateral posterior (its measured
+    c_y and μ_y), and with ``--type`` every other one (the type relations at its C_xr)."""
+    import jax
+
+    from ..inference.tyre.result import TyreFit
+    from ..inference.vmax import fit_vmax_inputs
+
+    key = jax.random.PRNGKey(seed)
+    sets = []
+    for i, (section, fit) in enumerate(zip(sections, fits, strict=True)):
+        tyre = TyreFit.from_fit(fit)
+        measured = tyre.lateral is not None and tyre.lateral.converged
+        if not (measured or tyre_type):
+            continue
+        inputs = fit_vmax_inputs(
+            tyre, jax.random.fold_in(key, i), VMAX_DRAWS, tyre_type or "all_season"
+        )
+        sets.append(
+            {
+                "tyre": section.name,
+                "tyre_type": tyre_type or "",
+                "c_xr": fit.draws("c_xr"),
+                "inputs": inputs,
+            }
+        )
+    return sets
 
 
 def run(args: argparse.Namespace) -> int:
@@ -84,15 +119,8 @@ def run(args: argparse.Namespace) -> int:
         report.diagnostics.append(diagnostics_row(fleet.diagnostics, f"fleet: {Path(p).stem}"))
         if tyres and args.tyre_type:
             report.warnings = warning_rows(fleet, report.tyres, seed=args.seed)
-    if tyres and args.tyre_type:
-        sets = [
-            {
-                "tyre": t.name,
-                "tyre_type": args.tyre_type,
-                "c_xr": fit.draws("c_xr"),
-            }
-            for t, (_, fit) in zip(report.tyres, tyres, strict=True)
-        ]
+    sets = _vmax_sets(report.tyres, [fit for _, fit in tyres], args.tyre_type, args.seed)
+    if sets:
         report.vmax = vmax_section(args.vehicle, sets, seed=args.seed, extended=False)
     report.timings["build"] = {
         "wall_s": time.perf_counter() - t0,

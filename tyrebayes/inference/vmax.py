@@ -8,6 +8,16 @@ Type-level relations (assumptions, stated because no cornering data exist for th
 * lateral friction on dry asphalt at 5-10 °C: μ_y = 0.95 · μ_x, μ_x ~ Normal(μ_type, 0.05) with
   μ_type = 0.95 (winter), 1.00 (all-season), 1.05 (summer).
 
+Measured lateral parameters replace both relations where a fit carries a lateral posterior
+(:func:`fit_vmax_inputs`): the per-axle c_y front and rear [1/rad over the static axle load]
+enter the simulation as they are (:class:`~tyrebayes.physics.lanechange.AxleTyres`; C_f =
+c_y_front · m g l_r / L N/rad), and μ_y is the lateral fit's where the drive neared the peak,
+else the longitudinal μ_max where that fit observed it, else the lateral posterior's (the
+surface's prior, bounded below by the forces the drive used). Each prediction says which
+(:class:`VmaxInputs`: ``lateral_source`` "measured" / "type_prior", ``mu_y_source`` "measured" /
+"mu_max" / "surface_prior" / "type_prior"). A measured μ_y belongs to the drive's surface; the
+type relations describe dry asphalt.
+
 Measurements (thesis Table 6.2): the driver raised the speed in steps of 10 km/h until a cone fell,
 so the recorded V_max means V ∈ [v_pass, v_pass + 10) km/h (interval censoring).
 
@@ -23,6 +33,10 @@ Models for the six measured sets:
 
 from __future__ import annotations
 
+import dataclasses
+import functools
+import json
+
 import arviz_base as azb
 import jax
 import jax.numpy as jnp
@@ -31,26 +45,38 @@ import numpyro
 import numpyro.distributions as dist
 import pandas as pd
 from jax.scipy.special import ndtr
-from jaxtyping import Array, Float
+from jaxtyping import Array, ArrayLike, Float
 
 from .._domain import load_lane_change_speeds
 from ..physics.lanechange import (
     DEFAULT_DRIVER,
+    AxleTyres,
     Course,
     Driver,
-    Tyres,
     critical_speed,
     iso3888_2_course,
 )
 from ..physics.vehicle import Vehicle
+from .lateral.result import LateralFit
 from .nuts import run_nuts
 from .result import Fit, diagnose, loo, provenance
+from .summary import summarize
+from .tyre.result import TyreFit
 
 K_TYPE = {"winter": 0.45, "all_season": 0.40, "summer": 0.35}
 MU_TYPE = {"winter": 0.95, "all_season": 1.00, "summer": 1.05}
 MU_Y_RATIO = 0.95
 SPEED_STEP_KMH = 10.0
 REPEATABILITY_KMH = 2.0
+#: Where a prediction's cornering stiffness came from: the fit's lateral posterior, or the
+#: type-level relation C_y = k_type · C_xr.
+LATERAL_SOURCES = ("measured", "type_prior")
+#: Where its μ_y came from: the lateral fit (the drive neared the peak), the longitudinal fit's
+#: observed μ_max, the lateral posterior without the peak (the surface's prior, bounded below by
+#: the forces used), or the type relation μ_y = 0.95 μ_type.
+MU_Y_SOURCES = ("measured", "mu_max", "surface_prior", "type_prior")
+#: The surface the type relations describe.
+TYPE_SURFACE = "dry asphalt (type relations)"
 
 
 def load_table_6_2() -> pd.DataFrame:
@@ -68,24 +94,256 @@ def lateral_draws(
     return k * c_xr, MU_Y_RATIO * mu_x
 
 
-def vmax_draws(
-    vehicle: Vehicle,
-    c_y: Float[Array, "n"],
-    mu_y: Float[Array, "n"],
-    course: Course | None = None,
-    driver: Driver = DEFAULT_DRIVER,
-    tol_mps: float = 0.1,
-) -> Float[Array, "n"]:
-    """V_max [km/h] per parameter draw (vmapped bisection; NaN where not bracketed)."""
-    course = iso3888_2_course(vehicle.width_m) if course is None else course
-
-    @jax.jit
-    def one(cy: Array, mu: Array) -> Array:
-        cs = critical_speed(vehicle, Tyres(cy, mu), course, driver, tol_mps=tol_mps)
+def _vmax_batch(vehicle: Vehicle, course: Course, driver: Driver, tol_mps: float):
+    def one(cf: Array, cr: Array, mu: Array) -> Array:
+        cs = critical_speed(vehicle, AxleTyres(cf, cr, mu), course, driver, tol_mps=tol_mps)
         v = 0.5 * (cs.v_max_mps + cs.v_fail_mps) * 3.6
         return jnp.where(cs.bracketed, v, jnp.nan)
 
-    return jax.jit(jax.vmap(one))(c_y, mu_y)
+    return jax.jit(jax.vmap(one))
+
+
+# One compiled program per vehicle, course, driver and tolerance (they are hashable modules of
+# floats), so that the per-set and per-drive calls of a report or benchmark compile once.
+_vmax_batch_cached = functools.lru_cache(maxsize=16)(_vmax_batch)
+
+
+def vmax_draws(
+    vehicle: Vehicle,
+    c_y: Float[ArrayLike, "n"],
+    mu_y: Float[ArrayLike, "n"],
+    course: Course | None = None,
+    driver: Driver = DEFAULT_DRIVER,
+    tol_mps: float = 0.1,
+    *,
+    c_y_rear: Float[ArrayLike, "n"] | None = None,
+) -> Float[Array, "n"]:
+    """V_max [km/h] per parameter draw (vmapped bisection; NaN where not bracketed).
+
+    ``c_y`` [1/rad] is both axles' normalised cornering stiffness, or the front axle's where
+    ``c_y_rear`` is given (each over its static axle load, as the lateral fit reports them).
+    """
+    course = iso3888_2_course(vehicle.width_m) if course is None else course
+    c_front = jnp.asarray(c_y, dtype=float)
+    c_rear = c_front if c_y_rear is None else jnp.asarray(c_y_rear, dtype=float)
+    mu = jnp.asarray(mu_y, dtype=float)
+    if not (c_front.shape == c_rear.shape == mu.shape and c_front.ndim == 1):
+        raise ValueError(
+            "vmax_draws: expected c_y, c_y_rear and mu_y of one shape (n,), got "
+            f"{c_front.shape}, {c_rear.shape}, {mu.shape}"
+        )
+    try:
+        batch = _vmax_batch_cached(vehicle, course, driver, float(tol_mps))
+    except TypeError:  # a vehicle or course holding arrays is not hashable: compile for it
+        batch = _vmax_batch(vehicle, course, driver, float(tol_mps))
+    return batch(c_front, c_rear, mu)
+
+
+@dataclasses.dataclass(frozen=True)
+class VmaxInputs:
+    """Joint draws of the lane change's tyre parameters, and where they came from.
+
+    Attributes
+    ----------
+    c_y_front, c_y_rear : ndarray
+        Per-axle cornering stiffness over the static axle load [1/rad] (equal on the type path).
+    mu_y : ndarray
+        Peak lateral friction at the static load [-].
+    lateral_source : str
+        One of :data:`LATERAL_SOURCES`.
+    mu_y_source : str
+        One of :data:`MU_Y_SOURCES`.
+    surface : str
+        The surface μ_y belongs to: the drive's, or :data:`TYPE_SURFACE`.
+    note : str
+        Why this source (e.g. the reason a fit has no lateral posterior); "" when nothing to say.
+    """
+
+    c_y_front: np.ndarray
+    c_y_rear: np.ndarray
+    mu_y: np.ndarray
+    lateral_source: str
+    mu_y_source: str
+    surface: str
+    note: str = ""
+
+    def __post_init__(self) -> None:
+        if self.lateral_source not in LATERAL_SOURCES:
+            raise ValueError(
+                f"lateral_source: expected one of {LATERAL_SOURCES}, got {self.lateral_source!r}"
+            )
+        if self.mu_y_source not in MU_Y_SOURCES:
+            raise ValueError(
+                f"mu_y_source: expected one of {MU_Y_SOURCES}, got {self.mu_y_source!r}"
+            )
+        shapes = {np.shape(self.c_y_front), np.shape(self.c_y_rear), np.shape(self.mu_y)}
+        if len(shapes) != 1 or len(next(iter(shapes))) != 1:
+            raise ValueError(f"VmaxInputs: expected draws of one shape (n,), got {sorted(shapes)}")
+
+    @property
+    def n_draws(self) -> int:
+        return int(np.shape(self.mu_y)[0])
+
+    def to_dict(self) -> dict:
+        """Sources, surface, note and ``{"mean", "sd", "hdi_90"}`` of each parameter."""
+        return {
+            "lateral_source": self.lateral_source,
+            "mu_y_source": self.mu_y_source,
+            "surface": self.surface,
+            "note": self.note,
+            "c_y_front": summarize(self.c_y_front),
+            "c_y_rear": summarize(self.c_y_rear),
+            "mu_y": summarize(self.mu_y),
+            "n_draws": self.n_draws,
+        }
+
+
+@dataclasses.dataclass(frozen=True)
+class VmaxPrediction:
+    """Predictive V_max of the ISO 3888-2 lane change from :func:`predict_vmax`.
+
+    Attributes
+    ----------
+    v_max_kmh : ndarray
+        V_max per parameter draw [km/h]; NaN where the bisection was not bracketed.
+    inputs : VmaxInputs
+        The draws it ran on and their sources.
+    vehicle : str
+        The simulated vehicle's name (or file).
+    """
+
+    v_max_kmh: np.ndarray
+    inputs: VmaxInputs
+    vehicle: str = ""
+
+    @property
+    def not_bracketed(self) -> int:
+        return int(np.sum(~np.isfinite(self.v_max_kmh)))
+
+    def summary(self) -> dict:
+        """``{"mean", "sd", "hdi_90"}`` of the bracketed draws [km/h]."""
+        return summarize(self.v_max_kmh)
+
+    def to_dict(self) -> dict:
+        """``vmax FIT --json``'s object: ``v_max_kmh`` summary, sources and the inputs."""
+        return {
+            "v_max_kmh": self.summary(),
+            "vehicle": self.vehicle,
+            "not_bracketed": self.not_bracketed,
+            **self.inputs.to_dict(),
+        }
+
+
+def _resample(key: Array, n_have: int, n: int) -> np.ndarray:
+    """Indices of n draws out of n_have: without replacement where there are enough."""
+    if n_have < 1:
+        raise ValueError("expected at least one posterior draw, got none")
+    if n <= n_have:
+        return np.asarray(jax.random.permutation(key, n_have)[:n])
+    return np.asarray(jax.random.randint(key, (n,), 0, n_have))
+
+
+def type_vmax_inputs(key: Array, c_xr, tyre_type: str, n: int, note: str = "") -> VmaxInputs:
+    """Draws of the type-level relations: C_y = k_type · C_xr on both axles, μ_y = 0.95 μ_type.
+
+    ``c_xr`` is a value or a fit's posterior draws (resampled with replacement).
+    """
+    if tyre_type not in K_TYPE:
+        raise ValueError(f"tyre_type: expected one of {tuple(K_TYPE)}, got {tyre_type!r}")
+    k_ratio, mu_y = lateral_draws(key, 1.0, tyre_type, n)
+    c = np.atleast_1d(np.asarray(c_xr, float))
+    c_draws = c[np.asarray(jax.random.randint(jax.random.fold_in(key, 7), (n,), 0, c.size))]
+    c_y = np.asarray(k_ratio) * c_draws
+    return VmaxInputs(c_y, c_y, np.asarray(mu_y), "type_prior", "type_prior", TYPE_SURFACE, note)
+
+
+def lateral_vmax_inputs(
+    key: Array,
+    lateral: LateralFit,
+    n: int,
+    *,
+    mu_max: np.ndarray | None = None,
+    surface: str | None = None,
+) -> VmaxInputs:
+    """Draws of the measured per-axle c_y and of μ_y from a lateral posterior.
+
+    c_y front, rear and μ_y are taken at the same posterior draws, which keeps their
+    correlation (a steady drive measures the gradient well and the split poorly). μ_y is the
+    lateral fit's where ``lateral.mu_y_observed``; else ``mu_max`` (draws of a longitudinal fit
+    that observed its peak on this surface), else the lateral posterior's own, which is the
+    surface's prior bounded below by the forces the drive used. ``surface`` defaults to the
+    lateral fit's.
+    """
+    if surface is None:
+        surface = str(json.loads(lateral.fit.provenance.settings).get("surface", "unknown"))
+    c_f, c_r = lateral.draws("c_y_front"), lateral.draws("c_y_rear")
+    mu = lateral.draws("mu_y")
+    k_draw, k_mu = jax.random.split(key)
+    idx = _resample(k_draw, c_f.shape[0], n)
+    c_f, c_r, mu = c_f[idx], c_r[idx], mu[idx]
+    if lateral.mu_y_observed:
+        mu_source, note = "measured", ""
+    elif mu_max is not None:
+        mu_max = np.asarray(mu_max, float).ravel()
+        mu = mu_max[_resample(k_mu, mu_max.size, n)]
+        mu_source = "mu_max"
+        note = "mu_y not observed (the drive did not near the lateral peak): mu_max used"
+    else:
+        mu_source = "surface_prior"
+        note = (
+            "mu_y not observed and no observed mu_max: the lateral posterior's mu_y, the "
+            f"{surface} prior bounded below by the forces the drive used"
+        )
+    return VmaxInputs(c_f, c_r, mu, "measured", mu_source, surface, note)
+
+
+def fit_vmax_inputs(fit: TyreFit, key: Array, n: int, tyre_type: str = "all_season") -> VmaxInputs:
+    """The V_max inputs a per-tyre fit supports: its lateral posterior where it has a converged
+    one (:func:`lateral_vmax_inputs`, with the fit's μ_max where it observed the peak and μ_y
+    was not), else the type relations at its C_xr draws (:func:`type_vmax_inputs`), saying why.
+    """
+    lateral = fit.lateral
+    surface = str(fit.surfaces[0])
+    if lateral is not None and lateral.converged:
+        mu_max = fit.draws("mu_max")[:, 0] if fit.mu_observed.get(surface, False) else None
+        return lateral_vmax_inputs(key, lateral, n, mu_max=mu_max, surface=surface)
+    if lateral is not None:
+        why = "the lateral fit did not converge: " + "; ".join(lateral.fit.diagnostics.reasons)
+    else:
+        why = fit.lateral_reason or "the fit carries no lateral posterior"
+    return type_vmax_inputs(key, fit.draws("c_xr"), tyre_type, n, note=why)
+
+
+def predict_vmax(
+    vehicle: Vehicle,
+    inputs: VmaxInputs,
+    *,
+    course: Course | None = None,
+    driver: Driver = DEFAULT_DRIVER,
+    tol_mps: float = 0.1,
+    vehicle_name: str = "",
+) -> VmaxPrediction:
+    """Predictive V_max [km/h] of the ISO 3888-2 lane change over ``inputs``' draws.
+
+    Examples
+    --------
+    >>> import jax
+    >>> from tyrebayes._domain import load_vehicle
+    >>> inputs = type_vmax_inputs(jax.random.PRNGKey(0), 40.0, "all_season", 4)
+    >>> pred = predict_vmax(load_vehicle("compact_fwd"), inputs)  # doctest: +SKIP
+    >>> pred.to_dict()["lateral_source"]  # doctest: +SKIP
+    'type_prior'
+    """
+    v = vmax_draws(
+        vehicle,
+        jnp.asarray(inputs.c_y_front),
+        jnp.asarray(inputs.mu_y),
+        course,
+        driver,
+        tol_mps,
+        c_y_rear=jnp.asarray(inputs.c_y_rear),
+    )
+    return VmaxPrediction(np.asarray(v), inputs, vehicle_name)
 
 
 def censored_loglik(

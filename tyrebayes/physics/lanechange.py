@@ -114,11 +114,82 @@ DEFAULT_DRIVER = Driver()
 
 class Tyres(eqx.Module):
     """Lateral tyre parameters: normalised cornering stiffness C_y [1/rad], peak friction μ_y,
-    and friction load sensitivity (μ_i = μ_y (1 − k (F_z,i/F_z,static − 1)))."""
+    and friction load sensitivity (μ_i = μ_y (1 − k (F_z,i/F_z,static − 1))).
+
+    One C_y on both axles (the type-level relation C_y = k_type · C_xr); :class:`AxleTyres`
+    carries a measured stiffness per axle.
+    """
 
     c_y: Float[ArrayLike, ""]
     mu_y: Float[ArrayLike, ""]
     load_sensitivity: float = 0.1
+
+    @property
+    def c_y_front(self) -> Float[ArrayLike, ""]:
+        return self.c_y
+
+    @property
+    def c_y_rear(self) -> Float[ArrayLike, ""]:
+        return self.c_y
+
+
+class AxleTyres(eqx.Module):
+    """Lateral tyre parameters per axle, as the lateral fit measures them.
+
+    ``c_y_front`` and ``c_y_rear`` [1/rad] are each axle's cornering stiffness over its static
+    axle load (thesis eq. 5.5 over F_z), so the axle's stiffness in N/rad is C_f = c_y_front ·
+    m g l_r / L and C_r = c_y_rear · m g l_f / L (:meth:`cornering_stiffness_n_per_rad`). The
+    simulation's axle force is the sum of its two wheels' F_z,i ρ_y(α; c_y, μ_i); load transfer
+    moves load between them but keeps their sum, so the axle's slope at α = 0 is exactly that C.
+    μ_y [-] is the peak at the static load, with the load sensitivity of :class:`Tyres`.
+
+    Examples
+    --------
+    >>> from tyrebayes._domain import load_vehicle
+    >>> veh = load_vehicle("compact_fwd")
+    >>> c_f, c_r = AxleTyres(14.0, 17.0, 1.0).cornering_stiffness_n_per_rad(veh)
+    >>> bool(c_f > 0 and c_r > 0)
+    True
+    """
+
+    c_y_front: Float[ArrayLike, ""]
+    c_y_rear: Float[ArrayLike, ""]
+    mu_y: Float[ArrayLike, ""]
+    load_sensitivity: float = 0.1
+
+    def cornering_stiffness_n_per_rad(
+        self, vehicle: Vehicle
+    ) -> tuple[Float[Array, ""], Float[Array, ""]]:
+        """(C_f, C_r) [N/rad]: each axle's c_y times its static load m g l_r/L, m g l_f/L."""
+        fz_f, fz_r = static_axle_loads(vehicle)
+        return jnp.asarray(self.c_y_front) * fz_f, jnp.asarray(self.c_y_rear) * fz_r
+
+    @classmethod
+    def from_cornering_stiffness(
+        cls,
+        vehicle: Vehicle,
+        c_front_n_per_rad: Float[ArrayLike, ""],
+        c_rear_n_per_rad: Float[ArrayLike, ""],
+        mu_y: Float[ArrayLike, ""],
+        load_sensitivity: float = 0.1,
+    ) -> AxleTyres:
+        """From axle stiffnesses in N/rad (the inverse of :meth:`cornering_stiffness_n_per_rad`)."""
+        fz_f, fz_r = static_axle_loads(vehicle)
+        return cls(
+            jnp.asarray(c_front_n_per_rad) / fz_f,
+            jnp.asarray(c_rear_n_per_rad) / fz_r,
+            mu_y,
+            load_sensitivity,
+        )
+
+
+def static_axle_loads(vehicle: Vehicle) -> tuple[float, float]:
+    """Static axle loads (F_z,f, F_z,r) = (m g l_r/L, m g l_f/L) [N]."""
+    m, wb = vehicle.mass_kg, vehicle.wheelbase_m
+    return (
+        m * GRAVITY_MPS2 * vehicle.cog_to_rear_axle_m / wb,
+        m * GRAVITY_MPS2 * vehicle.cog_to_front_axle_m / wb,
+    )
 
 
 def _centre_path(course: Course, x: Array, lead_m: float = 0.0) -> Array:
@@ -161,7 +232,7 @@ def _footprint_margin(course: Course, vehicle: Vehicle, px: Array, py: Array, ps
 
 def simulate(
     vehicle: Vehicle,
-    tyres: Tyres,
+    tyres: Tyres | AxleTyres,
     speed_mps: Float[ArrayLike, ""],
     course: Course,
     driver: Driver = DEFAULT_DRIVER,
@@ -182,15 +253,19 @@ def simulate(
     dt = 1.15 * (length + 5.0) / (n_steps * v0)
     m, lf, lr = vehicle.mass_kg, vehicle.cog_to_front_axle_m, vehicle.cog_to_rear_axle_m
     wb, h, tw = vehicle.wheelbase_m, vehicle.cog_height_m, vehicle.track_width_m
-    fz_f = m * GRAVITY_MPS2 * lr / wb
-    fz_r = m * GRAVITY_MPS2 * lf / wb
-    c_y, mu = jnp.asarray(tyres.c_y), jnp.asarray(tyres.mu_y)
+    fz_f, fz_r = static_axle_loads(vehicle)
+    c_f, c_r, mu = (
+        jnp.asarray(tyres.c_y_front),
+        jnp.asarray(tyres.c_y_rear),
+        jnp.asarray(tyres.mu_y),
+    )
     k = tyres.load_sensitivity
     lead = lf + 0.85
     y_start = _centre_path(course, jnp.asarray(0.0), lead)
 
-    def axle_force(alpha: Array, fz_axle: float, share: float, ay: Array) -> Array:
-        # lateral load transfer m a_y h / t, shared by the axles like the static load
+    def axle_force(alpha: Array, c_y: Array, fz_axle: float, share: float, ay: Array) -> Array:
+        # lateral load transfer m a_y h / t, shared by the axles like the static load; c_y is
+        # per unit load, so the axle's slope at α = 0 is c_y · fz_axle whatever the transfer
         d = m * ay * h / tw * share
         fz_in, fz_out = jnp.maximum(fz_axle / 2 - d, 0.0), fz_axle / 2 + d
         mu_in = mu * (1.0 - k * (fz_in / (fz_axle / 2) - 1.0))
@@ -213,8 +288,8 @@ def simulate(
         # tyres
         alpha_f = steer - (vy + lf * r) / vx
         alpha_r = -(vy - lr * r) / vx
-        fy_f = axle_force(alpha_f, fz_f, lr / wb, ay)
-        fy_r = axle_force(alpha_r, fz_r, lf / wb, ay)
+        fy_f = axle_force(alpha_f, c_f, fz_f, lr / wb, ay)
+        fy_r = axle_force(alpha_r, c_r, fz_r, lf / wb, ay)
         resist = aero_drag(vehicle, vx) + rolling_resistance_force(vehicle)
         fx_f, fx_r = -resist * lr / wb, -resist * lf / wb
         c, s = jnp.cos(steer), jnp.sin(steer)
@@ -240,7 +315,7 @@ def simulate(
 
 def run_margin(
     vehicle: Vehicle,
-    tyres: Tyres,
+    tyres: Tyres | AxleTyres,
     speed_mps: Float[ArrayLike, ""],
     course: Course,
     driver: Driver = DEFAULT_DRIVER,
@@ -260,7 +335,7 @@ class CriticalSpeed(eqx.Module):
 
 def critical_speed(
     vehicle: Vehicle,
-    tyres: Tyres,
+    tyres: Tyres | AxleTyres,
     course: Course | None = None,
     driver: Driver = DEFAULT_DRIVER,
     v_lo_mps: float = 8.0,

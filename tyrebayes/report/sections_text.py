@@ -23,10 +23,13 @@ SECTION_TEXT = {
     ),
     "vmax": (
         "Predictive distribution of the critical ISO 3888-2 double-lane-change speed from "
-        "closed-loop simulation (single-track model, lateral brush tyres, preview driver), with "
-        "cornering stiffness and lateral friction drawn from the type-level relations. Hatched "
-        "boxes: the thesis' Table 6.2 measurements (the driver passed at the lower edge and "
-        "failed 10 km/h higher)."
+        "closed-loop simulation (single-track model, lateral brush tyres, preview driver). "
+        "Where a tyre fit carries a lateral posterior, the simulation runs on its measured "
+        "cornering stiffness per axle and μ_y (μ_max, or the surface's prior, where the drive "
+        "did not near the lateral peak); otherwise cornering stiffness and lateral friction are "
+        "drawn from the type-level relations (C_y = k_type · C_xr, μ_y = 0.95 μ_type). The "
+        "table says which each set used. Hatched boxes: the thesis' Table 6.2 measurements (the "
+        "driver passed at the lower edge and failed 10 km/h higher)."
     ),
     "wear": (
         "Wear rate of the same tyre and driving at each ambient temperature relative to the "

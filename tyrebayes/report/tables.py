@@ -79,8 +79,25 @@ def fleet_table(report: Report) -> Table:
     return header, rows
 
 
+#: How the V_max table names the sources of a set's lateral parameters.
+_CORNERING_FROM = {"measured": "measured c_y front/rear", "type_prior": "k_type · C_xr"}
+_MU_Y_FROM = {
+    "measured": "measured μ_y",
+    "mu_max": "μ_max (μ_y not observed)",
+    "surface_prior": "surface prior (μ_y not observed)",
+    "type_prior": "0.95 μ_type",
+}
+
+
 def vmax_table(report: Report) -> Table:
-    header = ["tyre set", "type", "C_xr", "predicted V_max [km/h]", "measured [km/h]"]
+    header = [
+        "tyre set",
+        "type",
+        "C_xr",
+        "lateral parameters",
+        "predicted V_max [km/h]",
+        "measured [km/h]",
+    ]
     rows = []
     for r in report.vmax.rows:
         meas = (
@@ -88,7 +105,18 @@ def vmax_table(report: Report) -> Table:
             if math.isfinite(r["measured_lo"])
             else "–"
         )
-        rows.append([r["tyre"], r["tyre_type"], fmt(r["c_xr"]), post(r["summary"]), meas])
+        cornering = _CORNERING_FROM[r.get("lateral_source", "type_prior")]
+        mu_y = _MU_Y_FROM[r.get("mu_y_source", "type_prior")]
+        rows.append(
+            [
+                r["tyre"],
+                r["tyre_type"] or "–",
+                fmt(r["c_xr"]),
+                f"{cornering}; {mu_y}",
+                post(r["summary"]),
+                meas,
+            ]
+        )
     return header, rows
 
 
