@@ -87,6 +87,12 @@ from .inference.online import window_blocks as window_blocks
 # 3. predict
 from .inference.fleet import predict_friction as predict_friction
 from .inference.summary import summarize as summarize
+from .inference.vmax import VmaxInputs as VmaxInputs
+from .inference.vmax import VmaxPrediction as VmaxPrediction
+from .inference.vmax import fit_vmax_inputs as fit_vmax_inputs
+from .inference.vmax import lateral_vmax_inputs as lateral_vmax_inputs
+from .inference.vmax import predict_vmax as predict_vmax
+from .inference.vmax import type_vmax_inputs as type_vmax_inputs
 from .inference.vmax import vmax_draws as vmax_draws
 from .inference.wear import predict_wear_volume as predict_wear_volume
 from .inference.wear.history_predict import wear_history_predictions as wear_history_predictions
@@ -186,6 +192,12 @@ __all__ = [
     "window_blocks",
     "predict_friction",
     "summarize",
+    "fit_vmax_inputs",
+    "lateral_vmax_inputs",
+    "type_vmax_inputs",
+    "VmaxInputs",
+    "predict_vmax",
+    "VmaxPrediction",
     "vmax_draws",
     "predict_wear_volume",
     "wear_history_predictions",

@@ -246,7 +246,30 @@ def _resample(key: Array, n_have: int, n: int) -> np.ndarray:
 def type_vmax_inputs(key: Array, c_xr, tyre_type: str, n: int, note: str = "") -> VmaxInputs:
     """Draws of the type-level relations: C_y = k_type · C_xr on both axles, μ_y = 0.95 μ_type.
 
-    ``c_xr`` is a value or a fit's posterior draws (resampled with replacement).
+    Parameters
+    ----------
+    key : jax.Array
+        PRNG key.
+    c_xr : float or array_like
+        The tyre's C_xr [-]: a value, or a fit's posterior draws (resampled with replacement).
+    tyre_type : str
+        One of ``winter``, ``all_season``, ``summer``.
+    n : int
+        Number of draws.
+    note : str
+        Why the type relations are used (carried into the result).
+
+    Returns
+    -------
+    VmaxInputs
+        ``lateral_source`` and ``mu_y_source`` ``"type_prior"``, surface :data:`TYPE_SURFACE`.
+
+    Examples
+    --------
+    >>> import jax
+    >>> x = type_vmax_inputs(jax.random.PRNGKey(0), 35.0, "all_season", 8)
+    >>> x.lateral_source, x.mu_y_source, x.n_draws
+    ('type_prior', 'type_prior', 8)
     """
     if tyre_type not in K_TYPE:
         raise ValueError(f"tyre_type: expected one of {tuple(K_TYPE)}, got {tyre_type!r}")
@@ -268,11 +291,29 @@ def lateral_vmax_inputs(
     """Draws of the measured per-axle c_y and of μ_y from a lateral posterior.
 
     c_y front, rear and μ_y are taken at the same posterior draws, which keeps their
-    correlation (a steady drive measures the gradient well and the split poorly). μ_y is the
-    lateral fit's where ``lateral.mu_y_observed``; else ``mu_max`` (draws of a longitudinal fit
-    that observed its peak on this surface), else the lateral posterior's own, which is the
-    surface's prior bounded below by the forces the drive used. ``surface`` defaults to the
-    lateral fit's.
+    correlation (a steady drive measures the gradient well and the split poorly).
+
+    Parameters
+    ----------
+    key : jax.Array
+        PRNG key.
+    lateral : LateralFit
+        The lateral fit (:func:`~tyrebayes.inference.lateral.fit_lateral`).
+    n : int
+        Number of draws (without replacement where the posterior has as many).
+    mu_max : array_like, optional
+        Draws of μ_max from a longitudinal fit that observed its peak on this surface: used
+        where the lateral fit did not observe μ_y (``mu_y_source`` ``"mu_max"``). Without it,
+        an unobserved μ_y is the lateral posterior's own, the surface's prior bounded below by
+        the forces the drive used (``"surface_prior"``).
+    surface : str, optional
+        The surface μ_y belongs to (default: the lateral fit's).
+
+    Returns
+    -------
+    VmaxInputs
+        ``lateral_source`` ``"measured"``; ``mu_y_source`` ``"measured"`` where
+        ``lateral.mu_y_observed``, else as above, with a note saying so.
     """
     if surface is None:
         surface = str(json.loads(lateral.fit.provenance.settings).get("surface", "unknown"))
@@ -298,9 +339,27 @@ def lateral_vmax_inputs(
 
 
 def fit_vmax_inputs(fit: TyreFit, key: Array, n: int, tyre_type: str = "all_season") -> VmaxInputs:
-    """The V_max inputs a per-tyre fit supports: its lateral posterior where it has a converged
-    one (:func:`lateral_vmax_inputs`, with the fit's μ_max where it observed the peak and μ_y
-    was not), else the type relations at its C_xr draws (:func:`type_vmax_inputs`), saying why.
+    """The V_max inputs of a per-tyre fit: its lateral posterior if it has one, else the types'.
+
+    A converged lateral posterior gives :func:`lateral_vmax_inputs` (with the fit's μ_max on
+    its first surface where it observed that peak and the lateral fit did not observe μ_y);
+    otherwise the type relations at the fit's C_xr draws (:func:`type_vmax_inputs`), with the
+    reason in ``note`` (the fit's ``lateral_reason``, or the lateral fit's convergence failure).
+
+    Parameters
+    ----------
+    fit : TyreFit
+        A per-tyre fit (``fit-tyre --out``, read with ``TyreFit.from_fit(load_fit(path))``).
+    key : jax.Array
+        PRNG key.
+    n : int
+        Number of draws.
+    tyre_type : str
+        The tyre type of the type relations (used only without a lateral posterior).
+
+    Returns
+    -------
+    VmaxInputs
     """
     lateral = fit.lateral
     surface = str(fit.surfaces[0])
@@ -324,6 +383,26 @@ def predict_vmax(
     vehicle_name: str = "",
 ) -> VmaxPrediction:
     """Predictive V_max [km/h] of the ISO 3888-2 lane change over ``inputs``' draws.
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The simulated car (its static axle loads turn each axle's c_y into N/rad).
+    inputs : VmaxInputs
+        From :func:`fit_vmax_inputs`, :func:`lateral_vmax_inputs` or :func:`type_vmax_inputs`.
+    course : Course, optional
+        Default: :func:`~tyrebayes.physics.lanechange.iso3888_2_course` for the car's width.
+    driver : Driver
+        The preview driver.
+    tol_mps : float
+        Bisection tolerance [m/s].
+    vehicle_name : str
+        The car's name, carried into the result.
+
+    Returns
+    -------
+    VmaxPrediction
+        V_max per draw (NaN where the 29-162 km/h search did not bracket it) and the sources.
 
     Examples
     --------
