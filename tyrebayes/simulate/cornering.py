@@ -115,7 +115,7 @@ def simulate_cornering(
     >>> from tyrebayes._domain import load_vehicle
     >>> frame, truth = simulate_cornering(load_vehicle("compact_fwd"), duration_s=20.0)
     >>> sorted(frame.columns)[:3], round(truth.understeer_gradient, 5)
-    (['ax', 'ay', 'steering_wheel_angle'], 0.00162)
+    (['ax', 'ay', 'lateral_velocity'], 0.00162)
     """
     rng = np.random.default_rng(seed)
     dt = 1.0 / rate_hz
