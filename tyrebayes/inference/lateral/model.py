@@ -35,7 +35,7 @@ import numpyro
 import numpyro.distributions as dist
 
 from ...physics.tyre import magic_formula_inverse_and_slope
-from ..tyre.model import _MU_LOG_SD, _MU_MEDIAN
+from ..surface_friction import MU_LOG_SD, MU_MEDIAN
 from .data import CorneringObservations, G
 
 #: The nuisance effects the model carries: the a_y sensor's roll gain and offset, the steering
@@ -135,9 +135,9 @@ class LateralPriors(eqx.Module):
 
     def mu_y_prior(self, surface: str) -> tuple[float, float]:
         """Median and log-sd of μ_y on ``surface`` (the longitudinal μ_max prior's)."""
-        if surface not in _MU_MEDIAN:
-            raise ValueError(f"surface: expected one of {tuple(_MU_MEDIAN)}, got {surface!r}")
-        return _MU_MEDIAN[surface], _MU_LOG_SD[surface]
+        if surface not in MU_MEDIAN:
+            raise ValueError(f"surface: expected one of {tuple(MU_MEDIAN)}, got {surface!r}")
+        return MU_MEDIAN[surface], MU_LOG_SD[surface]
 
 
 def derivative(x: jnp.ndarray, dt: float) -> jnp.ndarray:

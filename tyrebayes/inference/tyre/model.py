@@ -96,17 +96,12 @@ from ...physics.tyre import (
     magic_formula_inverse_and_slope,
     shaped_longitudinal_inverse_and_slope,
 )
+from ..surface_friction import MU_LOG_SD, MU_MEDIAN
 from .data import TyreObservations
 
-# Prior medians of μ_max per surface: dry asphalt ~1.0, wet ~0.75, packed snow ~0.35, ice ~0.12
-# (ranges of the measured braking data in tyrebayes/data/braking_by_tyre_type.csv, which give
-# lower bounds 0.8-1.1 dry, 0.6-0.8 wet, 0.3-0.45 snow, 0.1-0.15 ice from mean deceleration).
-_MU_MEDIAN = {"dry": 1.0, "wet": 0.75, "snow": 0.35, "ice": 0.12}
-# Log-scale prior sd of μ_max per surface: the same data give dry 0.9-1.1 for every tyre type
-# (±15 %), wet 0.7-1.0, snow 0.18-0.45 and ice 0.08-0.15 (type matters most on winter surfaces).
-# A wide dry prior lets a drive without ABS read slip-signal distortions at high force as a low
-# peak (μ ~0.3 on dry asphalt, seen in simulation) and bias C_x through the curve's shape.
-_MU_LOG_SD = {"dry": 0.15, "wet": 0.2, "snow": 0.35, "ice": 0.4}
+# The friction peak's prior per surface (the module says where its numbers come from).
+_MU_MEDIAN = MU_MEDIAN
+_MU_LOG_SD = MU_LOG_SD
 
 
 #: Mean and sd of q = d ln C_x / d(ΔF_z/F_z) over the measured car/SUV tyres, rounded
