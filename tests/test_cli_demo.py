@@ -47,6 +47,7 @@ def test_demo_writes_report_and_figures(demo_dir: Path) -> None:
         "vmax",
         "wear_vs_temperature",
         "warnings",
+        "lateral_curves",
     } <= names
     for p in figures:
         w, h = _png_size(p)
@@ -63,6 +64,7 @@ def test_demo_writes_report_and_figures(demo_dir: Path) -> None:
     # the sections are there and carry numbers
     for heading in (
         "Per-tyre posteriors",
+        "Cornering",
         "Friction against 1/C_xr",
         "V_max",
         "wear",
@@ -85,6 +87,8 @@ def test_demo_numbers_are_computed(demo_dir: Path) -> None:
     assert all(0.0 <= w["probability"] <= 1.0 for w in summary["warnings"])
     assert {"winter", "summer"} <= set(summary["wear"]["kappa"])
     assert summary["criticism"] and summary["diagnostics"]
+    (lateral,) = summary["laterals"]
+    assert lateral["summary"]["converged"] and lateral["summary"]["c_y_front"]["mean"] > 0
     # the fits are saved for ``tyrebayes report``
     assert sorted((demo_dir / "fits").glob("*.nc"))
 

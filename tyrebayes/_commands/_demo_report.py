@@ -18,6 +18,7 @@ from .._domain import TYRE_TYPES, load_vehicle
 from .._resources import data_dir
 from ..criticism import criticize_stream, criticize_table
 from ..inference.fleet import fit_fleet
+from ..inference.lateral import cornering_observations, fit_lateral
 from ..inference.result import Fit
 from ..inference.tyre.data import bucket_size, observations_from_features, stack_drives
 from ..inference.tyre.fit import fit_tyre
@@ -27,10 +28,12 @@ from ..report.sections import (
     criticism_entry,
     diagnostics_row,
     fleet_section,
+    lateral_section,
     tyre_section,
     vmax_section,
     warning_rows,
 )
+from ..simulate.cornering import simulate_cornering
 from ..simulate.drive_io import write_drive
 from ..simulate.fleet import (
     AGE_REF_YEARS,
@@ -113,6 +116,7 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
     tyres = _demo_tyres(sizes)
     names = [f"{s} {n}" for s in ("simulate + stream", "fit") for n, _, _ in tyres] + [
         "real RAV4 segment",
+        "cornering",
         "fleet model",
         "warnings",
         "V_max",
@@ -198,6 +202,19 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
                 "speeds; "
                 "no ABS, so μ_max stays at its prior"
             ),
+        )
+    )
+    steps.done()
+
+    steps.start("cornering")
+    frame, corner_truth = simulate_cornering(vehicle, duration_s=240.0, seed=seed + 5)
+    lateral = fit_lateral(cornering_observations(frame, vehicle), seed=seed)
+    fits["lateral_cornering"] = lateral.fit
+    report.laterals.append(
+        lateral_section(
+            lateral,
+            f"simulated cornering ({SIM_VEHICLE}, true c_y {corner_truth.c_y_front:g} / "
+            f"{corner_truth.c_y_rear:g})",
         )
     )
     steps.done()
