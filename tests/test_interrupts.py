@@ -99,3 +99,23 @@ def test_three_signals_end_the_process_at_once():
             proc.kill()
     assert proc.returncode == 130
     assert err.decode() == "tyrebayes: interrupted again, stopping without clean-up\n"
+
+
+def test_a_signal_while_python_exits_after_a_success_keeps_its_status():
+    # The command finished (its outputs written); Python's exit then took seconds (JAX, dask),
+    # and a signal in it printed a KeyboardInterrupt traceback or died of SIGTERM (rc -15).
+    code = (
+        "import sys, time\n"
+        "from tyrebayes import _interrupts\n"
+        "with _interrupts.signals_as_interruptions(until_exit=True):\n"
+        "    _interrupts.set_exit_status(3)\n"
+        "print('done', flush=True)\n"
+        "time.sleep(60)  # a slow exit\n"
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
+    assert proc.stdout.readline() == b"done\n"
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 3 and err == b""

@@ -163,12 +163,33 @@ _active = False
 _previous_hook = sys.unraisablehook
 
 
+_exit_status = 1  # what a signal after the block ends the process with (until_exit)
+
+
+def set_exit_status(status: int) -> None:
+    """The status the command ended with, for a signal that comes while Python exits."""
+    global _exit_status
+    _exit_status = int(status)
+
+
+def _late_handler(signum: int, frame) -> None:
+    # The command is done and its outputs are written; Python is exiting (JAX's and dask's
+    # teardown can take seconds). Stop now, with the command's own status: a default handler
+    # here printed a KeyboardInterrupt traceback or died of SIGTERM after a success.
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    os._exit(_exit_status)
+
+
 @contextlib.contextmanager
-def signals_as_interruptions() -> Iterator[None]:
+def signals_as_interruptions(*, until_exit: bool = False) -> Iterator[None]:
     """Within the block, SIGINT and SIGTERM raise :class:`Interrupted` (main thread only).
 
     The previous handlers and the pending state are restored after it, so that a test or a
-    program that calls :func:`tyrebayes.cli.main` twice starts each call afresh.
+    program that calls :func:`tyrebayes.cli.main` twice starts each call afresh. With
+    ``until_exit`` (the process is the command's) a signal after the block ends the process at
+    once with the status given to :func:`set_exit_status`.
     """
     global _pending, _signals, _armed, _redelivering, _redeliveries, _active, _previous_hook
     if threading.current_thread() is not threading.main_thread():
@@ -188,7 +209,8 @@ def signals_as_interruptions() -> Iterator[None]:
             _timer.cancel()
         for s, handler in previous.items():
             # None: the previous handler was not set from Python; restore the default then.
-            signal.signal(s, signal.SIG_DFL if handler is None else handler)
+            restored = signal.SIG_DFL if handler is None else handler
+            signal.signal(s, _late_handler if until_exit else restored)
         sys.unraisablehook = _previous_hook
         _pending, _signals, _armed = None, 0, False
         _on_first.clear()

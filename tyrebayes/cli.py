@@ -83,50 +83,58 @@ def main(argv: list[str] | None = None) -> int:
     full disk or a vanished folder) is one line on stderr and exit 2. A signal is one line too
     (``tyrebayes CMD: interrupted (SIGINT)``), after the clean-up it triggers: temporary files
     removed, a previous output left as it was (:mod:`tyrebayes._interrupts`). A closed stdout
-    (``--json | head``) ends the command quietly.
+    (``--json | head``) ends the command quietly. When it owns the process (it read
+    ``sys.argv``: the ``tyrebayes`` script), a signal after the command finished, while Python
+    exits, ends the process at once with the command's own status.
     """
+    with _interrupts.signals_as_interruptions(until_exit=argv is None):
+        code = _run(argv)
+        _interrupts.set_exit_status(code)
+        return code
+
+
+def _run(argv: list[str] | None) -> int:
+    """:func:`main` inside its signal handling."""
     command = "tyrebayes"
-    with _interrupts.signals_as_interruptions():
-        _interrupts.on_interrupt(_quiet_closing_logs)
+    _interrupts.on_interrupt(_quiet_closing_logs)
+    try:
+        args = build_parser().parse_args(argv)
+        command = f"tyrebayes {args.command}"
         try:
-            args = build_parser().parse_args(argv)
-            command = f"tyrebayes {args.command}"
-            try:
-                code = int(args.func(args))
-                _interrupts.check()  # one that code on the way swallowed: not a success
-                sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
-                return code
-            except BadInputError as err:
-                if _interrupts.pending() is not None:
-                    raise
-                print(f"{command}: {err}", file=sys.stderr)
-                return 2
-            except BrokenPipeError:
+            code = int(args.func(args))
+            _interrupts.check()  # one that code on the way swallowed: not a success
+            sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+            return code
+        except BadInputError as err:
+            if _interrupts.pending() is not None:
                 raise
-            except OSError as err:
-                if err.filename is None or _interrupts.pending() is not None:
-                    raise  # not about a file the user named: a bug, keep its traceback
-                print(
-                    f"{command}: expected a usable file, got '{err.filename}' "
-                    f"({err.strerror or err})",
-                    file=sys.stderr,
-                )
-                return 2
+            print(f"{command}: {err}", file=sys.stderr)
+            return 2
         except BrokenPipeError:
-            # The reader went away (``| head``): the output it wanted was written. Point stdout
-            # at /dev/null so that the interpreter's final flush does not raise again.
-            _silence_stdout()
-            return 1
-        except BaseException as err:
-            signum = _interruption(err)
-            if signum is None:
-                raise
-            print(f"{command}: interrupted ({signal.Signals(signum).name})", file=sys.stderr)
-            if argv is None:
-                _exit_now(128 + signum)
-            with contextlib.suppress(Exception):
-                sys.stdout.flush()
-            return 128 + signum
+            raise
+        except OSError as err:
+            if err.filename is None or _interrupts.pending() is not None:
+                raise  # not about a file the user named: a bug, keep its traceback
+            print(
+                f"{command}: expected a usable file, got '{err.filename}' ({err.strerror or err})",
+                file=sys.stderr,
+            )
+            return 2
+    except BrokenPipeError:
+        # The reader went away (``| head``): the output it wanted was written. Point stdout
+        # at /dev/null so that the interpreter's final flush does not raise again.
+        _silence_stdout()
+        return 1
+    except BaseException as err:
+        signum = _interruption(err)
+        if signum is None:
+            raise
+        print(f"{command}: interrupted ({signal.Signals(signum).name})", file=sys.stderr)
+        if argv is None:
+            _exit_now(128 + signum)
+        with contextlib.suppress(Exception):
+            sys.stdout.flush()
+        return 128 + signum
 
 
 def _exit_now(status: int) -> NoReturn:
