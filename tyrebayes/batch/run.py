@@ -109,6 +109,12 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, memory
     workers import the package before their first task (:class:`.worker_plugin.ImportTasks`).
     The local workers ignore SIGINT (:class:`.worker_plugin.IgnoreCtrlC`): Ctrl-C stops the
     client, which closes them.
+
+    Raises
+    ------
+    BadInputError
+        No scheduler answers at ``scheduler`` (within dask's connect timeout,
+        ``distributed.comm.timeouts.connect``), or its workers cannot import the package.
     """
     import dask
     from distributed import Client, LocalCluster
@@ -116,8 +122,15 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, memory
     from .worker_plugin import IgnoreCtrlC, ImportTasks
 
     if scheduler:
-        with Client(scheduler) as client:
-            client.register_plugin(ImportTasks())
+        try:
+            client = Client(scheduler)
+        except (OSError, ValueError) as err:  # unreachable (a timeout is an OSError), malformed
+            raise BadInputError(
+                f"scheduler: expected a reachable dask scheduler, got {scheduler!r} "
+                f"({_first_line(err)})"
+            ) from None
+        with client:
+            _register_import_tasks(client, scheduler)
             yield client
         return
     n = workers or os.cpu_count() or 1
@@ -141,6 +154,26 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, memory
             if _interrupts.pending() is not None:
                 _quiet_workers(client)
             raise
+
+
+def _first_line(err: BaseException) -> str:
+    text = str(err).strip()
+    return text.splitlines()[0] if text else type(err).__name__
+
+
+def _register_import_tasks(client, scheduler: str) -> None:
+    """:class:`.worker_plugin.ImportTasks` on a cluster at an address, whose workers were
+    started elsewhere: one that cannot import the package (another environment) fails here, in
+    one line, not in every task."""
+    from .worker_plugin import ImportTasks
+
+    try:
+        client.register_plugin(ImportTasks())
+    except Exception as err:  # noqa: BLE001 -- the worker's own error, whatever it is
+        raise BadInputError(
+            f"scheduler {scheduler}: expected workers that import tyrebayes (the same "
+            f"environment as this client), got {type(err).__name__}: {_first_line(err)}"
+        ) from None
 
 
 def _quiet_workers(client) -> None:
