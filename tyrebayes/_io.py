@@ -223,3 +223,53 @@ def atomic_output(path: str | os.PathLike) -> Iterator[Path]:
                 os.replace(tmp, final)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+# A scheme of two letters or more: "C://x" stays a Windows path.
+_URL = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]+://")
+
+
+def is_url(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is an fsspec URL (``file:///abs/x.parquet``, ``s3://bucket/x.parquet``,
+    ``memory://x``) rather than a local path.
+
+    Examples
+    --------
+    >>> is_url("s3://bucket/drive.parquet"), is_url("logs/drive.parquet"), is_url("C://x")
+    (True, False, False)
+    """
+    return isinstance(path, str) and _URL.match(path) is not None
+
+
+def url_name(url: str) -> str:
+    """The file name at the end of a URL's path (no query, no fragment).
+
+    Examples
+    --------
+    >>> url_name("s3://bucket/logs/drive.parquet?versionId=3")
+    'drive.parquet'
+    """
+    from urllib.parse import urlsplit
+
+    return urlsplit(url).path.rstrip("/").rsplit("/", 1)[-1]
+
+
+def url_identity(url: str) -> str:
+    """What names the version of the file at ``url`` without reading it: fsspec's ``ukey`` (a
+    hash of the store's listing: S3's and GCS's ETag, a local file's size and mtime).
+
+    Raises
+    ------
+    FileNotFoundError
+        No file there.
+    ValueError
+        A protocol fsspec does not know.
+    ImportError
+        A protocol whose fsspec implementation (``s3fs``, ``gcsfs``, ...) is not installed.
+    """
+    from fsspec.core import url_to_fs
+
+    fs, path = url_to_fs(url)
+    if not fs.isfile(path):
+        raise FileNotFoundError(2, "No such file", url)
+    return f"{fs.protocol if isinstance(fs.protocol, str) else fs.protocol[0]}:{fs.ukey(path)}"

@@ -17,6 +17,7 @@ from pathlib import Path
 import pandas as pd
 
 from .._errors import BadInputError
+from .._io import is_url, url_identity
 from .drive_summary import drive_summary
 from .manifest import DriveItem
 from .records import (
@@ -41,11 +42,15 @@ def _content(path_or_name, resolve=Path) -> str:
     """A file's content hash; for a file that cannot be found or read, what was asked for.
 
     A missing log or an unknown vehicle is then part of the input too: its failure is recorded
-    once and skipped on a rerun until the file appears.
+    once and skipped on a rerun until the file appears. A log at a URL is not read for it: its
+    store's key for the file's version stands for its content (:func:`tyrebayes._io.url_identity`:
+    an object store's ETag, a local file's size and mtime), so that a remote log is fetched once.
     """
     try:
+        if is_url(path_or_name):
+            return url_identity(path_or_name)
         return file_hash(resolve(path_or_name))
-    except (OSError, ValueError, BadInputError):
+    except (OSError, ValueError, ImportError, BadInputError):
         return f"unavailable: {path_or_name}"
 
 

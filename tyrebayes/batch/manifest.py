@@ -3,7 +3,9 @@
 A manifest is a table (CSV or Parquet) with one row per drive log:
 
 * ``path`` — the log (stream CSV/Parquet/MDF4, or a raw CAN log with ``profile``); relative paths
-  are taken from the manifest's folder;
+  are taken from the manifest's folder; a stream file may be an fsspec URL
+  (``file:///abs/drive.parquet``, ``s3://bucket/drive.parquet`` with ``s3fs`` on the workers),
+  read where it is (:func:`tyrebayes.streams.read_stream`);
 * ``vehicle`` — preset name or vehicle TOML path;
 * ``tyre_set_id`` — the tyre set the drive was made on (drives of one set are fitted jointly);
 * optional ``tyre_type`` (``winter``, ``all_season``, ``summer``), ``surface`` (default ``dry``),
@@ -43,6 +45,7 @@ import pandas as pd
 
 from .._domain import SURFACES, TYRE_TYPES
 from .._errors import BadInputError
+from .._io import is_url, url_name
 
 REQUIRED = ("path", "vehicle", "tyre_set_id")
 OPTIONAL = ("tyre_type", "surface", "ambient_c", "profile")
@@ -58,7 +61,7 @@ class DriveItem:
     drive_id : str
         Stable name of the drive's outputs: the file stem and a hash of its resolved path.
     path : str
-        Absolute path of the log.
+        Absolute path of the log, or its URL.
     vehicle : str
         Preset name or vehicle TOML path (absolute).
     tyre_set_id : str
@@ -84,7 +87,8 @@ class DriveItem:
 
 
 def _drive_id(path: str) -> str:
-    stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", Path(path).name)[:60]
+    name = url_name(path) if is_url(path) else Path(path).name
+    stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", name)[:60]
     return f"{stem}-{hashlib.sha256(path.encode()).hexdigest()[:10]}"
 
 
@@ -95,13 +99,26 @@ def _text(value) -> str:
 
 
 def _resolve(value: str, base: Path, *, is_path: bool) -> str:
-    """Relative file paths against the manifest's folder; preset names stay names."""
-    if not value:
+    """Relative file paths against the manifest's folder; preset names and URLs stay as they
+    are."""
+    if not value or is_url(value):
         return value
     p = Path(value).expanduser()
     if not is_path and not p.suffix:
         return value  # a preset name
     return str(p if p.is_absolute() else (base / p).resolve())
+
+
+def _same_file_key(path: str) -> str:
+    """One key per file: a local file through links, and under a ``file://`` URL too (one log
+    under two names is still one drive); other URLs as written."""
+    if is_url(path):
+        if not path.lower().startswith("file://"):
+            return path
+        from urllib.parse import unquote, urlsplit
+
+        path = unquote(urlsplit(path).path)
+    return os.path.realpath(path)
 
 
 def _read_table(path: Path) -> pd.DataFrame:
@@ -162,8 +179,7 @@ def manifest_from_table(table: pd.DataFrame, base: str | os.PathLike = ".") -> l
         if ambient_text and not -60.0 <= ambient <= 60.0:
             raise BadInputError(f"{line}: ambient_c expected -60..60 °C, got {ambient:g}")
         path = _resolve(values["path"], base, is_path=True)
-        # The file itself, through links: one log under two names is still one drive.
-        real = os.path.realpath(path)
+        real = _same_file_key(path)
         if real in seen:
             first, first_set = seen[real]
             sets = (

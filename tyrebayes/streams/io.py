@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from .._errors import BadInputError
-from .._io import atomic_output
+from .._io import atomic_output, is_url, url_name
 from .schema import CHANNELS, OPTIONAL_COLUMNS, REQUIRED_COLUMNS
 from .time_bases import merge_time_bases
 
@@ -61,20 +61,23 @@ def _printable(text: str, limit: int = 80) -> str:
     return line if len(line) <= limit else line[: limit - 3] + "..."
 
 
-def _sniff_csv(path: Path) -> None:
+def _sniff_csv(head: bytes, name: str) -> None:
     """A file named .csv that holds a binary format: say which, instead of parsing junk."""
-    with path.open("rb") as fh:
-        head = fh.read(4096)
     for magic, what in _MAGIC.items():
         if head.startswith(magic):
-            raise BadInputError(f"stream file {path.name}: expected CSV text, got {what}")
+            raise BadInputError(f"stream file {name}: expected CSV text, got {what}")
     if b"\x00" in head:
-        raise BadInputError(f"stream file {path.name}: expected CSV text, got binary data")
+        raise BadInputError(f"stream file {name}: expected CSV text, got binary data")
 
 
-def _read_table(path: Path, suffix: str) -> pd.DataFrame:
+def _read_table(path: Path | str, suffix: str, name: str, head: bytes = b"") -> pd.DataFrame:
+    """A CSV or Parquet file, local or at an fsspec URL (pandas and pyarrow open those: pyarrow's
+    own file systems where it has one, fsspec's otherwise)."""
     if suffix in _CSV:
-        _sniff_csv(path)
+        if not head:
+            with Path(path).open("rb") as fh:
+                head = fh.read(4096)
+        _sniff_csv(head, name)
     try:
         if suffix in _CSV:
             # The pyarrow engine parses in parallel and is ~5x faster than the C engine.
@@ -82,18 +85,49 @@ def _read_table(path: Path, suffix: str) -> pd.DataFrame:
         return pd.read_parquet(path)
     except Exception as err:  # pandas' and pyarrow's own (ParserError, ArrowInvalid, OSError)
         first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise BadInputError(f"stream file {name}: cannot parse ({_printable(first)})") from None
+
+
+def _read_url(url: str, channel_map: Mapping[str, str] | None) -> pd.DataFrame:
+    """A stream file at an fsspec URL (``file://``, ``s3://``, ``gs://``, ``memory://`` ...).
+
+    CSV and Parquet are read where they are; an MDF4 file is read into memory first (asammdf
+    reads a file object). Whether the file exists is asked first, so that a missing one is
+    "expected a readable file" as a local one is.
+    """
+    import fsspec
+
+    name = url_name(url)
+    suffix = _suffix(Path(name))
+    try:
+        with fsspec.open(url, "rb") as fh:
+            head = fh.read(4096) if suffix in _CSV else b""
+            data = fh.read() if suffix in _MDF else b""
+    except FileNotFoundError:
+        raise BadInputError(f"stream file: expected a readable file, got '{url}'") from None
+    except (OSError, ValueError, ImportError) as err:  # no such protocol, or not installed
+        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
         raise BadInputError(
-            f"stream file {path.name}: cannot parse ({_printable(first)})"
+            f"stream file: expected a readable file, got '{url}' ({_printable(first)})"
         ) from None
+    if suffix in _MDF:
+        import io
+
+        return _read_mdf(io.BytesIO(head + data), channel_map, name)
+    df = _read_table(url, suffix, name, head=head or b" ")
+    if channel_map:
+        df = df.rename(columns=dict(channel_map))
+    return df
 
 
-def _read_mdf(path: Path, channel_map: Mapping[str, str] | None) -> pd.DataFrame:
+def _read_mdf(path, channel_map: Mapping[str, str] | None, name: str = "") -> pd.DataFrame:
     from asammdf import MDF  # slow import, only when an MDF file is read
 
+    name = name or Path(path).name
     try:
         mdf = MDF(path)
     except Exception as err:
-        raise BadInputError(f"stream file {path.name}: not a readable MDF file ({err})") from None
+        raise BadInputError(f"stream file {name}: not a readable MDF file ({err})") from None
     try:
         masters = {
             group.channels[group.channel_group.master_index].name
@@ -121,7 +155,7 @@ def _read_mdf(path: Path, channel_map: Mapping[str, str] | None) -> pd.DataFrame
         mdf.close()
     if not columns:
         raise BadInputError(
-            f"stream file {path.name}: expected MDF channels named like "
+            f"stream file {name}: expected MDF channels named like "
             f"{list(REQUIRED_COLUMNS[1:])} "
             "(or a channel_map to them), got none"
         )
@@ -140,9 +174,11 @@ def read_stream(
 
     Parameters
     ----------
-    path : path-like
-        ``.csv``, ``.parquet``/``.pq`` or ``.mf4``/``.mdf``; with ``profile``, a raw CAN log
-        (candump ``.log``, ``.asc``, ``.blf``, python-can ``.csv``, MF4 bus logging ``.mf4``).
+    path : path-like or str
+        ``.csv``, ``.parquet``/``.pq`` or ``.mf4``/``.mdf``, a local path or an fsspec URL
+        (``file:///abs/drive.parquet``, ``s3://bucket/drive.parquet`` with ``s3fs`` installed);
+        with ``profile``, a local raw CAN log (candump ``.log``, ``.asc``, ``.blf``, python-can
+        ``.csv``, MF4 bus logging ``.mf4``).
     channel_map : mapping, optional
         Source channel/column name -> contract name, e.g. ``{"WhlSpd_FL": "wheel_speed_fl"}``.
         Names not in the map are used as they are.
@@ -164,7 +200,8 @@ def read_stream(
     Raises
     ------
     BadInputError
-        Missing file, unknown suffix, or a file that cannot be parsed.
+        Missing file, unknown suffix, or a file that cannot be parsed; a URL whose protocol
+        fsspec does not know or whose implementation is not installed.
     """
     if profile is not None:
         from .can import read_can_log
@@ -172,13 +209,15 @@ def read_stream(
         if channel_map:
             raise BadInputError("read_stream: expected a channel_map or a profile, got both")
         return read_can_log(path, profile, dbc=dbc, vehicle=vehicle).data
+    if is_url(path):
+        return _read_url(path, channel_map)
     path = Path(path)
     suffix = _suffix(path)
     if not path.is_file():
         raise BadInputError(f"stream file: expected a readable file, got '{path}'")
     if suffix in _MDF:
         return _read_mdf(path, channel_map)
-    df = _read_table(path, suffix)
+    df = _read_table(path, suffix, path.name)
     if channel_map:
         df = df.rename(columns=dict(channel_map))
     return df
