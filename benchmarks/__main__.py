@@ -247,6 +247,12 @@ BENCHMARKS: dict[str, Benchmark] = {
             minutes=5,
         ),
         Benchmark(
+            "drive_stage_profile",
+            "the per-drive stage of a one-hour drive: CPU per step, EM, profile",
+            quick=("--duration", "600", "--repeats", "1"),
+            minutes=3,
+        ),
+        Benchmark(
             "windows_step_speed",
             "force-density EM steps against plain EM",
             quick=("--drives", "1", "--repeats", "1"),

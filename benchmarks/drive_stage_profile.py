@@ -1,0 +1,184 @@
+"""Where a fleet run's per-drive stage spends its CPU: one simulated one-hour drive, profiled.
+
+The stage's work for one drive (``tyrebayes.batch.drive_stage._windows_and_summary``: read →
+validate → features → windows and summary) runs in a fresh single-threaded process (OMP, BLAS
+and XLA's kernels one thread, as a fleet worker), once to warm up (JAX compiles the force-density
+EM and the temperature scan: reported apart, ``first_call_cpu_s``), then ``--repeats`` times.
+Reported per drive-hour: the CPU seconds (``time.process_time``) of each step, fastest of the
+repeats, and of the force-density EM inside the windows step (``deconvolve_forces``); and the
+largest entries of a ``cProfile`` of one more run (its own overhead makes those slower; their
+shares are what they are for).
+
+CPU time, not wall time: the machine is shared (2 cores, other runs on them; the load averages
+are recorded), which stretches wall time but changes a single-threaded process's CPU seconds far
+less. With ``--before REV`` the same is measured on the package as of git revision REV, on the
+same file, right after.
+
+Usage: ``python benchmarks/drive_stage_profile.py [--duration S] [--repeats N] [--before REV]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from _results import figure, write_result
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _revisions import package_at, run_child  # noqa: E402
+
+STEPS = ("read", "validate", "features", "windows_and_summary")
+
+_CHILD = r"""
+import cProfile, io, json, pstats, sys, time
+from tyrebayes.batch.settings import RunSettings, configure_jax
+configure_jax()
+from tyrebayes.batch.drive_stage import _windows_and_summary
+from tyrebayes.batch.manifest import DriveItem
+from tyrebayes.inference.tyre import force_density
+
+path, repeats, top = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+item = DriveItem("d", path, "compact_fwd", "s", "", "dry", float("nan"), "")
+em = {}
+_deconvolve = force_density.deconvolve_forces
+def timed(*args, **kwargs):
+    c = time.process_time()
+    mixture = _deconvolve(*args, **kwargs)
+    em.update(cpu=time.process_time() - c, windows=len(args[0]), steps=int(mixture.iterations),
+              converged=bool(mixture.converged))
+    return mixture
+force_density.deconvolve_forces = timed
+
+def run():
+    c = time.process_time()
+    table, row, steps = _windows_and_summary(item, RunSettings())
+    return time.process_time() - c, steps, dict(em), row
+
+first, first_steps, first_em, row = run()
+runs = [run() for _ in range(repeats)]
+profile = cProfile.Profile()
+profile.enable()
+_windows_and_summary(item, RunSettings())
+profile.disable()
+stats = pstats.Stats(profile, stream=io.StringIO())
+entries = []
+for (file, line, name), (cc, nc, tt, ct, _) in stats.stats.items():
+    short = file.split("site-packages/")[-1].split("/tyrebayes/")[-1]
+    entries.append({"function": f"{short}:{line}({name})", "calls": nc,
+                    "tottime_s": tt, "cumtime_s": ct})
+profiled_total = max(e["cumtime_s"] for e in entries)
+by_cum = sorted(entries, key=lambda e: -e["cumtime_s"])[:top]
+by_own = sorted(entries, key=lambda e: -e["tottime_s"])[:top]
+print(json.dumps({
+    "duration_s": row["duration_s"], "samples": row["samples"], "windows": row["windows"],
+    "first_call_cpu_s": first, "first_call_steps_cpu_s": first_steps,
+    "first_call_em_cpu_s": first_em.get("cpu"),
+    "total_cpu_s": min(r[0] for r in runs),
+    "steps_cpu_s": {k: min(r[1][k] for r in runs) for k in runs[0][1]},
+    "em_cpu_s": min(r[2]["cpu"] for r in runs),
+    "em": {k: v for k, v in runs[-1][2].items() if k != "cpu"},
+    "all_runs_total_cpu_s": [r[0] for r in runs],
+    "profile": {"profiled_total_s": profiled_total, "by_cumulative": by_cum, "by_own": by_own},
+}))
+"""
+
+_ENV = {
+    "OMP_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false",
+    "JAX_ENABLE_X64": "1",
+    "JAX_PLATFORMS": "cpu",
+}
+
+
+def _per_hour(result: dict) -> dict:
+    """CPU seconds per drive-hour: the stage's steps, its total and the EM."""
+    hours = result["duration_s"] / 3600.0
+    steps = {k: v / hours for k, v in result["steps_cpu_s"].items()}
+    return {
+        **steps,
+        "total": result["total_cpu_s"] / hours,
+        "force_density_em": result["em_cpu_s"] / hours,
+        "windows_and_summary_without_em": steps["windows_and_summary"] - result["em_cpu_s"] / hours,
+    }
+
+
+def _drive(folder: Path, duration_s: float) -> Path:
+    from tyrebayes.simulate.drive import simulate_drive
+    from tyrebayes.streams import write_stream
+
+    path = folder / "drive.parquet"
+    df, _ = simulate_drive(1, "compact_fwd", "summer", duration_s=duration_s, surface="dry")
+    write_stream(df, path)
+    return path
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--duration", type=float, default=3600.0, help="drive length [s]")
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--top", type=int, default=15, help="profile entries kept")
+    parser.add_argument("--before", help="git revision to compare with")
+    parser.add_argument("--out", type=Path, default=None, help="JSON to write")
+    args = parser.parse_args()
+
+    results: dict = {
+        "repeats": args.repeats,
+        "cpu_count": os.cpu_count(),
+        "note": "CPU seconds (time.process_time) of one single-threaded process, fastest of the "
+        "repeats after a warm-up, per hour of simulated 100 Hz Parquet drive; the machine is "
+        "shared, so wall time is not a measure here (load averages recorded)",
+        "load_average_at_start": os.getloadavg(),
+    }
+    with tempfile.TemporaryDirectory() as tmp:
+        path = _drive(Path(tmp), args.duration)
+        child_args = [path, args.repeats, args.top]
+        after = run_child(_CHILD, child_args, None, _ENV)
+        results["after"] = after | {"per_drive_hour_cpu_s": _per_hour(after)}
+        if args.before:
+            code = package_at(args.before, Path(tmp) / "before")
+            before = run_child(_CHILD, child_args, code, _ENV)
+            results["before_revision"] = args.before
+            results["before"] = before | {"per_drive_hour_cpu_s": _per_hour(before)}
+    results["load_average_at_end"] = os.getloadavg()
+    per_hour = results["after"]["per_drive_hour_cpu_s"]
+    em = results["after"]["em"]
+    figures = [
+        figure(
+            "per-drive stage CPU per drive-hour",
+            per_hour["total"],
+            unit="s",
+            count=1,
+            note="read + validate + features + windows and summary, one simulated hour",
+            headline=True,
+        ),
+        *(
+            figure(f"{step} CPU per drive-hour", per_hour[step], unit="s", count=1)
+            for step in STEPS
+        ),
+        figure(
+            "force-density EM CPU per drive-hour",
+            per_hour["force_density_em"],
+            unit="s",
+            count=1,
+            note=f"{em['steps']} EM steps over {em['windows']} windows, converged: "
+            f"{em['converged']}; inside the windows step",
+        ),
+    ]
+    if args.before:
+        before = results["before"]["per_drive_hour_cpu_s"]
+        figures.append(
+            figure("speed-up of the per-drive stage", before["total"] / per_hour["total"], count=1)
+        )
+    print(json.dumps({k: v for k, v in per_hour.items()}, indent=1))
+    print(f"saved {write_result('drive_stage_profile', results, figures=figures, path=args.out)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
