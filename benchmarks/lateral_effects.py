@@ -60,7 +60,7 @@ def _row(name: str, obs, surface: str, truth: dict | None) -> dict:
             entry["abs_error_change"] = {k: abs(full_errors[k]) - abs(errors[k]) for k in KEYS}
         gains.append(entry)
     print(name, {g["effect"]: (round(g["elpd_gain"], 1), g["found"]) for g in gains}, flush=True)
-    return {"log": name, "full_errors": full_errors, "gains": gains}
+    return {"log": name, "default_errors": _errors(result.full, truth), "gains": gains}
 
 
 def main() -> None:

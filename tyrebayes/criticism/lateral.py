@@ -26,7 +26,12 @@ import xarray as xr
 from ..inference.diagnostics import loo
 from ..inference.lateral.data import CorneringObservations
 from ..inference.lateral.fit import fit_lateral
-from ..inference.lateral.model import LATERAL_EFFECTS, LateralPriors, residuals
+from ..inference.lateral.model import (
+    DEFAULT_EFFECTS,
+    LATERAL_EFFECTS,
+    LateralPriors,
+    log_likelihoods,
+)
 from ..inference.lateral.result import LateralFit
 
 #: Posterior draws the pointwise log-likelihood is computed at.
@@ -43,20 +48,24 @@ class EffectGain:
     ----------
     effect : str
         One of :data:`~tyrebayes.inference.lateral.model.LATERAL_EFFECTS`.
+    in_default : bool
+        Whether the default model carries it.
     elpd_gain : float
-        ELPD(full) − ELPD(without the effect), summed over samples.
+        ELPD(with the effect) − ELPD(without it), summed over samples.
     elpd_gain_se : float
         Its standard error, times √VIF of the steering equation's residuals.
     found : bool
         ``elpd_gain > GAIN_SE_FACTOR · elpd_gain_se``.
-    without : dict
-        The model without the effect: ``to_dict()`` of its fit.
+    with_effect, without : dict
+        ``to_dict()`` of the fits with and without the effect.
     """
 
     effect: str
+    in_default: bool
     elpd_gain: float
     elpd_gain_se: float
     found: bool
+    with_effect: dict
     without: dict
 
     def to_dict(self) -> dict:
@@ -65,7 +74,7 @@ class EffectGain:
 
 @dataclasses.dataclass(frozen=True)
 class LateralEffects:
-    """The full model's fit and each effect's gain (:func:`criticize_lateral_effects`)."""
+    """The default model's fit and each effect's gain (:func:`criticize_lateral_effects`)."""
 
     full: dict
     gains: tuple[EffectGain, ...]
@@ -89,10 +98,8 @@ def pointwise_log_likelihood(
     keep = np.asarray(obs.mask_kinematic)
 
     def one(point):
-        steer, kin = residuals(obs, point)
-        return jax.scipy.stats.norm.logpdf(
-            steer, 0.0, point["steer_noise"]
-        ) + jax.scipy.stats.norm.logpdf(kin, 0.0, point["kinematic_noise"])
+        log_steer, log_kin = log_likelihoods(obs, point)
+        return log_steer + log_kin
 
     return np.asarray(jax.jit(jax.vmap(one))(stacked))[:, keep]
 
@@ -115,32 +122,38 @@ def criticize_lateral_effects(
     seed: int = 0,
     effects: tuple[str, ...] = LATERAL_EFFECTS,
 ) -> LateralEffects:
-    """Fit with every effect, and without each of ``effects`` in turn; their ELPD gains.
+    """Each effect's ELPD gain: the default model against it without the effect (an effect of
+    :data:`~tyrebayes.inference.lateral.model.DEFAULT_EFFECTS`), or with it added (one the
+    default leaves out).
 
     Examples
     --------
     >>> result = criticize_lateral_effects(obs)  # doctest: +SKIP
     >>> [g.effect for g in result.gains if g.found]  # doctest: +SKIP
     """
-    full = fit_lateral(obs, surface=surface, seed=seed)
-    full_loo = _loo(full, obs)
-    vif = json.loads(full.fit.data.attrs["lateral_vif"])[0]
+    base_priors = LateralPriors()
+    base = fit_lateral(obs, priors=base_priors, surface=surface, seed=seed)
+    base_loo = _loo(base, obs)
+    vif = json.loads(base.fit.data.attrs["lateral_vif"])[0]
     gains = []
     for effect in effects:
-        reduced = fit_lateral(
-            obs, priors=LateralPriors().without(effect), surface=surface, seed=seed
-        )
-        reduced_loo = _loo(reduced, obs)
-        diff = np.asarray(full_loo.elpd_i) - np.asarray(reduced_loo.elpd_i)
+        included = effect in DEFAULT_EFFECTS
+        other_priors = base_priors.without(effect) if included else base_priors.adding(effect)
+        other = fit_lateral(obs, priors=other_priors, surface=surface, seed=seed)
+        other_loo = _loo(other, obs)
+        with_effect, without = (base_loo, other_loo) if included else (other_loo, base_loo)
+        diff = np.asarray(with_effect.elpd_i) - np.asarray(without.elpd_i)
         gain = float(diff.sum())
         se = float(np.sqrt(diff.size * np.var(diff)) * np.sqrt(vif))
         gains.append(
             EffectGain(
                 effect=effect,
+                in_default=included,
                 elpd_gain=gain,
                 elpd_gain_se=se,
                 found=bool(gain > GAIN_SE_FACTOR * se),
-                without=reduced.to_dict(),
+                with_effect=(base if included else other).to_dict(),
+                without=(other if included else base).to_dict(),
             )
         )
-    return LateralEffects(full=full.to_dict(), gains=tuple(gains))
+    return LateralEffects(full=base.to_dict(), gains=tuple(gains))

@@ -6,7 +6,12 @@ import pytest
 
 from tyrebayes._domain import load_vehicle
 from tyrebayes.inference.lateral import LateralPriors, cornering_observations
-from tyrebayes.inference.lateral.model import LATERAL_EFFECTS, derivative, residuals
+from tyrebayes.inference.lateral.model import (
+    DEFAULT_EFFECTS,
+    LATERAL_EFFECTS,
+    derivative,
+    residuals,
+)
 from tyrebayes.simulate.cornering import simulate_cornering
 
 VEHICLE = load_vehicle("compact_fwd")
@@ -47,8 +52,9 @@ def test_residuals_vanish_at_the_truth_of_a_noise_free_drive():
 
 def test_effects_can_be_left_out_one_by_one():
     priors = LateralPriors()
-    assert priors.effects == LATERAL_EFFECTS
+    assert priors.effects == DEFAULT_EFFECTS and set(DEFAULT_EFFECTS) < set(LATERAL_EFFECTS)
     assert "roll" not in priors.without("roll").effects
+    assert priors.adding("relaxation").effects == (*DEFAULT_EFFECTS, "relaxation")
     with pytest.raises(ValueError, match="expected one of"):
         priors.without("bank")
     with pytest.raises(ValueError, match="expected a subset"):

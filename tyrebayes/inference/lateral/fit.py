@@ -59,6 +59,7 @@ _SITES = (
     "curve_curvature_gap",
     "steer_noise",
     "kinematic_noise",
+    "force_noise",
 )
 
 
@@ -86,6 +87,7 @@ def _start(obs: CorneringObservations, priors: LateralPriors, surface: str) -> j
         "relaxation_length": np.log(priors.relaxation_length_median_m),
         "steer_noise": np.log(priors.steer_noise_median),
         "kinematic_noise": np.log(priors.kinematic_noise_median),
+        "force_noise": np.log(priors.force_noise_median),
         "steering_ratio": float(np.log(obs.steering_ratio)),
     }
     names = _site_names(obs.road_wheel, priors)
