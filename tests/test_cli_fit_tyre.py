@@ -231,6 +231,11 @@ def test_fit_tyre_prints_and_saves_the_lateral_fit(tmp_path, capsys, monkeypatch
     saved = TyreFit.from_fit(load_fit(out, kind="tyre")).lateral
     assert saved is not None and saved.to_dict() == lateral
     assert main(argv) == 0 and "c_y front" in capsys.readouterr().out
+    # the report of the saved fit has the cornering section
+    report = tmp_path / "report"
+    assert main(["report", str(out), "--out", str(report)]) == 0
+    assert "Cornering" in (report / "report.html").read_text()
+    assert (report / "figures" / "lateral_curves.png").stat().st_size > 5_000
 
 
 @pytest.mark.parametrize(

@@ -94,10 +94,12 @@ def run(args: argparse.Namespace) -> int:
     if len(fleets) > 1:
         raise BadInputError(f"fits: expected at most one fleet fit, got {len(fleets)}")
 
+    from ..inference.tyre.result import TyreFit
     from ..report import Report, write_report
     from ..report.sections import (
         diagnostics_row,
         fleet_section,
+        lateral_section,
         tyre_section,
         vmax_section,
         warning_rows,
@@ -112,6 +114,9 @@ def run(args: argparse.Namespace) -> int:
     for p, fit in tyres:
         name = Path(p).stem
         report.tyres.append(tyre_section(fit, name, tyre_type=args.tyre_type, source=str(p)))
+        lateral = TyreFit.from_fit(fit).lateral
+        if lateral is not None:
+            report.laterals.append(lateral_section(lateral, name))
         report.diagnostics.append(diagnostics_row(fit.diagnostics, f"tyre: {name}"))
     if fleets:
         p, fleet = fleets[0]
