@@ -189,6 +189,19 @@ def main() -> None:
             note=f"status: {low}",
         ),
     ]
+    for name, row in rows.items():
+        for key, c in (row.get("comparison") or {}).items():
+            figures.append(
+                figure(
+                    f"{name}: {key} against the v_y reference",
+                    100 * c["difference"],
+                    unit="%",
+                    count=1,
+                    note="reference inside the 90 % interval"
+                    if c["reference_inside"]
+                    else "reference outside the 90 % interval",
+                )
+            )
     path = write_result("lateral_real", {"logs": rows}, figures=figures)
     print(f"wrote {path}")
 
