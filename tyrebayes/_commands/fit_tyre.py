@@ -118,7 +118,7 @@ def _validated(path, vehicle_name: str):
     return validate_stream(read_stream(path), vehicle), vehicle
 
 
-def _lateral(validated, vehicle, method: str, surface: str, seed: int, stream: str):
+def _lateral(validated, vehicle, surface: str, seed: int, stream: str):
     """The drive's lateral fit and "" , or None and the one-line reason there is none."""
     from ..inference.lateral import NoCornering, cornering_observations, fit_lateral
 
@@ -126,9 +126,11 @@ def _lateral(validated, vehicle, method: str, surface: str, seed: int, stream: s
         obs = cornering_observations(validated.data, vehicle)
     except NoCornering as err:
         return None, str(err)
+    # MAP + Laplace with either --method: it is the lateral path the benchmarks validate
+    # (benchmarks/lateral_external.py), and takes seconds where NUTS takes minutes.
     lateral = fit_lateral(
         obs,
-        "nuts" if method == "nuts" else "laplace",
+        "laplace",
         surface=surface,
         seed=seed,
         inputs=(stream,),
@@ -224,9 +226,7 @@ def run(args: argparse.Namespace) -> int:
         )
     priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
     fit = fit_tyre(obs, priors=priors, method=args.method, kind=args.model, seed=args.seed)
-    lateral, lateral_reason = _lateral(
-        validated, vehicle, args.method, args.surface, args.seed, args.stream
-    )
+    lateral, lateral_reason = _lateral(validated, vehicle, args.surface, args.seed, args.stream)
     fit = dataclasses.replace(
         fit,
         lateral=lateral,

@@ -86,7 +86,8 @@ class LateralEffects:
 def pointwise_log_likelihood(
     fit: LateralFit, obs: CorneringObservations, draws: int = LOO_DRAWS
 ) -> np.ndarray:
-    """Log-likelihood of each sample (both equations) at ``draws`` posterior draws (draws × n).
+    """Log-likelihood of each sample (both equations) at ``draws`` posterior draws (draws × n),
+    the draws with a non-finite value left out.
 
     Only samples in both equations' masks (:attr:`CorneringObservations.mask_kinematic`) count,
     so that models with different effects are compared on the same samples.
@@ -101,7 +102,10 @@ def pointwise_log_likelihood(
         log_steer, log_kin = log_likelihoods(obs, point)
         return log_steer + log_kin
 
-    return np.asarray(jax.jit(jax.vmap(one))(stacked))[:, keep]
+    log_lik = np.asarray(jax.jit(jax.vmap(one))(stacked))[:, keep]
+    # A Laplace draw far in a tail can put a force beyond the curve's reach (a NaN slip): such
+    # draws are left out of the comparison rather than making it NaN.
+    return log_lik[np.all(np.isfinite(log_lik), axis=1)]
 
 
 def _loo(fit: LateralFit, obs: CorneringObservations):

@@ -101,3 +101,16 @@ def test_residual_inflation_sees_slow_correlation():
     assert residual_inflation(white, np.ones(20000, bool)) < 1.5
     slow = np.repeat(rng.normal(size=200), 100) + 0.1 * white  # 10 s steps at 10 Hz
     assert residual_inflation(slow, np.ones(20000, bool)) > 50
+
+
+@pytest.mark.slow
+def test_nuts_agrees_with_the_laplace_fit(mixed):
+    """NUTS from the Laplace mode: the same posterior centre, its own diagnostics."""
+    frame, _ = simulate_cornering(VEHICLE, kind="mixed", duration_s=DURATION_S, seed=11)
+    obs = cornering_observations(frame, VEHICLE)
+    nuts = fit_lateral(obs, "nuts", seed=1, num_chains=2, num_warmup=150, num_samples=150)
+    assert nuts.fit.diagnostics.method == "nuts" and nuts.fit.diagnostics.n_chains == 2
+    laplace = mixed[0].to_dict()
+    for key in ("c_y_front", "c_y_rear", "understeer_gradient"):
+        a, b = nuts.to_dict()[key], laplace[key]
+        assert abs(a["mean"] - b["mean"]) < 2 * b["sd"] + 1e-12, (key, a, b)

@@ -4,9 +4,9 @@ The Laplace path minimises the NumPyro model's potential on its unconstrained sp
 optimistix BFGS, takes the Hessian there and draws from N(mode, H⁻¹) through the model's
 constraints. The residuals of both equations are correlated from sample to sample (the signals
 are low-passed, and road bank and unmodelled dynamics vary slowly), so each equation's
-likelihood is weighted by 1/VIF of its residuals at a first mode (an AR(1) variance inflation
-factor) and the mode is found again: without it the intervals would count correlated samples
-as independent and be several times too narrow.
+likelihood is weighted by 1/VIF of its residuals at a first mode (:func:`residual_inflation`)
+and the mode is found again: without it the intervals would count correlated samples as
+independent and be several times too narrow.
 """
 
 from __future__ import annotations
@@ -283,6 +283,67 @@ def _adequacy(obs: CorneringObservations, samples: dict, vif: tuple[float, float
     return []
 
 
+def _weighted_mode(obs, priors, surface, max_steps):
+    """The mode with each equation weighted by 1/VIF of its residuals at the unweighted mode.
+
+    Returns ``(mode, converged, hessian, weights, vif)``.
+    """
+    unit = jnp.ones(2, dtype=obs.ay.dtype)
+    mode, _, _ = _minimum(_start(obs, priors, surface), obs, unit, priors, surface, max_steps)
+    point = {k: v[0] for k, v in _constrain(mode[None], obs, unit, priors, surface).items()}
+    steer, kin = (np.asarray(x) for x in _residuals_at(point, obs))
+    vif = (
+        residual_inflation(steer, np.asarray(obs.mask)),
+        residual_inflation(kin, np.asarray(obs.mask_kinematic)),
+    )
+    weights = jnp.asarray([1.0 / vif[0], 1.0 / vif[1]], dtype=obs.ay.dtype)
+    mode, ok, hess = _minimum(mode, obs, weights, priors, surface, max_steps)
+    return mode, bool(ok), np.asarray(hess), weights, vif
+
+
+def _covariance_root(hess: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """A square root S of H⁻¹ (S S' = H⁻¹), and the problems found in H.
+
+    A Hessian that is not finite or not positive definite is a failed fit (said in its
+    diagnostics); its draws then come from the Hessian with the non-positive directions given
+    the unconstrained prior's unit scale, wide where the data say nothing.
+    """
+    hess = 0.5 * (hess + hess.T)
+    problems = []
+    if not np.all(np.isfinite(hess)):
+        problems.append("Hessian at the mode is not finite")
+        hess = np.eye(hess.shape[0])
+    eig, vec = np.linalg.eigh(hess)
+    if eig.min() <= 0:
+        problems.append("Hessian at the mode is not positive definite")
+        eig = np.where(eig > 0, eig, 1.0)
+    return vec / np.sqrt(eig)[None, :], problems
+
+
+def _nuts(obs, priors, surface, weights, init: dict, key, settings: tuple[int, int, int]):
+    """NUTS draws (by chain) from ``init`` and the divergences: ``(samples, sample_stats)``."""
+    num_chains, num_warmup, num_samples = settings
+    kernel = NUTS(
+        lateral_model,
+        init_strategy=init_to_value(
+            values={k: v for k, v in init.items() if k != "understeer_gradient"}
+        ),
+        dense_mass=True,
+    )
+    mcmc = MCMC(
+        kernel,
+        num_warmup=num_warmup,
+        num_samples=num_samples,
+        num_chains=num_chains,
+        chain_method="sequential",
+        progress_bar=False,
+    )
+    mcmc.run(key, obs, priors, surface, weights, extra_fields=("diverging",))
+    samples = {k: np.asarray(v) for k, v in mcmc.get_samples(group_by_chain=True).items()}
+    diverging = np.asarray(mcmc.get_extra_fields(group_by_chain=True)["diverging"])
+    return samples, {"diverging": diverging}
+
+
 def fit_lateral(
     obs: CorneringObservations,
     method: str = "laplace",
@@ -334,62 +395,21 @@ def fit_lateral(
         raise ValueError(f"lateral fit method: expected one of {LATERAL_METHODS}, got {method!r}")
     priors = LateralPriors() if priors is None else priors
     key_draw, key_nuts = jax.random.split(jax.random.PRNGKey(seed))
-    unit = jnp.ones(2, dtype=obs.ay.dtype)
-    x0 = _start(obs, priors, surface)
-    mode, ok, _ = _minimum(x0, obs, unit, priors, surface, max_steps)
-    point = {k: v[0] for k, v in _constrain(mode[None], obs, unit, priors, surface).items()}
-    steer, kin = (np.asarray(x) for x in _residuals_at(point, obs))
-    vif = (
-        residual_inflation(steer, np.asarray(obs.mask)),
-        residual_inflation(kin, np.asarray(obs.mask_kinematic)),
-    )
-    weights = jnp.asarray([1.0 / vif[0], 1.0 / vif[1]], dtype=obs.ay.dtype)
-    mode, ok, hess = _minimum(mode, obs, weights, priors, surface, max_steps)
-    hess = np.asarray(hess)
-    hess = 0.5 * (hess + hess.T)
-    problems = []
-    if not np.all(np.isfinite(hess)):
-        problems.append("Hessian at the mode is not finite")
-        hess = np.eye(mode.shape[0])
-    eig, vec = np.linalg.eigh(hess)
-    if eig.min() <= 0:
-        # The draws then come from the Hessian with its non-positive directions given the
-        # prior's unit scale: wide where the data say nothing, and the fit is flagged.
-        problems.append("Hessian at the mode is not positive definite")
-        eig = np.where(eig > 0, eig, 1.0)
-    chol = vec / np.sqrt(eig)[None, :]
+    mode, ok, hess, weights, vif = _weighted_mode(obs, priors, surface, max_steps)
+    chol, problems = _covariance_root(hess)
     if method == "laplace":
         z = np.asarray(jax.random.normal(key_draw, (num_draws, mode.shape[0]), dtype=mode.dtype))
         flat = np.asarray(mode)[None, :] + z @ chol.T
         draws = _constrain(jnp.asarray(flat), obs, weights, priors, surface)
         samples = {k: np.asarray(v)[None] for k, v in draws.items()}
         sample_stats = None
-        optimiser = "successful" if bool(ok) else "BFGS did not converge"
-        diag_method = "laplace"
+        optimiser = "successful" if ok else "BFGS did not converge"
     else:
         init = {k: v[0] for k, v in _constrain(mode[None], obs, weights, priors, surface).items()}
-        kernel = NUTS(
-            lateral_model,
-            init_strategy=init_to_value(
-                values={k: v for k, v in init.items() if k != "understeer_gradient"}
-            ),
-            dense_mass=True,
+        samples, sample_stats = _nuts(
+            obs, priors, surface, weights, init, key_nuts, (num_chains, num_warmup, num_samples)
         )
-        mcmc = MCMC(
-            kernel,
-            num_warmup=num_warmup,
-            num_samples=num_samples,
-            num_chains=num_chains,
-            chain_method="sequential",
-            progress_bar=False,
-        )
-        mcmc.run(key_nuts, obs, priors, surface, weights, extra_fields=("diverging",))
-        samples = {k: np.asarray(v) for k, v in mcmc.get_samples(group_by_chain=True).items()}
-        sample_stats = {
-            "diverging": np.asarray(mcmc.get_extra_fields(group_by_chain=True)["diverging"])
-        }
         optimiser = "n/a"
-        diag_method = "nuts"
     names = [k for k in _SITES if k in samples]
     groups = {"posterior": {k: samples[k] for k in names}}
     if sample_stats is not None:
@@ -398,11 +418,10 @@ def fit_lateral(
     flat_samples = {k: v.reshape((-1,) + v.shape[2:]) for k, v in samples.items()}
     state = _state_at(_mean_point(flat_samples), obs)
     data["constant_data"] = xr.DataTree(_partial_slips(obs, state, samples))
-    flat_samples = {k: v.reshape((-1,) + v.shape[2:]) for k, v in samples.items()}
     identified, mu_observed, use = _identification(priors, surface, flat_samples, state, obs, seed)
     diagnostics = diagnose(
         data,
-        method=diag_method,
+        method=method,
         var_names=[n for n in names if n != "understeer_gradient"],
         optimiser_result=optimiser,
         problems=problems,
@@ -414,7 +433,7 @@ def fit_lateral(
             diagnostics=diagnostics,
             kind="lateral",
             provenance=provenance(
-                diag_method,
+                method,
                 "single_track_magic",
                 inputs,
                 surface=surface,
