@@ -63,9 +63,45 @@ def _row(name: str, obs, surface: str, truth: dict | None) -> dict:
     return {"log": name, "default_errors": _errors(result.full, truth), "gains": gains}
 
 
+def _figures(rows: list[dict]) -> list[dict]:
+    """One figure per effect: the logs where its gain exceeds 2 SE, its median gain, and the
+    median change of the mean |error| (c_y front, rear, K) with it on the external drives.
+    A log whose comparison could not be made (a non-finite ELPD) is excluded and named."""
+    figures = []
+    for effect in LATERAL_EFFECTS:
+        entries = {r["log"]: g for r in rows for g in r["gains"] if g["effect"] == effect}
+        excluded = {
+            log: "non-finite ELPD" for log, g in entries.items() if not np.isfinite(g["elpd_gain"])
+        }
+        used = [g for log, g in entries.items() if log not in excluded]
+        changes = [
+            np.mean(list(g["abs_error_change"].values())) for g in used if "abs_error_change" in g
+        ]
+        figures.append(
+            figure(
+                f"{effect}: logs where its ELPD gain exceeds 2 SE",
+                sum(g["found"] for g in used),
+                count=len(used),
+                exclusions=excluded,
+                note=(
+                    f"median ELPD gain {np.median([g['elpd_gain'] for g in used]):.0f}; "
+                    f"median change of the mean |error| with it, external drives "
+                    f"{100 * float(np.median(changes)):+.1f} points (negative: better)"
+                ),
+            )
+        )
+    return figures
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--drives", default="")
+    parser.add_argument("--drives", default="", help="external drives to fit (default all)")
+    parser.add_argument("--no-real", action="store_true", help="leave out the real logs")
+    parser.add_argument(
+        "--merge",
+        action="store_true",
+        help="replace these logs' rows in the existing result and keep the others",
+    )
     args = parser.parse_args()
     truth_all = json.loads((EXTERNAL / "truth.json").read_text())
     names = sorted(truth_all)
@@ -81,32 +117,24 @@ def main() -> None:
         "stanford_2014_250lm": (_stanford, "stanford_250lm"),
         "niki_gti_high_speed": (lambda: _niki("High_Speed"), "niki_gti"),
     }
-    for name, (load, vehicle_name) in real.items():
+    for name, (load, vehicle_name) in ({} if args.no_real else real).items():
         vehicle = load_vehicle(HERE / "vehicles" / f"{vehicle_name}.toml")
         frame = load().drop(columns=["lateral_velocity"])
         rows.append(_row(name, cornering_observations(frame, vehicle), "dry", None))
-    figures = []
-    for effect in LATERAL_EFFECTS:
-        entries = [g for r in rows for g in r["gains"] if g["effect"] == effect]
-        found = sum(g["found"] for g in entries)
-        changes = [
-            np.mean(list(g["abs_error_change"].values()))
-            for g in entries
-            if "abs_error_change" in g
-        ]
-        figures.append(
-            figure(
-                f"{effect}: logs where its ELPD gain exceeds 2 SE",
-                found,
-                count=len(entries),
-                note=(
-                    f"median ELPD gain {np.median([g['elpd_gain'] for g in entries]):.0f}; "
-                    f"mean |error| change with it, external drives "
-                    f"{100 * float(np.median(changes)):+.1f} points (negative: better)"
-                ),
-            )
-        )
-    path = write_result("lateral_effects", {"logs": rows}, figures=figures)
+    payload = {"logs": rows}
+    if args.merge:
+        previous = json.loads((HERE / "results" / "lateral_effects.json").read_text())
+        new = {r["log"]: r for r in rows}
+        merged = [new.pop(r["log"], r) for r in previous["logs"]]
+        rows = merged + list(new.values())
+        payload = {
+            "logs": rows,
+            "merged": {
+                "rerun": sorted(r["log"] for r in payload["logs"]),
+                "kept_from": previous["run"]["revision"],
+            },
+        }
+    path = write_result("lateral_effects", payload, figures=_figures(rows))
     print(f"wrote {path}")
 
 
