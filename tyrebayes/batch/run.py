@@ -236,7 +236,9 @@ def _stage_stats(records: list[dict]) -> dict:
     }
 
 
-def _write_tables(out: Path, drive_records: list[dict], set_records: list[dict]) -> tuple[pd.DataFrame, list[str]]:
+def _write_tables(
+    out: Path, drive_records: list[dict], set_records: list[dict]
+) -> tuple[pd.DataFrame, list[str]]:
     drives_dir = out / DRIVES_DIR
     # drive_order: the position in the manifest, which fit-wear reads as a car's drive order.
     summaries = [
