@@ -8,6 +8,7 @@ car/SUV lateral sets, measured or generic alike:
   ky_load_sens (d ln(Ky/Fz) / d(dFz/Fz0) at nominal load): median and sd
   ratio_30pct / ratio_50pct (secant/tangent slope at 30 % / 50 % of the peak): median, min, max
 """
+
 from __future__ import annotations
 
 import csv
@@ -28,12 +29,23 @@ def main() -> None:
     out = {
         "n_sets": len(rows),
         "n_by_class": {k: sum(r["class"] == k for r in rows) for k in ("car", "suv")},
-        "n_by_measured": {k: sum(r["measured"] == k for r in rows) for k in sorted({r["measured"] for r in rows})},
-        "C_minus_1": {"median": round(st.median(c1), 4), "log_sd": round(st.stdev([math.log(v) for v in c1]), 4)},
+        "n_by_measured": {
+            k: sum(r["measured"] == k for r in rows) for k in sorted({r["measured"] for r in rows})
+        },
+        "C_minus_1": {
+            "median": round(st.median(c1), 4),
+            "log_sd": round(st.stdev([math.log(v) for v in c1]), 4),
+        },
         "E": {"mean": round(st.mean(col("E")), 4), "sd": round(st.stdev(col("E")), 4)},
         "E_pos": {"mean": round(st.mean(col("E_pos")), 4), "sd": round(st.stdev(col("E_pos")), 4)},
-        "Ky_over_Fz": {"median": round(st.median(ky), 3), "log_sd": round(st.stdev([math.log(v) for v in ky]), 4)},
-        "ky_load_sens": {"median": round(st.median(col("ky_load_sens")), 4), "sd": round(st.stdev(col("ky_load_sens")), 4)},
+        "Ky_over_Fz": {
+            "median": round(st.median(ky), 3),
+            "log_sd": round(st.stdev([math.log(v) for v in ky]), 4),
+        },
+        "ky_load_sens": {
+            "median": round(st.median(col("ky_load_sens")), 4),
+            "sd": round(st.stdev(col("ky_load_sens")), 4),
+        },
     }
     for k in ("ratio_30pct", "ratio_50pct"):
         v = col(k)
