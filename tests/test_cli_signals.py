@@ -90,7 +90,8 @@ def _run_and_signal(
         if mode != "swallow":
             time.sleep(0.3)  # into the step, past the hook's first line
             proc.send_signal(sig)
-        _, err = proc.communicate(timeout=120)
+        # generous: under a loaded machine the hooked step itself (a decode) can take minutes
+        _, err = proc.communicate(timeout=300)
     finally:
         if proc.poll() is None:
             proc.kill()

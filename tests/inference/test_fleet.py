@@ -131,7 +131,8 @@ def test_other_bad_inputs_rejected():
     # one word for randomness in every fitter: the old keyword names the new one
     with pytest.raises(TypeError, match="'key' is now 'seed'"):
         fit_fleet(_table(), key=0)
-    with pytest.raises(TypeError, match="seed: expected an int"):
+    # the package's own check, or the test run's runtime type checker before it
+    with pytest.raises(TypeError, match="seed: expected an int|parameter 'seed'"):
         fit_fleet(_table(), seed=0.5)
 
 

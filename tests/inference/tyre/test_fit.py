@@ -32,7 +32,7 @@ def test_non_finite_data_is_not_converged():
 
 def test_unknown_method():
     obs = stack_drives([linear_region_windows(3, n=50)], ["dry"])
-    with pytest.raises(ValueError, match="expected 'nuts' or 'fast', got 'mcmc'"):
+    with pytest.raises(ValueError, match="expected 'nuts', 'fast' or 'laplace', got 'mcmc'"):
         fit_tyre(obs, method="mcmc")
 
 

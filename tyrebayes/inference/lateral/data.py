@@ -98,7 +98,7 @@ class CorneringObservations(eqx.Module):
                 )
 
     @property
-    def cog_to_rear_axle_m(self) -> float:
+    def cog_to_rear_axle_m(self) -> Float[Array, ""]:
         return self.wheelbase_m - self.cog_to_front_axle_m
 
     @property
