@@ -22,7 +22,10 @@ peak μ_y). Then
 
 Nuisances: the steering ratio i_s (prior centred on the vehicle file's, not fixed), the
 steering-wheel offset δ_0, the a_y offset b, the roll gradient k_φ, the yaw inertia J_z (prior
-±15 % about the vehicle file's), the noise scales of both equations.
+±15 % about the vehicle file's), the noise scales of both equations and of the axle forces,
+which reach the steering equation through the curve's slope (:func:`log_likelihoods`). The
+tyres' relaxation length can be added (:meth:`LateralPriors.adding`); :data:`DEFAULT_EFFECTS`
+says why it is not there by default.
 """
 
 from __future__ import annotations
