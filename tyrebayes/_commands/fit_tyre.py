@@ -119,7 +119,7 @@ def _validated(path, vehicle_name: str):
 
 
 def _lateral(validated, vehicle, surface: str, seed: int, stream: str):
-    """The drive's lateral fit and "" , or None and the one-line reason there is none."""
+    """The drive's lateral fit and "", or None and the one-line reason there is none."""
     from ..inference.lateral import NoCornering, cornering_observations, fit_lateral
 
     try:

@@ -99,11 +99,6 @@ from ...physics.tyre import (
 from ..surface_friction import MU_LOG_SD, MU_MEDIAN
 from .data import TyreObservations
 
-# The friction peak's prior per surface (the module says where its numbers come from).
-_MU_MEDIAN = MU_MEDIAN
-_MU_LOG_SD = MU_LOG_SD
-
-
 #: Mean and sd of q = d ln C_x / d(ΔF_z/F_z) over the measured car/SUV tyres, rounded
 #: (:func:`~tyrebayes.inference.tyre.curve_prior.curve_shape_prior`; a test holds them to it).
 MEASURED_LOAD_SENSITIVITY = (0.263, 0.246)
@@ -237,11 +232,11 @@ class TyrePriors(eqx.Module):
         )
 
     def mu_median(self, surfaces: tuple[str, ...]) -> jax.Array:
-        return jnp.array([_MU_MEDIAN[s] for s in surfaces])
+        return jnp.array([MU_MEDIAN[s] for s in surfaces])
 
     def mu_log_sd(self, surfaces: tuple[str, ...]) -> jax.Array:
-        """Log-scale prior sd of μ_max on each surface (module table ``_MU_LOG_SD``)."""
-        return jnp.array([_MU_LOG_SD[s] for s in surfaces])
+        """Log-scale prior sd of μ_max on each surface (``surface_friction.MU_LOG_SD``)."""
+        return jnp.array([MU_LOG_SD[s] for s in surfaces])
 
 
 MODEL_KINDS = ("magic", "shaped", "brush", "linear")
