@@ -189,3 +189,12 @@ def test_ctrl_c_in_online_does_not_crash(tmp_path, stream):
     argv = ["online", str(stream), "--vehicle", "compact_fwd", "--model", "linear"]
     status, err, _ = _run_and_signal(tmp_path, "tyrebayes.inference.online:online_estimate", argv)
     _assert_clean(status, err, "online")  # was a traceback, then exit 139 (segfault)
+
+
+def test_ctrl_c_while_the_commands_load(tmp_path, stream):
+    # The signal comes while the command modules (and JAX with them) are being imported:
+    # ``import tyrebayes`` loads nothing heavy, so the handler is already in place.
+    argv = ["fit-tyre", str(stream), "--vehicle", "compact_fwd"]
+    status, err, _ = _run_and_signal(tmp_path, "tyrebayes.cli:build_parser", argv)
+    assert status == 130, err
+    assert err == "tyrebayes: interrupted (SIGINT)\n", err

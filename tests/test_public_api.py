@@ -7,7 +7,10 @@ The examples themselves run as doctests in ``tests/test_doctests.py``.
 from __future__ import annotations
 
 import inspect
+import os
 import re
+import subprocess
+import sys
 import types
 
 import tyrebayes as tb
@@ -90,6 +93,8 @@ def _takes_arguments(obj) -> bool:
 
 
 def test_all_lists_every_public_name_once():
+    for name in tb.__all__:  # each loads on first use; every one must resolve
+        getattr(tb, name)
     public = {
         name
         for name, value in vars(tb).items()
@@ -134,3 +139,26 @@ def test_examples_in_public_docstrings(capsys):
             f"({100 * len(with_examples) / len(names):.0f} %)"
         )
     assert len(with_examples) >= EXAMPLES_FLOOR
+
+
+def test_import_loads_nothing_heavy_and_sets_float64():
+    # A fresh interpreter: ``import tyrebayes`` (and the command line's module) must not load
+    # JAX, so the CLI's signal handling is in place before the slow imports; and the arrays a
+    # user makes after it are float64, as the fitters need.
+    code = (
+        "import sys, tyrebayes, tyrebayes.cli; loaded = 'jax' in sys.modules; "
+        "import jax.numpy as jnp; print(loaded, jnp.zeros(1).dtype, tyrebayes.fit_tyre.__name__)"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "JAX_ENABLE_X64"}
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["False", "float64", "fit_tyre"]
+
+
+def test_unknown_attribute_is_an_attribute_error():
+    try:
+        tb.no_such_name  # noqa: B018
+    except AttributeError as err:
+        assert "no_such_name" in str(err)
+    else:
+        raise AssertionError("expected AttributeError")

@@ -13,221 +13,70 @@ The public API in task order, re-exported from the modules that define it:
 
 Physics lives in :mod:`tyrebayes.physics`; simulated drives and fleets with known truth in
 :mod:`tyrebayes.simulate` (not re-exported here: the library never needs them).
+
+The names are listed in ``__init__.pyi`` (which type checkers read) and each is imported on first
+use (PEP 562), so that ``import tyrebayes`` takes milliseconds: the command line has its signal
+handling in place before JAX loads, and a Ctrl-C while it loads ends with one line.
+
+Examples
+--------
+>>> import tyrebayes
+>>> tyrebayes.__all__[:3]
+['SURFACES', 'TYRE_TYPES', 'load_vehicle']
+>>> tyrebayes.fit_tyre.__module__
+'tyrebayes.inference.tyre.fit'
 """
 
-# The imports are grouped by task, not sorted: the order is the documentation.
-# ruff: noqa: I001, E402
+import ast as _ast
+import importlib as _importlib
+import importlib.util as _importlib_util
+import os as _os
+import sys as _sys
+from pathlib import Path as _Path
+
+__version__ = "0.2.0"
 
 # Float64 before anything of the package makes an array. Slips are ~1e-3 with noise of ~1e-4,
 # so a tyre fit in single precision could only end as not converged; the fitters refuse float32
 # observations with a ValueError rather than return such a fit. A library that needs a precision
-# sets it up itself instead of making every script repeat the line (the commands, the fleet
-# workers and the tests already did). It is JAX's process-wide switch: code that needs float32
-# alongside can scope it with ``jax.enable_x64(False)``, which the fitters will then refuse.
-import jax as _jax
+# sets it up itself instead of making every script repeat the line. It is JAX's process-wide
+# switch: where JAX is loaded already it is set now; otherwise JAX reads it from the environment
+# when it loads (an explicit JAX_ENABLE_X64 of the user's is kept, and the fitters then refuse
+# float32 observations with a message that says so).
+if "jax" in _sys.modules:
+    _sys.modules["jax"].config.update("jax_enable_x64", True)
+else:
+    _os.environ.setdefault("JAX_ENABLE_X64", "1")
 
-_jax.config.update("jax_enable_x64", True)
 
-# 1. read and validate streams, vehicles, measured data
-from ._domain import SURFACES as SURFACES
-from ._domain import TYRE_TYPES as TYRE_TYPES
-from ._domain import load_vehicle as load_vehicle
-from ._errors import BadInputError as BadInputError
-from .physics.vehicle import Vehicle as Vehicle
-from .streams.can.convert import read_can_log as read_can_log
-from .streams.can.profile import load_profile as load_profile
-from .streams.features import StreamFeatures as StreamFeatures
-from .streams.features import compute_features as compute_features
-from .streams.io import read_stream as read_stream
-from .streams.io import write_stream as write_stream
-from .streams.tyre_temperature import driven_tyre_temperature as driven_tyre_temperature
-from .streams.tyre_temperature import features_tyre_temperature as features_tyre_temperature
-from .streams.validate import ValidatedStream as ValidatedStream
-from .streams.validate import validate_stream as validate_stream
-from .streams.wear_evidence import WEAR_EVIDENCE_COLUMNS as WEAR_EVIDENCE_COLUMNS
-from .streams.wear_evidence import DriveWearEvidence as DriveWearEvidence
-from .streams.wear_evidence import drive_wear_evidence as drive_wear_evidence
-from .streams.wear_evidence import wear_evidence_table as wear_evidence_table
+def _exports() -> dict[str, str]:
+    """Public name → the module that defines it, in the stub's (task) order."""
+    stub = _ast.parse(_Path(__file__).with_suffix(".pyi").read_text(encoding="utf-8"))
+    return {
+        alias.asname or alias.name: f"{__name__}.{node.module}"
+        for node in stub.body
+        if isinstance(node, _ast.ImportFrom)
+        for alias in node.names
+    }
 
-# 2. fit: observations, fitters, the one result type
-from .inference.fleet import fit_fleet as fit_fleet
-from .inference.fleet import load_tyre_type_priors as load_tyre_type_priors
-from .inference.ols import fit_ols as fit_ols
-from .inference.result import FIT_METHODS as FIT_METHODS
-from .inference.result import POLICY as POLICY
-from .inference.result import ConvergencePolicy as ConvergencePolicy
-from .inference.result import Diagnostics as Diagnostics
-from .inference.result import Fit as Fit
-from .inference.result import Provenance as Provenance
-from .inference.result import diagnose as diagnose
-from .inference.result import load_fit as load_fit
-from .inference.tyre.data import TyreObservations as TyreObservations
-from .inference.tyre.data import observations_from_features as observations_from_features
-from .inference.tyre.data import observations_from_stream as observations_from_stream
-from .inference.tyre.data import stack_drives as stack_drives
-from .inference.tyre.data import windowed_observations as windowed_observations
-from .inference.tyre.fit import TyreFit as TyreFit
-from .inference.tyre.fit import fit_tyre as fit_tyre
-from .inference.tyre.model import TyrePriors as TyrePriors
-from .inference.tyre.predictive import with_pointwise as with_pointwise
-from .inference.wear import build_wear_data as build_wear_data
-from .inference.wear import fit_wear as fit_wear
-from .inference.wear.history import drive_history as drive_history
-from .inference.wear.history import tread_readings as tread_readings
-from .inference.wear.changepoint import detect_tyre_changes as detect_tyre_changes
-from .inference.wear.history_fit import fit_wear_history as fit_wear_history
-from .inference.online import OnlineConfig as OnlineConfig
-from .inference.online import OnlineEstimator as OnlineEstimator
-from .inference.online import online_estimate as online_estimate
-from .inference.online import stream_steps as stream_steps
-from .inference.online import stream_windows as stream_windows
-from .inference.online import summary_record as summary_record
-from .inference.online import window_blocks as window_blocks
 
-# 3. predict
-from .inference.fleet import predict_friction as predict_friction
-from .inference.summary import summarize as summarize
-from .inference.vmax import VmaxInputs as VmaxInputs
-from .inference.vmax import VmaxPrediction as VmaxPrediction
-from .inference.vmax import fit_vmax_inputs as fit_vmax_inputs
-from .inference.vmax import lateral_vmax_inputs as lateral_vmax_inputs
-from .inference.vmax import predict_vmax as predict_vmax
-from .inference.vmax import type_vmax_inputs as type_vmax_inputs
-from .inference.vmax import vmax_draws as vmax_draws
-from .inference.wear import predict_wear_volume as predict_wear_volume
-from .inference.wear.history_predict import wear_history_predictions as wear_history_predictions
-from .physics.lanechange import critical_speed as critical_speed
-from .physics.lanechange import iso3888_2_course as iso3888_2_course
-from .physics.thermal import StiffnessTemperature as StiffnessTemperature
-from .physics.thermal import compensate_stiffness as compensate_stiffness
-from .physics.thermal import stiffness_at_temperature as stiffness_at_temperature
-from .physics.tyre import BrushTyre as BrushTyre
-from .physics.tyre import MagicFormulaLongitudinal as MagicFormulaLongitudinal
-from .physics.tyre import brush_longitudinal as brush_longitudinal
-from .physics.wear import relative_wear as relative_wear
-from .physics.wear import wear_integral as wear_integral
+_EXPORTS = _exports()
 
-# 4. decide
-from .decisions import cost_threshold as cost_threshold
-from .decisions import derive_mu_min_snow as derive_mu_min_snow
-from .decisions import high_wear_warning as high_wear_warning
-from .decisions import winter_verdict as winter_verdict
-from .decisions import WearWarning as WearWarning
-from .decisions import WinterVerdict as WinterVerdict
+# The public names, in task order (the documentation's order too).
+__all__ = list(_EXPORTS)
 
-# 5. criticise
-from .criticism import CandidateResult as CandidateResult
-from .criticism import CriticismResult as CriticismResult
-from .criticism import criticize_fleet_fit as criticize_fleet_fit
-from .criticism import criticize_stream as criticize_stream
-from .criticism import criticize_table as criticize_table
-from .criticism import criticize_tyre_fit as criticize_tyre_fit
-from .criticism import posterior_predictive_check as posterior_predictive_check
 
-# 6. report
-from .report import Report as Report
-from .report import write_report as write_report
+def __getattr__(name: str) -> object:
+    module = _EXPORTS.get(name)
+    if module is None:
+        # A subpackage used as an attribute (``tyrebayes.streams``) after ``import tyrebayes``.
+        if _importlib_util.find_spec(f"{__name__}.{name}") is not None:
+            return _importlib.import_module(f"{__name__}.{name}")
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(_importlib.import_module(module), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
 
-# 7. fleet runs on dask.distributed
-from .batch import RunSettings as RunSettings
-from .batch import dask_client as dask_client
-from .batch import fleet_run as fleet_run
-from .batch import read_manifest as read_manifest
 
-__version__ = "0.2.0"
-
-# The public names, in the task order of the imports above (the documentation's order too).
-__all__ = [
-    "SURFACES",
-    "TYRE_TYPES",
-    "load_vehicle",
-    "BadInputError",
-    "Vehicle",
-    "read_can_log",
-    "load_profile",
-    "StreamFeatures",
-    "compute_features",
-    "read_stream",
-    "write_stream",
-    "driven_tyre_temperature",
-    "features_tyre_temperature",
-    "ValidatedStream",
-    "validate_stream",
-    "WEAR_EVIDENCE_COLUMNS",
-    "DriveWearEvidence",
-    "drive_wear_evidence",
-    "wear_evidence_table",
-    "fit_fleet",
-    "load_tyre_type_priors",
-    "fit_ols",
-    "FIT_METHODS",
-    "POLICY",
-    "ConvergencePolicy",
-    "Diagnostics",
-    "Fit",
-    "Provenance",
-    "diagnose",
-    "load_fit",
-    "TyreObservations",
-    "observations_from_features",
-    "observations_from_stream",
-    "stack_drives",
-    "windowed_observations",
-    "TyreFit",
-    "fit_tyre",
-    "TyrePriors",
-    "with_pointwise",
-    "build_wear_data",
-    "fit_wear",
-    "drive_history",
-    "tread_readings",
-    "detect_tyre_changes",
-    "fit_wear_history",
-    "OnlineConfig",
-    "OnlineEstimator",
-    "online_estimate",
-    "stream_steps",
-    "stream_windows",
-    "summary_record",
-    "window_blocks",
-    "predict_friction",
-    "summarize",
-    "fit_vmax_inputs",
-    "lateral_vmax_inputs",
-    "type_vmax_inputs",
-    "VmaxInputs",
-    "predict_vmax",
-    "VmaxPrediction",
-    "vmax_draws",
-    "predict_wear_volume",
-    "wear_history_predictions",
-    "critical_speed",
-    "iso3888_2_course",
-    "StiffnessTemperature",
-    "compensate_stiffness",
-    "stiffness_at_temperature",
-    "BrushTyre",
-    "MagicFormulaLongitudinal",
-    "brush_longitudinal",
-    "relative_wear",
-    "wear_integral",
-    "cost_threshold",
-    "derive_mu_min_snow",
-    "high_wear_warning",
-    "winter_verdict",
-    "WearWarning",
-    "WinterVerdict",
-    "CandidateResult",
-    "CriticismResult",
-    "criticize_fleet_fit",
-    "criticize_stream",
-    "criticize_table",
-    "criticize_tyre_fit",
-    "posterior_predictive_check",
-    "Report",
-    "write_report",
-    "RunSettings",
-    "dask_client",
-    "fleet_run",
-    "read_manifest",
-]
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
