@@ -41,6 +41,7 @@ import tomllib
 from pathlib import Path
 
 import jax
+from _data import EXTERNAL, Drive, external_drives  # noqa: E402
 from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
@@ -48,18 +49,16 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes.inference.tyre.data import (  # noqa: E402
-    BLOCK_S,
+from tyrebayes import (  # noqa: E402
+    TyrePriors,
+    compute_features,
+    features_tyre_temperature,
+    fit_tyre,
     observations_from_features,
     stack_drives,
 )
-from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
-from tyrebayes.inference.tyre.model import TyrePriors  # noqa: E402
-from tyrebayes.streams import compute_features, read_stream, validate_stream  # noqa: E402
-from tyrebayes.streams.tyre_temperature import features_tyre_temperature  # noqa: E402
+from tyrebayes.inference.tyre.data import BLOCK_S  # noqa: E402
 
-DEFAULT_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "external"
 RESULTS = Path(__file__).parent / "results" / "external_drives.json"
 RESULTS_LOAD = RESULTS.with_name("external_drives_load_sensitivity.json")
 SIDE_MODELS = ("brush", "linear")
@@ -142,12 +141,11 @@ def fit_row(fit, c_x_true: float, mu_true: float) -> dict:
     return row
 
 
-def one_drive(folder: Path, entry: dict, priors: TyrePriors | None = None) -> dict:
-    name = entry["name"]
-    vehicle_path = folder / "drives" / entry["vehicle"]
-    vehicle = load_vehicle(vehicle_path)
-    axle = "front" if tomllib.loads(vehicle_path.read_text())["drive"] == "fwd" else "rear"
-    stream = validate_stream(read_stream(folder / "drives" / f"{name}.parquet"), vehicle)
+def one_drive(drive: Drive, priors: TyrePriors | None = None) -> dict:
+    name, entry = drive.name, drive.truth
+    vehicle = drive.vehicle()
+    axle = "front" if tomllib.loads(drive.vehicle_path.read_text())["drive"] == "fwd" else "rear"
+    stream = drive.validated(vehicle)
     features = compute_features(stream, vehicle)
     temperature = features_tyre_temperature(features, ambient_c=20.0)
     windows = observations_from_features(features, temperature_c=temperature)
@@ -158,7 +156,7 @@ def one_drive(folder: Path, entry: dict, priors: TyrePriors | None = None) -> di
     for kind in SIDE_MODELS:
         fits[kind] = fit_tyre(obs, priors=priors, method="fast", seed=0, kind=kind)
 
-    truth = pd.read_parquet(folder / "drives" / f"{name}_truth.parquet")
+    truth = pd.read_parquet(drive.truth_samples_path())
     slip_windows = ~windows["at_limit"]
     true_slip, true_rho = window_truth(truth, windows["time_s"][slip_windows], 0.125, axle)
     slip, rho = windows["slip"][slip_windows], windows["rho"][slip_windows]
@@ -236,7 +234,7 @@ def pooled(rows: list[dict], model: str) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("folder", nargs="?", type=Path, default=DEFAULT_DIR)
+    parser.add_argument("folder", nargs="?", type=Path, default=EXTERNAL)
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--drives", default="", help="comma-separated subset, e.g. e00,e01")
     parser.add_argument(
@@ -246,14 +244,10 @@ def main() -> None:
     priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
     if args.out is None:
         args.out = RESULTS_LOAD if args.load_sensitivity else RESULTS
-    entries = json.loads((args.folder / "truth.json").read_text())["drives"]
-    if args.drives:
-        wanted = set(args.drives.split(","))
-        entries = [e for e in entries if e["name"] in wanted]
     t0 = time.perf_counter()
     rows = []
-    for entry in entries:
-        row = one_drive(args.folder, entry, priors)
+    for drive in external_drives(args.folder, args.drives):
+        row = one_drive(drive, priors)
         rows.append(row)
         d = row["default"]
         print(

@@ -35,13 +35,13 @@ Usage: ``python benchmarks/identification.py [DIR] [--out FILE]``.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import tempfile
 import time
 from pathlib import Path
 
 import jax
+from _data import EXTERNAL, external_drives  # noqa: E402
 from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
@@ -67,7 +67,6 @@ from tyrebayes.inference.tyre.data import observations_from_stream  # noqa: E402
 from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_DIR = ROOT.parent / "shared" / "data" / "external"
 RESULTS = ROOT / "benchmarks" / "results" / "identification.json"
 WHEELS = ("wheel_speed_fl", "wheel_speed_fr", "wheel_speed_rl", "wheel_speed_rr")
 
@@ -161,13 +160,11 @@ def online_case(stream: Path, vehicle: Path, surface: str) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("folder", nargs="?", type=Path, default=DEFAULT_DIR)
+    parser.add_argument("folder", nargs="?", type=Path, default=EXTERNAL)
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args()
-    entries = {e["name"]: e for e in json.loads((args.folder / "truth.json").read_text())["drives"]}
-    entry = entries["e00"]
-    source = args.folder / "drives" / "e00.parquet"
-    vehicle = args.folder / "drives" / entry["vehicle"]
+    (e00,) = external_drives(args.folder, "e00")
+    entry, source, vehicle = e00.truth, e00.path, e00.vehicle_path
     drive = pd.read_parquet(source)
     vehicle_text = vehicle.read_text()
     radius = load_vehicle(vehicle).wheel_radius_m

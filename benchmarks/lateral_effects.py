@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 import jax
 from _results import figure, write_result  # noqa: E402
@@ -24,16 +23,13 @@ from _results import figure, write_result  # noqa: E402
 jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
-from lateral_real import HERE, _niki, _stanford  # noqa: E402
+from _data import external_lateral_drives, niki_lateral_log, stanford_lateral_log  # noqa: E402
+from lateral_real import HERE  # noqa: E402
 
-from tyrebayes import load_vehicle  # noqa: E402
+from tyrebayes import cornering_observations, load_vehicle  # noqa: E402
 from tyrebayes.criticism.lateral import criticize_lateral_effects  # noqa: E402
-from tyrebayes.inference.lateral import cornering_observations  # noqa: E402
 from tyrebayes.inference.lateral.model import LATERAL_EFFECTS  # noqa: E402
-from tyrebayes.streams import read_stream, validate_stream  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-EXTERNAL = ROOT.parent / "shared" / "data" / "external_lateral"
 KEYS = ("c_y_front", "c_y_rear", "understeer_gradient")
 
 
@@ -103,19 +99,15 @@ def main() -> None:
         help="replace these logs' rows in the existing result and keep the others",
     )
     args = parser.parse_args()
-    truth_all = json.loads((EXTERNAL / "truth.json").read_text())
-    names = sorted(truth_all)
-    if args.drives:
-        names = [n for n in names if n.split(".")[0] in args.drives.split(",")]
     rows = []
-    for name in names:
-        truth = truth_all[name]
-        vehicle = load_vehicle(EXTERNAL / "drives" / truth["vehicle"])
-        frame = validate_stream(read_stream(EXTERNAL / "drives" / name), vehicle).data
-        rows.append(_row(name, cornering_observations(frame, vehicle), truth["surface"], truth))
+    for drive in external_lateral_drives(names=args.drives):
+        vehicle = drive.vehicle()
+        frame = drive.validated(vehicle).data
+        obs = cornering_observations(frame, vehicle)
+        rows.append(_row(drive.path.name, obs, drive.truth["surface"], drive.truth))
     real = {
-        "stanford_2014_250lm": (_stanford, "stanford_250lm"),
-        "niki_gti_high_speed": (lambda: _niki("High_Speed"), "niki_gti"),
+        "stanford_2014_250lm": (stanford_lateral_log, "stanford_250lm"),
+        "niki_gti_high_speed": (lambda: niki_lateral_log("High_Speed"), "niki_gti"),
     }
     for name, (load, vehicle_name) in ({} if args.no_real else real).items():
         vehicle = load_vehicle(HERE / "vehicles" / f"{vehicle_name}.toml")

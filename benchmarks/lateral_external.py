@@ -28,6 +28,7 @@ import time
 from pathlib import Path
 
 import jax
+from _data import EXTERNAL_LATERAL, Drive, external_lateral_drives  # noqa: E402
 from _results import figure, write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
@@ -36,12 +37,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from paramsd_ekf import run_paramsd  # noqa: E402
 
-from tyrebayes import load_vehicle  # noqa: E402
-from tyrebayes.inference.lateral import cornering_observations, fit_lateral  # noqa: E402
-from tyrebayes.streams import read_stream, validate_stream  # noqa: E402
+from tyrebayes import cornering_observations, fit_lateral  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_DIR = ROOT.parent / "shared" / "data" / "external_lateral"
 AXLE_KEYS = ("c_y_front", "c_y_rear")
 
 
@@ -75,9 +72,10 @@ def _ekf(frame: pd.DataFrame, vehicle) -> dict:
     return out
 
 
-def _fit_drive(folder: Path, name: str, truth: dict) -> dict:
-    vehicle = load_vehicle(folder / "drives" / truth["vehicle"])
-    validated = validate_stream(read_stream(folder / "drives" / name), vehicle)
+def _fit_drive(drive: Drive) -> dict:
+    name, truth = drive.path.name, drive.truth
+    vehicle = drive.vehicle()
+    validated = drive.validated(vehicle)
     obs = cornering_observations(validated.data, vehicle)
     fit_lateral(obs, surface=truth["surface"])  # compiles (one program per record length)
     start = time.perf_counter()
@@ -128,18 +126,13 @@ def _coverage(rows: list[dict], keys, source=None) -> tuple[int, int]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("folder", nargs="?", default=str(DEFAULT_DIR))
+    parser.add_argument("folder", nargs="?", type=Path, default=EXTERNAL_LATERAL)
     parser.add_argument("--drives", default="", help="comma-separated drive names (default all)")
     args = parser.parse_args()
-    folder = Path(args.folder)
-    truth = json.loads((folder / "truth.json").read_text())
-    names = sorted(truth)
-    if args.drives:
-        wanted = {f"{d}.parquet" for d in args.drives.split(",")}
-        names = [n for n in names if n in wanted]
     rows = []
-    for name in names:
-        row = _fit_drive(folder, name, truth[name])
+    for drive in external_lateral_drives(args.folder, args.drives):
+        name = drive.path.name
+        row = _fit_drive(drive)
         rows.append(row)
         print(
             f"{name} {row['kind']:6s} c_f {row['c_y_front']['error']:+.1%} "
@@ -236,7 +229,7 @@ def main() -> None:
             count=len(rows),
         ),
     ]
-    payload = {"folder": str(folder), "drives": rows}
+    payload = {"folder": str(args.folder), "drives": rows}
     path = write_result("lateral_external", payload, figures=figures)
     for f in figures:
         print(f"{f['name']}: {f['value']} (target {f['target']}, met {f['met']})")

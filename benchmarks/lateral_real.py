@@ -19,6 +19,7 @@ Usage: ``python benchmarks/lateral_real.py``.
 
 from __future__ import annotations
 
+import argparse
 import time
 from pathlib import Path
 
@@ -29,7 +30,7 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-import scipy.io  # noqa: E402
+from _data import niki_lateral_log, stanford_lateral_log  # noqa: E402
 from scipy.signal import butter, sosfiltfilt  # noqa: E402
 
 from tyrebayes import load_vehicle  # noqa: E402
@@ -43,50 +44,7 @@ from tyrebayes.streams import read_stream, validate_stream  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-REAL = ROOT.parent / "shared" / "data" / "real" / "lateral"
 RAV4 = ROOT / "tyrebayes" / "data" / "comma2k19_rav4_segment.csv"
-
-
-def _stanford() -> pd.DataFrame:
-    folder = REAL / "stanford_2014_leanza"
-
-    def col(name):
-        return np.loadtxt(folder / f"{name}.txt")
-
-    delta = col("delta")
-    # Two one-sample spikes to 0.48 rad (README): a road-wheel angle cannot jump so in 10 ms.
-    jump = np.abs(np.diff(delta, prepend=delta[0])) > 0.1
-    spikes = jump | np.roll(jump, -1)
-    delta[spikes] = np.nan
-    return pd.DataFrame(
-        {
-            "time": col("t"),
-            "speed_reference": col("vx"),
-            "lateral_velocity": col("vy"),
-            "yaw_rate": col("yawRate"),
-            "ay": col("ayCG"),
-            "wheel_angle_front": pd.Series(delta).interpolate().to_numpy(),
-        }
-    )
-
-
-def _niki(name: str) -> pd.DataFrame:
-    mat = scipy.io.loadmat(REAL / "niki_gti_side_slip" / f"{name}.mat")
-    dt = 0.001 if name == "High_Speed2" else 0.005
-    n = mat["Ux_mps"].size
-    frame = pd.DataFrame(
-        {
-            "time": np.arange(n) * dt,
-            "speed_reference": mat["Ux_mps"].ravel(),
-            "lateral_velocity": mat["Uy_mps"].ravel(),
-            "yaw_rate": mat["r_radps"].ravel(),
-            "ay": mat["ay_mps2"].ravel(),
-            "wheel_angle_front": mat["delta_rad"].ravel(),
-        }
-    )
-    if name == "High_Speed2":  # each value held 5 samples at 1 kHz: the 200 Hz signal
-        frame = frame.iloc[::5].reset_index(drop=True)
-    return frame
 
 
 def _lowpass(x: np.ndarray, rate: float) -> np.ndarray:
@@ -153,11 +111,12 @@ def _compare(fit: dict, ref: dict) -> dict:
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
     logs = {
-        "stanford_2014_250lm": (_stanford, "stanford_250lm"),
-        "niki_gti_high_speed": (lambda: _niki("High_Speed"), "niki_gti"),
-        "niki_gti_high_speed2": (lambda: _niki("High_Speed2"), "niki_gti"),
-        "niki_gti_low_speed": (lambda: _niki("Low_Speed"), "niki_gti"),
+        "stanford_2014_250lm": (stanford_lateral_log, "stanford_250lm"),
+        "niki_gti_high_speed": (lambda: niki_lateral_log("High_Speed"), "niki_gti"),
+        "niki_gti_high_speed2": (lambda: niki_lateral_log("High_Speed2"), "niki_gti"),
+        "niki_gti_low_speed": (lambda: niki_lateral_log("Low_Speed"), "niki_gti"),
     }
     rows = {}
     for name, (load, vehicle_name) in logs.items():

@@ -33,11 +33,11 @@ Usage: ``python benchmarks/vmax_lateral.py [DIR] [--drives l00,l01] [--draws N]`
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
 import jax
+from _data import EXTERNAL_LATERAL, Drive, external_lateral_drives  # noqa: E402
 from _results import figure, write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
@@ -45,20 +45,18 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tyrebayes import load_vehicle  # noqa: E402
-from tyrebayes.inference.lateral import cornering_observations, fit_lateral  # noqa: E402
-from tyrebayes.inference.summary import summarize  # noqa: E402
-from tyrebayes.inference.vmax import (  # noqa: E402
+from tyrebayes import (  # noqa: E402
+    cornering_observations,
+    critical_speed,
+    fit_lateral,
     lateral_vmax_inputs,
     predict_vmax,
+    summarize,
     type_vmax_inputs,
     vmax_draws,
 )
-from tyrebayes.physics.lanechange import AxleTyres, critical_speed  # noqa: E402
-from tyrebayes.streams import read_stream, validate_stream  # noqa: E402
+from tyrebayes.physics.lanechange import AxleTyres  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_DIR = ROOT.parent / "shared" / "data" / "external_lateral"
 #: The type-constant comparison's tyre: the per-tyre model's C_xr prior median (TyrePriors).
 TYPE_C_XR = 35.0
 TYPE_TYRE = "all_season"
@@ -78,8 +76,9 @@ def _interval(draws_kmh: np.ndarray, truth_kmh: float) -> dict:
     }
 
 
-def _drive(folder: Path, name: str, truth: dict, n: int, key) -> dict:
-    vehicle = load_vehicle(folder / "drives" / truth["vehicle"])
+def _drive(drive: Drive, n: int, key) -> dict:
+    name, truth = drive.path.name, drive.truth
+    vehicle = drive.vehicle()
     # the conversion to N/rad on this vehicle against the generator's own
     tyres = AxleTyres(truth["c_y_front"], truth["c_y_rear"], truth["mu_y"])
     c_f, c_r = tyres.cornering_stiffness_n_per_rad(vehicle)
@@ -90,7 +89,7 @@ def _drive(folder: Path, name: str, truth: dict, n: int, key) -> dict:
     cs = critical_speed(vehicle, tyres, tol_mps=TRUTH_TOL_MPS)
     v_true = 0.5 * float(cs.v_max_mps + cs.v_fail_mps) * 3.6
 
-    validated = validate_stream(read_stream(folder / "drives" / name), vehicle)
+    validated = drive.validated(vehicle)
     obs = cornering_observations(validated.data, vehicle)
     start = time.perf_counter()
     fit = fit_lateral(obs, surface=truth["surface"], inputs=(name,))
@@ -170,21 +169,16 @@ def _share(rows: list[dict], test) -> tuple[int, int]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("folder", nargs="?", default=str(DEFAULT_DIR))
+    parser.add_argument("folder", nargs="?", type=Path, default=EXTERNAL_LATERAL)
     parser.add_argument("--drives", default="", help="comma-separated drive names (default all)")
     parser.add_argument("--draws", type=int, default=1000, help="V_max draws per prediction")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
-    folder = Path(args.folder)
-    truth = json.loads((folder / "truth.json").read_text())
-    names = sorted(truth)
-    if args.drives:
-        wanted = {f"{d}.parquet" for d in args.drives.split(",")}
-        names = [n for n in names if n in wanted]
     key = jax.random.PRNGKey(args.seed)
     rows = []
-    for i, name in enumerate(names):
-        row = _drive(folder, name, truth[name], args.draws, jax.random.fold_in(key, i))
+    for i, drive in enumerate(external_lateral_drives(args.folder, args.drives)):
+        name = drive.path.name
+        row = _drive(drive, args.draws, jax.random.fold_in(key, i))
         rows.append(row)
         p, t = row["posterior"], row["type_constant"]
         print(
@@ -304,7 +298,7 @@ def main() -> None:
         ),
     ]
     payload = {
-        "folder": str(folder),
+        "folder": str(args.folder),
         "draws_per_prediction": args.draws,
         "type_constant_tyre": {"tyre_type": TYPE_TYRE, "c_xr": TYPE_C_XR},
         "truth_tolerance_kmh": TRUTH_TOL_MPS * 3.6,
