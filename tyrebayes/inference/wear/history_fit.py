@@ -246,7 +246,7 @@ def fit_wear_history(
         num_chains=num_chains,
         init_values=init,
         static_argnums=(0,),  # the drives' segments shape the model
-        target_accept_prob=0.9,
+        target_accept_prob=0.95,
     )
     samples = dict(draws.samples)
     samples.update(
