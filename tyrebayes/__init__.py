@@ -45,6 +45,7 @@ from .streams.tyre_temperature import features_tyre_temperature as features_tyre
 from .streams.validate import ValidatedStream as ValidatedStream
 from .streams.validate import validate_stream as validate_stream
 from .streams.wear_evidence import WEAR_EVIDENCE_COLUMNS as WEAR_EVIDENCE_COLUMNS
+from .streams.wear_evidence import CorneringStiffness as CorneringStiffness
 from .streams.wear_evidence import DriveWearEvidence as DriveWearEvidence
 from .streams.wear_evidence import drive_wear_evidence as drive_wear_evidence
 from .streams.wear_evidence import wear_evidence_table as wear_evidence_table
@@ -75,6 +76,9 @@ from .inference.wear import fit_wear as fit_wear
 from .inference.wear.history import drive_history as drive_history
 from .inference.wear.history import tread_readings as tread_readings
 from .inference.wear.changepoint import detect_tyre_changes as detect_tyre_changes
+from .inference.wear.cornering import (
+    cornering_stiffness_from_lateral as cornering_stiffness_from_lateral,
+)
 from .inference.wear.history_fit import fit_wear_history as fit_wear_history
 from .inference.online import OnlineConfig as OnlineConfig
 from .inference.online import OnlineEstimator as OnlineEstimator
@@ -156,6 +160,8 @@ __all__ = [
     "WEAR_EVIDENCE_COLUMNS",
     "DriveWearEvidence",
     "drive_wear_evidence",
+    "CorneringStiffness",
+    "cornering_stiffness_from_lateral",
     "wear_evidence_table",
     "fit_fleet",
     "load_tyre_type_priors",

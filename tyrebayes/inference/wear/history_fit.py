@@ -36,6 +36,7 @@ import json
 
 import arviz_base as azb
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 import numpyro
@@ -75,9 +76,9 @@ def _segment_blocks(history: DriveHistory) -> list[np.ndarray]:
 
 def wear_history_model(
     history: DriveHistory,
-    exposure: np.ndarray | None,
-    read_pair: np.ndarray | None,
-    depth_mm: np.ndarray | None,
+    exposure: np.ndarray | jax.Array | None,
+    read_pair: np.ndarray | jax.Array | None,
+    depth_mm: np.ndarray | jax.Array | None,
     extended: bool,
     priors: WearPriors,
     wear_area_mm2: float,
