@@ -1,11 +1,11 @@
 """Tread wear from a car's own drive history with cornering: γ, its interval, per-axle wear rates.
 
 Per simulated year (:func:`tyrebayes.simulate.wear_history.simulate_wear_year`: compact FWD car,
-summer tyres, γ = 0.022 mm³/J (a set wear of about 95 g per 1,000 km, inside the ADAC convoy
-range), κ = 0.02 /K, commuting drives whose corners and lane changes do about half of the
-friction work (:data:`~tyrebayes.simulate.wear_history.COMMUTE_PROFILE`; the truth wears by the
-longitudinal and the lateral work, eq. 4.19a + b), 15,000 km a year, a rotation and a replacement,
-tread readings every 5,000 km) the pipeline reads only the stream files
+summer tyres, γ = 0.022 mm³/J (the set's true wear, ``true_g_per_1000km_car_set``, inside the
+ADAC convoy range), κ = 0.02 /K, commuting drives whose corners and lane changes do about
+half of the friction work (:data:`~tyrebayes.simulate.wear_history.COMMUTE_PROFILE`; the truth
+wears by the longitudinal and the lateral work, eq. 4.19a + b), 15,000 km a year, a rotation and a
+replacement, tread readings every 5,000 km) the pipeline reads only the stream files
 (:func:`tyrebayes.streams.wear_evidence.wear_evidence_table`), builds the history (tyre changes
 detected) and fits γ and κ with the readings (:func:`tyrebayes.inference.wear.fit_wear_history`,
 NUTS). Two sources of the cornering stiffness behind the lateral work, each its own fit:
@@ -49,6 +49,7 @@ from tyrebayes.inference.result import hdi  # noqa: E402
 from tyrebayes.inference.wear.history import drive_history, tread_readings  # noqa: E402
 from tyrebayes.inference.wear.history_fit import WORK_SCALE_LOG_SD, fit_wear_history  # noqa: E402
 from tyrebayes.inference.wear.history_predict import wear_history_predictions  # noqa: E402
+from tyrebayes.physics.wear import TreadGeometry  # noqa: E402
 from tyrebayes.simulate.wear_history import simulate_wear_year  # noqa: E402
 from tyrebayes.streams.wear_evidence import (  # noqa: E402
     CorneringStiffness,
@@ -60,6 +61,7 @@ KAPPA = 0.02
 SOURCES = ("type_prior", "posterior_stand_in")
 STAND_IN_LOG_SD = 0.1
 HALF_WIDTH_TARGET = 0.20
+GEOM = TreadGeometry()
 
 
 def _interval(draws: np.ndarray, truth: float) -> dict:
@@ -139,6 +141,13 @@ def run_year(seed: int, n_drives: int, drive_s: float, nuts: dict) -> dict:
         "c_y_true": truth.c_y_per_rad,
         "c_y_stand_in": c_y.tolist(),
         "true_wear_mm_per_1000km": np.asarray(truth.wear_mm_per_1000km).tolist(),
+        "true_g_per_1000km_car_set": float(
+            2.0
+            * np.sum(truth.wear_mm_per_1000km)
+            * GEOM.wear_area_mm2
+            * GEOM.rubber_density_g_per_cm3
+            / 1000.0
+        ),
         "lateral_share_of_true_work": float(true_y.sum() / (true_x.sum() + true_y.sum())),
         "lateral_share_rear": float(true_y[1] / (true_x[1] + true_y[1])),
         "detection": detection,
