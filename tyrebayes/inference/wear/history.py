@@ -7,7 +7,7 @@ lays out which tyre pair was on which axle in every interval. Each drive stands 
 to the next drive's odometer reading (its own distance where there is no odometer): its friction
 work is scaled by that distance over its own. The lateral work (``work_y_front_j``,
 ``work_y_rear_j``) and the log-sd of the cornering stiffness behind it are optional columns: a
-table without them has no lateral work (``lateral_source`` ``"none"``).
+table without them (or with them empty) has no lateral work (``lateral_source`` ``"none"``).
 """
 
 from __future__ import annotations
@@ -207,6 +207,8 @@ def _lateral(table: pd.DataFrame, n: int) -> tuple[np.ndarray, float, str]:
     if not all(c in table for c in LATERAL_COLUMNS):
         return np.zeros((n, 2)), 0.0, "none"
     work_y = np.column_stack([_column(table, "work_y_front_j"), _column(table, "work_y_rear_j")])
+    if np.all(np.isnan(work_y)):  # empty columns: a table made without the lateral work
+        return np.zeros((n, 2)), 0.0, "none"
     if not np.all(np.isfinite(work_y) & (work_y >= 0)):
         raise BadInputError("drive history: expected finite lateral work >= 0 for every drive")
     log_sd = _column(table, "cornering_stiffness_log_sd")
