@@ -202,6 +202,17 @@ def drive_history(
     )
 
 
+def _is_type_prior(table: pd.DataFrame) -> bool:
+    from ...streams.wear_evidence import TYPE_PRIOR_CORNERING as prior
+
+    expected = {
+        "cornering_stiffness_front_per_rad": prior.front_per_rad,
+        "cornering_stiffness_rear_per_rad": prior.rear_per_rad,
+        "cornering_stiffness_log_sd": prior.log_sd,
+    }
+    return all(c in table and np.allclose(_column(table, c), v) for c, v in expected.items())
+
+
 def _lateral(table: pd.DataFrame, n: int) -> tuple[np.ndarray, float, str]:
     """The lateral work (n, 2) [J], its scale's log-sd and the stiffness source of a table."""
     if not all(c in table for c in LATERAL_COLUMNS):
@@ -214,11 +225,10 @@ def _lateral(table: pd.DataFrame, n: int) -> tuple[np.ndarray, float, str]:
     log_sd = _column(table, "cornering_stiffness_log_sd")
     if not np.all(np.isfinite(log_sd) & (log_sd >= 0)):
         raise BadInputError("drive history: expected cornering_stiffness_log_sd >= 0 per drive")
-    sources = (
-        sorted({str(v) for v in table["cornering_stiffness_source"]})
-        if "cornering_stiffness_source" in table
-        else ["given"]
-    )
+    if "cornering_stiffness_source" in table:
+        sources = sorted({str(v) for v in table["cornering_stiffness_source"]})
+    else:  # a fleet run's summary: the type prior's numbers say the type prior
+        sources = ["type_prior" if _is_type_prior(table) else "given"]
     # one tyre stiffness for the history: the widest stated uncertainty of its drives
     return work_y, float(log_sd.max()), "+".join(sources)
 
