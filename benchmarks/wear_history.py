@@ -201,13 +201,21 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
         label = "type prior c_y" if source == "type_prior" else "c_y posterior stand-in"
         note = f"{n} simulated years, one fit each with tread readings; {not_conv} not converged"
         figures += [
-            figure(f"gamma 90% coverage ({label})", g_cov, target=(">=", 0.8), count=n, note=note),
+            figure(
+                f"gamma 90% coverage ({label})",
+                g_cov,
+                target=(">=", 0.8),
+                count=n,
+                note=note,
+                headline=source == "type_prior",
+            ),
             figure(
                 f"gamma one-year 90% half-width ({label})",
                 hw,
                 target=("<=", HALF_WIDTH_TARGET),
                 count=n,
                 note="relative to the median; ±0.33 before the lateral work and the brake split",
+                headline=source == "type_prior",
             ),
             figure(f"gamma median bias ({label})", bias, target=("abs<=", 0.1), count=n),
             figure(f"gamma*s 90% coverage ({label})", gw_cov, count=n),
