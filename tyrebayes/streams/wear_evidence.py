@@ -11,15 +11,19 @@ What one drive tells about tread wear (thesis Sec. 4.4):
   samples (both axles carry the same tyre model). Its uncertainty: the slip noise of every sample
   (correlated over the smoothing window), and the radius-ratio error, which multiplies the whole
   traction energy ∫ F_x V dt.
-* **Braking split**: the features split a braking force by one fixed brake balance. Coasting in
-  gear is engine drag on the driven wheels alone, and a service brake with electronic brake-force
-  distribution follows the axle loads, so the evidence re-splits each braking sample's total
-  force: up to :data:`ENGINE_BRAKE_SHARE` of the weight on the driven axle(s), the rest in
-  proportion to the axle loads (:func:`braking_split`). With the fixed balance (0.7 front) the
-  front axle's braking work read about 0.6 of the simulator's and the rear's about 1.5 times it
-  (force squared: (0.7 / ~0.9)² for the mild decelerations that dominate braking): that, not
-  the traction part, was why the evidence read the drive-history simulator's friction work at
-  0.85 of the truth (``benchmarks/results/wear_history.json``).
+* **Braking split**: the features split a braking force by one fixed brake balance (0.7
+  front). Coasting in gear is engine drag on the driven wheels alone, and a service brake with
+  electronic brake-force distribution follows the axle loads, so the evidence re-splits each
+  braking sample's total force: up to :data:`ENGINE_BRAKE_SHARE` of the weight on the driven
+  axle(s), the rest in proportion to the axle loads (:func:`braking_split`). With the fixed
+  balance the mild decelerations that dominate braking put too little force on the driven front
+  axle and too much on the rear; the linear braking work goes with the force squared, so the
+  front's braking work read low and the rear's, on the drive-history simulator, well above the
+  truth. That was one cause of the evidence reading the simulator's front-axle work at 0.85 of
+  the truth; the other remains (``benchmarks/results/wear_history.json``,
+  ``evidence_work_over_true``): the radius ratios are read on "free-rolling" samples, chosen by
+  the force balance's ρ_x, whose true force the a_x offset's residual hides; the driven wheels'
+  slip at that force is read as radius and taken off every traction sample's slip.
 * **Lateral friction work** per axle, W_y = ∫ F_y V_x tan α dt (eq. 4.19b) with the axle forces of
   the single-track model (eq. 4.23b, c, from a_y and yaw acceleration; Newton's law holds in
   transients too, so every valid sample counts) and the slip angle of a brush tyre,
