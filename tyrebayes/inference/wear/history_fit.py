@@ -54,9 +54,9 @@ from .history import DriveHistory, TreadReadings, reading_exposure
 #: (benchmarks/results/wear_history.json, ``evidence_work_over_true``): the braking part was
 #: split by a fixed brake balance (now re-split, streams.wear_evidence.braking_split); what is
 #: left comes from the radius ratios, read on "free-rolling" samples whose force the a_x offset's
-#: residual hides (true ρ_x ≈ 0.01 there, whose slip ≈ 2e-4 is read as radius and taken off
-#: the traction slip, ≈ 1.2e-3). The prior does not correct that, it makes γ's interval honest:
-#: its 90 % range, 0.82-1.22, holds the measured 0.87-0.89.
+#: residual hides (the driven wheels' slip at that force is read as radius and taken off the
+#: traction slip). The prior does not correct that, it makes γ's interval honest: its 90 % range,
+#: 0.82-1.22, holds the measured front-axle ratios of the three simulated years (0.87-0.89).
 WORK_SCALE_LOG_SD = 0.12
 #: Correlation of the front and rear lateral-work scale errors: both axles carry the same tyre
 #: model, so most of an error in c_y is common; the axles differ in compliance steer and load.
