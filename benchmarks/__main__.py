@@ -162,9 +162,9 @@ BENCHMARKS: dict[str, Benchmark] = {
         ),
         Benchmark(
             "wear_history",
-            "wear from a car's drive history, 20 simulated years",
-            quick=("--years", "1", "--prefix-years", "0"),
-            minutes=30,
+            "wear from a car's drive history with cornering, 3 simulated years",
+            quick=("--years", "1", "--drives", "12", "--drive-s", "300", "--samples", "200"),
+            minutes=15,
         ),
         Benchmark(
             "online_agreement",

@@ -49,6 +49,8 @@ def test_streams_end_to_end(tiny_year, tmp_path, capsys):
         assert key in out
     assert out["km_to_1_6mm"]["mean"] > out["km_to_3mm"]["mean"]
     assert isinstance(out["high_wear"]["warning"], bool)
+    assert out["lateral_work"]["cornering_stiffness_source"] == "type_prior"
+    assert out["lateral_work"]["share_of_work"]["rear"] > 0.5  # the drives corner
     fit = load_fit(fit_path, kind="wear_history")
     assert "predictions" in fit.data.attrs
 
@@ -155,3 +157,15 @@ def test_a_manifest_is_read(tiny_year, tmp_path, capsys):
     ).to_csv(csv, index=False)
     assert main(["fit-wear", str(csv), "--vehicle", "compact_fwd"]) == 2
     assert "one vehicle" in _one_line_error(capsys)
+
+
+def test_a_tyre_fit_with_a_summary_table_is_bad_input(tmp_path, capsys):
+    """A summary table's lateral work was computed with its own c_y: --tyre-fit cannot apply."""
+    table, _ = synthetic_table()
+    path = tmp_path / "summary.csv"
+    _summary(table).to_csv(path, index=False)
+    fake = tmp_path / "tyre.nc"
+    fake.write_bytes(b"not a fit")
+    code = main(["fit-wear", str(path), "--vehicle", "compact_fwd", "--tyre-fit", str(fake)])
+    assert code == 2
+    assert "tyre" in _one_line_error(capsys)

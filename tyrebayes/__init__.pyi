@@ -22,6 +22,7 @@ from .streams.tyre_temperature import features_tyre_temperature as features_tyre
 from .streams.validate import ValidatedStream as ValidatedStream
 from .streams.validate import validate_stream as validate_stream
 from .streams.wear_evidence import WEAR_EVIDENCE_COLUMNS as WEAR_EVIDENCE_COLUMNS
+from .streams.wear_evidence import CorneringStiffness as CorneringStiffness
 from .streams.wear_evidence import DriveWearEvidence as DriveWearEvidence
 from .streams.wear_evidence import drive_wear_evidence as drive_wear_evidence
 from .streams.wear_evidence import wear_evidence_table as wear_evidence_table
@@ -59,6 +60,9 @@ from .inference.wear.history import drive_history as drive_history
 from .inference.wear.history import tread_readings as tread_readings
 from .inference.wear.changepoint import detect_tyre_changes as detect_tyre_changes
 from .inference.wear.history_fit import fit_wear_history as fit_wear_history
+from .inference.wear.cornering import (
+    cornering_stiffness_from_lateral as cornering_stiffness_from_lateral,
+)
 from .inference.online import OnlineConfig as OnlineConfig
 from .inference.online import OnlineEstimator as OnlineEstimator
 from .inference.online import online_estimate as online_estimate

@@ -113,7 +113,12 @@ def test_log_density_peaks_at_the_true_gamma():
 
     @jax.jit
     def density(log_g):
-        params = {"log_gamma_work": log_g, "sigma_ratio_mm": 0.01, "tau": 0.05}
+        params = {
+            "log_gamma_work": log_g,
+            "lateral_z": np.zeros(2),
+            "sigma_ratio_mm": 0.01,
+            "tau": 0.05,
+        }
         return log_density(wear_history_model, args, {}, params)[0]
 
     dens = [float(density(np.log(g))) for g in grid]
@@ -139,3 +144,129 @@ def test_gamma_is_recovered_from_radius_drift():
     assert out["tyre_changes"][0]["kind"] == "rotation"
     assert out["km_to_1_6mm"]["mean"] > out["km_to_3mm"]["mean"]
     assert ratio.shape == gw.shape
+
+
+def cornering_history(seed=3, n=14, lateral_scale=0.8):
+    """A history whose tyres wear by cornering too: the rear axle almost only laterally.
+
+    The evidence's lateral work reads the truth / ``lateral_scale`` (a type-prior c_y that is
+    too soft by that factor); readings of both axles every few drives.
+    """
+    rng = np.random.default_rng(seed)
+    geom = TreadGeometry()
+    dist = np.full(n, 10.0)
+    interval = rng.uniform(800.0, 1200.0, n)
+    odo = np.concatenate([[0.0], np.cumsum(interval[:-1])])
+    wx = np.column_stack([rng.uniform(1e4, 2e4, n), rng.uniform(100.0, 300.0, n)])
+    wy_true = np.column_stack([rng.uniform(1e4, 2e4, n), rng.uniform(0.6e4, 1.2e4, n)])
+    wy_ev = wy_true / lateral_scale
+    per_tyre = GAMMA * (wx + wy_true) * (interval / dist)[:, None] / 2 / geom.wear_area_mm2
+    lost = np.cumsum(per_tyre, axis=0)
+    y = 0.3 - np.concatenate([[0.0], (lost[:-1, 0] - lost[:-1, 1])])
+    y = y + 0.005 * rng.standard_normal(n)
+    table = pd.DataFrame(
+        {
+            "distance_km": dist,
+            "odometer_start_km": odo,
+            "work_x_front_j": wx[:, 0],
+            "work_x_front_sd_j": 0.02 * wx[:, 0],
+            "work_x_rear_j": wx[:, 1],
+            "work_x_rear_sd_j": 0.05 * wx[:, 1],
+            "work_y_front_j": wy_ev[:, 0],
+            "work_y_rear_j": wy_ev[:, 1],
+            "cornering_stiffness_log_sd": 0.5,
+            "cornering_stiffness_source": "type_prior",
+            "radius_ratio_front_rear": 1 + y / geom.outer_radius_mm,
+            "radius_ratio_front_rear_sd": np.full(n, 3e-5),
+            "speed_scale": np.nan,
+            "tyre_temperature_c": 20.0,
+        }
+    )
+    rows = []
+    for k in (4, 9, n):
+        at = odo[k - 1] + interval[k - 1]
+        for a, axle in enumerate(("front", "rear")):
+            depth = 8.0 - lost[k - 1, a] + 0.05 * rng.standard_normal()
+            rows.append({"odometer_km": at, "axle": axle, "depth_mm": depth})
+    true_rate = 1000.0 * lost[-1] / (odo[-1] + interval[-1])
+    return table, pd.DataFrame(rows), true_rate
+
+
+def test_history_reads_the_lateral_work_and_its_stiffness_source():
+    table, _, _ = cornering_history()
+    h = drive_history(table)
+    assert h.lateral_source == "type_prior" and h.lateral_log_sd == 0.5
+    assert h.work_y_j == pytest.approx(
+        table[["work_y_front_j", "work_y_rear_j"]] * h.scale[:, None]
+    )
+    # a table without the lateral columns has none
+    plain = drive_history(table.drop(columns=["work_y_front_j", "work_y_rear_j"]))
+    assert plain.lateral_source == "none" and not plain.work_y_j.any()
+
+
+def test_density_over_the_rear_lateral_scale_peaks_at_the_truth():
+    """Fast form of the cornering recovery: with γ at its truth, the readings and the drift put
+    the density's peak over the rear axle's lateral-work scale q_r at the true 0.8, and the rear
+    wear rate there is the true one."""
+    from numpyro.infer.util import log_density
+
+    from tyrebayes.inference.wear.data import WearPriors
+    from tyrebayes.inference.wear.history import reading_exposure
+    from tyrebayes.inference.wear.history_fit import _ScalePrior, wear_history_model
+
+    table, read, true_rate = cornering_history()
+    h = drive_history(table)
+    readings = tread_readings(read)
+    exposure, pair = reading_exposure(h, readings)
+    priors = WearPriors()
+    area = float(TreadGeometry().wear_area_mm2)
+    args = (h, exposure, pair, np.asarray(readings.depth_mm), False, priors, area)
+    scales = _ScalePrior.of(priors, h.lateral_log_sd)
+    root_inv = np.linalg.inv(scales.r_root)
+
+    @jax.jit
+    def density(z):
+        params = {
+            "log_gamma_work": np.log(GAMMA),  # the prior median: u's deviation is 0
+            "lateral_z": z,
+            "sigma_ratio_mm": 0.01,
+            "tau": 0.02,
+            "initial_depth_mm": np.full(h.n_pairs, 8.0),
+            "sigma_depth_mm": 0.05,
+        }
+        return log_density(wear_history_model, args, {}, params)[0]
+
+    grid = 0.8 * np.exp(np.linspace(-0.4, 0.4, 17))
+    dens = [float(density(root_inv @ np.log([0.8, q]))) for q in grid]
+    best = grid[int(np.argmax(dens))]
+    assert abs(best / 0.8 - 1) < 0.06
+    # the rear rate at the peak: γ (Wx + q Wy) per km, against the truth
+    rear = GAMMA * (h.work_j[:, 1] + best * h.work_y_j[:, 1]).sum() / 2 / area
+    assert 1000.0 * rear / h.total_km == pytest.approx(true_rate[1], rel=0.08)
+    # without the lateral work the rear axle would hardly wear
+    assert GAMMA * h.work_j[:, 1].sum() / 2 / area * 1000.0 / h.total_km < 0.05 * true_rate[1]
+
+
+@pytest.mark.slow
+def test_the_rear_axles_lateral_wear_rate_is_recovered():
+    """Cornering history: the rear axle wears almost only laterally, and its rate is found.
+
+    The evidence's lateral work reads 1.25 times the truth (a soft type-prior c_y); the fit's
+    lateral-work scale takes that out through the readings, so the rear rate's 90 % interval
+    covers the truth; without the lateral work the rear rate would be ~1/40 of it.
+    """
+    table, read, true_rate = cornering_history()
+    h = drive_history(table)
+    readings = tread_readings(read)
+    fit = fit_wear_history(
+        h, readings, extended=False, num_warmup=150, num_samples=150, num_chains=1, seed=2
+    )
+    out, _ = wear_history_predictions(fit, h, readings)
+    for a, axle in enumerate(("front", "rear")):
+        lo, hi = out["wear_mm_per_1000km"][axle]["hdi_90"]
+        assert lo < true_rate[a] < hi, (axle, lo, true_rate[a], hi)
+    assert out["wear_mm_per_1000km"]["rear"]["hdi_90"][0] > 0.5 * true_rate[1]
+    assert out["lateral_work"]["cornering_stiffness_source"] == "type_prior"
+    assert out["lateral_work"]["share_of_work"]["rear"] > 0.9
+    q = out["lateral_work"]["scale"]["rear"]
+    assert q["hdi_90"][0] < 0.8 < q["hdi_90"][1]

@@ -10,7 +10,12 @@ for the distance to the next), one manifest (a ``.txt`` list of stream paths, or
 ``path`` column, relative to the manifest, and optionally ``vehicle``), or one drive-summary table
 (CSV/Parquet with the columns of
 :data:`tyrebayes.streams.wear_evidence.WEAR_EVIDENCE_COLUMNS`, ``vehicle``, ``drive_id`` and an
-order column: ``drive_order``, ``start_time`` or ``odometer_start_km``).
+order column: ``drive_order``, ``start_time`` or ``odometer_start_km``; the lateral-work columns
+are optional: without them the history has no lateral work).
+
+The lateral friction work (thesis eq. 4.19b) needs the axles' cornering stiffness: ``--tyre-fit``
+takes it from a saved tyre fit's lateral posterior; without one (or where that fit has none) the
+type prior is used. The output's ``lateral_work.cornering_stiffness_source`` says which.
 
 Exit status: 0 on a converged fit; 2 on bad input (one line: a history of one drive, drives of
 different vehicles, readings that increase, ...); 3 when the fit did not converge (the summary is
@@ -63,6 +68,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="tyre type for the high-wear warning's reference (ADAC convoy wear)",
     )
     parser.add_argument(
+        "--tyre-fit",
+        default=None,
+        help="a saved tyre fit (fit-tyre --out) whose lateral posterior gives the axles' "
+        "cornering stiffness for the lateral work (default: the type prior)",
+    )
+    parser.add_argument(
         "--baseline", action="store_true", help="no temperature sensitivity (kappa = 0)"
     )
     parser.add_argument(
@@ -105,9 +116,9 @@ def _check_one_vehicle(values, vehicle: str) -> None:
 
 
 def _summary_table(table, vehicle: str):
-    from ..streams.wear_evidence import WEAR_EVIDENCE_COLUMNS
+    from ..inference.wear.history import HISTORY_COLUMNS
 
-    missing = [c for c in WEAR_EVIDENCE_COLUMNS if c not in table]
+    missing = [c for c in HISTORY_COLUMNS if c not in table]
     if missing:
         raise BadInputError(f"drive-summary table: expected columns {missing}, not found")
     if "vehicle" in table:
@@ -132,8 +143,12 @@ def _manifest_paths(path: Path, vehicle: str) -> list[Path]:
     return [p if p.is_absolute() else path.parent / p for p in map(Path, entries)]
 
 
-def drive_table(drives: list[str], vehicle: str):
-    """The evidence table of DRIVES (streams, a manifest or a summary table), in drive order."""
+def drive_table(drives: list[str], vehicle: str, cornering=None):
+    """The evidence table of DRIVES (streams, a manifest or a summary table), in drive order.
+
+    ``cornering``: the axles' c_y for the lateral work of stream files (a summary table keeps
+    its own; giving one with a table is bad input).
+    """
     from .._domain import load_vehicle
     from ..streams.wear_evidence import wear_evidence_table
 
@@ -145,6 +160,11 @@ def drive_table(drives: list[str], vehicle: str):
         elif path.suffix.lower() in _TABLE_SUFFIXES:
             table = _read_table(path)
             if "work_x_front_j" in table:
+                if cornering is not None:
+                    raise BadInputError(
+                        "--tyre-fit: expected stream files (a drive-summary table's lateral work "
+                        "was computed with its own cornering stiffness), got a summary table"
+                    )
                 return _summary_table(table, vehicle)
             if "path" in table:
                 paths = _manifest_paths(path, vehicle)
@@ -155,7 +175,7 @@ def drive_table(drives: list[str], vehicle: str):
         car = load_vehicle(vehicle)
     except ValueError as err:
         raise BadInputError(str(err).splitlines()[0]) from None
-    return wear_evidence_table(paths, car, _vehicle_name(vehicle))
+    return wear_evidence_table(paths, car, _vehicle_name(vehicle), cornering=cornering)
 
 
 def _text(out: dict, diagnostics) -> str:
@@ -200,7 +220,15 @@ def run(args: argparse.Namespace) -> int:
     from ..inference.wear.history_fit import fit_wear_history
     from ..inference.wear.history_predict import wear_history_predictions
 
-    table = drive_table(args.drives, args.vehicle)
+    cornering, note = None, ""
+    if args.tyre_fit is not None:
+        from ..inference.result import load_fit
+        from ..inference.wear.cornering import cornering_stiffness_from_tyre_fit
+
+        cornering = cornering_stiffness_from_tyre_fit(load_fit(args.tyre_fit, kind="tyre"))
+        if cornering is None:
+            note = f"{args.tyre_fit} has no lateral posterior: the type prior's c_y is used"
+    table = drive_table(args.drives, args.vehicle, cornering)
     history = drive_history(table)
     readings = None
     if args.tread_depth is not None:
@@ -216,6 +244,8 @@ def run(args: argparse.Namespace) -> int:
     )
     out, ratio = wear_history_predictions(fit, history, readings, tyre_type=args.tyre_type)
     out["high_wear"] = high_wear_warning(ratio).to_dict()
+    if note:
+        out["lateral_work"]["note"] = note
     out["vehicle"] = _vehicle_name(args.vehicle)
     out["converged"] = fit.converged
     out["diagnostics"] = fit.diagnostics.as_dict()

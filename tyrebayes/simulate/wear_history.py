@@ -2,8 +2,11 @@
 
 Each logged drive (:func:`~tyrebayes.simulate.drive.simulate_drive`, short and at a low rate to
 stay cheap) stands for the distance to the next one, which the stream's extra ``odometer``
-column [m] records. Truth per drive and wheel: the tyre's friction work
-Σ |ρ_x F_z V σ_x| dt from the simulator's own slip and force (longitudinal only), the worn volume
+column [m] records. Truth per drive and wheel: the tyre's friction work, longitudinal
+Σ |ρ_x F_z V σ_x| dt from the simulator's own slip and force (eq. 4.19a) plus lateral
+Σ |F_y V_x tan α| dt (eq. 4.19b, :func:`lateral_sliding_power`: the axle's lateral force of the
+single-track model, eq. 4.23b, c, and its slip angle from the drive's kinematics, which the
+simulator set from the tyre's brush curve with its true c_y and μ), the worn volume
 γ Σ exp(κ (T − 20)) w dt with the simulated tyre temperature T (eq. 4.26 with the package's
 temperature extension), scaled to the interval's distance and by a log-normal factor
 (``representativeness_sd``: the unlogged driving differs from the logged drive). The worn depth
@@ -11,7 +14,9 @@ shrinks each tyre's rolling radius one to one, and the next drive's wheel speeds
 (``SensorTruth.radius_error``); each tyre also has its own manufacturing radius error
 (``radius_spread``), which moves with it. A rotation swaps front and rear tyres on each side; a
 replacement mounts four new tyres. Tread-depth readings (per axle, the mean of its two tyres plus
-gauge noise) are taken at service intervals.
+gauge noise) are taken at service intervals. The drives corner (``profile``; by default
+:data:`COMMUTE_PROFILE`, whose corners and lane changes do about half of the friction work), and
+the free-rolling rear axle of a front-driven car wears almost only laterally.
 
 Examples
 --------
@@ -32,13 +37,50 @@ import numpy as np
 import pandas as pd
 
 from .._domain import load_vehicle
+from ..physics.vehicle import Vehicle
 from ..physics.wear import TreadGeometry
 from ..streams.io import write_stream
-from .drive import seed_sequence, simulate_drive
+from .drive import MIN_SLIP_SPEED_MPS, seed_sequence, simulate_drive
+from .profiles import ProfileOptions
 from .sensors import SensorModel, draw_sensor_truth
+from .truth import DriveTruth
 
 #: Wheel order (fl, fr, rl, rr) of the tyres after a rotation (front and rear swap per side).
 _ROTATED = np.array([2, 3, 0, 1])
+#: A commuter's driving: the default profile with 15 corners an hour (a_y 1-4 m/s²) and its lane
+#: changes; on the compact car its lateral work is about half of the friction work.
+COMMUTE_PROFILE = ProfileOptions(corners_per_hour=15.0)
+
+
+def lateral_sliding_power(truth: DriveTruth, vehicle: Vehicle) -> np.ndarray:
+    """True lateral friction power |F_y V_x tan α| of each axle (n, 2) [W] (eq. 4.19b).
+
+    F_y from the single-track balances (eq. 4.23b, c) with the drive's a_y and yaw acceleration,
+    as the simulator set them; the slip angles from its kinematics: tan α_r = (ψ̇ l_r − v_y) / V
+    and α_f = δ − ψ̇ L / V + α_r (the simulator chose v_y and δ from the brush lateral curve, so
+    these are the tyre's true slip angles). Zero below the simulator's slip speed.
+
+    Examples
+    --------
+    >>> from tyrebayes._domain import load_vehicle
+    >>> car = load_vehicle("compact_fwd")
+    >>> _, truth = simulate_drive(2, car, "summer", duration_s=60.0, sample_rate_hz=10.0)
+    >>> bool((lateral_sliding_power(truth, car) >= 0).all())
+    True
+    """
+    v, yaw, ay = truth.vx_mps, truth.yaw_rate_radps, truth.ay_mps2
+    dt = float(np.median(np.diff(truth.time_s))) if v.size > 1 else 1.0
+    # the simulator's yaw acceleration: the gradient on its regular clock
+    yaw_acc = np.gradient(yaw, dt) if v.size > 1 else np.zeros_like(yaw)
+    lr, wb = vehicle.cog_to_rear_axle_m, vehicle.wheelbase_m
+    front = (vehicle.yaw_inertia_kgm2 * yaw_acc + lr * vehicle.mass_kg * ay) / wb
+    rear = vehicle.mass_kg * ay - front
+    moving = v > MIN_SLIP_SPEED_MPS
+    v_safe = np.where(moving, v, 1.0)
+    tan_r = np.where(moving, (yaw * lr - truth.vy_mps) / v_safe, 0.0)
+    alpha_f = truth.road_wheel_angle_rad - np.where(moving, yaw * wb / v_safe, 0.0)
+    tan_f = np.where(moving, np.tan(alpha_f + np.arctan(tan_r)), 0.0)
+    return np.column_stack([np.abs(front * v * tan_f), np.abs(rear * v * tan_r)])
 
 
 class WearYearTruth(eqx.Module):
@@ -47,7 +89,10 @@ class WearYearTruth(eqx.Module):
     ``change_drive_index`` / ``change_kind``: the drive at which each change took effect and
     ``"rotation"`` or ``"replacement"``. ``depth_mm[k, i]``: true depth of the tyre on wheel i
     (fl, fr, rl, rr) at the start of drive k. ``drive_work_j[k, a]``: true longitudinal friction
-    work of axle a (front, rear) in logged drive k [J]. ``readings``: odometer_km, axle, depth_mm.
+    work of axle a (front, rear) in logged drive k [J]; ``drive_work_y_j[k, a]`` its lateral
+    work. ``interval_loss_mm[k, a]``: tread lost by the tyres on axle a (mean of the two) over
+    the interval drive k stands for [mm]. ``c_y_per_rad``: the tyres' true cornering stiffness.
+    ``readings``: odometer_km, axle, depth_mm.
     """
 
     stream_paths: tuple[str, ...] = eqx.field(static=True)
@@ -58,7 +103,15 @@ class WearYearTruth(eqx.Module):
     total_km: float
     depth_mm: np.ndarray
     drive_work_j: np.ndarray
+    drive_work_y_j: np.ndarray
+    interval_loss_mm: np.ndarray
+    c_y_per_rad: float
     readings: pd.DataFrame = eqx.field(static=True)
+
+    @property
+    def wear_mm_per_1000km(self) -> np.ndarray:
+        """True wear rate of each axle position over the year (front, rear) [mm per 1000 km]."""
+        return 1000.0 * self.interval_loss_mm.sum(axis=0) / self.total_km
 
 
 def simulate_wear_year(
@@ -81,12 +134,15 @@ def simulate_wear_year(
     reading_noise_mm: float = 0.2,
     new_depth_mm: float = 8.0,
     geom: TreadGeometry | None = None,
+    profile: ProfileOptions | None = None,
 ) -> WearYearTruth:
     """Simulate and write one year of drives (module docstring); returns the truth.
 
     ``rotation_at`` / ``replacement_at`` are fractions of the year's drives (None: none).
+    ``profile``: the driver (default :data:`COMMUTE_PROFILE`).
     Streams are written as ``drive_000.parquet``, ... into ``out_dir``.
     """
+    profile = COMMUTE_PROFILE if profile is None else profile
     geom = TreadGeometry() if geom is None else geom
     car = load_vehicle(vehicle)
     out = Path(out_dir)
@@ -108,7 +164,8 @@ def simulate_wear_year(
         10.0 + 9.0 * np.cos(2 * np.pi * (day - 200.0) / 365.0) + 3 * rng.standard_normal(n_drives)
     )
     odometer_m = 0.0
-    paths, depth_rows, readings, works = [], [], [], []
+    paths, depth_rows, readings, works, works_y, losses = [], [], [], [], [], []
+    c_y = float("nan")
     next_reading = reading_every_km
     for k in range(n_drives):
         if k in changes:
@@ -129,7 +186,9 @@ def simulate_wear_year(
             sample_rate_hz=sample_rate_hz,
             ambient_c=float(np.clip(ambient[k], -20.0, 40.0)),
             sensor_offsets=offsets,
+            profile=profile,
         )
+        c_y = truth.c_y_per_rad
         dt = np.diff(truth.time_s, append=truth.time_s[-1])
         travelled = np.cumsum(truth.vx_mps * dt)
         df["odometer"] = odometer_m + np.interp(df["time"], truth.time_s, travelled)
@@ -143,10 +202,15 @@ def simulate_wear_year(
         )
         wheel_work = np.sum(power * dt[:, None], axis=0)
         works.append([wheel_work[:2].sum(), wheel_work[2:].sum()])
+        lateral = lateral_sliding_power(truth, car)  # (n, 2) per axle, half on each wheel
+        works_y.append(np.sum(lateral * dt[:, None], axis=0))
+        power = power + np.repeat(lateral / 2.0, 2, axis=1)
         rate = np.exp(kappa_per_k * (truth.tyre_temperature_c - 20.0))
         volume = gamma_mm3_per_j * np.sum(rate * power * dt[:, None], axis=0)  # per wheel
         factor = interval_km / drive_km * rng.lognormal(0.0, representativeness_sd)
-        loss[on_wheel] += volume * factor / geom.wear_area_mm2
+        lost = volume * factor / geom.wear_area_mm2  # per wheel position (fl, fr, rl, rr)
+        loss[on_wheel] += lost
+        losses.append([lost[:2].mean(), lost[2:].mean()])
         odometer_m += interval_km * 1000.0
         while odometer_m / 1000.0 >= next_reading:
             depth_axle = new_depth_mm - loss[on_wheel]
@@ -173,5 +237,8 @@ def simulate_wear_year(
         total_km=odometer_m / 1000.0,
         depth_mm=np.asarray(depth_rows),
         drive_work_j=np.asarray(works),
+        drive_work_y_j=np.asarray(works_y),
+        interval_loss_mm=np.asarray(losses),
+        c_y_per_rad=c_y,
         readings=pd.DataFrame(readings, columns=["odometer_km", "axle", "depth_mm"]),
     )

@@ -26,11 +26,14 @@ a decision: :func:`tyrebayes.decisions.high_wear_warning`.
 One car's own drive history (``tyrebayes fit-wear``): :mod:`.history` (:func:`drive_history`,
 :func:`tread_readings`), :mod:`.changepoint` (:func:`detect_tyre_changes`), :mod:`.history_fit`
 (:func:`fit_wear_history`, a Fit of kind "wear_history") and :mod:`.history_predict`
-(:func:`wear_history_predictions`).
+(:func:`wear_history_predictions`); :mod:`.cornering` (:func:`cornering_stiffness_from_lateral`:
+the per-axle c_y behind the evidence's lateral work, from a lateral posterior).
 """
 
 from .changepoint import TyreChanges as TyreChanges
 from .changepoint import detect_tyre_changes as detect_tyre_changes
+from .cornering import cornering_stiffness_from_draws as cornering_stiffness_from_draws
+from .cornering import cornering_stiffness_from_lateral as cornering_stiffness_from_lateral
 from .data import WearData as WearData
 from .data import WearPriors as WearPriors
 from .data import WearSet as WearSet

@@ -5,7 +5,9 @@
 finds the tyre changes (:func:`~tyrebayes.inference.wear.changepoint.detect_tyre_changes`) and
 lays out which tyre pair was on which axle in every interval. Each drive stands for the distance
 to the next drive's odometer reading (its own distance where there is no odometer): its friction
-work is scaled by that distance over its own.
+work is scaled by that distance over its own. The lateral work (``work_y_front_j``,
+``work_y_rear_j``) and the log-sd of the cornering stiffness behind it are optional columns: a
+table without them (or with them empty) has no lateral work (``lateral_source`` ``"none"``).
 """
 
 from __future__ import annotations
@@ -31,6 +33,12 @@ HISTORY_COLUMNS: tuple[str, ...] = (
     "radius_ratio_front_rear_sd",
     "tyre_temperature_c",
 )
+#: Optional evidence columns: the lateral work, the c_y behind it and where that came from.
+LATERAL_COLUMNS: tuple[str, ...] = (
+    "work_y_front_j",
+    "work_y_rear_j",
+    "cornering_stiffness_log_sd",
+)
 #: Axle names of tread-depth readings, in axle order.
 AXLES = ("front", "rear")
 #: A reading may exceed an earlier one of the same axle and tyre set by this much (gauge
@@ -54,7 +62,10 @@ class DriveHistory(eqx.Module):
     odometer_km : start of each drive's interval [km]
     interval_km : distance each drive stands for [km]
     scale : interval_km / the drive's own distance [-]
-    work_j, work_sd_j : (n, 2) friction work per axle over the interval [J] and its sd
+    work_j, work_sd_j : (n, 2) longitudinal friction work per axle over the interval [J], its sd
+    work_y_j : (n, 2) lateral friction work per axle over the interval [J] (eq. 4.19b)
+    lateral_log_sd : log-sd of the lateral work's scale (the cornering stiffness', W_y ∝ 1/c_y)
+    lateral_source : where c_y came from (``lateral_fit``, ``type_prior``, ``given``, ``none``)
     ratio_mm, ratio_sd_mm : (n,) front/rear radius ratio as (ratio − 1) R_0 [mm] and its sd
     speed_scale_mm : (n,) free-rolling axle's radius change against GNSS [mm] (NaN: none)
     tyre_temperature_c : (n,) friction-power weighted tyre temperature [°C]
@@ -70,6 +81,8 @@ class DriveHistory(eqx.Module):
     scale: np.ndarray
     work_j: np.ndarray
     work_sd_j: np.ndarray
+    work_y_j: np.ndarray
+    lateral_log_sd: float
     ratio_mm: np.ndarray
     ratio_sd_mm: np.ndarray
     speed_scale_mm: np.ndarray
@@ -79,6 +92,7 @@ class DriveHistory(eqx.Module):
     n_pairs: int = eqx.field(static=True)
     changes: TyreChanges
     radius_mm: float = eqx.field(static=True)
+    lateral_source: str = eqx.field(static=True, default="none")
 
     @property
     def n_drives(self) -> int:
@@ -118,6 +132,7 @@ def drive_history(
     work_sd = np.column_stack(
         [_column(table, "work_x_front_sd_j"), _column(table, "work_x_rear_sd_j")]
     )
+    work_y, lateral_log_sd, lateral_source = _lateral(table, n)
     ratio = _column(table, "radius_ratio_front_rear")
     ratio_sd = _column(table, "radius_ratio_front_rear_sd")
     if not np.all(np.isfinite(distance) & (distance > 0)):
@@ -150,7 +165,7 @@ def drive_history(
     ratio_sd_mm = ratio_sd * radius_mm
     ss = _column(table, "speed_scale") if "speed_scale" in table else np.full(n, np.nan)
     ss_mm = -(ss - 1.0) * radius_mm
-    work_iv = work * scale[:, None]
+    work_iv = (work + work_y) * scale[:, None]  # both components wear the tread
     changes = detect_tyre_changes(
         ratio_mm, work_iv[:, 0] - work_iv[:, 1], ss_mm, false_alarm=false_alarm
     )
@@ -170,8 +185,10 @@ def drive_history(
         odometer_km=odometer,
         interval_km=interval,
         scale=scale,
-        work_j=work_iv,
+        work_j=work * scale[:, None],
         work_sd_j=work_sd * scale[:, None],
+        work_y_j=work_y * scale[:, None],
+        lateral_log_sd=lateral_log_sd,
         ratio_mm=ratio_mm,
         ratio_sd_mm=ratio_sd_mm,
         speed_scale_mm=ss_mm,
@@ -181,7 +198,39 @@ def drive_history(
         n_pairs=int(next_pair),
         changes=changes,
         radius_mm=radius_mm,
+        lateral_source=lateral_source,
     )
+
+
+def _is_type_prior(table: pd.DataFrame) -> bool:
+    from ...streams.wear_evidence import TYPE_PRIOR_CORNERING as prior
+
+    expected = {
+        "cornering_stiffness_front_per_rad": prior.front_per_rad,
+        "cornering_stiffness_rear_per_rad": prior.rear_per_rad,
+        "cornering_stiffness_log_sd": prior.log_sd,
+    }
+    return all(c in table and np.allclose(_column(table, c), v) for c, v in expected.items())
+
+
+def _lateral(table: pd.DataFrame, n: int) -> tuple[np.ndarray, float, str]:
+    """The lateral work (n, 2) [J], its scale's log-sd and the stiffness source of a table."""
+    if not all(c in table for c in LATERAL_COLUMNS):
+        return np.zeros((n, 2)), 0.0, "none"
+    work_y = np.column_stack([_column(table, "work_y_front_j"), _column(table, "work_y_rear_j")])
+    if np.all(np.isnan(work_y)):  # empty columns: a table made without the lateral work
+        return np.zeros((n, 2)), 0.0, "none"
+    if not np.all(np.isfinite(work_y) & (work_y >= 0)):
+        raise BadInputError("drive history: expected finite lateral work >= 0 for every drive")
+    log_sd = _column(table, "cornering_stiffness_log_sd")
+    if not np.all(np.isfinite(log_sd) & (log_sd >= 0)):
+        raise BadInputError("drive history: expected cornering_stiffness_log_sd >= 0 per drive")
+    if "cornering_stiffness_source" in table:
+        sources = sorted({str(v) for v in table["cornering_stiffness_source"]})
+    else:  # a fleet run's summary: the type prior's numbers say the type prior
+        sources = ["type_prior" if _is_type_prior(table) else "given"]
+    # one tyre stiffness for the history: the widest stated uncertainty of its drives
+    return work_y, float(log_sd.max()), "+".join(sources)
 
 
 def tread_readings(table: pd.DataFrame) -> TreadReadings:

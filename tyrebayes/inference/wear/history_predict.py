@@ -1,7 +1,9 @@
 """Predictions of a drive-history wear fit: tread depth against distance, km to 3 and 1.6 mm.
 
 Per posterior draw: the current set's wear rate per axle is γ exp(κ (T − 20)) times the history's
-friction work per km of that axle (all drives, each weighted by the distance it stands for); the
+friction work per km of that axle, longitudinal plus lateral (eq. 4.19a + b, the lateral work at
+its posterior scale: the cornering stiffness' error), all drives, each weighted by the distance
+it stands for; the
 current depth is the pair's initial depth (posterior with readings, the new-tyre prior without)
 minus what the history wore off it. Future driving is assumed like the history's and no further
 rotation is assumed. The high-wear warning compares the car set's worn mass per 1000 km with the
@@ -67,7 +69,12 @@ def wear_history_predictions(
         / 2.0
         / geom.wear_area_mm2
     )  # (draws, n) mm per tyre per J of axle work
-    loss = factor[:, :, None] * history.work_j[None, :, :]  # (draws, n, 2)
+    if "log_lateral_ratio" in fit.posterior.data_vars:
+        ratio = np.exp(fit.draws("log_lateral_ratio"))  # (draws, 2): q_a / s
+    else:
+        ratio = np.ones((gamma.size, 2))
+    work = history.work_j[None, :, :] + ratio[:, None, :] * history.work_y_j[None, :, :]
+    loss = factor[:, :, None] * work  # (draws, n, 2)
     per_km = loss.sum(axis=1) / history.total_km  # mm per km per axle position
     rng = np.random.default_rng(seed)
     n_draws = gamma.size
@@ -82,6 +89,22 @@ def wear_history_predictions(
         worn[:, a] = (loss * on[None, :, :]).sum(axis=(1, 2))
     depth_now = d0[:, current] - worn
     out: dict = {"gamma": summarize(fit.draws("gamma")), "gamma_work": summarize(gamma)}
+    out["lateral_work"] = {
+        "cornering_stiffness_source": history.lateral_source,
+        "cornering_stiffness_log_sd": float(history.lateral_log_sd),
+        "share_of_work": {
+            name: float(
+                history.work_y_j[:, a].sum()
+                / max(history.work_j[:, a].sum() + history.work_y_j[:, a].sum(), 1e-300)
+            )
+            for a, name in enumerate(("front", "rear"))
+        },
+    }
+    if "lateral_work_scale" in fit.posterior.data_vars:
+        q = fit.draws("lateral_work_scale")
+        out["lateral_work"]["scale"] = {
+            name: summarize(q[:, a]) for a, name in enumerate(("front", "rear"))
+        }
     if "kappa" in fit.posterior.data_vars:
         out["kappa"] = summarize(kappa)
     out["wear_mm_per_1000km"] = {
