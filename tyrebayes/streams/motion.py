@@ -13,8 +13,8 @@ from jaxtyping import Bool, Float
 
 from ..physics.vehicle import GRAVITY_MPS2, Vehicle
 from .filters import PrefixSums, nan_moving_average, window_samples
+from .order_stats import median_of_four
 from .schema import WHEEL_COLUMNS
-from .validate import median_of_four
 
 _NON_DRIVEN = {"fwd": (2, 3), "rwd": (0, 1), "awd": (0, 1, 2, 3)}
 
