@@ -15,6 +15,8 @@ from ...streams.abs_detection import (
     window_counts,
     window_means,
 )
+from ...streams.order_stats import median, nanmedian
+from .force_density import force_density_score
 
 
 def window_centres(time_s: np.ndarray, window: int, n_blocks: int) -> np.ndarray:
