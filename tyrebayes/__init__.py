@@ -123,6 +123,8 @@ from .criticism import criticize_stream as criticize_stream
 from .criticism import criticize_table as criticize_table
 from .criticism import criticize_tyre_fit as criticize_tyre_fit
 from .criticism import posterior_predictive_check as posterior_predictive_check
+from .criticism import PredictiveChecks as PredictiveChecks
+from .criticism import StatisticCheck as StatisticCheck
 
 # 6. report
 from .report import Report as Report
@@ -224,6 +226,8 @@ __all__ = [
     "criticize_table",
     "criticize_tyre_fit",
     "posterior_predictive_check",
+    "PredictiveChecks",
+    "StatisticCheck",
     "Report",
     "write_report",
     "RunSettings",
