@@ -58,7 +58,6 @@ WITHOUT_ARGUMENT_SECTION = {
     "cost_threshold",
     "high_wear_warning",
     "Report",
-    "write_report",
     "dask_client",
 }
 

@@ -129,6 +129,7 @@ from .criticism import StatisticCheck as StatisticCheck
 # 6. report
 from .report import Report as Report
 from .report import write_report as write_report
+from .report import ReportFiles as ReportFiles
 
 # 7. fleet runs on dask.distributed
 from .batch import RunSettings as RunSettings
@@ -230,6 +231,7 @@ __all__ = [
     "StatisticCheck",
     "Report",
     "write_report",
+    "ReportFiles",
     "RunSettings",
     "dask_client",
     "fleet_run",
