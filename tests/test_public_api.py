@@ -51,12 +51,9 @@ WITHOUT_ARGUMENT_SECTION = {
     "predict_wear_volume",
     "wear_history_predictions",
     "critical_speed",
-    "iso3888_2_course",
     "compensate_stiffness",
-    "MagicFormulaLongitudinal",
     "relative_wear",
     "cost_threshold",
-    "high_wear_warning",
     "Report",
     "dask_client",
 }

@@ -277,6 +277,12 @@ class BrushTyre(eqx.Module):
         Friction potential μ_max [-] (eq. 3.3).
     mu_slide_ratio : float or Array
         Sliding-to-peak friction ratio in (0, 1]; 1 is the classical brush model.
+
+    Examples
+    --------
+    >>> tyre = BrushTyre(c_x=30.0, c_y=20.0, mu=1.0)
+    >>> round(float(tyre.longitudinal(0.01)), 4), float(tyre.longitudinal(0.5))
+    (0.271, 1.0)
     """
 
     c_x: Float[ArrayLike, "..."]
@@ -345,6 +351,25 @@ class MagicFormulaLongitudinal(eqx.Module):
     Fields are the ``.tir`` names: ``fnomin_n`` nominal load [N]; PKX1–3 slip stiffness Kx/Fz and
     its load dependence; PDX1–2 peak friction and its load dependence; PCX1 shape; PEX1–3
     curvature. Use :meth:`from_measured` for the rig-measured sets shipped with the package.
+
+    Parameters
+    ----------
+    fnomin_n : float
+        Nominal load F_z0 [N].
+    pkx1, pkx2, pkx3 : float
+        Slip stiffness K_x/F_z at nominal load [-], and its load dependence.
+    pdx1, pdx2 : float
+        Peak friction μ at nominal load [-], and its load dependence.
+    pcx1 : float
+        Shape factor C [-].
+    pex1, pex2, pex3 : float
+        Curvature E [-], and its load dependence.
+
+    Examples
+    --------
+    >>> mf = MagicFormulaLongitudinal.from_measured("pacejka_205_60R15")
+    >>> mf.fnomin_n, mf.pdx1
+    (4000.0, 1.21)
     """
 
     fnomin_n: float
