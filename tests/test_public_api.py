@@ -35,8 +35,6 @@ NUMPYDOC_SECTIONS = {
 #: gains its section must leave it, and a new public name must come with its section.
 WITHOUT_ARGUMENT_SECTION = {
     "load_vehicle",
-    "load_profile",
-    "features_tyre_temperature",
     "load_tyre_type_priors",
     "load_fit",
     "observations_from_stream",

@@ -109,6 +109,18 @@ class StreamFeatures(eqx.Module):
     nuisances : :class:`StreamNuisances`
     noise : per raw channel, white-noise sd [channel unit]
     sample_rate_hz, smoothing_s, driven_axle, vx_source, brake_front_share : metadata
+
+    Examples
+    --------
+    >>> from tyrebayes import load_vehicle, read_stream, validate_stream
+    >>> from tyrebayes._resources import data_dir
+    >>> vehicle = load_vehicle("suv_rav4")
+    >>> df = read_stream(data_dir() / "comma2k19_rav4_segment.csv")
+    >>> feats = compute_features(validate_stream(df, vehicle), vehicle)
+    >>> feats.driven_axle, feats.vx_source, feats.slip.shape
+    ('front', 'rear wheels', (5352, 4))
+    >>> sorted(feats.segments())[:3]
+    ['braking', 'cornering', 'free_rolling']
     """
 
     time_s: Float[np.ndarray, "n"]
@@ -209,6 +221,16 @@ def compute_features(
     scale), :mod:`~tyrebayes.streams.imu_calibration` (IMU gain, offsets, grade),
     :mod:`~tyrebayes.streams.axle_forces` (force balance, eqs. 4.22/4.23, normalised forces and
     their noise) and :func:`_assemble` here (regime labels, nuisances).
+
+    Examples
+    --------
+    >>> from tyrebayes import load_vehicle, read_stream, validate_stream
+    >>> from tyrebayes._resources import data_dir
+    >>> vehicle = load_vehicle("suv_rav4")
+    >>> stream = validate_stream(read_stream(data_dir() / "comma2k19_rav4_segment.csv"), vehicle)
+    >>> feats = compute_features(stream, vehicle, smoothing_s=0.5)
+    >>> feats.smoothing_s, bool(feats.valid.all())
+    (0.5, True)
     """
     if not 0.0 <= brake_front_share <= 1.0:
         raise ValueError(f"brake_front_share: expected a value in [0, 1], got {brake_front_share}")

@@ -81,6 +81,15 @@ class ValidatedStream:
         Judgements on the data that make answers from it less certain than they look (sample
         rate below 20 Hz, gaps of 10 s or more, a required channel with over 20 % of its samples
         dropped); one line each, shown by ``inspect``.
+
+    Examples
+    --------
+    >>> from tyrebayes import load_vehicle, read_stream
+    >>> from tyrebayes._resources import data_dir
+    >>> df = read_stream(data_dir() / "comma2k19_rav4_segment.csv")
+    >>> stream = validate_stream(df, load_vehicle("suv_rav4"))
+    >>> round(stream.sample_rate_hz, 1), stream.resampled, stream.flags
+    (89.2, True, ())
     """
 
     data: pd.DataFrame
@@ -304,6 +313,15 @@ def validate_stream(
     ------
     BadInputError
         With a one-line reason; see the module docstring for the list.
+
+    Examples
+    --------
+    >>> from tyrebayes import load_vehicle, read_stream
+    >>> from tyrebayes._resources import data_dir
+    >>> df = read_stream(data_dir() / "comma2k19_rav4_segment.csv")
+    >>> stream = validate_stream(df, load_vehicle("suv_rav4"))
+    >>> len(df), len(stream.data), round(stream.sample_rate_hz, 1)
+    (4974, 5352, 89.2)
     """
     _check_columns(df)
     cols = _numeric_columns(df)
