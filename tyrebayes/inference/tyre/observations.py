@@ -76,6 +76,15 @@ class TyreObservations(eqx.Module):
         Number of drives (static).
     surfaces : tuple of str
         Surface names in index order (static).
+
+    Examples
+    --------
+    >>> from tyrebayes.inference.tyre.windows import windowed_observations
+    >>> t = np.arange(0.0, 30.0, 0.01)
+    >>> windows = windowed_observations(t, np.full(t.size, 0.003), np.full(t.size, 0.1), 1e-3, 0.01)
+    >>> obs = stack_drives([windows], ["dry"], pad_to=128)
+    >>> obs.surfaces, obs.slip.shape, int(obs.mask.sum())
+    (('dry',), (128,), 120)
     """
 
     slip: Float[Array, "n"]
@@ -145,6 +154,23 @@ def stack_drives(
         Surface of each drive, from ``SURFACES``.
     pad_to : int, optional
         Padded length; default :func:`bucket_size` (8 sizes per octave).
+
+    Returns
+    -------
+    TyreObservations
+
+    Examples
+    --------
+    Two drives of a linear tyre's windows (:func:`windowed_observations`), one per surface:
+
+    >>> from tyrebayes.inference.tyre.windows import windowed_observations
+    >>> t = np.arange(0.0, 60.0, 0.01)
+    >>> rho = 0.1 + 0.05 * np.sin(t)
+    >>> slip = rho / 30.0 + np.random.default_rng(0).normal(0.0, 1e-3, t.size)
+    >>> windows = windowed_observations(t, slip, rho, slip_sd=1e-3, rho_sd=0.01)
+    >>> obs = stack_drives([windows, windows], ["dry", "wet"])
+    >>> obs.n_drives, obs.slip.shape, int(obs.mask.sum())
+    (2, (480,), 480)
     """
     if len(drives) != len(surfaces):
         raise BadInputError(

@@ -80,6 +80,17 @@ def windowed_observations(
         ``slip``, ``rho``, ``slip_sd``, ``rho_sd``, ``temperature_c``, ``time_s`` (the time of
         the window's centre) arrays, one entry per kept window, and ``neighbour_slip`` (and the
         ``also`` channels). The noise sd of a window mean of k samples is sd/√k.
+
+    Examples
+    --------
+    One minute at 100 Hz of a linear tyre (C_x = 30) with slip noise 1e-3:
+
+    >>> t = np.arange(0.0, 60.0, 0.01)
+    >>> rho = 0.1 + 0.05 * np.sin(t)
+    >>> slip = rho / 30.0 + np.random.default_rng(0).normal(0.0, 1e-3, t.size)
+    >>> windows = windowed_observations(t, slip, rho, slip_sd=1e-3, rho_sd=0.01)
+    >>> len(windows["slip"]), float(windows["slip_sd"][0])
+    (240, 0.0002)
     """
     time_s = np.asarray(time_s, dtype=float)
     n = len(time_s)
@@ -176,6 +187,17 @@ def observations_from_features(
         As :func:`windowed_observations`, plus ``load_change`` (the driven axle's
         ΔF_z/F_z,static), ``at_limit`` (bool per window) and ``rho_score``,
         ``rho_score_slope`` (:func:`force_density_score` over all the drive's windows, 0 for ABS).
+
+    Examples
+    --------
+    >>> from tyrebayes import compute_features, load_vehicle, read_stream, validate_stream
+    >>> from tyrebayes._resources import data_dir
+    >>> vehicle = load_vehicle("suv_rav4")
+    >>> df = read_stream(data_dir() / "comma2k19_rav4_segment.csv")
+    >>> features = compute_features(validate_stream(df, vehicle), vehicle)
+    >>> windows = observations_from_features(features, temperature_c=15.0)
+    >>> len(windows["slip"]), int(windows["at_limit"].sum())
+    (123, 0)
     """
     from ...streams.segments import BRAKING, FREE_ROLLING, TRACTION
 
