@@ -36,7 +36,6 @@ NUMPYDOC_SECTIONS = {
 WITHOUT_ARGUMENT_SECTION = {
     "load_vehicle",
     "load_tyre_type_priors",
-    "load_fit",
     "observations_from_stream",
     "with_pointwise",
     "build_wear_data",
@@ -52,13 +51,12 @@ WITHOUT_ARGUMENT_SECTION = {
     "compensate_stiffness",
     "relative_wear",
     "cost_threshold",
-    "Report",
     "dask_client",
 }
 
 #: Fewest public callables with an Examples section; raise it as examples are added. The issue's
 #: target is 90 %.
-EXAMPLES_FLOOR = 32
+EXAMPLES_FLOOR = 62
 
 _SECTION = re.compile(r"^(?P<name>[A-Z][A-Za-z ]*)\n(?P<rule>-+)$", re.M)
 

@@ -120,6 +120,19 @@ class CandidateResult(eqx.Module):
     p_loglik : float
         Scan of the baseline's pointwise LOO log-likelihood against the candidate (where the
         model fits worse: a noise level, outliers); descriptive, not part of the decision.
+
+    Examples
+    --------
+    What :func:`~tyrebayes.criticize_table` reports for each candidate (here made by hand):
+
+    >>> effect = {"mean": -0.036, "sd": 0.004, "hdi_90": [-0.043, -0.029]}
+    >>> age = CandidateResult(
+    ...     "age_years", "numeric", None, effect, p_value=0.005, q_value=0.03,
+    ...     misfit_explained=0.4, elpd_gain=19.2, se=4.6, pareto_k_max=0.8, n_k_high=1,
+    ...     n_units=26, found=True, reason="q 0.03 <= 0.05 and ELPD gain > 0", p_loglik=0.5,
+    ... )
+    >>> age.to_json()["found"], age.to_json()["effect"]["mean"]
+    (True, -0.036)
     """
 
     covariate: str
@@ -172,6 +185,15 @@ class CriticismResult(eqx.Module):
         False-discovery rate of the rule.
     n_permutations : int
         Permutations behind every scan p-value.
+
+    Examples
+    --------
+    What the criticism functions return (here made by hand, without candidates):
+
+    >>> baseline = loo_from_pointwise(np.array([-1.0, -0.5, -0.8]), np.zeros(3), 0)
+    >>> result = CriticismResult(baseline, candidates=[], found=[], ppc={}, notes=[])
+    >>> result.to_json()["baseline"]["elpd"], result.to_json()["rule"]["n_permutations"]
+    (-2.3, 999)
     """
 
     baseline: LooResult
