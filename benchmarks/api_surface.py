@@ -12,7 +12,9 @@ Measured from the source, not claimed:
    target, with the names.
 3. **Modules over 500 lines**: the package's ``.py`` files longer than 500 lines. Target: 0.
 4. **Functions over 80 lines**: every ``def`` of the package (methods and nested functions too),
-   measured from its ``def`` line (decorators excluded) to its last line. Target: at most 5.
+   measured from its ``def`` line (decorators excluded) to its last line, less its docstring: a
+   numpydoc docstring with its Examples (what issue 58 asks for) is not code to split. Target: at
+   most 5. The count with docstrings is reported beside it, without a target.
 5. **Import circles**: the strongly connected components of more than one module in the package's
    import graph (grimp, every import in a module, those inside functions included), and the
    circles between sibling modules or packages that import-linter's ``acyclic_siblings`` contract
@@ -147,7 +149,7 @@ def bare_results() -> dict:
 
 
 def sizes() -> dict:
-    long_modules, long_functions = {}, {}
+    long_modules, long_functions, long_with_docstrings = {}, {}, {}
     for path in _modules():
         text = path.read_text()
         rel = str(path.relative_to(ROOT))
@@ -156,14 +158,33 @@ def sizes() -> dict:
             long_modules[rel] = n_lines
         for node in ast.walk(ast.parse(text)):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                where = f"{rel}:{node.lineno} {node.name}"
                 length = node.end_lineno - node.lineno + 1
                 if length > MAX_FUNCTION_LINES:
-                    long_functions[f"{rel}:{node.lineno} {node.name}"] = length
+                    long_with_docstrings[where] = length
+                code = length - _docstring_lines(node)
+                if code > MAX_FUNCTION_LINES:
+                    long_functions[where] = code
     return {
         "modules": len(_modules()),
         "long_modules": dict(sorted(long_modules.items(), key=lambda kv: -kv[1])),
         "long_functions": dict(sorted(long_functions.items(), key=lambda kv: -kv[1])),
+        "long_functions_with_docstrings": dict(
+            sorted(long_with_docstrings.items(), key=lambda kv: -kv[1])
+        ),
     }
+
+
+def _docstring_lines(node: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    """Lines of the function's docstring (0 without one)."""
+    first = node.body[0]
+    if (
+        isinstance(first, ast.Expr)
+        and isinstance(first.value, ast.Constant)
+        and isinstance(first.value.value, str)
+    ):
+        return first.end_lineno - first.lineno + 1
+    return 0
 
 
 def _strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -284,9 +305,13 @@ def main(argv: list[str] | None = None) -> int:
             count=size["modules"],
         ),
         figure(
-            f"functions over {MAX_FUNCTION_LINES} lines",
+            f"functions over {MAX_FUNCTION_LINES} lines (docstring excluded)",
             len(size["long_functions"]),
             target=("<=", MAX_LONG_FUNCTIONS),
+        ),
+        figure(
+            f"functions over {MAX_FUNCTION_LINES} lines (docstring included)",
+            len(size["long_functions_with_docstrings"]),
         ),
         figure(
             "import circles between modules",
