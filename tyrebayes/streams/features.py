@@ -260,7 +260,7 @@ def _assemble(
     brake_front_share: float,
 ) -> StreamFeatures:
     """Step 5: regime labels and the log's nuisances (radius ratios, speed scale), then features."""
-    m, f, data, window, rate = motion, forces, stream.data, scales.window, scales.rate_hz
+    m, f, data, rate = motion, forces, stream.data, scales.rate_hz
     label = label_samples(
         m.valid,
         f.rho_driven,
@@ -269,37 +269,7 @@ def _assemble(
         imu.lateral_kin,
         thresholds,
     )
-    free_straight = (label == FREE_ROLLING) & (np.abs(m.steer) < 0.02)
-    radius_ratio, radius_sd, radius_seconds = estimate_radius_ratios(
-        m.wheel_vx, free_straight, rate
-    )
-    if "speed_reference" in data:
-        reference = data["speed_reference"].to_numpy(dtype=float)
-        ref = PrefixSums.of(reference, like=m.ax_prefix).window_mean(window // 2)
-        speed_scale, speed_scale_sd = estimate_speed_scale(m.vx_safe, ref, m.valid, rate)
-    else:
-        speed_scale, speed_scale_sd = float("nan"), float("nan")
-    quant = np.array([stream.quantisation.get(c, 0.0) for c in WHEEL_COLUMNS], dtype=float)
-    nuisances = StreamNuisances(
-        radius_ratio=radius_ratio,
-        radius_ratio_sd=radius_sd,
-        radius_ratio_seconds=radius_seconds,
-        ax_offset_mps2=imu.ax_offset,
-        ax_offset_sd_mps2=imu.ax_offset_sd,
-        ax_gain=imu.imu_gain,
-        pitch_offset_rad=float(np.arcsin(np.clip(imu.ax_offset / GRAVITY_MPS2, -1, 1))),
-        ay_offset_mps2=imu.ay_offset,
-        quantisation_radps=quant,
-        speed_scale=float(speed_scale),
-        speed_scale_sd=float(speed_scale_sd),
-        rho_offset_sd=float(vehicle.mass_kg * imu.ax_offset_sd / _summary(f.fz_driven, window)),
-        smoothed_noise={
-            "vx_mps": float(_summary(noise.vx_sd, window)),
-            "slip_velocity_mps": [float(v) for v in _summary(noise.local_wheel, window)],
-            "slip_velocity_driven_mps": float(_summary(f.slip_driven_noise, window)),
-            "ax_mps2": float(_summary(f.ax_sd_local, window)),
-        },
-    )
+    nuisances = _nuisances(stream, vehicle, m, noise, imu, f, scales, label)
     return StreamFeatures(
         time_s=data["time"].to_numpy(dtype=float),
         vx_mps=m.vx_safe,
@@ -341,6 +311,52 @@ def _assemble(
             vehicle.drive
         ],
         brake_front_share=float(brake_front_share),
+    )
+
+
+def _nuisances(
+    stream,
+    vehicle,
+    m: _Motion,
+    noise: _WheelNoise,
+    imu: _ImuCalibration,
+    f: _Forces,
+    scales: _Scales,
+    label: np.ndarray,
+) -> StreamNuisances:
+    """The log's nuisances: radius ratios on free straight rolling, the speed scale against a
+    reference speed, the IMU's offsets and gain, the noise levels at the smoothing scale."""
+    data, window, rate = stream.data, scales.window, scales.rate_hz
+    free_straight = (label == FREE_ROLLING) & (np.abs(m.steer) < 0.02)
+    radius_ratio, radius_sd, radius_seconds = estimate_radius_ratios(
+        m.wheel_vx, free_straight, rate
+    )
+    if "speed_reference" in data:
+        reference = data["speed_reference"].to_numpy(dtype=float)
+        ref = PrefixSums.of(reference, like=m.ax_prefix).window_mean(window // 2)
+        speed_scale, speed_scale_sd = estimate_speed_scale(m.vx_safe, ref, m.valid, rate)
+    else:
+        speed_scale, speed_scale_sd = float("nan"), float("nan")
+    quant = np.array([stream.quantisation.get(c, 0.0) for c in WHEEL_COLUMNS], dtype=float)
+    return StreamNuisances(
+        radius_ratio=radius_ratio,
+        radius_ratio_sd=radius_sd,
+        radius_ratio_seconds=radius_seconds,
+        ax_offset_mps2=imu.ax_offset,
+        ax_offset_sd_mps2=imu.ax_offset_sd,
+        ax_gain=imu.imu_gain,
+        pitch_offset_rad=float(np.arcsin(np.clip(imu.ax_offset / GRAVITY_MPS2, -1, 1))),
+        ay_offset_mps2=imu.ay_offset,
+        quantisation_radps=quant,
+        speed_scale=float(speed_scale),
+        speed_scale_sd=float(speed_scale_sd),
+        rho_offset_sd=float(vehicle.mass_kg * imu.ax_offset_sd / _summary(f.fz_driven, window)),
+        smoothed_noise={
+            "vx_mps": float(_summary(noise.vx_sd, window)),
+            "slip_velocity_mps": [float(v) for v in _summary(noise.local_wheel, window)],
+            "slip_velocity_driven_mps": float(_summary(f.slip_driven_noise, window)),
+            "ax_mps2": float(_summary(f.ax_sd_local, window)),
+        },
     )
 
 

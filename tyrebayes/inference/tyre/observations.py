@@ -183,47 +183,7 @@ def stack_drives(
     if unknown:
         raise BadInputError(f"surface: expected one of {SURFACES}, got {unknown[0]!r}")
     used_surfaces = tuple(s for s in SURFACES if s in surfaces)
-    keys = (
-        "slip",
-        "rho",
-        "slip_sd",
-        "rho_sd",
-        "temperature_c",
-        "load_change",
-        "neighbour_slip",
-        "at_limit",
-    )
-    parts = {k: [] for k in (*keys, "rho_score", "rho_score_slope", "imu_gain_log_sd")}
-    drive_idx, surface_idx, block_idx = [], [], []
-    n_blocks = 0
-    for d, (drive, surface) in enumerate(zip(drives, surfaces, strict=True)):
-        m = len(drive["slip"])
-        # Windows without times (hand-made drives) count BLOCK_S / 0.25 s windows to a block.
-        times = np.asarray(drive.get("time_s", 0.25 * np.arange(m)), dtype=float)
-        blocks = np.unique(np.floor(times / BLOCK_S).astype(np.int64), return_inverse=True)[1]
-        block_idx.append(n_blocks + blocks.reshape(-1))
-        n_blocks += int(blocks.max()) + 1 if m else 0
-        # Hand-made drives may leave out what the stream pipeline measures: no ABS windows, no
-        # IMU rescaling, the static load.
-        drive = {
-            "at_limit": np.zeros(m, dtype=bool),
-            "imu_gain_log_sd": np.zeros(m),
-            "load_change": np.zeros(m),
-            **drive,
-        }
-        parts["imu_gain_log_sd"].append(np.asarray(drive["imu_gain_log_sd"], dtype=float))
-        for k in keys:
-            parts[k].append(np.asarray(drive[k], dtype=bool if k == "at_limit" else float))
-        if "rho_score" in drive:
-            score, score_slope = drive["rho_score"], drive["rho_score_slope"]
-        else:
-            score, score_slope = _slip_window_scores(
-                parts["rho"][-1], parts["rho_sd"][-1], parts["at_limit"][-1]
-            )
-        parts["rho_score"].append(np.asarray(score, dtype=float))
-        parts["rho_score_slope"].append(np.asarray(score_slope, dtype=float))
-        drive_idx.append(np.full(m, d))
-        surface_idx.append(np.full(m, used_surfaces.index(surface)))
+    parts, drive_idx, surface_idx, block_idx = _drive_parts(drives, surfaces, used_surfaces)
     n = sum(len(p) for p in parts["slip"])
     if n < 10:
         raise BadInputError(f"tyre observations: expected at least 10 usable windows, got {n}")
@@ -255,3 +215,55 @@ def stack_drives(
         n_drives=len(drives),
         surfaces=used_surfaces,
     )
+
+
+#: The per-window arrays :func:`stack_drives` takes from each drive (scores aside).
+_WINDOW_KEYS = (
+    "slip",
+    "rho",
+    "slip_sd",
+    "rho_sd",
+    "temperature_c",
+    "load_change",
+    "neighbour_slip",
+    "at_limit",
+)
+
+
+def _drive_parts(drives, surfaces, used_surfaces):
+    """Each drive's window arrays (filled in where a hand-made drive leaves them out), and its
+    windows' drive, surface and block indices: ``(parts, drive_idx, surface_idx, block_idx)``,
+    lists with one entry per drive."""
+    keys = _WINDOW_KEYS
+    parts = {k: [] for k in (*keys, "rho_score", "rho_score_slope", "imu_gain_log_sd")}
+    drive_idx, surface_idx, block_idx = [], [], []
+    n_blocks = 0
+    for d, (drive, surface) in enumerate(zip(drives, surfaces, strict=True)):
+        m = len(drive["slip"])
+        # Windows without times (hand-made drives) count BLOCK_S / 0.25 s windows to a block.
+        times = np.asarray(drive.get("time_s", 0.25 * np.arange(m)), dtype=float)
+        blocks = np.unique(np.floor(times / BLOCK_S).astype(np.int64), return_inverse=True)[1]
+        block_idx.append(n_blocks + blocks.reshape(-1))
+        n_blocks += int(blocks.max()) + 1 if m else 0
+        # Hand-made drives may leave out what the stream pipeline measures: no ABS windows, no
+        # IMU rescaling, the static load.
+        drive = {
+            "at_limit": np.zeros(m, dtype=bool),
+            "imu_gain_log_sd": np.zeros(m),
+            "load_change": np.zeros(m),
+            **drive,
+        }
+        parts["imu_gain_log_sd"].append(np.asarray(drive["imu_gain_log_sd"], dtype=float))
+        for k in keys:
+            parts[k].append(np.asarray(drive[k], dtype=bool if k == "at_limit" else float))
+        if "rho_score" in drive:
+            score, score_slope = drive["rho_score"], drive["rho_score_slope"]
+        else:
+            score, score_slope = _slip_window_scores(
+                parts["rho"][-1], parts["rho_sd"][-1], parts["at_limit"][-1]
+            )
+        parts["rho_score"].append(np.asarray(score, dtype=float))
+        parts["rho_score_slope"].append(np.asarray(score_slope, dtype=float))
+        drive_idx.append(np.full(m, d))
+        surface_idx.append(np.full(m, used_surfaces.index(surface)))
+    return parts, drive_idx, surface_idx, block_idx
