@@ -261,6 +261,13 @@ BENCHMARKS: dict[str, Benchmark] = {
         Benchmark("streams_speed", "stream pipeline throughput", quick=("--quick",), minutes=5),
         Benchmark("can_speed", "raw CAN log decoding throughput", quick=("--quick",), minutes=10),
         Benchmark("simulate_speed", "simulator throughput", quick=("--quick",), minutes=2),
+        # the code itself
+        Benchmark(
+            "api_surface",
+            "the public API: examples, typed results, module and function sizes, import circles",
+            quick=(),
+            minutes=0.2,
+        ),
         Benchmark(
             "physics_speed",
             "physics functions' throughput",

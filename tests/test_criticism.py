@@ -102,8 +102,8 @@ def test_posterior_predictive_check_flags_a_misfit():
     y = rng.normal(0.0, 1.0, 200)
     good = posterior_predictive_check(y, rng.normal(0.0, 1.0, (500, 200)))
     bad = posterior_predictive_check(y, rng.normal(0.0, 0.5, (500, 200)))
-    assert 0.025 < good["sd"]["p_value"] < 0.975
-    assert bad["sd"]["p_value"] == 0.0  # replicated data never as spread out as observed
+    assert 0.025 < good["sd"].p_value < 0.975
+    assert bad["sd"].p_value == 0.0  # replicated data never as spread out as observed
 
 
 # --- fleet tables ------------------------------------------------------------------------------

@@ -38,10 +38,7 @@ NUMPYDOC_SECTIONS = {
 #: gains its section must leave it, and a new public name must come with its section.
 WITHOUT_ARGUMENT_SECTION = {
     "load_vehicle",
-    "load_profile",
-    "features_tyre_temperature",
     "load_tyre_type_priors",
-    "load_fit",
     "observations_from_stream",
     "with_pointwise",
     "build_wear_data",
@@ -54,20 +51,15 @@ WITHOUT_ARGUMENT_SECTION = {
     "predict_wear_volume",
     "wear_history_predictions",
     "critical_speed",
-    "iso3888_2_course",
     "compensate_stiffness",
-    "MagicFormulaLongitudinal",
     "relative_wear",
     "cost_threshold",
-    "high_wear_warning",
-    "Report",
-    "write_report",
     "dask_client",
 }
 
 #: Fewest public callables with an Examples section; raise it as examples are added. The issue's
 #: target is 90 %.
-EXAMPLES_FLOOR = 32
+EXAMPLES_FLOOR = 62
 
 _SECTION = re.compile(r"^(?P<name>[A-Z][A-Za-z ]*)\n(?P<rule>-+)$", re.M)
 

@@ -110,10 +110,13 @@ from .criticism import criticize_stream as criticize_stream
 from .criticism import criticize_table as criticize_table
 from .criticism import criticize_tyre_fit as criticize_tyre_fit
 from .criticism import posterior_predictive_check as posterior_predictive_check
+from .criticism import PredictiveChecks as PredictiveChecks
+from .criticism import StatisticCheck as StatisticCheck
 
 # 6. report
 from .report import Report as Report
 from .report import write_report as write_report
+from .report import ReportFiles as ReportFiles
 
 # 7. fleet runs on dask.distributed
 from .batch import RunSettings as RunSettings

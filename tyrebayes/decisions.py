@@ -332,7 +332,25 @@ def high_wear_warning(
 ) -> WearWarning:
     """Warn "unexpectedly high wear" when P(I_now / I_ref > threshold) >= decision_probability.
 
-    Returns a :class:`WearWarning` (``warning``, ``probability``, ``threshold``, ``message``).
+    Parameters
+    ----------
+    ratio_draws : ndarray
+        Posterior draws of the wear rate now over the reference rate, I_now / I_ref [-].
+    threshold : float
+        Ratio above which the wear counts as unexpectedly high [-].
+    decision_probability : float
+        Posterior probability of exceeding ``threshold`` that raises the warning [-].
+
+    Returns
+    -------
+    WearWarning
+        ``warning``, ``probability``, ``threshold`` and a one-line ``message``.
+
+    Examples
+    --------
+    >>> draws = np.random.default_rng(0).normal(1.5, 0.1, 2000)
+    >>> high_wear_warning(draws).message
+    'unexpectedly high wear: P(wear rate > 1.25 x reference) = 0.99'
     """
     p = float(np.mean(np.asarray(ratio_draws) > threshold))
     warn = p >= decision_probability

@@ -8,6 +8,7 @@ import pytest
 
 from tyrebayes._errors import BadInputError
 from tyrebayes.inference.result import (
+    FIT_KINDS,
     POLICY,
     ConvergencePolicy,
     Diagnostics,
@@ -132,3 +133,52 @@ def test_files_that_are_not_fits_are_bad_input(tmp_path):
             kind="x",
             provenance=provenance("nuts", "m"),
         )
+
+
+#: Per kind, the method its fitter records and the kind-specific attributes it keeps as JSON in
+#: ``data.attrs`` (shapes as the fitters write them; the fitters' own tests round-trip their real
+#: fits: tests/inference/tyre/test_model.py, test_fleet.py, test_wear.py, test_vmax.py,
+#: tests/test_cli_fit_wear.py, tests/inference/lateral/test_fit.py).
+_KIND_CASES = {
+    "tyre": ("laplace", {"surfaces": ["dry"], "model_kind": "magic"}),
+    "fleet": ("svi", {"tyre_types": ["summer", "winter"], "x_scale": 1.5}),
+    "wear": ("nuts", {"sets": ["a", "b"], "c_xr_lognormal": [3.5, 0.2]}),
+    "vmax": ("nuts", {"course": "iso3888_2", "draws": 200}),
+    "wear_history": ("nuts", {"readings": 7, "changes": [[120.0, "swap"]]}),
+    "lateral": ("laplace", {"axles": ["front", "rear"], "relaxation": None}),
+}
+
+
+def test_the_round_trip_cases_cover_every_fit_kind():
+    assert set(_KIND_CASES) == set(FIT_KINDS)
+
+
+@pytest.mark.parametrize("kind", FIT_KINDS)
+def test_every_fit_kind_round_trips_through_save_and_load_fit(kind, tmp_path):
+    method, attrs = _KIND_CASES[kind]
+    tree = _tree(chains=1 if method != "nuts" else 4, draws=50, seed=len(kind))
+    for name, value in attrs.items():
+        tree.attrs[name] = json.dumps(value)
+    fit = Fit(
+        data=tree,
+        diagnostics=diagnose(tree, method=method, optimiser_result="successful"),
+        kind=kind,
+        provenance=provenance(method, f"{kind} model", [f"{kind}.csv"], seed=7),
+    )
+    loaded = load_fit(fit.save(tmp_path / f"{kind}.nc"), kind=kind)
+
+    assert loaded.kind == kind
+    assert loaded.provenance == fit.provenance
+    np.testing.assert_equal(loaded.diagnostics.as_dict(), fit.diagnostics.as_dict())
+    assert {name: loaded.attr(name) for name in attrs} == attrs
+    assert sorted(loaded.data.children) == sorted(fit.data.children)
+    for group in fit.data.children:
+        saved, back = fit.data[group].to_dataset(), loaded.data[group].to_dataset()
+        assert sorted(back.data_vars) == sorted(saved.data_vars), group
+        for name in saved.data_vars:
+            assert back[name].dtype == saved[name].dtype, (group, name)
+            assert back[name].dims == saved[name].dims, (group, name)
+            np.testing.assert_array_equal(back[name].values, saved[name].values)
+    # Saved once more from what was loaded, the file reads back the same again.
+    again = load_fit(loaded.save(tmp_path / f"{kind}-again.nc"), kind=kind)
+    assert again.provenance == fit.provenance and again.data.attrs == loaded.data.attrs

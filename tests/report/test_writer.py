@@ -140,7 +140,7 @@ def test_write_report_files_links_and_numbers(tmp_path) -> None:
     summary = json.loads((tmp_path / "report.json").read_text())
     assert summary["fleet"]["ols"]["r2"] == 0.83
     assert not list(tmp_path.rglob("*.tmp*"))  # no temporary files left behind
-    assert set(paths) >= {"report.html", "report.md", "report.json"}
+    assert set(paths.to_dict()) >= {"report.html", "report.md", "report.json"}
 
 
 def test_fmt_and_post() -> None:

@@ -249,7 +249,7 @@ def test_a_known_imu_gain_is_divided_out_and_a_bad_one_rejected(synthetic):
 def test_steered_wheels_read_with_the_turns_sideslip():
     """A tight turn at walking pace: the front wheels' speed carries the body's sideslip
     (ψ̇ l_r sin δ), which eq. 4.23's β = 0 would read as 1-2 % of slip."""
-    from tyrebayes.streams.features import REAR_CORNERING_PER_RAD, _front_terms, _wheel_to_vx
+    from tyrebayes.streams.motion import REAR_CORNERING_PER_RAD, _front_terms, _wheel_to_vx
 
     vx = np.array([3.0, 4.0, 6.0, 25.0])
     steer = np.array([0.18, 0.15, 0.10, 0.004])  # road-wheel angle [rad]

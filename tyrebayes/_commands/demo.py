@@ -105,9 +105,9 @@ def run(args: argparse.Namespace) -> int:
         "out": str(out),
         "quick": bool(args.quick),
         "seconds": total,
-        "report_html": str(paths["report.html"]),
-        "report_md": str(paths["report.md"]),
-        "figures": [str(p) for k, p in paths.items() if k.startswith("figure:")],
+        "report_html": str(paths.html),
+        "report_md": str(paths.markdown),
+        "figures": [str(p) for _, p in paths.figures],
         "fits": [str(out / "fits" / f"{n}.nc") for n in fits],
         "tyres": {
             t.name: {"c_xr": t.summary["c_xr"], "converged": bool(t.diagnostics.get("converged"))}
@@ -124,9 +124,9 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(summary)
     else:
-        print(f"demo finished in {total:.0f} s: {paths['report.html']}")
+        print(f"demo finished in {total:.0f} s: {paths.html}")
         print(
-            f"  markdown {paths['report.md']}, {len(summary['figures'])} figures, "
+            f"  markdown {paths.markdown}, {len(summary['figures'])} figures, "
             f"{len(fits)} fits in {out / 'fits'}"
         )
         for w in report.warnings:

@@ -134,9 +134,9 @@ def run(args: argparse.Namespace) -> int:
     paths = write_report(report, out)
     summary = {
         "out": str(out),
-        "report_html": str(paths["report.html"]),
-        "report_md": str(paths["report.md"]),
-        "figures": [str(v) for k, v in paths.items() if k.startswith("figure:")],
+        "report_html": str(paths.html),
+        "report_md": str(paths.markdown),
+        "figures": [str(p) for _, p in paths.figures],
         "tyre_fits": len(tyres),
         "fleet_fits": len(fleets),
         "inadequate_fits": [d["fit"] for d in report.diagnostics if not d["adequate"]],
@@ -148,5 +148,5 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(summary)
     else:
-        print(f"report: {paths['report.html']} ({len(summary['figures'])} figures)")
+        print(f"report: {paths.html} ({len(summary['figures'])} figures)")
     return 0

@@ -29,6 +29,8 @@ and PSIS-LOO), :mod:`.fleet` (the fleet table's designs), :mod:`.table`, :mod:`.
 from .fleet_fit import criticize_fleet_fit as criticize_fleet_fit
 from .permutation import DEFAULT_PERMUTATIONS as DEFAULT_PERMUTATIONS
 from .ppc import DEFAULT_STATISTICS as DEFAULT_STATISTICS
+from .ppc import PredictiveChecks as PredictiveChecks
+from .ppc import StatisticCheck as StatisticCheck
 from .ppc import posterior_predictive_check as posterior_predictive_check
 from .scan import DEFAULT_ALPHA as DEFAULT_ALPHA
 from .scan import ELPD_SE_FACTOR as ELPD_SE_FACTOR

@@ -176,7 +176,7 @@ def _fit_ppc(y, y_rep, mean, data, candidates, table: pd.DataFrame) -> dict:
     out = {}
     for s in np.unique(data.row_surface):
         rows = data.row_surface == s
-        for name, v in posterior_predictive_check(y[rows], y_rep[:, rows]).items():
+        for name, v in posterior_predictive_check(y[rows], y_rep[:, rows]).to_dict().items():
             out[f"{name} [{SURFACES[s]}]"] = v
         for t in np.unique(data.row_type[rows]):
             rt = rows & (data.row_type == t)

@@ -28,20 +28,15 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import equinox as eqx
 import numpy as np
 from jaxtyping import Float, Int
 from scipy import stats
 
 from ..inference.summary import summarize
-from .linear import (
-    LinearFit,
-    LooResult,
-    difference,
-    fit_and_loo,
-    loo_from_pointwise,
-    ols_rss,
-)
+from .linear import LinearFit, LooResult, difference, fit_and_loo, loo_from_pointwise, ols_rss
+from .multiple_testing import DEFAULT_ALPHA as DEFAULT_ALPHA
+from .multiple_testing import benjamini_hochberg as benjamini_hochberg
+from .multiple_testing import holm as holm
 from .permutation import (
     DEFAULT_PERMUTATIONS,
     permutation_pvalue,
@@ -49,9 +44,10 @@ from .permutation import (
     stratified_permutations,
     unit_means,
 )
+from .results import Candidate as Candidate
+from .results import CandidateResult as CandidateResult
+from .results import CriticismResult as CriticismResult
 
-#: False-discovery rate of the rule (Benjamini-Hochberg over candidates).
-DEFAULT_ALPHA = 0.05
 #: A finding's ELPD gain must exceed this many standard errors (and be positive in any case).
 ELPD_SE_FACTOR = 0.0
 #: Prior variance (units of sigma^2, standardised covariate) of a candidate's coefficient.
@@ -59,176 +55,6 @@ CANDIDATE_PRIOR_VAR = 25.0
 #: Prior variance of the per-group deviations of a numeric candidate's coefficient (partial
 #: pooling by tyre type: a type may feel the effect more or less, e.g. when its friction saturates).
 CANDIDATE_DEVIATION_PRIOR_VAR = 0.25
-
-
-class Candidate(eqx.Module):
-    """One candidate covariate, encoded as standardised design columns.
-
-    Attributes
-    ----------
-    name : str
-        Column name in the user's data.
-    kind : str
-        ``"numeric"`` or ``"categorical"``.
-    columns : ndarray (n, q)
-        Standardised columns (NaN marks a missing value; such rows are left out of this
-        candidate's comparison, and of its baseline).
-    natural_scale : ndarray (q,)
-        Divide a standardised coefficient by this (and multiply by the outcome scale) to obtain the
-        effect in natural units (outcome per unit of the covariate, or per level contrast).
-    labels : tuple of str
-        One label per column (the level for categorical candidates).
-    """
-
-    name: str
-    kind: str
-    columns: np.ndarray
-    natural_scale: np.ndarray
-    labels: tuple[str, ...]
-
-
-class CandidateResult(eqx.Module):
-    """Evidence about one candidate covariate.
-
-    Attributes
-    ----------
-    covariate, kind : str
-        Column name; ``"numeric"`` or ``"categorical"``.
-    level : str or None
-        For categorical candidates the level contrast whose effect is reported (the strongest).
-    effect : dict
-        Posterior of the candidate's coefficient in the extended model, outcome units per unit of
-        the covariate: ``{"mean", "sd", "hdi_90"}`` (90 % highest-density interval).
-    p_value : float
-        Permutation p-value of the scan (calibrated; smallest 1 / (B + 1)).
-    q_value : float
-        Benjamini-Hochberg adjusted p-value over all candidates.
-    misfit_explained : float
-        Share of the baseline's residual sum of squares the candidate explains [-].
-    elpd_gain, se : float
-        PSIS-LOO ELPD of the extended model minus the baseline's, and the SE of that paired
-        difference (NaN when the extended model was not fitted: ``report_all=False`` and the
-        scan failed).
-    pareto_k_max : float
-        Largest Pareto k of the two models (units above 0.7 use exact leave-one-out densities).
-    n_k_high, n_units : int
-        Units with k > 0.7 in the extended model; units in the comparison.
-    found : bool
-        Whether the candidate is a finding (module docstring).
-    reason : str
-        Why it is, or is not, a finding.
-    p_loglik : float
-        Scan of the baseline's pointwise LOO log-likelihood against the candidate (where the
-        model fits worse: a noise level, outliers); descriptive, not part of the decision.
-    """
-
-    covariate: str
-    kind: str
-    level: str | None
-    effect: dict
-    p_value: float
-    q_value: float
-    misfit_explained: float
-    elpd_gain: float
-    se: float
-    pareto_k_max: float
-    n_k_high: int
-    n_units: int
-    found: bool
-    reason: str
-    p_loglik: float
-
-    def to_json(self) -> dict:
-        """The CLI contract: covariate, effect, p- and q-value, ELPD gain and SE, found."""
-        return {
-            "covariate": self.covariate,
-            "level": self.level,
-            "effect": self.effect,
-            "p_value": self.p_value,
-            "q_value": self.q_value,
-            "elpd_gain": self.elpd_gain,
-            "se": self.se,
-            "found": self.found,
-            "reason": self.reason,
-        }
-
-
-class CriticismResult(eqx.Module):
-    """Outcome of a criticism run.
-
-    Attributes
-    ----------
-    baseline : LooResult
-        PSIS-LOO of the baseline model on all units.
-    candidates : list of CandidateResult
-        Sorted by evidence (findings first in the order confirmed, then by p-value).
-    found : list of str
-        Covariates judged real.
-    ppc : dict
-        Posterior predictive checks (statistic -> observed value, p-value).
-    notes : list of str
-        Assumptions and diagnostics worth telling the user (Pareto k, dropped rows, ...).
-    alpha : float
-        False-discovery rate of the rule.
-    n_permutations : int
-        Permutations behind every scan p-value.
-    """
-
-    baseline: LooResult
-    candidates: list
-    found: list
-    ppc: dict
-    notes: list
-    alpha: float = DEFAULT_ALPHA
-    n_permutations: int = DEFAULT_PERMUTATIONS
-
-    def to_json(self) -> dict:
-        """``{"baseline": {"elpd", "se"}, "candidates", "found", "rule", "ppc", "notes"}``."""
-        return {
-            "baseline": {"elpd": self.baseline.elpd, "se": self.baseline.se},
-            "candidates": [c.to_json() for c in self.candidates],
-            "found": list(self.found),
-            "rule": {
-                "false_discovery_rate": self.alpha,
-                "n_permutations": self.n_permutations,
-                "confirmation": "PSIS-LOO ELPD gain of the extended model > 0",
-            },
-            "ppc": self.ppc,
-            "notes": list(self.notes),
-        }
-
-
-def holm(p_values: Float[np.ndarray, " m"]) -> Float[np.ndarray, " m"]:
-    """Holm step-down adjusted p-values (family-wise error control, any dependence).
-
-    Examples
-    --------
-    >>> holm(np.array([0.01, 0.04, 0.03])).round(3).tolist()
-    [0.03, 0.06, 0.06]
-    """
-    m = p_values.shape[0]
-    order = np.argsort(p_values)
-    adj = np.minimum(1.0, np.maximum.accumulate((m - np.arange(m)) * p_values[order]))
-    out = np.empty(m)
-    out[order] = adj
-    return out
-
-
-def benjamini_hochberg(p_values: Float[np.ndarray, " m"]) -> Float[np.ndarray, " m"]:
-    """Benjamini-Hochberg adjusted p-values (false-discovery-rate control).
-
-    Examples
-    --------
-    >>> benjamini_hochberg(np.array([0.01, 0.04, 0.03])).round(3).tolist()
-    [0.03, 0.04, 0.04]
-    """
-    m = p_values.shape[0]
-    order = np.argsort(p_values)
-    ranked = p_values[order] * m / (np.arange(m) + 1.0)
-    adj = np.minimum(1.0, np.minimum.accumulate(ranked[::-1])[::-1])
-    out = np.empty(m)
-    out[order] = adj
-    return out
 
 
 def partial_f_test(
@@ -350,117 +176,26 @@ def criticize_linear(
         findings, and notes.
     """
     rng = np.random.default_rng(seed)
-    log_scale = np.log(y_scale)
-    notes: list[str] = []
     n = y.shape[0]
     if strata is None:
         strata = np.zeros(n, int) if groups is None else np.argmax(groups, axis=1)
-    perm_cache: dict[tuple, np.ndarray] = {}
-
-    def permutations_for(key: tuple, labels: np.ndarray) -> np.ndarray:
-        if key not in perm_cache:
-            perm_cache[key] = stratified_permutations(labels, n_permutations, rng)
-        return perm_cache[key]
-
-    def scan(x, cols, rows) -> tuple[float, float]:
-        extra = cols[rows]
-        if units is None:
-            perms = permutations_for(("rows", rows.shape[0], rows.tobytes()), strata[rows])
-            return permutation_pvalue(y[rows], x[rows], extra, perms)
-        # Unit level: the current model's residuals averaged per unit against the unit means.
-        coef, *_ = np.linalg.lstsq(x[rows], y[rows], rcond=None)
-        resid = y[rows] - x[rows] @ coef
-        u = np.unique(units[rows], return_inverse=True)[1]
-        r_u = unit_means(resid[:, None], u)[:, 0]
-        x_u = unit_means(extra, u)
-        perms = permutations_for(
-            ("units", r_u.shape[0], rows.tobytes()), np.zeros(r_u.shape[0], int)
-        )
-        return permutation_pvalue(r_u, np.ones((r_u.shape[0], 1)), x_u, perms)
-
-    def fit(x, prior, rows):
-        u = None if units is None else np.unique(units[rows], return_inverse=True)[1]
-        return fit_and_loo(x[rows], y[rows], prior, rng, n_draws=n_draws, units=u)
-
-    def to_natural(loo: LooResult, rows) -> LooResult:
-        # Jacobian of the standardisation: log p(y) = log p(y_std) - log(scale), per row.
-        rows_per_unit = (
-            np.ones(loo.pointwise.shape[0])
-            if units is None
-            else np.bincount(np.unique(units[rows], return_inverse=True)[1]).astype(float)
-        )
-        pw = loo.pointwise - rows_per_unit * log_scale
-        return loo_from_pointwise(pw, loo.pareto_k, loo.n_exact)
-
-    def extend(x, prior, cand):
-        x1 = np.column_stack([x, np.nan_to_num(cand.columns)])
-        prior1 = np.concatenate([prior, np.full(cand.columns.shape[1], CANDIDATE_PRIOR_VAR)])
-        if groups is not None and cand.kind == "numeric" and groups.shape[1] > 1:
-            x1 = np.column_stack([x1, groups * np.nan_to_num(cand.columns)])
-            prior1 = np.concatenate(
-                [prior1, np.full(groups.shape[1], CANDIDATE_DEVIATION_PRIOR_VAR)]
-            )
-        return x1, prior1
-
-    def share(rows):
-        return None if groups is None else groups[rows].mean(axis=0)
-
-    def finite_rows(*cands):
-        ok = np.ones(n, dtype=bool)
-        for c in cands:
-            ok &= np.all(np.isfinite(c.columns), axis=1)
-        return np.flatnonzero(ok)
+    run = _LinearScan(y, units, groups, strata, rng, n_draws, n_permutations, y_scale)
+    notes: list[str] = []
 
     all_rows = np.arange(n)
-    base_fit = fit(x0, prior0, all_rows)
-    base_loo = to_natural(base_fit.loo, all_rows)
+    base_fit = run.fit(x0, prior0, all_rows)
+    base_loo = run.to_natural(base_fit.loo, all_rows)
     if base_loo.n_k_high:
         notes.append(
             f"baseline: {base_loo.n_k_high} unit(s) with Pareto k > 0.7 "
             f"(max {base_loo.k_max:.2f}); replaced by exact leave-one-out densities"
         )
-
     # 1-2. Calibrated scan of every candidate against the baseline, BH over candidates.
-    # Candidates without missing values share one batch of permutations.
-    complete = [np.all(np.isfinite(c.columns)) for c in candidates]
-    if units is None and any(complete):
-        perms = permutations_for(("rows", n, all_rows.tobytes()), strata)
-        batch = iter(
-            permutation_pvalues(
-                y, x0, [c.columns for c, ok in zip(candidates, complete, strict=True) if ok], perms
-            )
-        )
-    scans = [
-        next(batch) if ok and units is None else scan(x0, cand.columns, finite_rows(cand))
-        for cand, ok in zip(candidates, complete, strict=True)
-    ]
-    p_values = np.array([s[0] for s in scans])
-    q_values = benjamini_hochberg(p_values) if scans else np.zeros(0)
-    p_ll = np.array([_loglik_scan(base_loo.pointwise, cand, units) for cand in candidates])
-    for cand, p_adj in zip(candidates, benjamini_hochberg(p_ll) if p_ll.size else [], strict=True):
-        if p_adj <= alpha:
-            notes.append(
-                f"{cand.name}: the baseline's pointwise log-likelihood changes with it (BH q "
-                f"{p_adj:.2g}) — the fit is worse in part of its range (a noise level or outliers "
-                "there), which a mean-shift extension may not capture"
-            )
-
+    scans, p_values, q_values, p_ll = _scan_candidates(run, x0, candidates, base_loo, alpha, notes)
     # 3. Extended models and their ELPD gain over the baseline on the same rows.
-    marginal = {}
-    for cand, q in zip(candidates, q_values, strict=True):
-        if not report_all and q > alpha:
-            continue  # cannot be a finding; its ELPD is only needed for the report
-        rows = finite_rows(cand)
-        if rows.shape[0] < n:
-            notes.append(
-                f"{cand.name}: {n - rows.shape[0]} row(s) without a value were left out of its "
-                "comparison"
-            )
-            base = fit(x0, prior0, rows).loo
-        else:
-            base = base_fit.loo
-        ext_fit = fit(*extend(x0, prior0, cand), rows)
-        marginal[cand.name] = (base, ext_fit) + difference(base, ext_fit.loo)
+    marginal = _marginal_gains(
+        run, x0, prior0, candidates, q_values, base_fit, alpha, report_all, notes
+    )
 
     def gain_ok(gain: float, se: float) -> bool:
         return bool(gain > 0.0 and gain > se_factor * se)
@@ -481,18 +216,185 @@ def criticize_linear(
         passing.append(i)
     passing.sort(key=lambda i: (p_values[i], -marginal[candidates[i].name][2]))
 
-    # Confirmation in order of evidence: later findings must hold given the earlier ones.
+    chosen, chosen_effect = _confirm(
+        run, x0, prior0, candidates, passing, q_values, marginal, alpha, gain_ok, reasons, notes
+    )
+    results = _candidate_results(
+        run, x0, candidates, scans, q_values, p_ll, marginal, chosen_effect, reasons
+    )
+    order = {c.name: i for i, c in enumerate(chosen)}
+    results.sort(
+        key=lambda r: (
+            order.get(r.covariate, len(order)),
+            r.p_value,
+            -(r.elpd_gain / max(r.se, 1e-12)) if np.isfinite(r.elpd_gain) else np.inf,
+        )
+    )
+    return base_loo, base_fit, results, [c.name for c in chosen], notes
+
+
+class _LinearScan:
+    """What the steps of one :func:`criticize_linear` run share: its data, random numbers and
+    permutations (made once per set of rows and reused, in the order the steps ask for them)."""
+
+    def __init__(self, y, units, groups, strata, rng, n_draws, n_permutations, y_scale):
+        self.y, self.units, self.groups, self.strata = y, units, groups, strata
+        self.rng, self.n_draws, self.n_permutations = rng, n_draws, n_permutations
+        self.log_scale = np.log(y_scale)
+        self.y_scale = y_scale
+        self.n = y.shape[0]
+        self.perm_cache: dict[tuple, np.ndarray] = {}
+
+    def permutations_for(self, key: tuple, labels: np.ndarray) -> np.ndarray:
+        if key not in self.perm_cache:
+            self.perm_cache[key] = stratified_permutations(labels, self.n_permutations, self.rng)
+        return self.perm_cache[key]
+
+    def scan(self, x, cols, rows) -> tuple[float, float]:
+        y, units = self.y, self.units
+        extra = cols[rows]
+        if units is None:
+            perms = self.permutations_for(
+                ("rows", rows.shape[0], rows.tobytes()), self.strata[rows]
+            )
+            return permutation_pvalue(y[rows], x[rows], extra, perms)
+        # Unit level: the current model's residuals averaged per unit against the unit means.
+        coef, *_ = np.linalg.lstsq(x[rows], y[rows], rcond=None)
+        resid = y[rows] - x[rows] @ coef
+        u = np.unique(units[rows], return_inverse=True)[1]
+        r_u = unit_means(resid[:, None], u)[:, 0]
+        x_u = unit_means(extra, u)
+        perms = self.permutations_for(
+            ("units", r_u.shape[0], rows.tobytes()), np.zeros(r_u.shape[0], int)
+        )
+        return permutation_pvalue(r_u, np.ones((r_u.shape[0], 1)), x_u, perms)
+
+    def fit(self, x, prior, rows):
+        units = self.units
+        u = None if units is None else np.unique(units[rows], return_inverse=True)[1]
+        return fit_and_loo(x[rows], self.y[rows], prior, self.rng, n_draws=self.n_draws, units=u)
+
+    def to_natural(self, loo: LooResult, rows) -> LooResult:
+        # Jacobian of the standardisation: log p(y) = log p(y_std) - log(scale), per row.
+        units = self.units
+        rows_per_unit = (
+            np.ones(loo.pointwise.shape[0])
+            if units is None
+            else np.bincount(np.unique(units[rows], return_inverse=True)[1]).astype(float)
+        )
+        pw = loo.pointwise - rows_per_unit * self.log_scale
+        return loo_from_pointwise(pw, loo.pareto_k, loo.n_exact)
+
+    def extend(self, x, prior, cand):
+        groups = self.groups
+        x1 = np.column_stack([x, np.nan_to_num(cand.columns)])
+        prior1 = np.concatenate([prior, np.full(cand.columns.shape[1], CANDIDATE_PRIOR_VAR)])
+        if groups is not None and cand.kind == "numeric" and groups.shape[1] > 1:
+            x1 = np.column_stack([x1, groups * np.nan_to_num(cand.columns)])
+            prior1 = np.concatenate(
+                [prior1, np.full(groups.shape[1], CANDIDATE_DEVIATION_PRIOR_VAR)]
+            )
+        return x1, prior1
+
+    def share(self, rows):
+        return None if self.groups is None else self.groups[rows].mean(axis=0)
+
+    def finite_rows(self, *cands):
+        ok = np.ones(self.n, dtype=bool)
+        for c in cands:
+            ok &= np.all(np.isfinite(c.columns), axis=1)
+        return np.flatnonzero(ok)
+
+
+def _scan_candidates(run: _LinearScan, x0, candidates, base_loo, alpha, notes):
+    """Steps 1-2: each candidate's permutation scan against the baseline, BH over candidates.
+
+    Returns ``(scans, p_values, q_values, p_loglik)``; notes where the baseline's pointwise
+    log-likelihood changes with a candidate.
+    """
+    n, units = run.n, run.units
+    all_rows = np.arange(n)
+    # Candidates without missing values share one batch of permutations.
+    complete = [np.all(np.isfinite(c.columns)) for c in candidates]
+    if units is None and any(complete):
+        perms = run.permutations_for(("rows", n, all_rows.tobytes()), run.strata)
+        batch = iter(
+            permutation_pvalues(
+                run.y,
+                x0,
+                [c.columns for c, ok in zip(candidates, complete, strict=True) if ok],
+                perms,
+            )
+        )
+    scans = [
+        next(batch) if ok and units is None else run.scan(x0, cand.columns, run.finite_rows(cand))
+        for cand, ok in zip(candidates, complete, strict=True)
+    ]
+    p_values = np.array([s[0] for s in scans])
+    q_values = benjamini_hochberg(p_values) if scans else np.zeros(0)
+    p_ll = np.array([_loglik_scan(base_loo.pointwise, cand, units) for cand in candidates])
+    for cand, p_adj in zip(candidates, benjamini_hochberg(p_ll) if p_ll.size else [], strict=True):
+        if p_adj <= alpha:
+            notes.append(
+                f"{cand.name}: the baseline's pointwise log-likelihood changes with it (BH q "
+                f"{p_adj:.2g}) — the fit is worse in part of its range (a noise level or outliers "
+                "there), which a mean-shift extension may not capture"
+            )
+    return scans, p_values, q_values, p_ll
+
+
+def _marginal_gains(
+    run: _LinearScan, x0, prior0, candidates, q_values, base_fit, alpha, report_all, notes
+) -> dict:
+    """Step 3: each candidate's extended model and its ELPD gain over the baseline on the same
+    rows: ``name -> (baseline LOO, extended fit, gain, SE)``."""
+    marginal = {}
+    for cand, q in zip(candidates, q_values, strict=True):
+        if not report_all and q > alpha:
+            continue  # cannot be a finding; its ELPD is only needed for the report
+        rows = run.finite_rows(cand)
+        if rows.shape[0] < run.n:
+            notes.append(
+                f"{cand.name}: {run.n - rows.shape[0]} row(s) without a value were left out of "
+                "its comparison"
+            )
+            base = run.fit(x0, prior0, rows).loo
+        else:
+            base = base_fit.loo
+        ext_fit = run.fit(*run.extend(x0, prior0, cand), rows)
+        marginal[cand.name] = (base, ext_fit) + difference(base, ext_fit.loo)
+    return marginal
+
+
+def _confirm(
+    run: _LinearScan,
+    x0,
+    prior0,
+    candidates,
+    passing,
+    q_values,
+    marginal,
+    alpha,
+    gain_ok,
+    reasons,
+    notes,
+):
+    """Confirmation in order of evidence: later findings must hold given the earlier ones.
+
+    Returns the findings and their effects ``name -> (effect, level)``; writes each
+    candidate's reason.
+    """
     chosen: list[Candidate] = []
     chosen_effect: dict[str, tuple[dict, str | None]] = {}
     x_cur, prior_cur = x0, prior0
     for i in passing:
         cand = candidates[i]
-        rows = finite_rows(cand, *chosen)
-        x_new, prior_new = extend(x_cur, prior_cur, cand)
+        rows = run.finite_rows(cand, *chosen)
+        x_new, prior_new = run.extend(x_cur, prior_cur, cand)
         if chosen:
-            p_cond = scan(x_cur, cand.columns, rows)[0]
-            cur = fit(x_cur, prior_cur, rows).loo
-            new_fit = fit(x_new, prior_new, rows)
+            p_cond = run.scan(x_cur, cand.columns, rows)[0]
+            cur = run.fit(x_cur, prior_cur, rows).loo
+            new_fit = run.fit(x_new, prior_new, rows)
             gain, se = difference(cur, new_fit.loo)
             given = ", ".join(c.name for c in chosen)
             if p_cond > alpha or not gain_ok(gain, se):
@@ -510,10 +412,18 @@ def criticize_linear(
         reasons[cand.name] = f"q {q_values[i]:.2g} <= {alpha:g} and ELPD gain > 0" + (
             f" (also given {', '.join(c.name for c in chosen)})" if chosen else ""
         )
-        chosen_effect[cand.name] = _effect(new_fit, x_cur.shape[1], cand, y_scale, share(rows))
+        chosen_effect[cand.name] = _effect(
+            new_fit, x_cur.shape[1], cand, run.y_scale, run.share(rows)
+        )
         chosen.append(cand)
         x_cur, prior_cur = x_new, prior_new
+    return chosen, chosen_effect
 
+
+def _candidate_results(
+    run: _LinearScan, x0, candidates, scans, q_values, p_ll, marginal, chosen_effect, reasons
+) -> list[CandidateResult]:
+    """Every candidate's :class:`CandidateResult`, in the order given."""
     results = []
     nan = float("nan")
     for cand, (p, explained), q, pl in zip(candidates, scans, q_values, p_ll, strict=True):
@@ -527,8 +437,8 @@ def criticize_linear(
             if found:
                 effect, level = chosen_effect[cand.name]
             else:
-                rows = finite_rows(cand)
-                effect, level = _effect(ext_fit, x0.shape[1], cand, y_scale, share(rows))
+                rows = run.finite_rows(cand)
+                effect, level = _effect(ext_fit, x0.shape[1], cand, run.y_scale, run.share(rows))
             k_max = max(ext_fit.loo.k_max, base.k_max)
             k_high = ext_fit.loo.n_k_high
             n_units = int(ext_fit.loo.pointwise.shape[0])
@@ -551,12 +461,4 @@ def criticize_linear(
                 p_loglik=float(pl),
             )
         )
-    order = {c.name: i for i, c in enumerate(chosen)}
-    results.sort(
-        key=lambda r: (
-            order.get(r.covariate, len(order)),
-            r.p_value,
-            -(r.elpd_gain / max(r.se, 1e-12)) if np.isfinite(r.elpd_gain) else np.inf,
-        )
-    )
-    return base_loo, base_fit, results, [c.name for c in chosen], notes
+    return results

@@ -310,7 +310,7 @@ def _stream_ppc(d: dict, fit, seed: int) -> dict:
         means = np.stack([np.bincount(units, weights=row, minlength=n_seg) for row in r2])
         return (means / counts).std(axis=-1)
 
-    out = posterior_predictive_check(d["y"], y_rep)
+    out = posterior_predictive_check(d["y"], y_rep).to_dict()
     r_obs = d["y"][None, :] - mu
     r_rep = y_rep - mu
     for name, fn in (

@@ -113,7 +113,7 @@ def _fleet_ppc(y, x0, base_fit, candidates, seed: int) -> dict:
     rng = np.random.default_rng(seed + 1)
     mu = base_fit.beta @ x0.T
     y_rep = mu + base_fit.sigma[:, None] * rng.standard_normal(mu.shape)
-    ppc = posterior_predictive_check(y, y_rep)
+    ppc = posterior_predictive_check(y, y_rep).to_dict()
     for cand in candidates:
         if cand.kind != "numeric" or not np.all(np.isfinite(cand.columns)):
             continue

@@ -192,7 +192,7 @@ def criticize_tyre_fit(
     loglik = np.asarray(fit.data["log_likelihood"]["slip_obs"], float).reshape(-1, n)
     elpd_i, k = psis_loo_pointwise(loglik[:, slip_windows])
     baseline = loo_from_pointwise(elpd_i, k, 0)
-    ppc = posterior_predictive_check(slip[slip_windows], y_rep[:, slip_windows])
+    ppc = posterior_predictive_check(slip[slip_windows], y_rep[:, slip_windows]).to_dict()
     r_obs = slip[None, slip_windows] - pred[slip_windows]
     r_rep = y_rep[:, slip_windows] - pred[slip_windows]
     t_obs, t_rep = _lag1(r_obs)[0], _lag1(r_rep)

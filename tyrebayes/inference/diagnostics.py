@@ -129,6 +129,15 @@ class Diagnostics(eqx.Module):
         with no reasons where a fitter runs no such check.
     adequacy_reasons : tuple of str
         Why ``adequate`` is False, or what was found short of that.
+
+    Examples
+    --------
+    >>> import arviz_base as azb
+    >>> draws = np.random.default_rng(0).normal(30.0, 1.0, (1, 400))
+    >>> tree = azb.from_dict({"posterior": {"c_xr": draws}})
+    >>> d = diagnose(tree, method="laplace", optimiser_result="successful")
+    >>> d.converged, d.n_draws, Diagnostics.from_dict(d.as_dict()).method
+    (True, 400, 'laplace')
     """
 
     method: str

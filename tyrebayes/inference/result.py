@@ -140,6 +140,22 @@ class Fit(eqx.Module):
     kind : str
         One of :data:`FIT_KINDS`.
     provenance : Provenance
+
+    Examples
+    --------
+    A fit made by hand from draws (the fitters make theirs the same way):
+
+    >>> import arviz_base as azb
+    >>> draws = np.random.default_rng(0).normal(30.0, 1.0, (1, 400))
+    >>> tree = azb.from_dict({"posterior": {"c_xr": draws}})
+    >>> fit = Fit(
+    ...     data=tree,
+    ...     diagnostics=diagnose(tree, method="laplace", optimiser_result="successful"),
+    ...     kind="tyre",
+    ...     provenance=provenance("laplace", "magic", ["drive.csv"], seed=0),
+    ... )
+    >>> fit.converged, fit.draws("c_xr").shape
+    (True, (400,))
     """
 
     data: xr.DataTree
@@ -211,8 +227,38 @@ def _finite_json(d: dict) -> dict:
 def load_fit(path: str | os.PathLike, *, kind: str | None = None) -> Fit:
     """Read a fit written by :meth:`Fit.save` (any kind, or the ``kind`` given).
 
-    Raises :class:`tyrebayes.BadInputError` naming what was expected for a missing file, a file
-    that is not a saved fit, or a fit of another kind.
+    Parameters
+    ----------
+    path : str or path-like
+        The fit file (netCDF).
+    kind : str, optional
+        The kind expected (one of :data:`FIT_KINDS`); a fit of another kind is refused.
+
+    Returns
+    -------
+    Fit
+
+    Raises
+    ------
+    BadInputError
+        Naming what was expected for a missing file, a file that is not a saved fit, or a fit
+        of another kind.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import arviz_base as azb
+    >>> tree = azb.from_dict({"posterior": {"gamma": np.ones((1, 100))}})
+    >>> fit = Fit(
+    ...     data=tree,
+    ...     diagnostics=diagnose(tree, method="laplace", optimiser_result="successful"),
+    ...     kind="wear",
+    ...     provenance=provenance("laplace", "wear", ["readings.csv"]),
+    ... )
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     loaded = load_fit(fit.save(Path(folder) / "wear.nc"), kind="wear")
+    >>> loaded.kind, loaded.provenance == fit.provenance
+    ('wear', True)
     """
     p = Path(path)
     if not p.is_file():

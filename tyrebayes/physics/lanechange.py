@@ -88,7 +88,23 @@ class Course(eqx.Module):
 def iso3888_2_course(vehicle_width_m: float, exit_lane: str = "thesis") -> Course:
     """ISO 3888-2:2011 course for a vehicle of the given width [m].
 
-    ``exit_lane="standard"`` uses 1.3 w + 0.25 m; ``"thesis"`` uses the thesis' 3 m (Sec. 5.3).
+    Parameters
+    ----------
+    vehicle_width_m : float
+        The vehicle's width w [m]; the entry lane is 1.1 w + 0.25 m wide, the middle lane
+        w + 1 m.
+    exit_lane : {"thesis", "standard"}
+        ``"standard"`` uses 1.3 w + 0.25 m; ``"thesis"`` uses the thesis' 3 m (Sec. 5.3).
+
+    Returns
+    -------
+    Course
+
+    Examples
+    --------
+    >>> course = iso3888_2_course(1.8)
+    >>> round(course.lane1_width_m, 2), course.lane3_width_m
+    (2.23, 2.8)
     """
     if exit_lane not in ("standard", "thesis"):
         raise ValueError(f"exit_lane must be 'standard' or 'thesis', got {exit_lane!r}")

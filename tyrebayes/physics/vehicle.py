@@ -93,6 +93,13 @@ class Vehicle(eqx.Module):
     -----
     Numeric fields may be arrays of one shape: a batch of vehicles for ``eqx.filter_vmap``
     (``drive`` is static and shared by the batch).
+
+    Examples
+    --------
+    >>> from tyrebayes import load_vehicle
+    >>> car = load_vehicle("compact_fwd")
+    >>> car.drive, car.driven_axle, round(float(car.cog_to_rear_axle_m), 3)
+    ('fwd', 'front', 1.643)
     """
 
     mass_kg: Param

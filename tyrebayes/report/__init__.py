@@ -5,4 +5,5 @@ Sections are computed by :mod:`.sections` (numbers) into :mod:`.content` datacla
 """
 
 from .content import Report as Report
+from .writer import ReportFiles as ReportFiles
 from .writer import write_report as write_report

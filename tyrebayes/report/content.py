@@ -111,7 +111,33 @@ class WearSection:
 
 @dataclasses.dataclass
 class Report:
-    """Everything one report states."""
+    """Everything one report states.
+
+    Attributes
+    ----------
+    title, subtitle : str
+        The report's heading.
+    tyres, laterals : list
+        One section per tyre set's longitudinal and lateral fit.
+    fleet, vmax, wear : section or None
+        The fleet, V_max and wear sections, where the run made them.
+    warnings : list
+        Decisions and warnings to show first.
+    diagnostics : list
+        One row per fit: convergence and adequacy.
+    criticism : list
+        One entry per criticism run.
+    timings : dict
+        Step -> ``{"wall_s", "cpu_s"}``.
+    notes : list
+        Lines a reader needs to read the report right.
+
+    Examples
+    --------
+    >>> report = Report(title="Tyres of car 7", subtitle="one drive")
+    >>> report.title, report.tyres, report.fleet
+    ('Tyres of car 7', [], None)
+    """
 
     title: str
     subtitle: str

@@ -7,6 +7,7 @@ sees a page whose figures are missing.
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 from .._io import atomic_write_bytes
@@ -107,20 +108,79 @@ def _write(path: Path, data: bytes) -> None:
     path.chmod(0o644)  # a report is for sharing (the temporary file was private)
 
 
-def write_report(report: Report, out_dir: str | Path) -> dict[str, Path]:
-    """Render and write the report; returns the written paths by name."""
+@dataclass(frozen=True)
+class ReportFiles:
+    """The files :func:`write_report` wrote.
+
+    Attributes
+    ----------
+    html, markdown, json : Path
+        ``report.html``, ``report.md`` and ``report.json``.
+    figures : tuple of (str, Path)
+        Each figure's name and PNG (``figures/NAME.png``), in the report's order.
+
+    Examples
+    --------
+    >>> files = ReportFiles(Path("r.html"), Path("r.md"), Path("r.json"), (("x", Path("x.png")),))
+    >>> list(files.to_dict())
+    ['figure:x', 'report.html', 'report.md', 'report.json']
+    """
+
+    html: Path
+    markdown: Path
+    json: Path
+    figures: tuple[tuple[str, Path], ...]
+
+    def to_dict(self) -> dict[str, Path]:
+        """The paths by name: ``figure:NAME`` for each figure, then the three report files."""
+        return {
+            **{f"figure:{name}": path for name, path in self.figures},
+            "report.html": self.html,
+            "report.md": self.markdown,
+            "report.json": self.json,
+        }
+
+
+def write_report(report: Report, out_dir: str | Path) -> ReportFiles:
+    """Render and write the report into ``out_dir``: figures first, then the pages.
+
+    Parameters
+    ----------
+    report : Report
+        What to show (:class:`~tyrebayes.report.content.Report`).
+    out_dir : str or Path
+        Folder to write into (made if missing); files there of the same names are replaced.
+
+    Returns
+    -------
+    ReportFiles
+        The paths written.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from tyrebayes.report.content import Report
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     files = write_report(Report(title="empty", subtitle=""), folder)
+    ...     print(files.html.name, files.figures)
+    report.html ()
+    """
     out_dir = Path(out_dir)
     figs = render_figures(report)
-    paths: dict[str, Path] = {}
+    figures = []
     for name, (png, _caption) in figs.items():
         p = out_dir / "figures" / f"{name}.png"
         _write(p, png)
-        paths[f"figure:{name}"] = p
+        figures.append((name, p))
     for name, text in (
         ("report.html", render_html(report, figs)),
         ("report.md", render_markdown(report, figs)),
         ("report.json", json.dumps(summary_json(report), indent=2) + "\n"),
     ):
         _write(out_dir / name, text.encode("utf-8"))
-        paths[name] = out_dir / name
-    return paths
+    return ReportFiles(
+        html=out_dir / "report.html",
+        markdown=out_dir / "report.md",
+        json=out_dir / "report.json",
+        figures=tuple(figures),
+    )

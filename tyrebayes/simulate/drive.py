@@ -40,273 +40,28 @@ True
 from __future__ import annotations
 
 import equinox as eqx
-import jax
-import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 
 from .._domain import SURFACES, load_vehicle
-from ..physics.thermal import (
-    ThermalParams,
-    simulate_tyre_temperature,
-    temperature_sensitivity,
-)
-from ..physics.tyre import MagicFormulaLongitudinal
-from ..physics.vehicle import AIR_DENSITY_KGPM3, GRAVITY_MPS2, Vehicle
-from .profiles import LONG_LABELS, DriveProfile, ProfileOptions, make_profile
+from ..physics.thermal import ThermalParams, temperature_sensitivity
+from ..physics.vehicle import GRAVITY_MPS2, Vehicle
+from .abs_braking import _ABS, _apply_abs
+from .abs_braking import ABS_HZ as ABS_HZ
+from .abs_braking import ABS_SWING as ABS_SWING
+from .drive_forces import ENGINE_BRAKE_SHARE as ENGINE_BRAKE_SHARE
+from .drive_forces import MIN_SLIP_SPEED_MPS as MIN_SLIP_SPEED_MPS
+from .drive_forces import _kinematics, _wheel_rho
+from .drive_forces import wheel_loads_np as wheel_loads_np
+from .drive_thermal import _temperatures
+from .profiles import DriveProfile, ProfileOptions, make_profile
+from .seeds import _seed_int
+from .seeds import drawn_curve as drawn_curve
+from .seeds import seed_sequence as seed_sequence
 from .sensors import SensorModel, SensorTruth, draw_sensor_truth, measure, sample_times
 from .truth import DriveTruth
-from .tyre_curves import brush_inverse_np, peak_slip, tyre_force, tyre_slip
-from .tyre_spec import TYRE_MODELS, TyreSpec, draw_database_curve
-
-_ABS = LONG_LABELS.index("abs")
-#: Engine-braking force available on the driven axle, as a share of the weight.
-ENGINE_BRAKE_SHARE = 0.05
-#: ABS cycle: slip between (1 − ABS_SWING) and (1 + ABS_SWING) times the peak slip, at ABS_HZ.
-ABS_SWING = 0.5
-ABS_HZ = 4.0
-#: Minimum speed for slip to be defined [m/s]; below it the truth slip is 0.
-MIN_SLIP_SPEED_MPS = 0.5
-
-
-def seed_sequence(key_or_seed) -> np.random.SeedSequence:
-    """A NumPy seed sequence from an int seed or a JAX PRNG key (raw or typed)."""
-    if isinstance(key_or_seed, int | np.integer):
-        return np.random.SeedSequence(int(key_or_seed))
-    key = jnp.asarray(key_or_seed)
-    if jax.dtypes.issubdtype(key.dtype, jax.dtypes.prng_key):
-        key = jax.random.key_data(key)
-    return np.random.SeedSequence(np.asarray(key, dtype=np.uint32).ravel().tolist())
-
-
-def drawn_curve(key_or_seed) -> MagicFormulaLongitudinal:
-    """The Magic Formula shape :func:`simulate_drive` draws for a tyre given by its type.
-
-    From the fifth of the seed's five streams (:func:`simulate_drive` calls this): a benchmark
-    can change this curve (its load dependences, say) and simulate the same drive with it.
-    """
-    return draw_database_curve(np.random.default_rng(seed_sequence(key_or_seed).spawn(5)[4]))
-
-
-def _seed_int(key_or_seed) -> int:
-    return int(seed_sequence(key_or_seed).generate_state(1)[0])
-
-
-def wheel_loads_np(vehicle: Vehicle, ax, ay) -> np.ndarray:
-    """NumPy twin of :func:`tyrebayes.physics.vehicle.wheel_loads` (fl, fr, rl, rr) [N].
-
-    Eager JAX compiles each primitive for every new array length; this twin keeps the simulator
-    fast for drives of any length. Tests check it against the physics module.
-    """
-    ax, ay = np.broadcast_arrays(np.asarray(ax, dtype=float), np.asarray(ay, dtype=float))
-    m, h, wb = vehicle.mass_kg, vehicle.cog_height_m, vehicle.wheelbase_m
-    weight = m * GRAVITY_MPS2
-    transfer = m * ax * h / wb
-    front = weight * vehicle.cog_to_rear_axle_m / wb - transfer
-    rear = weight * vehicle.cog_to_front_axle_m / wb + transfer
-    lateral = m * ay * h / vehicle.track_width_m
-    share = vehicle.cog_to_rear_axle_m / wb
-    return np.stack(
-        [
-            front / 2 - lateral * share,
-            front / 2 + lateral * share,
-            rear / 2 - lateral * (1 - share),
-            rear / 2 + lateral * (1 - share),
-        ],
-        axis=-1,
-    )
-
-
-class _Kinematics(eqx.Module):
-    """Forces and loads of every sample for a given speed/acceleration history."""
-
-    ax: np.ndarray  # body a_x (no gravity) [m/s²]
-    vy: np.ndarray
-    yaw: np.ndarray
-    delta: np.ndarray
-    fz: np.ndarray  # (n, 4)
-    fx_front: np.ndarray
-    fx_rear: np.ndarray
-    resist: np.ndarray
-    clipped: np.ndarray
-
-
-def _kinematics(
-    vehicle: Vehicle, tyre: TyreSpec, mu: float, v, a, ay, grade, dt: float
-) -> _Kinematics:
-    m, lr, wb = (
-        vehicle.mass_kg,
-        vehicle.cog_to_rear_axle_m,
-        vehicle.wheelbase_m,
-    )
-    g = GRAVITY_MPS2
-    moving = v > MIN_SLIP_SPEED_MPS
-    v_safe = np.where(moving, v, 1.0)
-    yaw = np.where(moving, ay / v_safe, 0.0)
-    yaw_acc = np.gradient(yaw, dt)
-    curvature = np.where(moving, ay / np.maximum(v_safe, 1.0) ** 2, 0.0)
-    # (4.23b, c): front body-lateral force from the yaw moment balance, rear from the lateral one.
-    front_lat = (vehicle.yaw_inertia_kgm2 * yaw_acc + lr * m * ay) / wb
-    rear_lat = m * ay - front_lat
-    # Loads first with a_x = dV/dt (v_y is a small correction to it).
-    fz = wheel_loads_np(vehicle, a + g * np.sin(grade), ay) * np.cos(grade)[:, None]
-    fz_f, fz_r = fz[:, 0] + fz[:, 1], fz[:, 2] + fz[:, 3]
-    lim = 0.97 * mu
-    clipped = (np.abs(front_lat / fz_f) > lim) | (np.abs(rear_lat / fz_r) > lim)
-    tan_af = brush_inverse_np(np.clip(front_lat / fz_f, -lim, lim), tyre.c_y_per_rad, mu)
-    tan_ar = brush_inverse_np(np.clip(rear_lat / fz_r, -lim, lim), tyre.c_y_per_rad, mu)
-    delta = curvature * wb + np.arctan(tan_af) - np.arctan(tan_ar)
-    vy = np.where(moving, yaw * lr - v * tan_ar, 0.0)
-    ax = a - yaw * vy
-    resist = (
-        0.5 * AIR_DENSITY_KGPM3 * vehicle.drag_area_m2 * v * np.abs(v)
-        + vehicle.rolling_resistance * m * g * np.cos(grade) * (v > 0.01)
-        + m * g * np.sin(grade)
-    )
-    c, t = np.cos(delta), np.tan(delta)
-    # (4.23a): F_x2 + F_x1 c − F_y1 s = m a_x + resist, with F_y1 = (G − F_x1 s)/c, gives
-    # F_x2 + F_x1 / c = m a_x + resist + G tan δ.
-    total = m * ax + resist + front_lat * t
-    share = vehicle.traction_front_share
-    engine = np.clip(total, -ENGINE_BRAKE_SHARE * m * g, 0.0)
-    brake = np.minimum(total - engine, 0.0)
-    traction = np.maximum(total, 0.0)
-    load_share = fz_f / (fz_f + fz_r)
-    front_body = share * (traction + engine) + load_share * brake
-    fx_front = front_body * c
-    fx_rear = total - front_body
-    return _Kinematics(ax, vy, yaw, delta, fz, fx_front, fx_rear, resist, clipped)
-
-
-def _wheel_rho(kin: _Kinematics) -> np.ndarray:
-    """Per-wheel normalised forces: each axle's force shared equally by its two wheels."""
-    fx = np.stack([kin.fx_front / 2, kin.fx_front / 2, kin.fx_rear / 2, kin.fx_rear / 2], axis=-1)
-    return fx / kin.fz
-
-
-_thermal_jit = eqx.filter_jit(
-    jax.vmap(simulate_tyre_temperature, in_axes=(None, None, 1, 1, 1, None, None), out_axes=1)
-)
-
-
-def _temperatures(
-    thermal: ThermalParams,
-    dt: float,
-    v: np.ndarray,
-    fz: np.ndarray,
-    friction_w: np.ndarray,
-    ambient_c: float,
-    initial_c: float,
-) -> np.ndarray:
-    """Tyre temperatures (n, 4) [°C]: the thermal model on 1 s block means, interpolated.
-
-    The tyre's thermal time constant is minutes, so 1 Hz loses nothing and keeps the scan short.
-    """
-    n = len(v)
-    block = max(int(round(1.0 / dt)), 1)
-    nb = max(n // block, 1)
-    cut = nb * block if n >= block else n
-
-    def means(x):
-        x = x[:cut]
-        return x.reshape(nb, -1, *x.shape[1:]).mean(axis=1)
-
-    t_blocks = np.arange(nb) * block * dt
-    speed_b = np.repeat(means(np.abs(v))[:, None], 4, axis=1)
-    temps = np.asarray(
-        _thermal_jit(
-            thermal,
-            jnp.asarray(t_blocks),
-            jnp.asarray(speed_b),
-            jnp.asarray(means(fz)),
-            jnp.asarray(means(friction_w)),
-            # Arrays, not floats: a float is a static argument of filter_jit (one scan per value).
-            jnp.asarray(float(ambient_c)),
-            jnp.asarray(float(initial_c)),
-        )
-    )
-    if nb == 1:
-        return np.broadcast_to(temps[0], (n, 4)).copy()
-    # Block means describe block centres; the first block starts at the initial temperature.
-    t = np.arange(n) * dt
-    return np.stack([np.interp(t, t_blocks, temps[:, i]) for i in range(4)], axis=1)
-
-
-def _abs_slip_pattern(rng: np.random.Generator, m: int, dt: float) -> np.ndarray:
-    """Slip of each wheel relative to its peak slip during one ABS event, shape (m, 4), ≤ 0.
-
-    Sawtooth-like cycles (slow pressure build-up, fast release) from three Fourier terms, between
-    (1 − ABS_SWING) and (1 + ABS_SWING) times the peak, after a 0.15 s entry ramp.
-    """
-    t = np.arange(m)[:, None] * dt
-    freq = ABS_HZ * rng.uniform(0.85, 1.15, 4)
-    phase = rng.uniform(0, 1, 4)
-    x = freq * t + phase
-    saw = -(2 / np.pi) * sum(np.sin(2 * np.pi * k * x) / k for k in (1, 2, 3))
-    saw = saw / 1.2  # the three-term sum overshoots ±1 slightly (Gibbs)
-    ramp = np.clip(t / 0.15, 0.0, 1.0)
-    return -ramp * (1.0 + ABS_SWING * np.clip(saw, -1.0, 1.0))
-
-
-def _apply_abs(
-    rng: np.random.Generator,
-    profile: DriveProfile,
-    vehicle: Vehicle,
-    tyre: TyreSpec,
-    tyre_model: str,
-    mu: float,
-    c_x_wheel: np.ndarray,
-    fz_static: np.ndarray,
-    v: np.ndarray,
-    a: np.ndarray,
-    grade: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Replace planned ABS decelerations by the tyres' (fixed point over load transfer).
-
-    Returns the new speed, acceleration and an (n, 4) array of prescribed slips (NaN outside ABS).
-    """
-    dt = profile.dt_s
-    g, m = GRAVITY_MPS2, vehicle.mass_kg
-    v, a = v.copy(), a.copy()
-    slip = np.full((len(v), 4), np.nan)
-    for ev in profile.abs_events:
-        s0, s1, s2 = ev.start, ev.stop, ev.recovery_stop
-        k = s1 - s0
-        if k < 2:
-            continue
-        rel = _abs_slip_pattern(rng, k, dt)
-        cx = c_x_wheel[s0:s1]
-        acc = np.full(k, -0.9 * mu * g)
-        v_ev = v[s0:s1]
-        for _ in range(6):
-            fz = (
-                wheel_loads_np(vehicle, acc + g * np.sin(grade[s0:s1]), 0.0)
-                * np.cos(grade[s0:s1])[:, None]
-            )
-            s_pk = peak_slip(tyre_model, fz, cx, mu, tyre, fz_static[None, :])
-            sl = rel * s_pk
-            rho = tyre_force(tyre_model, sl, fz, cx, mu, tyre, fz_static[None, :])
-            resist = (
-                0.5 * AIR_DENSITY_KGPM3 * vehicle.drag_area_m2 * v_ev**2
-                + vehicle.rolling_resistance * m * g * np.cos(grade[s0:s1])
-                + m * g * np.sin(grade[s0:s1])
-            )
-            acc = ((rho * fz).sum(axis=1) - resist) / m
-            v_start = v[s0 - 1] if s0 > 0 else v[s0]
-            v_ev = np.maximum(v_start + np.cumsum(acc) * dt, MIN_SLIP_SPEED_MPS)
-        slip[s0:s1] = sl
-        # Recovery: absorb the speed difference so the drive continues as planned.
-        seg_a = a[s0:s2].copy()
-        seg_a[:k] = acc
-        v_start = v[s0 - 1] if s0 > 0 else v[s0]
-        target_end = v[s2 - 1]
-        n_rec = s2 - s1
-        if n_rec > 0:
-            mismatch = v_start + seg_a.sum() * dt - target_end
-            seg_a[k:] -= mismatch / (n_rec * dt)
-        v[s0:s2] = np.maximum(v_start + np.cumsum(seg_a) * dt, MIN_SLIP_SPEED_MPS)
-        a[s0:s2] = seg_a
-    return v, a, slip
+from .tyre_curves import peak_slip, tyre_force, tyre_slip
+from .tyre_spec import TYRE_MODELS, TyreSpec
 
 
 def _resolve_inputs(vehicle, tyre, surface, tyre_model, sensor, profile):
@@ -402,21 +157,7 @@ def simulate_drive(
     vehicle_name, vehicle, tyre, sensor, opts = _resolve_inputs(
         vehicle, tyre, surface, tyre_model, sensor, profile
     )
-    if not (np.isfinite(duration_s) and duration_s > 0):
-        raise ValueError(f"duration_s: expected a finite value > 0, got {duration_s!r}")
-    if not (np.isfinite(sample_rate_hz) and 10.0 <= sample_rate_hz <= 1000.0):
-        raise ValueError(f"sample_rate_hz: expected a value in [10, 1000], got {sample_rate_hz!r}")
-    if not np.isfinite(ambient_c) or not -50.0 <= ambient_c <= 60.0:
-        raise ValueError(f"ambient_c: expected a value in [-50, 60] °C, got {ambient_c!r}")
-    if round(duration_s * sample_rate_hz) < 2:
-        raise ValueError(
-            f"duration_s: expected at least 2 samples, got {duration_s} s at {sample_rate_hz} Hz"
-        )
-    duration_s, sample_rate_hz, ambient_c = (
-        float(duration_s),
-        float(sample_rate_hz),
-        float(ambient_c),
-    )
+    duration_s, sample_rate_hz, ambient_c = _checked_numbers(duration_s, sample_rate_hz, ambient_c)
     seq = seed_sequence(key_or_seed)
     # The fifth stream is the curve's (drawn_curve).
     rng_profile, rng_offsets, rng_sensor, rng_abs = (
@@ -427,33 +168,12 @@ def simulate_drive(
         # (its own stream of the seed: the route and the sensors stay as they were).
         tyre = eqx.tree_at(lambda t: t.magic_formula, tyre, drawn_curve(key_or_seed))
     mu = tyre.mu_on(surface)
-    g = GRAVITY_MPS2
     thermal = thermal or ThermalParams(rolling_resistance=vehicle.rolling_resistance)
     t0_tyre = ambient_c if initial_tyre_temp_c is None else float(initial_tyre_temp_c)
 
-    # 1. Plan. The driven axle's static load share limits ordinary accelerations.
+    # 1. Plan.
     static = wheel_loads_np(vehicle, 0.0, 0.0)
-    share = vehicle.traction_front_share
-    if vehicle.drive == "awd":
-        driven_share = 1.0
-    else:
-        axle = (static[0] + static[1]) if share == 1.0 else (static[2] + static[3])
-        driven_share = float(axle / (vehicle.mass_kg * g))
-    if planned is None:
-        plan = make_profile(
-            rng_profile,
-            duration_s=duration_s,
-            sample_rate_hz=sample_rate_hz,
-            mu_surface=mu,
-            options=opts,
-            traction_limit_mps2=0.3 * mu * g * driven_share,
-        )
-    else:
-        plan = planned
-        if abs(plan.dt_s * sample_rate_hz - 1.0) > 1e-9:
-            raise ValueError(
-                f"planned: expected a profile at {sample_rate_hz} Hz, got {1.0 / plan.dt_s} Hz"
-            )
+    plan = _plan(rng_profile, vehicle, static, mu, opts, duration_s, sample_rate_hz, planned)
     dt = plan.dt_s
     v, a, ay, grade = plan.speed_mps, plan.accel_mps2, plan.ay_mps2, plan.grade_rad
 
@@ -477,16 +197,7 @@ def simulate_drive(
     rho = _wheel_rho(kin)
 
     # 5. Slip by inverting the truth curve; ABS samples keep their prescribed slip.
-    slip, ok = tyre_slip(tyre_model, rho, kin.fz, c_x_wheel, mu, tyre, static[None, :])
-    in_abs = ~np.isnan(abs_slip[:, 0])
-    slip[in_abs] = abs_slip[in_abs]
-    rho[in_abs] = tyre_force(
-        tyre_model, slip[in_abs], kin.fz[in_abs], c_x_wheel[in_abs], mu, tyre, static[None, :]
-    )
-    ok[in_abs] = True
-    rho = np.where(ok, rho, np.sign(rho) * 0.97 * mu)
-    moving = v > MIN_SLIP_SPEED_MPS
-    slip = np.where(moving[:, None], slip, 0.0)
+    slip, rho, ok, in_abs = _slips(tyre_model, tyre, mu, kin, rho, c_x_wheel, static, abs_slip, v)
     fx_wheel = rho * kin.fz
     fx_front = np.where(in_abs, fx_wheel[:, 0] + fx_wheel[:, 1], kin.fx_front)
     fx_rear = np.where(in_abs, fx_wheel[:, 2] + fx_wheel[:, 3], kin.fx_rear)
@@ -494,23 +205,11 @@ def simulate_drive(
     # 7. Wheel-centre speeds (yaw rate and steering) and wheel speeds.
     offsets = sensor_offsets or draw_sensor_truth(rng_offsets, sensor, vehicle.wheel_radius_m)
     radius = vehicle.wheel_radius_m * (1.0 + np.asarray(offsets.radius_error))
-    half = vehicle.track_width_m / 2
-    lf = vehicle.cog_to_front_axle_m
-    y = np.array([half, -half, half, -half])
-    vx_w = v[:, None] - kin.yaw[:, None] * y[None, :]
-    front_lat = kin.vy + kin.yaw * lf
-    cd, sd = np.cos(kin.delta), np.sin(kin.delta)
-    v_wheel = vx_w.copy()
-    v_wheel[:, :2] = vx_w[:, :2] * cd[:, None] + (front_lat * sd)[:, None]
+    v_wheel = _wheel_centre_speeds(vehicle, kin, v)
     omega = v_wheel * (1.0 + slip) / radius[None, :]
 
     # Driven-axle summary.
-    if vehicle.drive == "fwd":
-        idx = [0, 1]
-    elif vehicle.drive == "rwd":
-        idx = [2, 3]
-    else:
-        idx = [0, 1, 2, 3]
+    idx = _DRIVEN_WHEELS.get(vehicle.drive, [0, 1, 2, 3])
     slip_driven = slip[:, idx].mean(axis=1)
     rho_driven = fx_wheel[:, idx].sum(axis=1) / kin.fz[:, idx].sum(axis=1)
     c_x = c_x_wheel[:, idx].mean(axis=1)
@@ -543,22 +242,7 @@ def simulate_drive(
         pitch_gradient_rad_per_mps2=vehicle.pitch_gradient_rad_per_mps2,
     )
     mu_peak = float(mu)
-    abs_pk = (
-        float(
-            np.mean(
-                peak_slip(
-                    tyre_model,
-                    static[None, idx],
-                    c_x_wheel[in_abs][:, idx],
-                    mu,
-                    tyre,
-                    static[None, idx],
-                )
-            )
-        )
-        if in_abs.any()
-        else float("nan")
-    )
+    abs_pk = _abs_peak_slip(tyre_model, tyre, mu, static, c_x_wheel, in_abs, idx)
     truth = DriveTruth(
         vehicle_name=vehicle_name,
         drive=vehicle.drive,
@@ -605,3 +289,107 @@ def simulate_drive(
         tyre_temperature_c=at_log(temps),
     )
     return stream, truth
+
+
+def _checked_numbers(duration_s, sample_rate_hz, ambient_c) -> tuple[float, float, float]:
+    """The duration, rate and ambient temperature as floats; a ValueError for a bad one."""
+    if not (np.isfinite(duration_s) and duration_s > 0):
+        raise ValueError(f"duration_s: expected a finite value > 0, got {duration_s!r}")
+    if not (np.isfinite(sample_rate_hz) and 10.0 <= sample_rate_hz <= 1000.0):
+        raise ValueError(f"sample_rate_hz: expected a value in [10, 1000], got {sample_rate_hz!r}")
+    if not np.isfinite(ambient_c) or not -50.0 <= ambient_c <= 60.0:
+        raise ValueError(f"ambient_c: expected a value in [-50, 60] °C, got {ambient_c!r}")
+    if round(duration_s * sample_rate_hz) < 2:
+        raise ValueError(
+            f"duration_s: expected at least 2 samples, got {duration_s} s at {sample_rate_hz} Hz"
+        )
+    return float(duration_s), float(sample_rate_hz), float(ambient_c)
+
+
+def _plan(
+    rng_profile: np.random.Generator,
+    vehicle: Vehicle,
+    static: np.ndarray,
+    mu: float,
+    opts: ProfileOptions,
+    duration_s: float,
+    sample_rate_hz: float,
+    planned: DriveProfile | None,
+) -> DriveProfile:
+    """Step 1: the planned motion, or ``planned`` checked against the rate."""
+    g = GRAVITY_MPS2
+    # The driven axle's static load share limits ordinary accelerations.
+    share = vehicle.traction_front_share
+    if vehicle.drive == "awd":
+        driven_share = 1.0
+    else:
+        axle = (static[0] + static[1]) if share == 1.0 else (static[2] + static[3])
+        driven_share = float(axle / (vehicle.mass_kg * g))
+    if planned is None:
+        return make_profile(
+            rng_profile,
+            duration_s=duration_s,
+            sample_rate_hz=sample_rate_hz,
+            mu_surface=mu,
+            options=opts,
+            traction_limit_mps2=0.3 * mu * g * driven_share,
+        )
+    if abs(planned.dt_s * sample_rate_hz - 1.0) > 1e-9:
+        raise ValueError(
+            f"planned: expected a profile at {sample_rate_hz} Hz, got {1.0 / planned.dt_s} Hz"
+        )
+    return planned
+
+
+def _slips(tyre_model, tyre, mu, kin, rho, c_x_wheel, static, abs_slip, v):
+    """Step 5: each wheel's slip from the truth curve, ABS samples at their prescribed slip.
+
+    Returns ``(slip, rho, ok, in_abs)``: the slips (0 below :data:`MIN_SLIP_SPEED_MPS`), the
+    forces (at 0.97 μ where the curve has no slip for them), whether it had, and the ABS samples.
+    """
+    slip, ok = tyre_slip(tyre_model, rho, kin.fz, c_x_wheel, mu, tyre, static[None, :])
+    in_abs = ~np.isnan(abs_slip[:, 0])
+    slip[in_abs] = abs_slip[in_abs]
+    rho[in_abs] = tyre_force(
+        tyre_model, slip[in_abs], kin.fz[in_abs], c_x_wheel[in_abs], mu, tyre, static[None, :]
+    )
+    ok[in_abs] = True
+    rho = np.where(ok, rho, np.sign(rho) * 0.97 * mu)
+    moving = v > MIN_SLIP_SPEED_MPS
+    slip = np.where(moving[:, None], slip, 0.0)
+    return slip, rho, ok, in_abs
+
+
+def _wheel_centre_speeds(vehicle: Vehicle, kin, v: np.ndarray) -> np.ndarray:
+    """Step 7: each wheel centre's speed along the wheel (yaw rate and steering) [m/s]."""
+    half = vehicle.track_width_m / 2
+    lf = vehicle.cog_to_front_axle_m
+    y = np.array([half, -half, half, -half])
+    vx_w = v[:, None] - kin.yaw[:, None] * y[None, :]
+    front_lat = kin.vy + kin.yaw * lf
+    cd, sd = np.cos(kin.delta), np.sin(kin.delta)
+    v_wheel = vx_w.copy()
+    v_wheel[:, :2] = vx_w[:, :2] * cd[:, None] + (front_lat * sd)[:, None]
+    return v_wheel
+
+
+# The driven wheels (fl, fr, rl, rr = 0..3) by drive; AWD: all four.
+_DRIVEN_WHEELS = {"fwd": [0, 1], "rwd": [2, 3]}
+
+
+def _abs_peak_slip(tyre_model, tyre, mu, static, c_x_wheel, in_abs, idx) -> float:
+    """Mean peak slip of the driven wheels over the ABS samples (NaN without ABS)."""
+    if not in_abs.any():
+        return float("nan")
+    return float(
+        np.mean(
+            peak_slip(
+                tyre_model,
+                static[None, idx],
+                c_x_wheel[in_abs][:, idx],
+                mu,
+                tyre,
+                static[None, idx],
+            )
+        )
+    )

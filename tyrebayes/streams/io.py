@@ -202,6 +202,13 @@ def read_stream(
     BadInputError
         Missing file, unknown suffix, or a file that cannot be parsed; a URL whose protocol
         fsspec does not know or whose implementation is not installed.
+
+    Examples
+    --------
+    >>> from tyrebayes._resources import data_dir
+    >>> df = read_stream(data_dir() / "comma2k19_rav4_segment.csv")
+    >>> df.shape, list(df.columns[:2])
+    ((4974, 11), ['time', 'wheel_speed_fl'])
     """
     if profile is not None:
         from .can import read_can_log
@@ -263,6 +270,16 @@ def write_stream(df: pd.DataFrame, path: str | os.PathLike) -> None:
         written too.
     path : path-like
         Target file; its suffix selects the format.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> df = pd.DataFrame({"time": [0.0, 0.01], "ax": [0.1, 0.2]})
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     write_stream(df, Path(folder) / "drive.parquet")
+    ...     read_stream(Path(folder) / "drive.parquet").equals(df)
+    True
     """
     suffix = _suffix(Path(path))
     # Sweeps what a killed writer of this file left behind; an interruption while writing

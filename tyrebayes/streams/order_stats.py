@@ -112,6 +112,28 @@ def nanmedian_columns(x: Float[np.ndarray, "n *k"]) -> float | Float[np.ndarray,
     return np.array([nanmedian(column) for column in x.T])
 
 
+def median_of_four(x: Float[np.ndarray, "n 4"]) -> Float[np.ndarray, "n"]:
+    """Row-wise median of four columns, (sum − min − max) / 2 (NaN if any is NaN).
+
+    Column by column: a reduction along a row of four is ~10x slower in NumPy than the same
+    arithmetic on whole columns. The sum is taken in ``x.sum(axis=1)``'s order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> median_of_four(np.array([[1.0, 4.0, 2.0, 3.0], [0.0, np.nan, 1.0, 1.0]]))
+    array([2.5, nan])
+    """
+    a, b, c, d = (x[:, i] for i in range(4))
+    total = a + b
+    total += c
+    total += d
+    total -= np.minimum(np.minimum(a, b), np.minimum(c, d))
+    total -= np.maximum(np.maximum(a, b), np.maximum(c, d))
+    total *= 0.5
+    return total
+
+
 def _middle(x: np.ndarray, count: int, overwrite_input: bool = False) -> float:
     """np.median of the ``count`` smallest values of ``x`` (no NaN)."""
     half = count // 2

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from ..physics.vehicle import GRAVITY_MPS2, Vehicle, body_pitch_gain
-from .features import REAR_CORNERING_PER_RAD
+from .motion import REAR_CORNERING_PER_RAD
 
 _KMH_STEP = 0.01 / 3.6  # CAN wheel-speed resolution of 0.01 km/h, in m/s
 

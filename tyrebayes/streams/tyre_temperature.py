@@ -80,6 +80,16 @@ def driven_tyre_temperature(
     -------
     ndarray, shape (n,)
         Estimated tyre temperature at every sample [°C].
+
+    Examples
+    --------
+    Ten minutes at 25 m/s from a cold start at 10 °C:
+
+    >>> t = np.arange(0.0, 600.0, 0.1)
+    >>> speed, load, power = np.full(t.size, 25.0), np.full(t.size, 4000.0), np.full(t.size, 200.0)
+    >>> temperature = driven_tyre_temperature(t, speed, load, power, ambient_c=10.0)
+    >>> float(temperature[0]), round(float(temperature[-1]), 1)
+    (10.0, 25.3)
     """
     time_s = np.asarray(time_s, dtype=float)
     n = time_s.size
@@ -148,6 +158,33 @@ def features_tyre_temperature(
 
     The driven axle's load and friction power are split evenly over its tyres (over all four for
     AWD); the speed is the vehicle's V_x. See :func:`driven_tyre_temperature`.
+
+    Parameters
+    ----------
+    features : StreamFeatures
+        From :func:`tyrebayes.streams.compute_features`.
+    ambient_c : float
+        Ambient temperature [°C].
+    initial_c : float, optional
+        Tyre temperature at the first sample [°C]; default ``ambient_c`` (a cold start).
+    params : ThermalParams, optional
+        Nominal thermal parameters (default :class:`~tyrebayes.physics.thermal.ThermalParams`).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Estimated driven-tyre temperature at every sample of ``features`` [°C].
+
+    Examples
+    --------
+    >>> from tyrebayes import compute_features, load_vehicle, read_stream, validate_stream
+    >>> from tyrebayes._resources import data_dir
+    >>> vehicle = load_vehicle("suv_rav4")
+    >>> df = read_stream(data_dir() / "comma2k19_rav4_segment.csv")
+    >>> features = compute_features(validate_stream(df, vehicle), vehicle)
+    >>> temperature = features_tyre_temperature(features, ambient_c=15.0)
+    >>> float(temperature[0]), round(float(temperature[-1]), 1)
+    (15.0, 16.8)
     """
     axles = {"front": [0], "rear": [1], "both": [0, 1]}[features.driven_axle]
     tyres = 2 * len(axles)

@@ -155,7 +155,7 @@ def test_block_hessian_equals_the_dense_hessian_over_several_drives():
     from jax.flatten_util import ravel_pytree
     from numpyro.infer.util import initialize_model, potential_energy
 
-    from tyrebayes.inference.tyre.laplace import _block_hessian
+    from tyrebayes.inference.tyre.block_hessian import _block_hessian
     from tyrebayes.inference.tyre.model import tyre_model
 
     drives = [linear_region_windows(seed, n=40) for seed in range(3)]
@@ -177,7 +177,7 @@ def test_block_hessian_equals_the_dense_hessian_over_several_drives():
 
 
 def test_coarse_search_windows_keep_padding_at_the_end():
-    from tyrebayes.inference.tyre.laplace import _every_nth_window
+    from tyrebayes.inference.tyre.map_starts import _every_nth_window
 
     obs = stack_drives([linear_region_windows(4, n=100)], ["dry"], pad_to=128)
     coarse = _every_nth_window(obs, 4)
@@ -234,7 +234,7 @@ def test_predictive_core_matches_the_model_log_likelihood():
 
 
 def test_search_reads_a_bounded_number_of_windows():
-    from tyrebayes.inference.tyre.laplace import SEARCH_WINDOWS, _search_stride
+    from tyrebayes.inference.tyre.map_starts import SEARCH_WINDOWS, _search_stride
 
     for size in (512, 4096, 9216, 90112, 1 << 20):
         searched = -(-size // _search_stride(size))
@@ -245,7 +245,8 @@ def test_search_starts_each_drive_at_its_own_slip_offset():
     """Per-drive nuisances start from each drive's data, not at the prior median."""
     from jax.flatten_util import ravel_pytree
 
-    from tyrebayes.inference.tyre.laplace import _model_layout, _start
+    from tyrebayes.inference.tyre.layout import _model_layout
+    from tyrebayes.inference.tyre.map_starts import _start
     from tyrebayes.inference.tyre.model import TyrePriors
     from tyrebayes.inference.tyre.predictive import _priors_key
 

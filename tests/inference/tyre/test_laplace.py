@@ -7,7 +7,7 @@ import numpy as np
 from numpyro.infer import init_to_median
 from numpyro.infer.util import initialize_model
 
-from tyrebayes.inference.tyre.laplace import (
+from tyrebayes.inference.tyre.layout import (
     LAYOUT_WINDOWS,
     _model_layout,
     _template_observations,
@@ -39,7 +39,7 @@ def test_layout_is_the_same_as_on_a_template_of_the_data_length():
 def test_site_plates_name_the_drive_plate_of_per_drive_sites():
     from functools import partial
 
-    from tyrebayes.inference.tyre.laplace import _site_plates
+    from tyrebayes.inference.tyre.block_hessian import _site_plates
     from tyrebayes.inference.tyre.model import tyre_model
 
     model = partial(tyre_model, priors=TyrePriors(), kind="brush")
@@ -91,7 +91,7 @@ def test_a_refit_from_the_first_mode_reaches_the_weighted_posteriors_searched_mo
 def test_layout_medians_are_kept_beside_the_compilation_cache_and_read_back_equal(
     compilation_cache_dir,
 ):
-    from tyrebayes.inference.tyre.laplace import _layout, _read_medians, _stored_medians_path
+    from tyrebayes.inference.tyre.layout import _layout, _read_medians, _stored_medians_path
 
     key = (_priors_key(TyrePriors()), "brush", 2, ("dry",))
     path = _stored_medians_path(key)

@@ -227,7 +227,7 @@ def test_a_one_drive_site_is_broadcast_with_the_gathers_values_and_derivatives()
     # gathering it: same values and gradients, and no gather left in its program.
     import jax.numpy as jnp
 
-    from tyrebayes.inference.tyre.model import _per_window
+    from tyrebayes.inference.tyre.likelihood import _per_window
 
     index = jnp.zeros(7, dtype=jnp.int32)
     weights = jnp.arange(7.0)

@@ -15,7 +15,7 @@ from numpyro.distributions import constraints
 from numpyro.infer.util import constrain_fn, potential_energy
 
 from ..nuts import run_nuts
-from .laplace import _model_layout
+from .layout import _model_layout
 from .predictive import _single_precision
 
 

@@ -219,6 +219,21 @@ def _channel(name: str, column: str, table: object) -> ProfileChannel:
 def load_profile(name_or_path: str | os.PathLike) -> CarProfile:
     """Load a car profile: a name in ``models/profiles/`` or a TOML path.
 
+    Parameters
+    ----------
+    name_or_path : str or path-like
+        A profile name (``toyota_rav4_2017``) or the path of a profile TOML file.
+
+    Returns
+    -------
+    CarProfile
+
+    Examples
+    --------
+    >>> profile = load_profile("toyota_rav4_2017")
+    >>> profile.vehicle, profile.dbc, profile.channels[0].column
+    ('suv_rav4', 'toyota_new_mc_pt.dbc', 'wheel_speed_fl')
+
     Raises
     ------
     BadInputError

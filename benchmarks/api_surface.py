@@ -1,0 +1,338 @@
+"""The public API's shape (issue 58): examples, typed results, module and function sizes, circles.
+
+Measured from the source, not claimed:
+
+1. **Examples**: the public callables (``tyrebayes.__all__``, classes and functions) whose
+   docstring has a numpydoc ``Examples`` section, over all of them. The examples run as doctests in
+   ``tests/test_doctests.py``; this counts the sections. Target: at least 90 %.
+2. **Bare dict or tuple results**: the public functions (``tyrebayes.__all__``) whose return
+   annotation is a ``dict`` or ``tuple`` (alone or in a union, such as ``dict | None``). Target: 0.
+   The same count over every public module-level function of the package (a module and function
+   without a leading underscore, outside ``tyrebayes._commands``) is reported beside it, without a
+   target, with the names.
+3. **Modules over 500 lines**: the package's ``.py`` files longer than 500 lines. Target: 0.
+4. **Functions over 80 lines**: every ``def`` of the package (methods and nested functions too),
+   measured from its ``def`` line (decorators excluded) to its last line, less its docstring: a
+   numpydoc docstring with its Examples (what issue 58 asks for) is not code to split. Target: at
+   most 5. The count with docstrings is reported beside it, without a target.
+5. **Import circles**: the strongly connected components of more than one module in the package's
+   import graph (grimp, every import in a module, those inside functions included), and the
+   circles between sibling modules or packages that import-linter's ``acyclic_siblings`` contract
+   forbids. Target: 0 for both.
+
+Usage: ``python benchmarks/api_surface.py [--out PATH]`` (a few seconds; it imports the package).
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import inspect
+import re
+import sys
+import types
+from pathlib import Path
+
+from _results import figure, write_result  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "tyrebayes"
+
+MAX_MODULE_LINES = 500
+MAX_FUNCTION_LINES = 80
+MAX_LONG_FUNCTIONS = 5
+EXAMPLES_TARGET = 90.0
+
+_SECTION = re.compile(r"^(?P<name>[A-Z][A-Za-z ]*)\n-+$", re.M)
+_BARE = re.compile(r"^(typing\.)?(dict|tuple|Dict|Tuple)\b")
+
+
+def _sections(doc: str) -> set[str]:
+    return {m["name"] for m in _SECTION.finditer(doc)}
+
+
+def _is_bare(annotation: str) -> bool:
+    """Whether a return annotation (as written) is a dict or a tuple, alone or in a union."""
+    text = annotation.strip().strip("'\"")
+    if text.startswith("Optional[") and text.endswith("]"):
+        text = text[len("Optional[") : -1]
+    return any(_BARE.match(part.strip()) for part in _split_union(text))
+
+
+def _split_union(text: str) -> list[str]:
+    """``a | b[c | d]`` -> ``["a", "b[c | d]"]``: the union's top-level members."""
+    parts, depth, start = [], 0, 0
+    for i, ch in enumerate(text):
+        if ch in "[(":
+            depth += 1
+        elif ch in "])":
+            depth -= 1
+        elif ch == "|" and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    parts.append(text[start:])
+    return parts
+
+
+def _return_annotation(obj) -> str | None:
+    """The return annotation as written in the source (``None``: not annotated)."""
+    try:
+        annotation = inspect.signature(obj).return_annotation
+    except (TypeError, ValueError):
+        return None
+    if annotation is inspect.Signature.empty:
+        return None
+    return annotation if isinstance(annotation, str) else inspect.formatannotation(annotation)
+
+
+def public_callables() -> dict[str, object]:
+    import tyrebayes as tb
+
+    return {
+        name: getattr(tb, name)
+        for name in tb.__all__
+        if callable(getattr(tb, name)) and not isinstance(getattr(tb, name), types.ModuleType)
+    }
+
+
+def examples() -> dict:
+    names = public_callables()
+    with_examples = sorted(
+        n for n, o in names.items() if "Examples" in _sections(inspect.getdoc(o) or "")
+    )
+    without = sorted(set(names) - set(with_examples))
+    return {"total": len(names), "with_examples": with_examples, "without_examples": without}
+
+
+def _modules() -> list[Path]:
+    return sorted(PACKAGE.rglob("*.py"))
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def bare_results() -> dict:
+    """Public functions whose return annotation is a bare dict or tuple."""
+    public = [
+        (name, obj)
+        for name, obj in public_callables().items()
+        if inspect.isfunction(obj) or inspect.isbuiltin(obj)
+    ]
+    in_all = sorted(
+        f"{name} -> {ann}"
+        for name, obj in public
+        if (ann := _return_annotation(obj)) is not None and _is_bare(ann)
+    )
+    unannotated = sorted(name for name, obj in public if _return_annotation(obj) is None)
+    package = []
+    for path in _modules():
+        module = _module_name(path)
+        if any(p.startswith("_") and p != "__init__" for p in module.split(".")[1:]):
+            continue
+        tree = ast.parse(path.read_text())
+        for node in tree.body:
+            is_def = isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
+            if is_def and not node.name.startswith("_"):
+                if node.returns is not None and _is_bare(ast.unparse(node.returns)):
+                    package.append(f"{module}.{node.name} -> {ast.unparse(node.returns)}")
+    return {
+        "public_functions": len(public),
+        "in_all": in_all,
+        "in_all_unannotated": unannotated,
+        "package": sorted(package),
+    }
+
+
+def sizes() -> dict:
+    long_modules, long_functions, long_with_docstrings = {}, {}, {}
+    for path in _modules():
+        text = path.read_text()
+        rel = str(path.relative_to(ROOT))
+        n_lines = len(text.splitlines())
+        if n_lines > MAX_MODULE_LINES:
+            long_modules[rel] = n_lines
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                where = f"{rel}:{node.lineno} {node.name}"
+                length = node.end_lineno - node.lineno + 1
+                if length > MAX_FUNCTION_LINES:
+                    long_with_docstrings[where] = length
+                code = length - _docstring_lines(node)
+                if code > MAX_FUNCTION_LINES:
+                    long_functions[where] = code
+    return {
+        "modules": len(_modules()),
+        "long_modules": dict(sorted(long_modules.items(), key=lambda kv: -kv[1])),
+        "long_functions": dict(sorted(long_functions.items(), key=lambda kv: -kv[1])),
+        "long_functions_with_docstrings": dict(
+            sorted(long_with_docstrings.items(), key=lambda kv: -kv[1])
+        ),
+    }
+
+
+def _docstring_lines(node: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    """Lines of the function's docstring (0 without one)."""
+    first = node.body[0]
+    if (
+        isinstance(first, ast.Expr)
+        and isinstance(first.value, ast.Constant)
+        and isinstance(first.value.value, str)
+    ):
+        return first.end_lineno - first.lineno + 1
+    return 0
+
+
+def _strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Tarjan's strongly connected components (iterative), those of more than one node."""
+    index, low, on_stack, stack, out = {}, {}, set(), [], []
+    counter = 0
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            advanced = False
+            for child in children:
+                if child not in index:
+                    index[child] = low[child] = counter
+                    counter += 1
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(graph.get(child, ())))))
+                    advanced = True
+                    break
+                if child in on_stack:
+                    low[node] = min(low[node], index[child])
+            if advanced:
+                continue
+            work.pop()
+            if work:
+                parent = work[-1][0]
+                low[parent] = min(low[parent], low[node])
+            if low[node] == index[node]:
+                component = []
+                while True:
+                    member = stack.pop()
+                    on_stack.discard(member)
+                    component.append(member)
+                    if member == node:
+                        break
+                if len(component) > 1:
+                    out.append(sorted(component))
+    return out
+
+
+def circles() -> dict:
+    import grimp
+
+    graph = grimp.build_graph("tyrebayes", include_external_packages=False)
+    modules = sorted(graph.modules)
+    edges = {m: set(graph.find_modules_directly_imported_by(m)) for m in modules}
+    module_cycles = _strongly_connected(edges)
+
+    # Sibling circles (import-linter's acyclic_siblings): under each parent, an edge from sibling
+    # A to sibling B when any module inside A imports any module inside B.
+    def sibling_of(module: str, parent: str) -> str | None:
+        prefix = parent + "."
+        if not module.startswith(prefix):
+            return None
+        return prefix + module[len(prefix) :].split(".")[0]
+
+    sibling_cycles = []
+    parents = {m.rsplit(".", 1)[0] for m in modules if "." in m}
+    for parent in sorted(parents):
+        siblings: dict[str, set[str]] = {}
+        for m in modules:
+            a = sibling_of(m, parent)
+            if a is None:
+                continue
+            siblings.setdefault(a, set())
+            for target in edges[m]:
+                b = sibling_of(target, parent)
+                if b is not None and b != a:
+                    siblings[a].add(b)
+        sibling_cycles += _strongly_connected(siblings)
+    return {"module_cycles": module_cycles, "sibling_cycles": sibling_cycles}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--out", type=Path, default=None)
+    args = parser.parse_args(argv)
+    sys.path.insert(0, str(ROOT))
+
+    ex = examples()
+    bare = bare_results()
+    size = sizes()
+    circ = circles()
+    share = 100.0 * len(ex["with_examples"]) / ex["total"]
+    figures = [
+        figure(
+            "public callables with an Examples section",
+            round(share, 1),
+            unit="%",
+            target=(">=", EXAMPLES_TARGET),
+            count=ex["total"],
+            note=f"{len(ex['with_examples'])} of {ex['total']} names in tyrebayes.__all__",
+        ),
+        figure(
+            "public functions returning a bare dict or tuple (by annotation)",
+            len(bare["in_all"]),
+            target=("==", 0),
+            count=bare["public_functions"],
+            exclusions={n: "no return annotation" for n in bare["in_all_unannotated"]},
+        ),
+        figure(
+            "package functions returning a bare dict or tuple (by annotation)",
+            len(bare["package"]),
+            count=None,
+            note="public module-level functions of every public module, not only __all__",
+        ),
+        figure(
+            f"modules over {MAX_MODULE_LINES} lines",
+            len(size["long_modules"]),
+            target=("==", 0),
+            count=size["modules"],
+        ),
+        figure(
+            f"functions over {MAX_FUNCTION_LINES} lines (docstring excluded)",
+            len(size["long_functions"]),
+            target=("<=", MAX_LONG_FUNCTIONS),
+        ),
+        figure(
+            f"functions over {MAX_FUNCTION_LINES} lines (docstring included)",
+            len(size["long_functions_with_docstrings"]),
+        ),
+        figure(
+            "import circles between modules",
+            len(circ["module_cycles"]),
+            target=("==", 0),
+            note="strongly connected components of the module import graph (grimp)",
+        ),
+        figure(
+            "import circles between sibling modules or packages",
+            len(circ["sibling_cycles"]),
+            target=("==", 0),
+            note="what import-linter's acyclic_siblings contract forbids",
+        ),
+    ]
+    payload = {"examples": ex, "bare_results": bare, "sizes": size, "circles": circ}
+    write_result("api_surface", payload, figures=figures, path=args.out)
+    for f in figures:
+        met = "" if f["met"] is None else (" met" if f["met"] else " MISSED")
+        print(f"{f['name']}: {f['value']}{f['unit']}{met}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
