@@ -1,0 +1,537 @@
+"""The in-car lateral estimator: c_y front and rear and the understeer gradient, block by block.
+
+The parameters are the batch lateral model's (:mod:`tyrebayes.inference.lateral.model`), on
+its unconstrained space (log for the positive sites): log c_y front and rear, log μ_y, the
+steering ratio, the steering and a_y offsets, the roll gradient, the yaw inertia's factor, the
+curve's shape, and the noise scales of the two equations and of the axle forces. Their
+Gaussian starts at the batch model's priors and is updated every :data:`.LATERAL_STEP_S` of
+driving by the assumed-density Laplace update of the longitudinal estimator
+(:func:`~.laplace_update.laplace_update`: Newton steps to the mode of prior × the block's
+likelihood, a Laplace covariance there), where the block's likelihood is the batch model's own
+(:func:`~tyrebayes.inference.lateral.model.log_likelihoods` and its peak bound) on the block's
+samples, braking samples left out (:mod:`.lateral_blocks`), with its Fisher information as the
+curvature (:func:`block_information`).
+
+Correlated residuals: the batch fit weights each equation by 1/VIF of its residuals
+(:func:`~tyrebayes.inference.lateral.fit.residual_inflation`). Online, each equation's VIF is
+estimated as the residuals at each updated mode arrive: the largest of the AR(1) factor and the
+batch-means factor over 10 s chunks (once :data:`MIN_CHUNKS` are in), as the batch's; its 30 s
+and 60 s batch lengths are left out (a 10-minute drive holds too few of them to count). Until
+then the weight blends towards :data:`INITIAL_VIF`.
+
+Between blocks the tyre's coordinates take a random walk (:data:`DRIFT_PER_SQRT_S`).
+
+Readiness, the batch fit's identification rule (:data:`~tyrebayes.inference.lateral.fit.K_CONTRACTION`)
+in the Gaussian: the understeer gradient is reported once its sd is at most half its prior's;
+c_y front and rear once, in addition, each axle's log-sd is at most half its prior's: steady
+cornering narrows K alone (δ = L/R + K a_y), and only yaw transients tell front from rear.
+"""
+
+from __future__ import annotations
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Bool, Float
+
+from ..lateral.data import CorneringObservations, G
+from ..lateral.fit import K_CONTRACTION
+from ..lateral.model import EFFECT_SITES, LATERAL_EFFECTS, LateralPriors, axle_state, residuals
+from .laplace_update import laplace_update
+from .lateral_blocks import LateralBlocks
+from .lateral_summary import LateralTrajectory, OnlineLateral
+
+#: The batch model's sample sites in the state's order (less those of effects left out).
+SITES = (
+    "c_y_front",
+    "c_y_rear",
+    "mu_y",
+    "steering_ratio",
+    "steering_offset",
+    "ay_offset",
+    "roll_gradient",
+    "yaw_inertia_factor",
+    "relaxation_length",
+    "curve_shape_excess",
+    "curve_curvature_gap",
+    "steer_noise",
+    "kinematic_noise",
+    "force_noise",
+)
+#: Sites on the real line; every other is positive and carried as its logarithm.
+REAL_SITES = ("steering_offset", "ay_offset")
+
+_PER_SQRT_HOUR = 1.0 / 60.0
+#: Random-walk sd per √s of the coordinates that drift. c_y and μ_y: tread wear, temperature
+#: and pressure move a tyre's stiffness by a few per cent over an hour, as the longitudinal
+#: estimator's C_xr (:data:`~.config.DRIFT_PER_SQRT_S`): 0.02 per √hour. The noise scales: road
+#: and speed regime change the misfit within a drive over a quarter of an hour; a random walk of
+#: 0.3 per √hour in log lets them follow (the longitudinal estimator reverts them instead, with
+#: a 15-minute correlation time). The car's constants (steering ratio, offsets, roll, inertia)
+#: and the curve's shape: none.
+DRIFT_PER_SQRT_S = {
+    "c_y_front": 0.02 * _PER_SQRT_HOUR,
+    "c_y_rear": 0.02 * _PER_SQRT_HOUR,
+    "mu_y": 0.02 * _PER_SQRT_HOUR,
+    "steer_noise": 0.3 * _PER_SQRT_HOUR,
+    "kinematic_noise": 0.3 * _PER_SQRT_HOUR,
+    "force_noise": 0.3 * _PER_SQRT_HOUR,
+}
+#: VIF assumed before the residuals say: low-passed at 2 Hz and read at 10 Hz, white noise alone
+#: gives an AR(1) factor near 4, and road bank and a curve that misfits over a corner add to it;
+#: 10 keeps the first blocks' intervals on the wide side.
+INITIAL_VIF = 10.0
+#: Weight of :data:`INITIAL_VIF` against the estimate, in 10 s chunks.
+VIF_PRIOR_CHUNKS = 8.0
+#: Chunk of the batch-means factor [samples] (10 s at 10 Hz), and the chunks it needs to count
+#: (the batch fit's ``MIN_BATCHES``).
+CHUNK = 100
+MIN_CHUNKS = 8
+#: Newton iterations per block at most, and the step (in posterior sds) that ends them.
+NEWTON_STEPS = 12
+NEWTON_TOLERANCE = 0.05
+
+
+def site_names(priors: LateralPriors, road_wheel: bool = False) -> tuple[str, ...]:
+    """The state's coordinates: the batch model's sites for ``priors``' effects.
+
+    The steering ratio is kept where the log gives a road-wheel angle: the likelihood does not
+    read it then, and it stays at its prior.
+
+    Examples
+    --------
+    >>> site_names(LateralPriors())[:3]
+    ('c_y_front', 'c_y_rear', 'mu_y')
+    """
+    del road_wheel
+    left_out = {EFFECT_SITES[e] for e in LATERAL_EFFECTS if e not in priors.effects}
+    return tuple(n for n in SITES if n not in left_out)
+
+
+class LateralPrior(eqx.Module):
+    """The Gaussian over the unconstrained coordinates the estimator starts from.
+
+    Attributes
+    ----------
+    mean : Float[Array, "p"]
+    cov : Float[Array, "p p"]
+    names : tuple of str
+        The coordinates (:func:`site_names`).
+    """
+
+    mean: Float[Array, " p"]
+    cov: Float[Array, "p p"]
+    names: tuple[str, ...] = eqx.field(static=True)
+
+    def __check_init__(self):
+        p = len(self.names)
+        if self.mean.shape != (p,) or self.cov.shape != (p, p):
+            raise ValueError(
+                f"LateralPrior: expected mean ({p},) and cov ({p}, {p}), "
+                f"got {self.mean.shape} and {self.cov.shape}"
+            )
+
+
+def lateral_prior(
+    priors: LateralPriors | None = None, *, surface: str = "dry", steering_ratio: float = 15.0
+) -> LateralPrior:
+    """The batch model's priors as a Gaussian on its unconstrained space (independent sites).
+
+    Examples
+    --------
+    >>> prior = lateral_prior()
+    >>> round(float(jnp.exp(prior.mean[0])), 2), round(float(jnp.sqrt(prior.cov[0, 0])), 2)
+    (16.5, 0.5)
+    """
+    priors = LateralPriors() if priors is None else priors
+    mu, mu_log_sd = priors.mu_y_prior(surface)
+    centre_sd = {
+        "c_y_front": (math.log(priors.c_y_median), priors.c_y_log_sd),
+        "c_y_rear": (math.log(priors.c_y_median), priors.c_y_log_sd),
+        "mu_y": (math.log(mu), mu_log_sd),
+        "steering_ratio": (math.log(steering_ratio), priors.steering_ratio_log_sd),
+        "steering_offset": (0.0, priors.steering_offset_sd_rad),
+        "ay_offset": (0.0, priors.ay_offset_sd),
+        "roll_gradient": (math.log(priors.roll_gradient_median), priors.roll_gradient_log_sd),
+        "yaw_inertia_factor": (0.0, priors.yaw_inertia_log_sd),
+        "relaxation_length": (
+            math.log(priors.relaxation_length_median_m),
+            priors.relaxation_length_log_sd,
+        ),
+        "curve_shape_excess": (
+            priors.curve_shape_excess_log_mean,
+            priors.curve_shape_excess_log_sd,
+        ),
+        "curve_curvature_gap": (
+            priors.curve_curvature_gap_log_mean,
+            priors.curve_curvature_gap_log_sd,
+        ),
+        "steer_noise": (math.log(priors.steer_noise_median), 1.0),
+        "kinematic_noise": (math.log(priors.kinematic_noise_median), 1.0),
+        "force_noise": (math.log(priors.force_noise_median), 1.0),
+    }
+    names = site_names(priors)
+    mean = jnp.asarray([centre_sd[n][0] for n in names])
+    sd = jnp.asarray([centre_sd[n][1] for n in names])
+    return LateralPrior(mean=mean, cov=jnp.diag(sd**2), names=names)
+
+
+def constrained(theta: Float[Array, " p"], names: tuple[str, ...]) -> dict:
+    """The model's parameters at the unconstrained point ``theta``."""
+    return {n: theta[i] if n in REAL_SITES else jnp.exp(theta[i]) for i, n in enumerate(names)}
+
+
+def _terms(theta, obs: CorneringObservations, names: tuple[str, ...], priors: LateralPriors):
+    """Per sample: the steering residual and the log of its sd, the kinematic residual and the
+    log of its sd, and the excess of an axle's force over μ_y in units of the peak margin."""
+    p = constrained(theta, names)
+    state = axle_state(obs, p)
+    steer, kinematic = residuals(obs, p)
+    log_steer_sd = 0.5 * jnp.log(
+        p["steer_noise"] ** 2 + p["force_noise"] ** 2 * (state.slope_front**2 + state.slope_rear**2)
+    )
+    log_kin_sd = jnp.broadcast_to(jnp.log(p["kinematic_noise"]), kinematic.shape)
+    peak = jnp.maximum(jnp.abs(state.rho_front), jnp.abs(state.rho_rear))
+    beyond = jnp.maximum(peak - p["mu_y"], 0.0) / priors.peak_margin
+    return steer, log_steer_sd, kinematic, log_kin_sd, beyond
+
+
+def block_information(
+    theta: Float[Array, " p"],
+    obs: CorneringObservations,
+    weights: Float[Array, "2"],
+    names: tuple[str, ...],
+    priors: LateralPriors,
+) -> tuple[Float[Array, ""], Float[Array, " p"], Float[Array, "p p"]]:
+    """The block's log-likelihood at ``theta``, its gradient and its Fisher information.
+
+    The likelihood is the batch model's (:func:`~tyrebayes.inference.lateral.model.lateral_model`):
+    each equation's Normal terms on its mask, weighted 1/VIF, and the peak bound (an axle cannot
+    give more than μ_y); the priors are the filter's Gaussian, not here. For a Normal term with
+    residual e and sd σ the Fisher information is ∇e∇eᵀ/σ² + 2∇log σ∇log σᵀ, for the peak
+    bound its Gauss-Newton matrix: all three from one forward-mode Jacobian of the per-sample
+    terms, about a third of the exact Hessian's cost (which also bends the wrong way far from
+    the mode), and gradient and value from the same pass.
+    """
+
+    def terms(t):
+        return _terms(t, obs, names, priors)
+
+    values, jacobians = jax.vmap(lambda e: jax.jvp(terms, (theta,), (e,)), out_axes=(None, 1))(
+        jnp.eye(theta.shape[0], dtype=theta.dtype)
+    )
+    steer, log_steer_sd, kin, log_kin_sd, beyond = values
+    j_steer, j_steer_sd, j_kin, j_kin_sd, j_beyond = jacobians
+    ws = weights[0] * obs.mask
+    wk = weights[1] * obs.mask_kinematic
+    zs = jnp.where(obs.mask, steer * jnp.exp(-log_steer_sd), 0.0)
+    zk = jnp.where(obs.mask_kinematic, kin * jnp.exp(-log_kin_sd), 0.0)
+    bb = jnp.where(obs.mask, beyond, 0.0)
+    value = (
+        jnp.sum(ws * (-0.5 * zs**2 - log_steer_sd))
+        + jnp.sum(wk * (-0.5 * zk**2 - log_kin_sd))
+        - 0.5 * jnp.sum(bb**2)
+    )
+    # ∂ℓ/∂θ of −½ z² − log σ with z = e/σ: −z/σ ∇e + (z² − 1) ∇log σ.
+    inv_s = jnp.where(obs.mask, jnp.exp(-log_steer_sd), 0.0)
+    inv_k = jnp.where(obs.mask_kinematic, jnp.exp(-log_kin_sd), 0.0)
+    gradient = (
+        (ws * -zs * inv_s) @ j_steer
+        + (ws * (zs**2 - 1.0)) @ j_steer_sd
+        + (wk * -zk * inv_k) @ j_kin
+        + (wk * (zk**2 - 1.0)) @ j_kin_sd
+        - bb @ j_beyond
+    )
+    scaled_s = j_steer * (jnp.sqrt(ws) * inv_s)[:, None]
+    scaled_k = j_kin * (jnp.sqrt(wk) * inv_k)[:, None]
+    sd_s = j_steer_sd * jnp.sqrt(2.0 * ws)[:, None]
+    sd_k = j_kin_sd * jnp.sqrt(2.0 * wk)[:, None]
+    peak = jnp.where(obs.mask[:, None], j_beyond, 0.0)
+    information = (
+        scaled_s.T @ scaled_s
+        + scaled_k.T @ scaled_k
+        + sd_s.T @ sd_s
+        + sd_k.T @ sd_k
+        + peak.T @ peak
+    )
+    return value, gradient, information
+
+
+def block_log_likelihood(
+    theta: Float[Array, " p"],
+    obs: CorneringObservations,
+    weights: Float[Array, "2"],
+    names: tuple[str, ...],
+    priors: LateralPriors,
+) -> Float[Array, ""]:
+    """The block's log-likelihood at ``theta`` alone (:func:`block_information`'s value)."""
+    steer, log_steer_sd, kin, log_kin_sd, beyond = _terms(theta, obs, names, priors)
+    zs = steer * jnp.exp(-log_steer_sd)
+    zk = kin * jnp.exp(-log_kin_sd)
+    return (
+        weights[0] * jnp.sum(jnp.where(obs.mask, -0.5 * zs**2 - log_steer_sd, 0.0))
+        + weights[1] * jnp.sum(jnp.where(obs.mask_kinematic, -0.5 * zk**2 - log_kin_sd, 0.0))
+        - 0.5 * jnp.sum(jnp.where(obs.mask, beyond**2, 0.0))
+    )
+
+
+class ResidualMoments(eqx.Module):
+    """Running sums of one equation's residuals for its VIF (module docstring).
+
+    Attributes
+    ----------
+    count, total, squares, lagged : Float[Array, ""]
+        Samples, Σr, Σr², Σ r_t r_(t−1) over neighbouring valid samples.
+    chunks, chunk_total, chunk_squares : Float[Array, ""]
+        10 s chunks with at least half their samples valid, Σ of their means, Σ of their squares.
+    """
+
+    count: Float[Array, ""]
+    total: Float[Array, ""]
+    squares: Float[Array, ""]
+    lagged: Float[Array, ""]
+    chunks: Float[Array, ""]
+    chunk_total: Float[Array, ""]
+    chunk_squares: Float[Array, ""]
+
+    @classmethod
+    def empty(cls, dtype) -> ResidualMoments:
+        zero = jnp.zeros((), dtype)
+        return cls(zero, zero, zero, zero, zero, zero, zero)
+
+    def add(self, r: Float[Array, " n"], mask: Bool[Array, " n"]) -> ResidualMoments:
+        """These sums with a block's residuals ``r`` on ``mask`` added."""
+        x = jnp.where(mask, r, 0.0)
+        both = mask[1:] & mask[:-1]
+        n = x.shape[0] - x.shape[0] % CHUNK
+        cx = x[:n].reshape(-1, CHUNK)
+        cm = mask[:n].reshape(-1, CHUNK)
+        valid = jnp.sum(cm, axis=1)
+        counted = valid >= CHUNK // 2
+        means = jnp.where(counted, jnp.sum(cx, axis=1) / jnp.maximum(valid, 1), 0.0)
+        return ResidualMoments(
+            count=self.count + jnp.sum(mask),
+            total=self.total + jnp.sum(x),
+            squares=self.squares + jnp.sum(x**2),
+            lagged=self.lagged + jnp.sum(jnp.where(both, x[1:] * x[:-1], 0.0)),
+            chunks=self.chunks + jnp.sum(counted),
+            chunk_total=self.chunk_total + jnp.sum(means),
+            chunk_squares=self.chunk_squares + jnp.sum(means**2),
+        )
+
+    def inflation(self) -> Float[Array, ""]:
+        """The VIF in use: the estimate (AR(1), 10 s batch means), blended with the initial."""
+        n = jnp.maximum(self.count, 1.0)
+        centre = self.total / n
+        var = jnp.maximum(self.squares / n - centre**2, 1e-30)
+        phi = jnp.clip((self.lagged / n - centre**2) / var, 0.0, 0.995)
+        ar1 = (1.0 + phi) / (1.0 - phi)
+        chunks = jnp.maximum(self.chunks, 1.0)
+        chunk_var = self.chunk_squares / chunks - (self.chunk_total / chunks) ** 2
+        batch = jnp.where(self.chunks >= MIN_CHUNKS, CHUNK * chunk_var / var, 1.0)
+        estimate = jnp.where(self.count >= 20, jnp.maximum(jnp.maximum(ar1, batch), 1.0), 1.0)
+        seen = self.count / CHUNK
+        return (VIF_PRIOR_CHUNKS * INITIAL_VIF + seen * estimate) / (VIF_PRIOR_CHUNKS + seen)
+
+
+class LateralState(eqx.Module):
+    """The estimator's state after a block.
+
+    Attributes
+    ----------
+    mean, cov : Array
+        Gaussian over the unconstrained coordinates.
+    time_s : Float[Array, ""]
+        Time of the last block's end [s].
+    steering, kinematic : ResidualMoments
+        The two equations' residual sums (their VIFs).
+    n_samples, n_skipped : Float[Array, ""]
+        Samples that entered the steering equation; samples left out for |a_x|.
+    """
+
+    mean: Float[Array, " p"]
+    cov: Float[Array, "p p"]
+    time_s: Float[Array, ""]
+    steering: ResidualMoments
+    kinematic: ResidualMoments
+    n_samples: Float[Array, ""]
+    n_skipped: Float[Array, ""]
+
+
+class OnlineLateralEstimator(eqx.Module):
+    """Recursive estimator of a car's lateral tyre parameters (module docstring).
+
+    Attributes
+    ----------
+    prior : LateralPrior
+    priors : LateralPriors
+        The batch model's prior scales (its peak margin, its effects).
+    drift : Float[Array, "p"]
+        Random-walk sd per √s of each coordinate (:data:`DRIFT_PER_SQRT_S`).
+    newton_steps : int
+    newton_tolerance : float
+    """
+
+    prior: LateralPrior
+    priors: LateralPriors = eqx.field(static=True)
+    drift: Float[Array, " p"]
+    newton_steps: int = eqx.field(static=True, default=NEWTON_STEPS)
+    newton_tolerance: float = eqx.field(static=True, default=NEWTON_TOLERANCE)
+
+    @classmethod
+    def create(
+        cls,
+        *,
+        priors: LateralPriors | None = None,
+        surface: str = "dry",
+        steering_ratio: float = 15.0,
+    ) -> OnlineLateralEstimator:
+        """An estimator from the batch model's priors (``steering_ratio``: the vehicle file's).
+
+        Examples
+        --------
+        >>> OnlineLateralEstimator.create().prior.names[-1]
+        'force_noise'
+        """
+        priors = LateralPriors() if priors is None else priors
+        prior = lateral_prior(priors, surface=surface, steering_ratio=steering_ratio)
+        drift = jnp.asarray([DRIFT_PER_SQRT_S.get(n, 0.0) for n in prior.names])
+        return cls(prior=prior, priors=priors, drift=drift)
+
+    def init(self) -> LateralState:
+        """The state before any block: the prior."""
+        dtype = self.prior.mean.dtype
+        zero = jnp.zeros((), dtype)
+        return LateralState(
+            mean=self.prior.mean,
+            cov=self.prior.cov,
+            time_s=zero,
+            steering=ResidualMoments.empty(dtype),
+            kinematic=ResidualMoments.empty(dtype),
+            n_samples=zero,
+            n_skipped=zero,
+        )
+
+    def update(
+        self, state: LateralState, obs: CorneringObservations, time_s, skipped
+    ) -> LateralState:
+        """One block: drift since the last, Laplace update by the block, residuals' sums."""
+        names = self.prior.names
+        elapsed = jnp.maximum(time_s - state.time_s, 0.0)
+        cov = state.cov + jnp.diag(self.drift**2 * elapsed)
+        weights = 1.0 / jnp.stack([state.steering.inflation(), state.kinematic.inflation()])
+
+        def log_likelihood(theta):
+            return block_log_likelihood(theta, obs, weights, names, self.priors)
+
+        def information(theta):
+            return block_information(theta, obs, weights, names, self.priors)
+
+        updated = laplace_update(
+            log_likelihood,
+            state.mean,
+            cov,
+            self.newton_steps,
+            self.newton_tolerance,
+            curvature=information,
+        )
+        steer, kinematic = residuals(obs, constrained(updated.mean, names))
+        return LateralState(
+            mean=updated.mean,
+            cov=updated.cov,
+            time_s=jnp.maximum(time_s, state.time_s),
+            steering=state.steering.add(steer, obs.mask),
+            kinematic=state.kinematic.add(kinematic, obs.mask_kinematic),
+            n_samples=state.n_samples + jnp.sum(obs.mask),
+            n_skipped=state.n_skipped + skipped,
+        )
+
+    def run(
+        self, state: LateralState, blocks: LateralBlocks
+    ) -> tuple[LateralState, LateralTrajectory]:
+        """Scan :meth:`update` over the blocks; the last state and each block's moments."""
+        index = {n: i for i, n in enumerate(self.prior.names)}
+        rows = jnp.asarray([index["c_y_front"], index["c_y_rear"]])
+
+        def step(carry, i):
+            new = self.update(carry, blocks.block(i), blocks.time_s[i], blocks.n_skipped[i])
+            return new, (new.time_s, new.mean[rows], new.cov[rows[:, None], rows[None, :]])
+
+        last, (time_s, mean, cov) = jax.lax.scan(step, state, jnp.arange(blocks.n_blocks))
+        return last, LateralTrajectory(time_s=time_s, log_c_y_mean=mean, log_c_y_cov=cov)
+
+    def result(self, state: LateralState) -> OnlineLateral:
+        """The estimate of a state (readiness included, module docstring)."""
+        index = {n: i for i, n in enumerate(self.prior.names)}
+        rows = [index["c_y_front"], index["c_y_rear"]]
+        return OnlineLateral(
+            mean=state.mean,
+            cov=state.cov,
+            names=self.prior.names,
+            time_s=state.time_s,
+            prior_log_c_y_mean=self.prior.mean[rows[0]],
+            prior_log_c_y_sd=jnp.sqrt(self.prior.cov[rows[0], rows[0]]),
+            contraction=K_CONTRACTION,
+            n_samples=state.n_samples,
+            n_skipped_longitudinal=state.n_skipped,
+            steering_vif=state.steering.inflation(),
+            kinematic_vif=state.kinematic.inflation(),
+        )
+
+
+@eqx.filter_jit
+def run_online_lateral(
+    estimator: OnlineLateralEstimator, state: LateralState, blocks: LateralBlocks
+) -> tuple[LateralState, LateralTrajectory]:
+    """:meth:`OnlineLateralEstimator.run`, compiled (once per block shape and settings)."""
+    return estimator.run(state, blocks)
+
+
+def online_lateral(
+    blocks: LateralBlocks,
+    *,
+    priors: LateralPriors | None = None,
+    surface: str = "dry",
+) -> tuple[OnlineLateral, LateralTrajectory]:
+    """Run the lateral estimator from the batch priors over a drive's blocks (the command's path).
+
+    Parameters
+    ----------
+    blocks : LateralBlocks
+        From :func:`~.lateral_blocks.lateral_blocks`.
+    priors : LateralPriors, optional
+    surface : str
+        Road surface: the centre of μ_y's prior.
+
+    Returns
+    -------
+    OnlineLateral, LateralTrajectory
+        The estimate after the last block, and each block's c_y moments.
+
+    Examples
+    --------
+    >>> result, trajectory = online_lateral(lateral_blocks(obs))  # doctest: +SKIP
+    >>> result.to_dict()["understeer_gradient"]  # doctest: +SKIP
+    """
+    estimator = OnlineLateralEstimator.create(
+        priors=priors, surface=surface, steering_ratio=float(blocks.steering_ratio)
+    )
+    last, trajectory = run_online_lateral(estimator, estimator.init(), blocks)
+    return estimator.result(last), trajectory
+
+
+__all__ = [
+    "DRIFT_PER_SQRT_S",
+    "LateralPrior",
+    "LateralState",
+    "OnlineLateralEstimator",
+    "ResidualMoments",
+    "block_information",
+    "block_log_likelihood",
+    "lateral_prior",
+    "online_lateral",
+    "run_online_lateral",
+    "site_names",
+]
