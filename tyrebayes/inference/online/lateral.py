@@ -21,8 +21,9 @@ then the weight blends towards :data:`INITIAL_VIF`.
 
 Between blocks the tyre's coordinates take a random walk (:data:`DRIFT_PER_SQRT_S`).
 
-Readiness, the batch fit's identification rule (:data:`~tyrebayes.inference.lateral.fit.K_CONTRACTION`)
-in the Gaussian: the understeer gradient is reported once its sd is at most half its prior's;
+Readiness, the batch fit's identification rule
+(:data:`~tyrebayes.inference.lateral.fit.K_CONTRACTION`) in the Gaussian: the understeer gradient
+is reported once its sd is at most half its prior's;
 c_y front and rear once, in addition, each axle's log-sd is at most half its prior's: steady
 cornering narrows K alone (δ = L/R + K a_y), and only yaw transients tell front from rear.
 """
@@ -36,7 +37,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float
 
-from ..lateral.data import CorneringObservations, G
+from ..lateral.data import CorneringObservations
 from ..lateral.fit import K_CONTRACTION
 from ..lateral.model import EFFECT_SITES, LATERAL_EFFECTS, LateralPriors, axle_state, residuals
 from .laplace_update import laplace_update

@@ -1,8 +1,9 @@
 """What the online lateral estimator reports: its estimate, readiness and trajectory.
 
 :class:`OnlineLateral` is the estimate after a block, with the readiness rule of
-:mod:`.lateral` (the batch fit's identification rule, in the Gaussian); :meth:`OnlineLateral.to_dict`
-is the ``"lateral"`` object of ``tyrebayes online --json``. :class:`LateralTrajectory` holds each
+:mod:`.lateral` (the batch fit's identification rule, in the Gaussian);
+:meth:`OnlineLateral.to_dict` is the ``"lateral"`` object of ``tyrebayes online --json``.
+:class:`LateralTrajectory` holds each
 block's c_y moments (log space), from which the benchmarks read jumps and agreement over time.
 """
 
