@@ -27,7 +27,8 @@ from .fit_tyre import MODEL_CHOICES
 # Said in every output: what the estimator read that a car would not have had yet.
 LOOKAHEAD_NOTE = (
     "force-density scores (E[true force | measured force]) are estimated over the whole stream; "
-    "slips and parameters are used only as they arrive"
+    "slips and parameters are used only as they arrive; the cornering signals of the lateral "
+    "estimate are low-passed zero-phase over the whole stream"
 )
 
 

@@ -1,0 +1,112 @@
+"""The online lateral estimator: a simulated replay against the batch fit, the "not yet" case,
+its block likelihood against autodiff.
+
+Every replay is 300 s (10 blocks of 30 s), so the tests share one compiled run.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from tyrebayes._domain import load_vehicle
+from tyrebayes.inference.lateral import cornering_observations, fit_lateral
+from tyrebayes.inference.online.lateral import (
+    OnlineLateralEstimator,
+    block_information,
+    block_log_likelihood,
+    online_lateral,
+)
+from tyrebayes.inference.online.lateral_blocks import lateral_blocks
+from tyrebayes.simulate.cornering import simulate_cornering
+from tyrebayes.streams import validate_stream
+
+pytestmark = pytest.mark.early  # compiles the estimator (tens of seconds)
+
+DURATION_S = 300.0
+
+
+def _observations(kind: str, seed: int, duration_s: float = DURATION_S):
+    vehicle = load_vehicle("compact_fwd")
+    frame, truth = simulate_cornering(vehicle, kind=kind, duration_s=duration_s, seed=seed)
+    return cornering_observations(validate_stream(frame, vehicle).data, vehicle), truth
+
+
+@pytest.fixture(scope="module")
+def mixed():
+    obs, truth = _observations("mixed", 3)
+    result, trajectory = online_lateral(lateral_blocks(obs))
+    return obs, truth, result, trajectory
+
+
+def test_mixed_replay_is_ready_and_agrees_with_the_batch_fit(mixed):
+    obs, truth, result, trajectory = mixed
+    assert result.k_identified and result.split_identified
+    online = result.to_dict()
+    assert online["ready"] and online["reason"] == ""
+    batch = fit_lateral(obs).to_dict()
+    for key in ("c_y_front", "c_y_rear", "understeer_gradient"):
+        assert set(online[key]) == {"mean", "sd", "hdi_90"}
+        # Stated tolerance: within two batch sds of the batch mean (the benchmark's figure
+        # counts one), and the truth inside the online 90 % interval.
+        gap = abs(online[key]["mean"] - batch[key]["mean"]) / batch[key]["sd"]
+        assert gap <= 2.0, (key, gap)
+        lo, hi = online[key]["hdi_90"]
+        assert lo <= getattr(truth, key) <= hi, key
+    # The trajectory narrows: the last block's c_y sd below the first's.
+    sd = np.asarray(trajectory.estimates()["c_y_front"]["sd"])
+    assert trajectory.time_s.shape == (10,) and sd[-1] < sd[0]
+
+
+def test_a_minute_of_steady_cornering_reports_the_gradient_only():
+    # Steady cornering narrows K alone; a minute of it is too little for the curve's bend to
+    # tell front from rear. Padded to the replays' 10 blocks (one compiled run).
+    obs, truth = _observations("steady", 2, duration_s=60.0)
+    result, _ = online_lateral(lateral_blocks(obs, n_blocks=10))
+    d = result.to_dict()
+    assert result.k_identified and not result.split_identified
+    assert d["c_y_front"] is None and d["c_y_rear"] is None and not d["ready"]
+    assert "front from rear" in d["reason"]
+    lo, hi = d["understeer_gradient"]["hdi_90"]
+    assert lo <= truth.understeer_gradient <= hi
+
+
+def test_prior_alone_is_not_yet():
+    est = OnlineLateralEstimator.create()
+    d = est.result(est.init()).to_dict()
+    assert d["understeer_gradient"] is None and d["c_y_front"] is None
+    assert d["reason"].startswith("lateral: not yet")
+
+
+def test_braking_samples_are_left_out(mixed):
+    obs = mixed[0]
+    blocks = lateral_blocks(obs, max_longitudinal_mps2=0.3)
+    ax = np.asarray(blocks.ax)
+    mask = np.asarray(blocks.mask)
+    assert not mask[np.abs(ax) > 0.3].any()
+    assert (
+        float(blocks.n_skipped.sum())
+        == (
+            np.asarray(obs.mask) & (np.abs(np.gradient(np.asarray(obs.speed), obs.dt_s)) > 0.3)
+        ).sum()
+    )
+    assert not np.asarray(blocks.mask_kinematic)[:, [0, 1, -2, -1]].any()
+    with pytest.raises(ValueError, match="step_s: expected a whole number"):
+        lateral_blocks(obs, step_s=0.55)
+
+
+def test_block_information_gradient_matches_autodiff(mixed):
+    obs = mixed[0]
+    block = lateral_blocks(obs).block(3)
+    est = OnlineLateralEstimator.create()
+    theta = est.prior.mean + 0.05
+    weights = jnp.asarray([0.3, 0.2])
+    names = est.prior.names
+    value, gradient, information = block_information(theta, block, weights, names, est.priors)
+    np.testing.assert_allclose(
+        value, block_log_likelihood(theta, block, weights, names, est.priors), rtol=1e-10
+    )
+    auto = jax.grad(block_log_likelihood)(theta, block, weights, names, est.priors)
+    np.testing.assert_allclose(gradient, auto, rtol=1e-7, atol=1e-7 * float(jnp.max(abs(auto))))
+    eig = np.linalg.eigvalsh(np.asarray(information))
+    assert eig.min() >= -1e-8 * eig.max()
