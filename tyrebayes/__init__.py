@@ -78,7 +78,10 @@ from .inference.wear.changepoint import detect_tyre_changes as detect_tyre_chang
 from .inference.wear.history_fit import fit_wear_history as fit_wear_history
 from .inference.online import OnlineConfig as OnlineConfig
 from .inference.online import OnlineEstimator as OnlineEstimator
+from .inference.online import OnlineLateral as OnlineLateral
+from .inference.online import lateral_blocks as lateral_blocks
 from .inference.online import online_estimate as online_estimate
+from .inference.online import online_lateral as online_lateral
 from .inference.online import stream_steps as stream_steps
 from .inference.online import stream_windows as stream_windows
 from .inference.online import summary_record as summary_record
@@ -186,6 +189,9 @@ __all__ = [
     "OnlineConfig",
     "OnlineEstimator",
     "online_estimate",
+    "OnlineLateral",
+    "online_lateral",
+    "lateral_blocks",
     "stream_steps",
     "stream_windows",
     "summary_record",

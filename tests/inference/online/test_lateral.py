@@ -110,3 +110,23 @@ def test_block_information_gradient_matches_autodiff(mixed):
     np.testing.assert_allclose(gradient, auto, rtol=1e-7, atol=1e-7 * float(jnp.max(abs(auto))))
     eig = np.linalg.eigvalsh(np.asarray(information))
     assert eig.min() >= -1e-8 * eig.max()
+
+
+def test_residual_vif_follows_the_batch_rule():
+    from tyrebayes.inference.lateral.fit import residual_inflation
+    from tyrebayes.inference.online.lateral import INITIAL_VIF, VIF_PRIOR_CHUNKS, ResidualMoments
+
+    rng = np.random.default_rng(0)
+    phi, n = 0.8, 20 * 300
+    x = np.zeros(n)
+    for i in range(1, n):
+        x[i] = phi * x[i - 1] + rng.normal()
+    moments = ResidualMoments.empty(jnp.float64)
+    for block in x.reshape(20, 300):
+        moments = moments.add(jnp.asarray(block), jnp.ones(300, bool))
+    batch = residual_inflation(x, np.ones(n, bool))
+    seen = n / 100
+    expected = (VIF_PRIOR_CHUNKS * INITIAL_VIF + seen * batch) / (VIF_PRIOR_CHUNKS + seen)
+    # Stated tolerance: 15 % (clock batches and the batch fit's compacted ones differ slightly).
+    assert abs(float(moments.inflation()) / expected - 1.0) < 0.15
+    assert int(moments.batches[2]) == 10  # ten 60 s batches from twenty 30 s blocks

@@ -14,12 +14,16 @@ curvature (:func:`block_information`).
 
 Correlated residuals: the batch fit weights each equation by 1/VIF of its residuals
 (:func:`~tyrebayes.inference.lateral.fit.residual_inflation`). Online, each equation's VIF is
-estimated as the residuals at each updated mode arrive: the largest of the AR(1) factor and the
-batch-means factor over 10 s chunks (once :data:`MIN_CHUNKS` are in), as the batch's; its 30 s
-and 60 s batch lengths are left out (a 10-minute drive holds too few of them to count). Until
-then the weight blends towards :data:`INITIAL_VIF`.
+estimated as the residuals at each block's mode arrive, by the batch's rule: the largest of the
+AR(1) factor and the batch-means factors at 10, 30 and 60 s (each once :data:`MIN_CHUNKS`
+batches are in; batches on the clock, those at least half valid), blended with
+:data:`INITIAL_VIF` over the first minute and a half. On real roads the slow batches dominate
+(road bank, a curve that misfits over a corner) and need minutes of data to show, so the data's
+part of the state is kept as per-equation Gaussian messages, re-weighted by the VIF as it stands
+at every step (:class:`LateralState`): the posterior after 10 minutes weights every block by the
+VIF of all 10 minutes, as the batch fit does.
 
-Between blocks the tyre's coordinates take a random walk (:data:`DRIFT_PER_SQRT_S`).
+Old blocks fade over :data:`MEMORY_S` (slow change of the tyres).
 
 Readiness, the batch fit's identification rule
 (:data:`~tyrebayes.inference.lateral.fit.K_CONTRACTION`) in the Gaussian: the understeer gradient
@@ -64,31 +68,22 @@ SITES = (
 #: Sites on the real line; every other is positive and carried as its logarithm.
 REAL_SITES = ("steering_offset", "ay_offset")
 
-_PER_SQRT_HOUR = 1.0 / 60.0
-#: Random-walk sd per √s of the coordinates that drift. c_y and μ_y: tread wear, temperature
-#: and pressure move a tyre's stiffness by a few per cent over an hour, as the longitudinal
-#: estimator's C_xr (:data:`~.config.DRIFT_PER_SQRT_S`): 0.02 per √hour. The noise scales: road
-#: and speed regime change the misfit within a drive over a quarter of an hour; a random walk of
-#: 0.3 per √hour in log lets them follow (the longitudinal estimator reverts them instead, with
-#: a 15-minute correlation time). The car's constants (steering ratio, offsets, roll, inertia)
-#: and the curve's shape: none.
-DRIFT_PER_SQRT_S = {
-    "c_y_front": 0.02 * _PER_SQRT_HOUR,
-    "c_y_rear": 0.02 * _PER_SQRT_HOUR,
-    "mu_y": 0.02 * _PER_SQRT_HOUR,
-    "steer_noise": 0.3 * _PER_SQRT_HOUR,
-    "kinematic_noise": 0.3 * _PER_SQRT_HOUR,
-    "force_noise": 0.3 * _PER_SQRT_HOUR,
-}
+#: Time constant over which a block's information fades [s]: a tyre's cornering stiffness moves
+#: with tread wear, temperature and pressure over hours, not minutes; an hour keeps a 10-minute
+#: drive's blocks at 85 % or more of their weight.
+MEMORY_S = 3600.0
 #: VIF assumed before the residuals say: low-passed at 2 Hz and read at 10 Hz, white noise alone
 #: gives an AR(1) factor near 4, and road bank and a curve that misfits over a corner add to it;
 #: 10 keeps the first blocks' intervals on the wide side.
 INITIAL_VIF = 10.0
 #: Weight of :data:`INITIAL_VIF` against the estimate, in 10 s chunks.
 VIF_PRIOR_CHUNKS = 8.0
-#: Chunk of the batch-means factor [samples] (10 s at 10 Hz), and the chunks it needs to count
-#: (the batch fit's ``MIN_BATCHES``).
+#: Chunk of the batch-means factor [samples] (10 s at 10 Hz), and the batches a length needs to
+#: count (the batch fit's ``MIN_BATCHES``).
 CHUNK = 100
+#: Batch lengths of the batch-means factor [samples]: 10 s, a block (30 s), two blocks (60 s),
+#: the batch fit's ``INFLATION_BLOCKS``.
+BATCHES = (100, 300, 600)
 MIN_CHUNKS = 8
 #: Newton iterations per block at most, and the step (in posterior sds) that ends them.
 NEWTON_STEPS = 12
@@ -199,22 +194,22 @@ def _terms(theta, obs: CorneringObservations, names: tuple[str, ...], priors: La
     return steer, log_steer_sd, kinematic, log_kin_sd, beyond
 
 
-def block_information(
+def block_parts(
     theta: Float[Array, " p"],
     obs: CorneringObservations,
-    weights: Float[Array, "2"],
     names: tuple[str, ...],
     priors: LateralPriors,
-) -> tuple[Float[Array, ""], Float[Array, " p"], Float[Array, "p p"]]:
-    """The block's log-likelihood at ``theta``, its gradient and its Fisher information.
+) -> tuple[Float[Array, "3"], Float[Array, "3 p"], Float[Array, "3 p p"]]:
+    """The block's log-likelihood at ``theta`` in three parts (steering equation, kinematic
+    equation, peak bound; unweighted): each part's value, gradient and Fisher information.
 
     The likelihood is the batch model's (:func:`~tyrebayes.inference.lateral.model.lateral_model`):
-    each equation's Normal terms on its mask, weighted 1/VIF, and the peak bound (an axle cannot
-    give more than μ_y); the priors are the filter's Gaussian, not here. For a Normal term with
-    residual e and sd σ the Fisher information is ∇e∇eᵀ/σ² + 2∇log σ∇log σᵀ, for the peak
-    bound its Gauss-Newton matrix: all three from one forward-mode Jacobian of the per-sample
-    terms, about a third of the exact Hessian's cost (which also bends the wrong way far from
-    the mode), and gradient and value from the same pass.
+    each equation's Normal terms on its mask and the peak bound (an axle cannot give more than
+    μ_y); the priors are the filter's Gaussian, not here. For a Normal term with residual e and
+    sd σ the Fisher information is ∇e∇eᵀ/σ² + 2∇log σ∇log σᵀ, for the peak bound its
+    Gauss-Newton matrix: all from one forward-mode Jacobian of the per-sample terms, about a
+    third of the exact Hessian's cost (which also bends the wrong way far from the mode), and
+    gradient and value from the same pass.
     """
 
     def terms(t):
@@ -225,39 +220,55 @@ def block_information(
     )
     steer, log_steer_sd, kin, log_kin_sd, beyond = values
     j_steer, j_steer_sd, j_kin, j_kin_sd, j_beyond = jacobians
-    ws = weights[0] * obs.mask
-    wk = weights[1] * obs.mask_kinematic
+    ms = obs.mask.astype(theta.dtype)
+    mk = obs.mask_kinematic.astype(theta.dtype)
     zs = jnp.where(obs.mask, steer * jnp.exp(-log_steer_sd), 0.0)
     zk = jnp.where(obs.mask_kinematic, kin * jnp.exp(-log_kin_sd), 0.0)
     bb = jnp.where(obs.mask, beyond, 0.0)
-    value = (
-        jnp.sum(ws * (-0.5 * zs**2 - log_steer_sd))
-        + jnp.sum(wk * (-0.5 * zk**2 - log_kin_sd))
-        - 0.5 * jnp.sum(bb**2)
-    )
-    # ∂ℓ/∂θ of −½ z² − log σ with z = e/σ: −z/σ ∇e + (z² − 1) ∇log σ.
     inv_s = jnp.where(obs.mask, jnp.exp(-log_steer_sd), 0.0)
     inv_k = jnp.where(obs.mask_kinematic, jnp.exp(-log_kin_sd), 0.0)
-    gradient = (
-        (ws * -zs * inv_s) @ j_steer
-        + (ws * (zs**2 - 1.0)) @ j_steer_sd
-        + (wk * -zk * inv_k) @ j_kin
-        + (wk * (zk**2 - 1.0)) @ j_kin_sd
-        - bb @ j_beyond
+    value = jnp.stack(
+        [
+            jnp.sum(ms * (-0.5 * zs**2 - log_steer_sd)),
+            jnp.sum(mk * (-0.5 * zk**2 - log_kin_sd)),
+            -0.5 * jnp.sum(bb**2),
+        ]
     )
-    scaled_s = j_steer * (jnp.sqrt(ws) * inv_s)[:, None]
-    scaled_k = j_kin * (jnp.sqrt(wk) * inv_k)[:, None]
-    sd_s = j_steer_sd * jnp.sqrt(2.0 * ws)[:, None]
-    sd_k = j_kin_sd * jnp.sqrt(2.0 * wk)[:, None]
+    # ∂/∂θ of −½ z² − log σ with z = e/σ: −z/σ ∇e + (z² − 1) ∇log σ.
+    gradient = jnp.stack(
+        [
+            (-zs * inv_s) @ j_steer + (ms * (zs**2 - 1.0)) @ j_steer_sd,
+            (-zk * inv_k) @ j_kin + (mk * (zk**2 - 1.0)) @ j_kin_sd,
+            -bb @ j_beyond,
+        ]
+    )
+    scaled_s = j_steer * inv_s[:, None]
+    scaled_k = j_kin * inv_k[:, None]
+    sd_s = j_steer_sd * jnp.sqrt(2.0 * ms)[:, None]
+    sd_k = j_kin_sd * jnp.sqrt(2.0 * mk)[:, None]
     peak = jnp.where(obs.mask[:, None], j_beyond, 0.0)
-    information = (
-        scaled_s.T @ scaled_s
-        + scaled_k.T @ scaled_k
-        + sd_s.T @ sd_s
-        + sd_k.T @ sd_k
-        + peak.T @ peak
+    information = jnp.stack(
+        [
+            scaled_s.T @ scaled_s + sd_s.T @ sd_s,
+            scaled_k.T @ scaled_k + sd_k.T @ sd_k,
+            peak.T @ peak,
+        ]
     )
     return value, gradient, information
+
+
+def block_information(
+    theta: Float[Array, " p"],
+    obs: CorneringObservations,
+    weights: Float[Array, "2"],
+    names: tuple[str, ...],
+    priors: LateralPriors,
+) -> tuple[Float[Array, ""], Float[Array, " p"], Float[Array, "p p"]]:
+    """The block's log-likelihood at ``theta`` with the equations weighted 1/VIF, its gradient
+    and its Fisher information (:func:`block_parts`, the peak bound unweighted)."""
+    value, gradient, information = block_parts(theta, obs, names, priors)
+    w = jnp.concatenate([weights, jnp.ones(1, weights.dtype)])
+    return w @ value, w @ gradient, jnp.einsum("k,kij->ij", w, information)
 
 
 def block_log_likelihood(
@@ -285,54 +296,90 @@ class ResidualMoments(eqx.Module):
     ----------
     count, total, squares, lagged : Float[Array, ""]
         Samples, Σr, Σr², Σ r_t r_(t−1) over neighbouring valid samples.
-    chunks, chunk_total, chunk_squares : Float[Array, ""]
-        10 s chunks with at least half their samples valid, Σ of their means, Σ of their squares.
+    batches, batch_total, batch_squares : Float[Array, " levels"]
+        Per batch length of :data:`BATCHES` (10, 30, 60 s): batches with at least half their
+        samples valid, Σ of their means, Σ of their squares.
+    pending_sum, pending_count : Float[Array, ""]
+        Σr and samples of the block before, while a 60 s batch is half full.
+    pending : Bool[Array, ""]
+        Whether a 60 s batch is half full.
+    sizes : Float[Array, " levels"]
+        The batch lengths [samples]: 10 s, a block, two blocks.
     """
 
     count: Float[Array, ""]
     total: Float[Array, ""]
     squares: Float[Array, ""]
     lagged: Float[Array, ""]
-    chunks: Float[Array, ""]
-    chunk_total: Float[Array, ""]
-    chunk_squares: Float[Array, ""]
+    batches: Float[Array, " levels"]
+    batch_total: Float[Array, " levels"]
+    batch_squares: Float[Array, " levels"]
+    pending_sum: Float[Array, ""]
+    pending_count: Float[Array, ""]
+    pending: Bool[Array, ""]
+    sizes: Float[Array, " levels"]
 
     @classmethod
     def empty(cls, dtype) -> ResidualMoments:
         zero = jnp.zeros((), dtype)
-        return cls(zero, zero, zero, zero, zero, zero, zero)
+        levels = jnp.zeros(len(BATCHES), dtype)
+        sizes = jnp.asarray(BATCHES, dtype)
+        return cls(
+            zero, zero, zero, zero, levels, levels, levels, zero, zero, jnp.array(False), sizes
+        )
 
     def add(self, r: Float[Array, " n"], mask: Bool[Array, " n"]) -> ResidualMoments:
-        """These sums with a block's residuals ``r`` on ``mask`` added."""
+        """These sums with a block's residuals ``r`` on ``mask`` added (a block is 30 s: three
+        10 s batches, one 30 s batch, half of a 60 s batch)."""
         x = jnp.where(mask, r, 0.0)
         both = mask[1:] & mask[:-1]
+        dtype = x.dtype
         n = x.shape[0] - x.shape[0] % CHUNK
-        cx = x[:n].reshape(-1, CHUNK)
-        cm = mask[:n].reshape(-1, CHUNK)
-        valid = jnp.sum(cm, axis=1)
-        counted = valid >= CHUNK // 2
-        means = jnp.where(counted, jnp.sum(cx, axis=1) / jnp.maximum(valid, 1), 0.0)
+        chunk_sum = jnp.sum(x[:n].reshape(-1, CHUNK), axis=1)
+        chunk_count = jnp.sum(mask[:n].reshape(-1, CHUNK), axis=1).astype(dtype)
+        block_sum, block_count = jnp.sum(x), jnp.sum(mask).astype(dtype)
+        pair_sum, pair_count = self.pending_sum + block_sum, self.pending_count + block_count
+
+        def level(sums, counts, size, when=True):
+            counted = when & (counts >= size // 2)
+            means = jnp.where(counted, sums / jnp.maximum(counts, 1.0), 0.0)
+            return jnp.sum(counted).astype(dtype), jnp.sum(means), jnp.sum(means**2)
+
+        width = x.shape[0]
+        levels = [
+            level(chunk_sum, chunk_count, CHUNK),
+            level(block_sum, block_count, width),
+            level(pair_sum, pair_count, 2 * width, when=self.pending),
+        ]
+        added = [jnp.stack(v) for v in zip(*levels, strict=True)]
         return ResidualMoments(
-            count=self.count + jnp.sum(mask),
-            total=self.total + jnp.sum(x),
+            count=self.count + block_count,
+            total=self.total + block_sum,
             squares=self.squares + jnp.sum(x**2),
             lagged=self.lagged + jnp.sum(jnp.where(both, x[1:] * x[:-1], 0.0)),
-            chunks=self.chunks + jnp.sum(counted),
-            chunk_total=self.chunk_total + jnp.sum(means),
-            chunk_squares=self.chunk_squares + jnp.sum(means**2),
+            batches=self.batches + added[0],
+            batch_total=self.batch_total + added[1],
+            batch_squares=self.batch_squares + added[2],
+            pending_sum=jnp.where(self.pending, 0.0, block_sum),
+            pending_count=jnp.where(self.pending, 0.0, block_count),
+            pending=~self.pending,
+            sizes=jnp.asarray([CHUNK, width, 2 * width], dtype),
         )
 
     def inflation(self) -> Float[Array, ""]:
-        """The VIF in use: the estimate (AR(1), 10 s batch means), blended with the initial."""
+        """The VIF in use: the estimate (AR(1) and batch means, the batch fit's rule), blended
+        with :data:`INITIAL_VIF` over the first :data:`VIF_PRIOR_CHUNKS` 10 s of data."""
         n = jnp.maximum(self.count, 1.0)
         centre = self.total / n
         var = jnp.maximum(self.squares / n - centre**2, 1e-30)
         phi = jnp.clip((self.lagged / n - centre**2) / var, 0.0, 0.995)
         ar1 = (1.0 + phi) / (1.0 - phi)
-        chunks = jnp.maximum(self.chunks, 1.0)
-        chunk_var = self.chunk_squares / chunks - (self.chunk_total / chunks) ** 2
-        batch = jnp.where(self.chunks >= MIN_CHUNKS, CHUNK * chunk_var / var, 1.0)
-        estimate = jnp.where(self.count >= 20, jnp.maximum(jnp.maximum(ar1, batch), 1.0), 1.0)
+        batches = jnp.maximum(self.batches, 1.0)
+        batch_var = self.batch_squares / batches - (self.batch_total / batches) ** 2
+        factors = jnp.where(self.batches >= MIN_CHUNKS, self.sizes * batch_var / var, 1.0)
+        estimate = jnp.where(
+            self.count >= 20, jnp.maximum(jnp.maximum(ar1, jnp.max(factors)), 1.0), 1.0
+        )
         seen = self.count / CHUNK
         return (VIF_PRIOR_CHUNKS * INITIAL_VIF + seen * estimate) / (VIF_PRIOR_CHUNKS + seen)
 
@@ -340,10 +387,21 @@ class ResidualMoments(eqx.Module):
 class LateralState(eqx.Module):
     """The estimator's state after a block.
 
+    The data's part is kept as Gaussian messages per likelihood part (steering equation,
+    kinematic equation, peak bound), unweighted: each block adds its Fisher information J at
+    its mode θ* and J θ* + ∇ℓ(θ*). The posterior is the prior times the messages, the
+    equations' weighted by 1/VIF as estimated *now*: a VIF that grows as slower correlations
+    show (30 s and 60 s batches need minutes of data) re-weights every earlier block, as the
+    batch fit's one VIF weights all of its samples.
+
     Attributes
     ----------
     mean, cov : Array
-        Gaussian over the unconstrained coordinates.
+        The posterior Gaussian over the unconstrained coordinates.
+    information : Float[Array, "3 p p"]
+        Σ of the blocks' J, per part.
+    shift : Float[Array, "3 p"]
+        Σ of the blocks' J θ* + ∇ℓ(θ*), per part.
     time_s : Float[Array, ""]
         Time of the last block's end [s].
     steering, kinematic : ResidualMoments
@@ -354,11 +412,20 @@ class LateralState(eqx.Module):
 
     mean: Float[Array, " p"]
     cov: Float[Array, "p p"]
+    information: Float[Array, "3 p p"]
+    shift: Float[Array, "3 p"]
     time_s: Float[Array, ""]
     steering: ResidualMoments
     kinematic: ResidualMoments
     n_samples: Float[Array, ""]
     n_skipped: Float[Array, ""]
+
+
+def _symmetric_inverse(matrix: Float[Array, "p p"]) -> Float[Array, "p p"]:
+    """Inverse of a precision (positive definite by construction: a prior's plus Fisher
+    informations), by Cholesky."""
+    factor = jnp.linalg.cholesky(0.5 * (matrix + matrix.T))
+    return jax.scipy.linalg.cho_solve((factor, True), jnp.eye(matrix.shape[0], dtype=matrix.dtype))
 
 
 class OnlineLateralEstimator(eqx.Module):
@@ -369,15 +436,15 @@ class OnlineLateralEstimator(eqx.Module):
     prior : LateralPrior
     priors : LateralPriors
         The batch model's prior scales (its peak margin, its effects).
-    drift : Float[Array, "p"]
-        Random-walk sd per √s of each coordinate (:data:`DRIFT_PER_SQRT_S`).
+    memory_s : float
+        Time constant over which old blocks' messages fade [s] (:data:`MEMORY_S`).
     newton_steps : int
     newton_tolerance : float
     """
 
     prior: LateralPrior
     priors: LateralPriors = eqx.field(static=True)
-    drift: Float[Array, " p"]
+    memory_s: float = eqx.field(static=True, default=None)
     newton_steps: int = eqx.field(static=True, default=NEWTON_STEPS)
     newton_tolerance: float = eqx.field(static=True, default=NEWTON_TOLERANCE)
 
@@ -398,16 +465,18 @@ class OnlineLateralEstimator(eqx.Module):
         """
         priors = LateralPriors() if priors is None else priors
         prior = lateral_prior(priors, surface=surface, steering_ratio=steering_ratio)
-        drift = jnp.asarray([DRIFT_PER_SQRT_S.get(n, 0.0) for n in prior.names])
-        return cls(prior=prior, priors=priors, drift=drift)
+        return cls(prior=prior, priors=priors, memory_s=MEMORY_S)
 
     def init(self) -> LateralState:
         """The state before any block: the prior."""
         dtype = self.prior.mean.dtype
         zero = jnp.zeros((), dtype)
+        p = self.prior.mean.shape[0]
         return LateralState(
             mean=self.prior.mean,
             cov=self.prior.cov,
+            information=jnp.zeros((3, p, p), dtype),
+            shift=jnp.zeros((3, p), dtype),
             time_s=zero,
             steering=ResidualMoments.empty(dtype),
             kinematic=ResidualMoments.empty(dtype),
@@ -415,36 +484,57 @@ class OnlineLateralEstimator(eqx.Module):
             n_skipped=zero,
         )
 
+    def _posterior(self, information, shift, steering, kinematic):
+        """The prior times the messages, the equations weighted 1/VIF: mean and covariance."""
+        w = jnp.stack(
+            [1.0 / steering.inflation(), 1.0 / kinematic.inflation(), jnp.ones(())]
+        ).astype(shift.dtype)
+        prior_precision = _symmetric_inverse(self.prior.cov)
+        precision = prior_precision + jnp.einsum("k,kij->ij", w, information)
+        cov = _symmetric_inverse(precision)
+        mean = cov @ (prior_precision @ self.prior.mean + w @ shift)
+        return mean, cov, w[:2]
+
     def update(
         self, state: LateralState, obs: CorneringObservations, time_s, skipped
     ) -> LateralState:
-        """One block: drift since the last, Laplace update by the block, residuals' sums."""
+        """One block: fade, Laplace update by the block, its messages, the residuals' sums."""
         names = self.prior.names
         elapsed = jnp.maximum(time_s - state.time_s, 0.0)
-        cov = state.cov + jnp.diag(self.drift**2 * elapsed)
-        weights = 1.0 / jnp.stack([state.steering.inflation(), state.kinematic.inflation()])
+        fade = jnp.exp(-elapsed / self.memory_s)
+        information, shift = fade * state.information, fade * state.shift
+        mean, cov, weights = self._posterior(information, shift, state.steering, state.kinematic)
 
         def log_likelihood(theta):
             return block_log_likelihood(theta, obs, weights, names, self.priors)
 
-        def information(theta):
+        def curvature(theta):
             return block_information(theta, obs, weights, names, self.priors)
 
         updated = laplace_update(
             log_likelihood,
-            state.mean,
+            mean,
             cov,
             self.newton_steps,
             self.newton_tolerance,
-            curvature=information,
+            curvature=curvature,
         )
-        steer, kinematic = residuals(obs, constrained(updated.mean, names))
+        mode = updated.mean
+        _, gradient, block = block_parts(mode, obs, names, self.priors)
+        information = information + block
+        shift = shift + jnp.einsum("kij,j->ki", block, mode) + gradient
+        steer, kinematic = residuals(obs, constrained(mode, names))
+        steering = state.steering.add(steer, obs.mask)
+        kinematic = state.kinematic.add(kinematic, obs.mask_kinematic)
+        mean, cov, _ = self._posterior(information, shift, steering, kinematic)
         return LateralState(
-            mean=updated.mean,
-            cov=updated.cov,
+            mean=mean,
+            cov=cov,
+            information=information,
+            shift=shift,
             time_s=jnp.maximum(time_s, state.time_s),
-            steering=state.steering.add(steer, obs.mask),
-            kinematic=state.kinematic.add(kinematic, obs.mask_kinematic),
+            steering=steering,
+            kinematic=kinematic,
             n_samples=state.n_samples + jnp.sum(obs.mask),
             n_skipped=state.n_skipped + skipped,
         )
@@ -524,7 +614,8 @@ def online_lateral(
 
 
 __all__ = [
-    "DRIFT_PER_SQRT_S",
+    "MEMORY_S",
+    "block_parts",
     "LateralPrior",
     "LateralState",
     "OnlineLateralEstimator",
