@@ -23,6 +23,14 @@ part of the state is kept as per-equation Gaussian messages, re-weighted by the 
 at every step (:class:`LateralState`): the posterior after 10 minutes weights every block by the
 VIF of all 10 minutes, as the batch fit does.
 
+A fixed-lag window: the last :data:`WINDOW_BLOCKS` blocks (5 minutes) keep their exact
+likelihood, and each step takes Newton steps (from the last mode) to the mode of prior × the
+older blocks' messages × the window's likelihood; a block's message is taken only when it leaves
+the window, at the mode it helped find. A block linearised where the estimate stood after its
+own 30 s (the first minutes, from a wide prior) would fix a wrong linearisation for good: on a
+nonlinear front/rear level one early block can pull c_y far off and the narrowed Gaussian never
+recovers. The cost is a window's likelihood per step instead of a block's.
+
 Old blocks fade over :data:`MEMORY_S` (slow change of the tyres).
 
 Readiness, the batch fit's identification rule
@@ -85,6 +93,11 @@ CHUNK = 100
 #: the batch fit's ``INFLATION_BLOCKS``.
 BATCHES = (100, 300, 600)
 MIN_CHUNKS = 8
+#: Blocks whose likelihood is kept exact and whose messages are taken again at every step
+#: (5 minutes): a block's message taken at a mode far from the final one (the first minutes,
+#: from a wide prior) would fix a wrong linearisation for good; inside the window it is
+#: re-linearised as the estimate settles (a fixed-lag Laplace smoother).
+WINDOW_BLOCKS = 10
 #: Newton iterations per block at most, and the step (in posterior sds) that ends them.
 NEWTON_STEPS = 12
 NEWTON_TOLERANCE = 0.05
@@ -384,6 +397,75 @@ class ResidualMoments(eqx.Module):
         return (VIF_PRIOR_CHUNKS * INITIAL_VIF + seen * estimate) / (VIF_PRIOR_CHUNKS + seen)
 
 
+class Window(eqx.Module):
+    """The samples of the last blocks (oldest first); empty rows fully masked.
+
+    Attributes
+    ----------
+    speed, yaw_rate, yaw_acceleration, ay, steering : Float[Array, "w width"]
+    mask, mask_kinematic : Bool[Array, "w width"]
+    """
+
+    speed: Float[Array, "w width"]
+    yaw_rate: Float[Array, "w width"]
+    yaw_acceleration: Float[Array, "w width"]
+    ay: Float[Array, "w width"]
+    steering: Float[Array, "w width"]
+    mask: Bool[Array, "w width"]
+    mask_kinematic: Bool[Array, "w width"]
+
+    @classmethod
+    def empty(cls, blocks: int, width: int, dtype) -> Window:
+        zeros = jnp.zeros((blocks, width), dtype)
+        false = jnp.zeros((blocks, width), bool)
+        return cls(zeros + 10.0, zeros, zeros, zeros, zeros, false, false)
+
+    def pushed(self, obs: CorneringObservations) -> Window:
+        """The window with ``obs`` appended and the oldest block dropped."""
+
+        def push(rows, new):
+            return jnp.concatenate([rows[1:], new[None]], axis=0)
+
+        return Window(
+            *(
+                push(getattr(self, f), getattr(obs, f))
+                for f in (
+                    "speed",
+                    "yaw_rate",
+                    "yaw_acceleration",
+                    "ay",
+                    "steering",
+                    "mask",
+                    "mask_kinematic",
+                )
+            )
+        )
+
+    def block(self, i, like: CorneringObservations) -> CorneringObservations:
+        """Row ``i`` as observations, with ``like``'s constants."""
+        return eqx.tree_at(
+            lambda o: (
+                o.speed,
+                o.yaw_rate,
+                o.yaw_acceleration,
+                o.ay,
+                o.steering,
+                o.mask,
+                o.mask_kinematic,
+            ),
+            like,
+            (
+                self.speed[i],
+                self.yaw_rate[i],
+                self.yaw_acceleration[i],
+                self.ay[i],
+                self.steering[i],
+                self.mask[i],
+                self.mask_kinematic[i],
+            ),
+        )
+
+
 class LateralState(eqx.Module):
     """The estimator's state after a block.
 
@@ -408,12 +490,16 @@ class LateralState(eqx.Module):
         The two equations' residual sums (their VIFs).
     n_samples, n_skipped : Float[Array, ""]
         Samples that entered the steering equation; samples left out for |a_x|.
+    window : Window
+        The last :data:`WINDOW_BLOCKS` blocks' samples, whose likelihood is kept exact (their
+        messages are not in ``information``/``shift``).
     """
 
     mean: Float[Array, " p"]
     cov: Float[Array, "p p"]
     information: Float[Array, "3 p p"]
     shift: Float[Array, "3 p"]
+    window: Window
     time_s: Float[Array, ""]
     steering: ResidualMoments
     kinematic: ResidualMoments
@@ -467,8 +553,8 @@ class OnlineLateralEstimator(eqx.Module):
         prior = lateral_prior(priors, surface=surface, steering_ratio=steering_ratio)
         return cls(prior=prior, priors=priors, memory_s=MEMORY_S)
 
-    def init(self) -> LateralState:
-        """The state before any block: the prior."""
+    def init(self, width: int = 300) -> LateralState:
+        """The state before any block of ``width`` samples: the prior."""
         dtype = self.prior.mean.dtype
         zero = jnp.zeros((), dtype)
         p = self.prior.mean.shape[0]
@@ -482,6 +568,7 @@ class OnlineLateralEstimator(eqx.Module):
             kinematic=ResidualMoments.empty(dtype),
             n_samples=zero,
             n_skipped=zero,
+            window=Window.empty(WINDOW_BLOCKS, width, dtype),
         )
 
     def _posterior(self, information, shift, steering, kinematic):
@@ -498,40 +585,78 @@ class OnlineLateralEstimator(eqx.Module):
     def update(
         self, state: LateralState, obs: CorneringObservations, time_s, skipped
     ) -> LateralState:
-        """One block: fade, Laplace update by the block, its messages, the residuals' sums."""
+        """One block: the oldest window block's message frozen, the new block in, the mode of
+        prior × frozen messages × the window's exact likelihood, the residuals' sums."""
         names = self.prior.names
         elapsed = jnp.maximum(time_s - state.time_s, 0.0)
         fade = jnp.exp(-elapsed / self.memory_s)
-        information, shift = fade * state.information, fade * state.shift
+        # The block leaving the window: its message at the latest mode, which it helped find.
+        _, gradient, leaving = block_parts(
+            state.mean, state.window.block(0, obs), names, self.priors
+        )
+        information = fade * (state.information + leaving)
+        shift = fade * (state.shift + jnp.einsum("kij,j->ki", leaving, state.mean) + gradient)
+        window = state.window.pushed(obs)
         mean, cov, weights = self._posterior(information, shift, state.steering, state.kinematic)
+        precision = _symmetric_inverse(cov)
+        start = state.mean
+        rows = jnp.arange(WINDOW_BLOCKS)
+
+        def window_parts(theta):
+            return jax.vmap(
+                lambda i: block_information(
+                    theta, window.block(i, obs), weights, names, self.priors
+                )
+            )(rows)
+
+        # Newton from the latest mode, not the frozen messages' mean: the objective
+        # ½(θ − m)ᵀP⁻¹(θ − m) − ℓ(θ) written about ``start`` (laplace_update's mean) by moving
+        # the difference of the two quadratics into the likelihood.
+        def moved(theta):
+            d, e = theta - mean, theta - start
+            return -0.5 * d @ precision @ d + 0.5 * e @ precision @ e
 
         def log_likelihood(theta):
-            return block_log_likelihood(theta, obs, weights, names, self.priors)
+            value = jax.vmap(
+                lambda i: block_log_likelihood(
+                    theta, window.block(i, obs), weights, names, self.priors
+                )
+            )(rows)
+            return jnp.sum(value) + moved(theta)
 
         def curvature(theta):
-            return block_information(theta, obs, weights, names, self.priors)
+            value, gradient, info = window_parts(theta)
+            return (
+                jnp.sum(value) + moved(theta),
+                jnp.sum(gradient, axis=0) + precision @ (mean - start),
+                jnp.sum(info, axis=0),
+            )
 
-        updated = laplace_update(
+        mode = laplace_update(
             log_likelihood,
-            mean,
+            start,
             cov,
             self.newton_steps,
             self.newton_tolerance,
             curvature=curvature,
-        )
-        mode = updated.mean
-        _, gradient, block = block_parts(mode, obs, names, self.priors)
-        information = information + block
-        shift = shift + jnp.einsum("kij,j->ki", block, mode) + gradient
+        ).mean
         steer, kinematic = residuals(obs, constrained(mode, names))
         steering = state.steering.add(steer, obs.mask)
         kinematic = state.kinematic.add(kinematic, obs.mask_kinematic)
-        mean, cov, _ = self._posterior(information, shift, steering, kinematic)
+        _, gradient, block = jax.vmap(
+            lambda i: block_parts(mode, window.block(i, obs), names, self.priors)
+        )(rows)
+        window_information = jnp.sum(block, axis=0)
+        window_shift = jnp.einsum("kij,j->ki", window_information, mode) + jnp.sum(gradient, 0)
+        mean, cov, _ = self._posterior(
+            information + window_information, shift + window_shift, steering, kinematic
+        )
         return LateralState(
             mean=mean,
             cov=cov,
             information=information,
             shift=shift,
+            window=window,
             time_s=jnp.maximum(time_s, state.time_s),
             steering=steering,
             kinematic=kinematic,
@@ -609,7 +734,7 @@ def online_lateral(
     estimator = OnlineLateralEstimator.create(
         priors=priors, surface=surface, steering_ratio=float(blocks.steering_ratio)
     )
-    last, trajectory = run_online_lateral(estimator, estimator.init(), blocks)
+    last, trajectory = run_online_lateral(estimator, estimator.init(blocks.speed.shape[1]), blocks)
     return estimator.result(last), trajectory
 
 
