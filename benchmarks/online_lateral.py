@@ -61,8 +61,9 @@ from tyrebayes.streams import read_stream, validate_stream  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DIR = ROOT.parent / "shared" / "data" / "external_lateral"
 KEYS = ("c_y_front", "c_y_rear", "understeer_gradient")
-#: Braking in a corner: a_x below minus this [m/s²] ...
-BRAKING_MPS2 = 1.5
+#: Braking in a corner: a_x below minus this [m/s²] (the drives brake gently in corners: a_x
+#: below −1.5 m/s² at |a_y| > 2 m/s² for under 2 s per drive; below −1 for up to 12 s) ...
+BRAKING_MPS2 = 1.0
 #: ... while |a_y| is above this [m/s²], for at least this long in a block [s].
 CORNER_AY_MPS2 = 2.0
 MIN_BRAKING_CORNER_S = 1.0
