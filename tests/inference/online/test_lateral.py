@@ -4,6 +4,7 @@ its block likelihood against autodiff.
 Every replay is 300 s (10 blocks of 30 s), so the tests share one compiled run.
 """
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -58,17 +59,35 @@ def test_mixed_replay_is_ready_and_agrees_with_the_batch_fit(mixed):
     assert trajectory.time_s.shape == (10,) and sd[-1] < sd[0]
 
 
-def test_a_minute_of_steady_cornering_reports_the_gradient_only():
-    # Steady cornering narrows K alone; a minute of it is too little for the curve's bend to
-    # tell front from rear. Padded to the replays' 10 blocks (one compiled run).
-    obs, truth = _observations("steady", 2, duration_s=60.0)
-    result, _ = online_lateral(lateral_blocks(obs, n_blocks=10))
-    d = result.to_dict()
+def test_a_ridge_along_the_axle_level_reports_the_gradient_only():
+    """Steady cornering's posterior: K = (1/c_f − 1/c_r)/g tight, the axles' common level wide.
+    The rule reports K and withholds c_y front and rear, saying why."""
+    est = OnlineLateralEstimator.create()
+    state = est.init()
+    c_f, c_r = 14.0, 18.0
+    # log c_y of both axles moving together by a common factor e^s changes 1/c_f − 1/c_r by
+    # (1/c_f − 1/c_r)(e^(−s) − 1): the ridge direction in (x_f, x_r) is (1, 1); K's gradient
+    # is (−1/c_f, 1/c_r)/g. Level sd 0.3 (above half the prior's 0.5), K's direction narrow.
+    ridge = np.asarray([1.0, 1.0]) / np.sqrt(2.0)
+    across = np.asarray([1.0, -1.0]) / np.sqrt(2.0)
+    block = 0.3**2 * 2 * np.outer(ridge, ridge) + 0.005**2 * np.outer(across, across)
+    cov = np.asarray(state.cov).copy()
+    cov[:2, :2] = block
+    mean = np.asarray(state.mean).copy()
+    mean[:2] = np.log([c_f, c_r])
+    ridge_state = eqx.tree_at(
+        lambda s: (s.mean, s.cov), state, (jnp.asarray(mean), jnp.asarray(cov))
+    )
+    result = est.result(ridge_state)
     assert result.k_identified and not result.split_identified
+    d = result.to_dict()
     assert d["c_y_front"] is None and d["c_y_rear"] is None and not d["ready"]
-    assert "front from rear" in d["reason"]
-    lo, hi = d["understeer_gradient"]["hdi_90"]
-    assert lo <= truth.understeer_gradient <= hi
+    assert d["understeer_gradient_ready"] and "front from rear" in d["reason"]
+    assert set(d["understeer_gradient"]) == {"mean", "sd", "hdi_90"}
+    # Narrow the level as well: front and rear are told apart.
+    cov[:2, :2] = 0.05**2 * 2 * np.outer(ridge, ridge) + 0.005**2 * np.outer(across, across)
+    told = est.result(eqx.tree_at(lambda s: s.cov, ridge_state, jnp.asarray(cov)))
+    assert told.split_identified and told.to_dict()["c_y_front"] is not None
 
 
 def test_prior_alone_is_not_yet():
