@@ -140,7 +140,7 @@ def _drive(folder: Path, name: str, truth: dict, reps: int) -> dict:
     prior_sd = float(result.prior_log_c_y_sd)
     log_sd = np.sqrt(np.diagonal(np.asarray(trajectory.log_c_y_cov), axis1=1, axis2=2))
     k_limit = result.contraction * prior_k_sd(float(result.prior_log_c_y_mean), prior_sd)
-    ready_k = est["understeer_gradient"]["sd"] <= k_limit
+    ready_k = np.asarray(trajectory.vif_settled) & (est["understeer_gradient"]["sd"] <= k_limit)
     ready_split = ready_k & np.all(log_sd <= result.contraction * prior_sd, axis=1)
     jump_rows, worst = _jumps(blocks, trajectory, ready_k, ready_split)
     ekf = _ekf(validated.data, vehicle)

@@ -33,7 +33,9 @@ recovers. The cost is a window's likelihood per step instead of a block's.
 
 Old blocks fade over :data:`MEMORY_S` (slow change of the tyres).
 
-Readiness, the batch fit's identification rule
+Readiness waits until the VIFs have seen :data:`MIN_CHUNKS` batches of 30 s (4 minutes of
+cornering data): before that the intervals leave out slow correlations they have not yet
+measured. Then the batch fit's identification rule
 (:data:`~tyrebayes.inference.lateral.fit.K_CONTRACTION`) in the Gaussian: the understeer gradient
 is reported once its sd is at most half its prior's;
 c_y front and rear once, in addition, each axle's log-sd is at most half its prior's: steady
@@ -514,6 +516,13 @@ def _symmetric_inverse(matrix: Float[Array, "p p"]) -> Float[Array, "p p"]:
     return jax.scipy.linalg.cho_solve((factor, True), jnp.eye(matrix.shape[0], dtype=matrix.dtype))
 
 
+def _settled(state: LateralState) -> Bool[Array, ""]:
+    """Whether both equations' VIFs have seen :data:`MIN_CHUNKS` batches of a block's length
+    (30 s): before that the slow correlations that dominate on real roads are not measured,
+    and the intervals, however narrow, are not yet trusted (readiness waits for it)."""
+    return (state.steering.batches[1] >= MIN_CHUNKS) & (state.kinematic.batches[1] >= MIN_CHUNKS)
+
+
 class OnlineLateralEstimator(eqx.Module):
     """Recursive estimator of a car's lateral tyre parameters (module docstring).
 
@@ -673,10 +682,13 @@ class OnlineLateralEstimator(eqx.Module):
 
         def step(carry, i):
             new = self.update(carry, blocks.block(i), blocks.time_s[i], blocks.n_skipped[i])
-            return new, (new.time_s, new.mean[rows], new.cov[rows[:, None], rows[None, :]])
+            moments = (new.time_s, new.mean[rows], new.cov[rows[:, None], rows[None, :]])
+            return new, (*moments, _settled(new))
 
-        last, (time_s, mean, cov) = jax.lax.scan(step, state, jnp.arange(blocks.n_blocks))
-        return last, LateralTrajectory(time_s=time_s, log_c_y_mean=mean, log_c_y_cov=cov)
+        last, (time_s, mean, cov, settled) = jax.lax.scan(step, state, jnp.arange(blocks.n_blocks))
+        return last, LateralTrajectory(
+            time_s=time_s, log_c_y_mean=mean, log_c_y_cov=cov, vif_settled=settled
+        )
 
     def result(self, state: LateralState) -> OnlineLateral:
         """The estimate of a state (readiness included, module docstring)."""
@@ -694,6 +706,7 @@ class OnlineLateralEstimator(eqx.Module):
             n_skipped_longitudinal=state.n_skipped,
             steering_vif=state.steering.inflation(),
             kinematic_vif=state.kinematic.inflation(),
+            vif_settled=_settled(state),
         )
 
 

@@ -14,7 +14,7 @@ import math
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array, Bool, Float
 
 from ..lateral.data import G
 from ..summary import summarize
@@ -66,11 +66,14 @@ class LateralTrajectory(eqx.Module):
         Mean of log c_y front, rear.
     log_c_y_cov : Float[Array, "blocks 2 2"]
         Their covariance.
+    vif_settled : Bool[Array, " blocks"]
+        Whether the VIFs had seen enough 30 s batches (:attr:`OnlineLateral.vif_settled`).
     """
 
     time_s: Float[Array, " blocks"]
     log_c_y_mean: Float[Array, "blocks 2"]
     log_c_y_cov: Float[Array, "blocks 2 2"]
+    vif_settled: Bool[Array, " blocks"]
 
     def estimates(self) -> dict[str, dict[str, np.ndarray]]:
         """Per block: ``c_y_front``, ``c_y_rear`` and ``understeer_gradient`` as arrays of
@@ -79,7 +82,7 @@ class LateralTrajectory(eqx.Module):
         Examples
         --------
         >>> t = LateralTrajectory(jnp.ones(1), jnp.log(jnp.asarray([[14.0, 18.0]])),
-        ...                       jnp.eye(2)[None] * 1e-4)
+        ...                       jnp.eye(2)[None] * 1e-4, jnp.ones(1, bool))
         >>> round(float(t.estimates()["c_y_front"]["low"][0]), 2)
         13.77
         """
@@ -122,6 +125,9 @@ class OnlineLateral(eqx.Module):
         10 Hz samples read; samples left out for |a_x| (:mod:`.lateral_blocks`).
     steering_vif, kinematic_vif : Float[Array, ""]
         The equations' variance inflation in use.
+    vif_settled : Bool[Array, ""]
+        Whether both VIFs have seen enough 30 s batches to include the slow correlations
+        (:mod:`.lateral`); nothing is reported before.
     """
 
     mean: Float[Array, " p"]
@@ -135,13 +141,16 @@ class OnlineLateral(eqx.Module):
     n_skipped_longitudinal: Float[Array, ""]
     steering_vif: Float[Array, ""]
     kinematic_vif: Float[Array, ""]
+    vif_settled: Bool[Array, ""]
 
     def _rows(self) -> list[int]:
         return [self.names.index("c_y_front"), self.names.index("c_y_rear")]
 
     @property
     def k_identified(self) -> bool:
-        """Whether K's sd is at most ``contraction`` of its prior's."""
+        """Whether the VIFs are settled and K's sd is at most ``contraction`` of its prior's."""
+        if not bool(self.vif_settled):
+            return False
         rows = self._rows()
         _, k_sd = k_moments(self.mean[jnp.asarray(rows)], self.cov[np.ix_(rows, rows)])
         limit = self.contraction * prior_k_sd(
@@ -178,6 +187,11 @@ class OnlineLateral(eqx.Module):
 
     def reason(self) -> str:
         """Why a value is withheld ("" when all are reported)."""
+        if not bool(self.vif_settled):
+            return (
+                "lateral: not yet: the residuals' slow correlation (30 s batches) is not "
+                "measured yet, so the intervals are not yet trusted"
+            )
         if not self.k_identified:
             return (
                 "lateral: not yet: the cornering so far has not narrowed the understeer "
