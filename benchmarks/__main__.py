@@ -173,6 +173,12 @@ BENCHMARKS: dict[str, Benchmark] = {
             minutes=40,
         ),
         Benchmark(
+            "online_lateral",
+            "in-car lateral estimator on the 8 cornering drives: agreement, braking corners, speed",
+            quick=("--drives", "l00,l04", "--reps", "1"),
+            minutes=10,
+        ),
+        Benchmark(
             "online_change",
             "in-car estimator: tyre swaps found, false alarms",
             quick=("--swaps", "2", "--cars", "2"),

@@ -45,6 +45,11 @@ def test_online_json_trajectory(short_stream, capsys):
     assert all((r["alarm_kind"] in ("swap", "change")) == r["alarm"] for r in trajectory)
     assert "whole stream" in payload["note"]
     assert payload["step_s"] == payload["max_step_s"] == 30.0
+    # The output ends with the lateral object: null with the reason on a drive that does not
+    # corner enough (this one's simulator is quasi-static in yaw).
+    assert list(payload)[-2:] == ["lateral_reason", "lateral"]
+    if payload["lateral"] is None:
+        assert payload["lateral_reason"].startswith("lateral: ")
 
 
 def test_online_text_and_bad_input(short_stream, capsys, tmp_path):
@@ -61,3 +66,23 @@ def test_online_text_and_bad_input(short_stream, capsys, tmp_path):
     err = capsys.readouterr().err.strip()
     assert "max_step_s: expected a whole multiple of 5.0 s ≥ step_s = 30.0" in err
     assert len(err.splitlines()) == 1
+
+
+@pytest.mark.early  # compiles the lateral estimator
+def test_online_lateral_object_on_a_cornering_drive(tmp_path):
+    """The ``"lateral"`` object the command prints, on a simulated cornering drive."""
+    from tyrebayes._commands.online import _lateral
+    from tyrebayes._domain import load_vehicle
+    from tyrebayes.simulate.cornering import simulate_cornering
+
+    frame, truth = simulate_cornering(load_vehicle("compact_fwd"), duration_s=300.0, seed=3)
+    path = tmp_path / "corners.parquet"
+    write_stream(frame, path)
+    lateral, reason = _lateral(path, "compact_fwd", "dry")
+    assert reason == "" and lateral["ready"] and lateral["reason"] == ""
+    for key in ("c_y_front", "c_y_rear", "understeer_gradient"):
+        assert set(lateral[key]) == {"mean", "sd", "hdi_90"}, key
+        lo, hi = lateral[key]["hdi_90"]
+        assert lo < lateral[key]["mean"] < hi
+    lo, hi = lateral["understeer_gradient"]["hdi_90"]
+    assert lo <= truth.understeer_gradient <= hi

@@ -70,6 +70,9 @@ from .inference.online import stream_steps as stream_steps
 from .inference.online import stream_windows as stream_windows
 from .inference.online import summary_record as summary_record
 from .inference.online import window_blocks as window_blocks
+from .inference.online import OnlineLateral as OnlineLateral
+from .inference.online import online_lateral as online_lateral
+from .inference.online import lateral_blocks as lateral_blocks
 
 # 3. predict
 from .inference.fleet import predict_friction as predict_friction

@@ -3,7 +3,11 @@
 Runs the online estimator (:mod:`tyrebayes.inference.online`) over one stream step by step, as a
 car would, and prints the trajectory of C_x: time, mean, 90 % interval and the "enough
 evidence" flag (a value without enough evidence is withheld, with the reason), and the change
-alarms. ``--figure`` also draws the trajectory against the batch posterior of the whole stream
+alarms. Beside it the lateral estimator (:mod:`tyrebayes.inference.online.lateral`) updates
+c_y front and rear and the understeer gradient every 30 s of cornering; the output ends with its
+``"lateral"`` object (null, with ``"lateral_reason"``, until the understeer gradient is
+identified; c_y front and rear null, with the object's ``"reason"``, until the data tell front
+from rear). ``--figure`` also draws the trajectory against the batch posterior of the whole stream
 (``fit-tyre --method fast``).
 
 Exit status: 0; 2 on bad input (one line on stderr).
@@ -23,7 +27,8 @@ from .fit_tyre import MODEL_CHOICES
 # Said in every output: what the estimator read that a car would not have had yet.
 LOOKAHEAD_NOTE = (
     "force-density scores (E[true force | measured force]) are estimated over the whole stream; "
-    "slips and parameters are used only as they arrive"
+    "slips and parameters are used only as they arrive; the cornering signals of the lateral "
+    "estimate are low-passed zero-phase over the whole stream"
 )
 
 
@@ -111,7 +116,52 @@ def _text(payload: dict[str, Any]) -> str:
     at = ", ".join(f"{t:.0f} s ({kind})" for t, kind in alarms)
     lines.append(f"alarms (swap or change) at: {at or 'none'}")
     lines.append(f"note: {LOOKAHEAD_NOTE}")
+    lines.extend(_lateral_text(payload["lateral"], payload["lateral_reason"]))
     return "\n".join(lines)
+
+
+def _lateral_text(lateral: dict | None, reason: str) -> list[str]:
+    if lateral is None:
+        return [reason]
+    lines = []
+    for name, key in (
+        ("c_y front", "c_y_front"),
+        ("c_y rear", "c_y_rear"),
+        ("understeer K", "understeer_gradient"),
+    ):
+        value = lateral[key]
+        if value is None:
+            lines.append(f"{name:12s} —")
+        else:
+            lo, hi = value["hdi_90"]
+            lines.append(f"{name:12s} {value['mean']:.4g}  [{lo:.4g}, {hi:.4g}]")
+    if lateral["reason"]:
+        lines.append(lateral["reason"])
+    return lines
+
+
+def _lateral(path, vehicle_name: str, surface: str) -> tuple[dict | None, str]:
+    """The online lateral estimate of a stream: its ``"lateral"`` object and the reason it is
+    null ("" when it is not)."""
+    from .._domain import load_vehicle
+    from ..inference.lateral import NoCornering, cornering_observations
+    from ..inference.online.lateral import online_lateral
+    from ..inference.online.lateral_blocks import lateral_blocks
+    from ..streams import read_stream, validate_stream
+
+    try:
+        vehicle = load_vehicle(vehicle_name)
+    except ValueError as err:
+        raise BadInputError(str(err).splitlines()[0]) from None
+    validated = validate_stream(read_stream(path), vehicle)
+    try:
+        obs = cornering_observations(validated.data, vehicle)
+    except NoCornering as err:
+        return None, str(err)
+    result, _ = online_lateral(lateral_blocks(obs), surface=surface)
+    if not result.k_identified:
+        return None, result.reason()
+    return result.to_dict(), ""
 
 
 def run(args: argparse.Namespace) -> int:
@@ -136,6 +186,7 @@ def run(args: argparse.Namespace) -> int:
             temperature_c=args.temperature,
             ambient_c=args.ambient,
         )
+        lateral, lateral_reason = _lateral(path, args.vehicle, args.surface)
     steps = stream_steps(windows, args.surface, max_step_s=args.max_step_s)
     imu = float(np.max(windows.get("imu_gain_log_sd", np.zeros(1)), initial=0.0))
     priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
@@ -157,6 +208,9 @@ def run(args: argparse.Namespace) -> int:
     }
     if args.figure is not None:
         payload["figure"] = _figure(args, windows, steps, trajectory, records)
+    # The lateral object comes last (the interface the checks read).
+    payload["lateral_reason"] = lateral_reason
+    payload["lateral"] = lateral
     if args.json:
         print_json(payload)
     else:

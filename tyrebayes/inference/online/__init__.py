@@ -6,7 +6,9 @@ windows it reads (:mod:`.windows`), their likelihood (:mod:`.block_likelihood`),
 update (:mod:`.laplace_update`), how θ moves between steps (:mod:`.process`), the change
 detector (:mod:`.change`), the slip errors' inflation (:mod:`.inflation`), the state
 (:mod:`.state`), settings (:mod:`.config`), the reported estimate and its readiness
-(:mod:`.summary`) and the linear-model EKF it is compared with (:mod:`.linear_ekf`).
+(:mod:`.summary`) and the linear-model EKF it is compared with (:mod:`.linear_ekf`). Beside it
+the lateral estimator: c_y front and rear and the understeer gradient (:mod:`.lateral`, its
+blocks :mod:`.lateral_blocks`, its estimate :mod:`.lateral_summary`).
 """
 
 from .config import OnlineConfig as OnlineConfig
@@ -16,6 +18,12 @@ from .estimator import OnlineEstimator as OnlineEstimator
 from .estimator import online_estimate as online_estimate
 from .estimator import run_online as run_online
 from .estimator import run_online_cars as run_online_cars
+from .lateral import OnlineLateralEstimator as OnlineLateralEstimator
+from .lateral import online_lateral as online_lateral
+from .lateral_blocks import LateralBlocks as LateralBlocks
+from .lateral_blocks import lateral_blocks as lateral_blocks
+from .lateral_summary import LateralTrajectory as LateralTrajectory
+from .lateral_summary import OnlineLateral as OnlineLateral
 from .linear_ekf import LinearEkfTrajectory as LinearEkfTrajectory
 from .linear_ekf import linear_ekf as linear_ekf
 from .parameters import GaussianPrior as GaussianPrior

@@ -1,0 +1,206 @@
+"""A drive's cornering observations cut into the online lateral estimator's blocks.
+
+The lateral estimator (:mod:`.lateral`) reads the batch fit's own observations
+(:func:`~tyrebayes.inference.lateral.cornering_observations`: 2 Hz low-pass, 10 Hz) in blocks
+of :data:`LATERAL_STEP_S` on the clock, as a car would collect them. Two sets of samples are
+left out of a block's likelihood:
+
+* **braking or accelerating** (|a_x| > :data:`MAX_LONGITUDINAL_MPS2`, a_x the derivative of the
+  low-passed V_x): the model's axle forces are normalised by the *static* axle loads, and
+  braking moves load to the front axle (ΔF_z,f/F_z,f ≈ (a_x/g)(h/l_r), about 4 % at 1 m/s² for
+  a car with h/l_r ≈ 0.4) and uses part of each tyre's friction for F_x (combined slip). Both
+  show as a change of the front/rear split that is no property of the tyre, and a corner taken
+  braking would move the estimate by it. The samples are skipped rather than given a larger
+  noise: skipped, a block of braking in a corner moves the estimate only by the drift between
+  steps. The batch fit keeps them; the agreement benchmark measures what that costs.
+* the first and last two samples of a block in the kinematic equation: it differentiates
+  V_x α_r with a five-point stencil, which cannot reach across a block's edge.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Bool, Float
+
+from ..lateral.data import CorneringObservations
+
+#: Length of one update of the lateral estimator on the clock [s] (the longitudinal one's).
+LATERAL_STEP_S = 30.0
+#: Samples with |a_x| above this are left out of the lateral likelihood [m/s²] (module
+#: docstring).
+MAX_LONGITUDINAL_MPS2 = 1.0
+
+
+class LateralBlocks(eqx.Module):
+    """Cornering observations in blocks: a leading block axis, ``width`` samples each.
+
+    Attributes
+    ----------
+    speed, yaw_rate, yaw_acceleration, ay, steering : Float[Array, "blocks width"]
+        As :class:`~tyrebayes.inference.lateral.CorneringObservations` (padding: speed 10 m/s,
+        zeros, masked).
+    ax : Float[Array, "blocks width"]
+        dV_x/dt of the low-passed speed [m/s²].
+    mask, mask_kinematic : Bool[Array, "blocks width"]
+        The samples each equation reads: the batch masks, less braking samples and (kinematic)
+        the block's edges.
+    n_skipped : Float[Array, " blocks"]
+        Samples of each block the batch fit reads that were left out for |a_x|.
+    time_s : Float[Array, " blocks"]
+        Time at the end of each block since the record's start [s].
+    dt_s : float
+        Sample interval [s].
+    road_wheel : bool
+        Whether ``steering`` is a road-wheel angle.
+    mass_kg, wheelbase_m, cog_to_front_axle_m, yaw_inertia_kgm2, steering_ratio : Array
+        The vehicle's constants (as the batch observations carry them).
+    """
+
+    speed: Float[Array, "blocks width"]
+    yaw_rate: Float[Array, "blocks width"]
+    yaw_acceleration: Float[Array, "blocks width"]
+    ay: Float[Array, "blocks width"]
+    steering: Float[Array, "blocks width"]
+    ax: Float[Array, "blocks width"]
+    mask: Bool[Array, "blocks width"]
+    mask_kinematic: Bool[Array, "blocks width"]
+    n_skipped: Float[Array, " blocks"]
+    time_s: Float[Array, " blocks"]
+    dt_s: float = eqx.field(static=True)
+    road_wheel: bool = eqx.field(static=True)
+    mass_kg: Float[Array, ""]
+    wheelbase_m: Float[Array, ""]
+    cog_to_front_axle_m: Float[Array, ""]
+    yaw_inertia_kgm2: Float[Array, ""]
+    steering_ratio: Float[Array, ""]
+
+    def __check_init__(self):
+        shape = self.speed.shape
+        if len(shape) != 2:
+            raise ValueError(f"LateralBlocks.speed: expected (blocks, width), got shape {shape}")
+        for name in ("yaw_rate", "yaw_acceleration", "ay", "steering", "ax", "mask"):
+            if getattr(self, name).shape != shape:
+                raise ValueError(
+                    f"LateralBlocks.{name}: expected shape {shape}, got {getattr(self, name).shape}"
+                )
+
+    @property
+    def n_blocks(self) -> int:
+        return int(self.speed.shape[0])
+
+    def block(self, i) -> CorneringObservations:
+        """Block ``i`` as the batch model's observations (traceable ``i``)."""
+        return CorneringObservations(
+            speed=self.speed[i],
+            yaw_rate=self.yaw_rate[i],
+            yaw_acceleration=self.yaw_acceleration[i],
+            ay=self.ay[i],
+            steering=self.steering[i],
+            mask=self.mask[i],
+            mask_kinematic=self.mask_kinematic[i],
+            dt_s=self.dt_s,
+            road_wheel=self.road_wheel,
+            mass_kg=self.mass_kg,
+            wheelbase_m=self.wheelbase_m,
+            cog_to_front_axle_m=self.cog_to_front_axle_m,
+            yaw_inertia_kgm2=self.yaw_inertia_kgm2,
+            steering_ratio=self.steering_ratio,
+            cornering_seconds=jnp.zeros((), self.speed.dtype),
+        )
+
+
+def lateral_blocks(
+    obs: CorneringObservations,
+    *,
+    step_s: float = LATERAL_STEP_S,
+    max_longitudinal_mps2: float = MAX_LONGITUDINAL_MPS2,
+    n_blocks: int | None = None,
+) -> LateralBlocks:
+    """Cut a drive's cornering observations into blocks of ``step_s`` (module docstring).
+
+    Parameters
+    ----------
+    obs : CorneringObservations
+        From :func:`~tyrebayes.inference.lateral.cornering_observations`.
+    step_s : float
+        Block length [s]; a whole number of samples (within 1 %).
+    max_longitudinal_mps2 : float
+        Samples with |a_x| above it are left out [m/s²].
+    n_blocks : int, optional
+        Pad (with empty blocks) or cut to this many blocks: streams of different lengths then
+        share one compiled run. Default: as many as the record fills.
+
+    Returns
+    -------
+    LateralBlocks
+
+    Examples
+    --------
+    >>> import numpy as np, jax.numpy as jnp
+    >>> from tyrebayes.inference.lateral import CorneringObservations
+    >>> n = 700
+    >>> obs = CorneringObservations(
+    ...     speed=jnp.full(n, 20.0), yaw_rate=jnp.zeros(n), yaw_acceleration=jnp.zeros(n),
+    ...     ay=jnp.zeros(n), steering=jnp.zeros(n), mask=jnp.ones(n, bool),
+    ...     mask_kinematic=jnp.ones(n, bool), dt_s=0.1, road_wheel=False,
+    ...     mass_kg=jnp.asarray(1500.0), wheelbase_m=jnp.asarray(2.7),
+    ...     cog_to_front_axle_m=jnp.asarray(1.1), yaw_inertia_kgm2=jnp.asarray(2500.0),
+    ...     steering_ratio=jnp.asarray(15.0), cornering_seconds=jnp.asarray(0.0))
+    >>> blocks = lateral_blocks(obs)
+    >>> blocks.speed.shape, [float(t) for t in blocks.time_s]
+    ((3, 300), [30.0, 60.0, 90.0])
+    """
+    width = int(round(step_s / obs.dt_s))
+    # The decimated rate is the stream's median rate over the decimation step: within a
+    # fraction of a per cent of 10 Hz on a real clock, so a block is the nearest whole number.
+    if width < 10 or abs(width * obs.dt_s - step_s) > 0.01 * step_s:
+        raise ValueError(
+            f"step_s: expected a whole number (≥ 10) of {obs.dt_s} s samples, got {step_s}"
+        )
+    n = int(obs.speed.shape[0])
+    filled = max(1, -(-n // width))
+    count = filled if n_blocks is None else int(n_blocks)
+    total = count * width
+    speed = np.asarray(obs.speed, float)
+    ax = np.gradient(speed, obs.dt_s) if n > 1 else np.zeros(n)
+    mask = np.asarray(obs.mask) & (np.abs(ax) <= max_longitudinal_mps2)
+    kinematic = np.asarray(obs.mask_kinematic) & mask
+
+    def padded(x, fill):
+        x = np.asarray(x)[:total]
+        out = np.full(total, fill, dtype=x.dtype)
+        out[: x.size] = x
+        return out.reshape(count, width)
+
+    kinematic = padded(kinematic, False)
+    # The five-point derivative of V_x α_r within a block does not reach its neighbours.
+    kinematic[:, :2] = kinematic[:, -2:] = False
+    dtype = obs.ay.dtype
+
+    def arr(x, fill=0.0):
+        return jnp.asarray(padded(np.asarray(x, float), fill), dtype=dtype)
+
+    return LateralBlocks(
+        speed=arr(speed, 10.0),
+        yaw_rate=arr(obs.yaw_rate),
+        yaw_acceleration=arr(obs.yaw_acceleration),
+        ay=arr(obs.ay),
+        steering=arr(obs.steering),
+        ax=arr(ax),
+        mask=jnp.asarray(padded(mask, False)),
+        mask_kinematic=jnp.asarray(kinematic),
+        n_skipped=jnp.asarray(padded(np.asarray(obs.mask) & ~mask, False).sum(axis=1), dtype=dtype),
+        time_s=jnp.asarray(np.arange(1, count + 1) * width * obs.dt_s, dtype=dtype),
+        dt_s=obs.dt_s,
+        road_wheel=obs.road_wheel,
+        mass_kg=obs.mass_kg,
+        wheelbase_m=obs.wheelbase_m,
+        cog_to_front_axle_m=obs.cog_to_front_axle_m,
+        yaw_inertia_kgm2=obs.yaw_inertia_kgm2,
+        steering_ratio=obs.steering_ratio,
+    )
+
+
+__all__ = ["LATERAL_STEP_S", "MAX_LONGITUDINAL_MPS2", "LateralBlocks", "lateral_blocks"]
