@@ -85,11 +85,13 @@ from .inference.online import summary_record as summary_record
 from .inference.online import window_blocks as window_blocks
 
 # 3. predict
+from .inference.fleet import lateral_ratio_draws as lateral_ratio_draws
 from .inference.fleet import predict_friction as predict_friction
 from .inference.summary import summarize as summarize
 from .inference.vmax import VmaxInputs as VmaxInputs
 from .inference.vmax import VmaxPrediction as VmaxPrediction
 from .inference.vmax import fit_vmax_inputs as fit_vmax_inputs
+from .inference.vmax import fleet_ratio_vmax_inputs as fleet_ratio_vmax_inputs
 from .inference.vmax import lateral_vmax_inputs as lateral_vmax_inputs
 from .inference.vmax import predict_vmax as predict_vmax
 from .inference.vmax import type_vmax_inputs as type_vmax_inputs
@@ -191,8 +193,10 @@ __all__ = [
     "summary_record",
     "window_blocks",
     "predict_friction",
+    "lateral_ratio_draws",
     "summarize",
     "fit_vmax_inputs",
+    "fleet_ratio_vmax_inputs",
     "lateral_vmax_inputs",
     "type_vmax_inputs",
     "VmaxInputs",
