@@ -53,6 +53,7 @@ def fleet_data_from_table(
     *,
     default_c_xr_sd: float | None = None,
     require_outcome: bool = True,
+    lateral_only_rows: bool = False,
 ) -> FleetData:
     """Validate a fleet table (DESIGN.md contract) and turn it into :class:`FleetData`.
 
@@ -68,6 +69,10 @@ def fleet_data_from_table(
     static axle load], empty where the set has no lateral estimate) with ``c_y_sd`` (its standard
     error, required beside ``c_y``); a ``c_y`` outside :data:`C_Y_RANGE`, a missing or
     non-positive ``c_y_sd`` where ``c_y`` is given, or a set whose rows disagree on them fail.
+    With ``lateral_only_rows`` (what :func:`~tyrebayes.inference.fleet.fit.fit_fleet` passes) a
+    row with a ``c_y`` and an empty outcome is a set that cornered but never observed the
+    outcome: the set keeps its stiffness and c_y, the row leaves the outcome's rows (at least
+    one row must have an outcome).
     """
     if default_c_xr_sd is None:
         default_c_xr_sd = load_tyre_type_priors().default_c_xr_sd
@@ -105,14 +110,16 @@ def fleet_data_from_table(
             raise BadInputError("c_xr_sd: expected positive finite values, got missing or <= 0")
     else:
         c_sd = np.full(len(table), float(default_c_xr_sd))
+    c_y, cy_sd = _lateral_columns(table)
     if require_outcome:
         y = pd.to_numeric(table[outcome], errors="coerce").to_numpy(float)
-        if not np.all(np.isfinite(y)):
+        allowed = np.isfinite(c_y) if lateral_only_rows else np.zeros(len(table), bool)
+        if not np.all(np.isfinite(y) | allowed):
             raise BadInputError(f"{outcome}: expected finite numbers, got missing or non-numeric")
+        if not np.isfinite(y).any():
+            raise BadInputError(f"{outcome}: expected at least one row with a value, got none")
     else:
         y = np.full(len(table), np.nan)
-
-    c_y, cy_sd = _lateral_columns(table)
     ids = table["tyre_id"].astype(str).to_numpy()
     uniq, row_tyre = np.unique(ids, return_inverse=True)
     key = pd.Series(list(zip(ids, surface, strict=True)))
@@ -144,8 +151,12 @@ def fleet_data_from_table(
                 )
             tyre_cy[k], tyre_cy_sd[k] = values[0], cy_sd[rows][lateral][0]
     row_surface = surface.map({s: i for i, s in enumerate(SURFACES)}).to_numpy(int)
+    row_tyre = np.asarray(row_tyre, int)
     if require_outcome:
-        counts = pd.crosstab(surface.to_numpy(), types.to_numpy())
+        # Lateral-only rows leave the outcome's rows; their sets stay (stiffness and c_y).
+        has_y = np.isfinite(y)
+        row_tyre, row_surface, y = row_tyre[has_y], row_surface[has_y], y[has_y]
+        counts = pd.crosstab(surface.to_numpy()[has_y], types.to_numpy()[has_y])
         thin = [
             (s, t, int(counts.loc[s, t]))
             for s in counts.index
@@ -165,7 +176,7 @@ def fleet_data_from_table(
         c_xr_sd=tyre_sd,
         c_y=tyre_cy,
         c_y_sd=tyre_cy_sd,
-        row_tyre=np.asarray(row_tyre, int),
+        row_tyre=row_tyre,
         row_surface=row_surface,
         y=y,
         outcome=outcome,

@@ -160,7 +160,8 @@ def fit_fleet(
         Fleet table (DESIGN.md contract): ``tyre_id``, ``tyre_type``, ``c_xr``, optional
         ``c_xr_sd`` (else the priors' ``default_c_xr_sd``), the outcome column, optional
         ``surface``, optional ``c_y`` and ``c_y_sd`` (a set's lateral estimate, empty where it
-        has none: :func:`~tyrebayes.inference.fleet.data.fleet_data_from_table`).
+        has none: :func:`~tyrebayes.inference.fleet.data.fleet_data_from_table`); a row with
+        ``c_y`` and an empty outcome adds a set that cornered but never observed the outcome.
     outcome : str
         Column with the friction potential mu_max (thesis eq. 3.3), dimensionless.
     method : {"nuts", "svi"}
@@ -208,7 +209,9 @@ def fit_fleet(
     if method not in ("nuts", "svi"):
         raise BadInputError(f"method: expected 'nuts' or 'svi', got {method!r}")
     priors = load_tyre_type_priors() if priors is None else priors
-    data = fleet_data_from_table(table, outcome, default_c_xr_sd=priors.default_c_xr_sd)
+    data = fleet_data_from_table(
+        table, outcome, default_c_xr_sd=priors.default_c_xr_sd, lateral_only_rows=True
+    )
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
         raise TypeError(f"seed: expected an int, got {type(seed).__name__}")
     rng_key = jax.random.key(int(seed))
