@@ -222,3 +222,27 @@ def test_report_section_names_each_sets_sources():
     assert "lateral parameters" in header
     assert "measured c_y front/rear; surface prior (μ_y not observed)" in table[0]
     assert "k_type · C_xr; 0.95 μ_type" in table[1]
+
+
+def test_straight_only_set_takes_its_types_fleet_ratio():
+    from tests.inference.fleet.test_predict import stub_fleet_fit
+
+    fleet = stub_fleet_fit(loc=(0.6, 0.4, 0.3))
+    fit = _tyre_fit(None)  # C_xr ≈ 35, no cornering
+    inputs = fit_vmax_inputs(fit, KEY, N, "winter", fleet=fleet)
+    assert (inputs.lateral_source, inputs.mu_y_source) == ("fleet_type_ratio", "type_prior")
+    assert "no usable cornering" in inputs.note and "20 winter set(s)" in inputs.note
+    np.testing.assert_array_equal(inputs.c_y_front, inputs.c_y_rear)
+    # C_y = k · C_xr with the fleet's k (0.6), not k_type (0.45)
+    assert abs(np.median(inputs.c_y_front) / (0.6 * 35.0) - 1) < 0.1
+    typed = fit_vmax_inputs(fit, KEY, N, "winter")
+    assert np.median(inputs.c_y_front) > 1.15 * np.median(typed.c_y_front)
+    # a type the fleet had no lateral estimate of: its prior, said so
+    summer = fit_vmax_inputs(fit, KEY, N, "summer", fleet=fleet)
+    assert summer.lateral_source == "fleet_type_ratio" and "(prior)" in summer.note
+    # a measured lateral posterior still wins over the fleet's ratio
+    measured = fit_vmax_inputs(_tyre_fit(_lateral(16.0, 18.0, 1.0, mu_observed=True)), KEY, N,
+                               fleet=fleet)  # fmt: skip
+    assert measured.lateral_source == "measured"
+    # and V_max runs on it
+    assert np.isfinite(_mean(inputs))
