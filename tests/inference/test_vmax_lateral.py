@@ -246,3 +246,21 @@ def test_straight_only_set_takes_its_types_fleet_ratio():
     assert measured.lateral_source == "measured"
     # and V_max runs on it
     assert np.isfinite(_mean(inputs))
+
+
+def test_vmax_command_takes_a_fleets_ratio_for_a_straight_only_fit(tmp_path, capsys):
+    from tests.inference.fleet.test_predict import stub_fleet_fit
+
+    plain = _tyre_fit(None).save(tmp_path / "plain.nc")
+    fleet = stub_fleet_fit(loc=(0.6, 0.4, 0.3)).save(tmp_path / "fleet.nc")
+    args = ["vmax", str(plain), "--fleet", str(fleet), "--type", "winter", "--draws", str(N)]
+    assert main([*args, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert (out["lateral_source"], out["tyre_type"]) == ("fleet_type_ratio", "winter")
+    assert out["c_y_front"]["mean"] == pytest.approx(0.6 * 35.0, rel=0.1)
+    assert "20 winter set(s)" in out["note"]
+    # a fit of another kind as --fleet, or --fleet without a fit: exit 2, one line
+    assert main(["vmax", str(plain), "--fleet", str(plain)]) == 2
+    assert "expected a fleet fit (fit-fleet), got a tyre fit" in capsys.readouterr().err
+    assert main(["vmax", "--fleet", str(fleet), "--c-x", "30", "--mu", "1"]) == 2
+    assert "--fleet: expected a per-tyre fit" in capsys.readouterr().err
