@@ -179,7 +179,10 @@ def run_fleet_stage(out_dir: str, tyre_sets: pd.DataFrame, settings: RunSettings
     input_hash = value_hash(
         {
             "fleet_table": table.to_dict("list"),
-            "sets": tyre_sets[["tyre_id", "c_xr", "c_xr_sd"]].to_dict("list")
+            # every set's prediction reads its stiffness and, where it has one, its c_y
+            "sets": tyre_sets[
+                [c for c in ("tyre_id", "c_xr", "c_xr_sd", "c_y", "c_y_sd") if c in tyre_sets]
+            ].to_dict("list")
             if len(tyre_sets)
             else {},
         }
