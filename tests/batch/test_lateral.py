@@ -50,6 +50,11 @@ def test_a_set_without_cornering_says_why():
     assert out["c_y_drives"] == 0 and np.isnan(out["c_y"]) and np.isnan(out["c_y_sd"])
     assert out["lateral_reason"].startswith("none of 2 drive(s) gave c_y (first: lateral: not")
     assert "none of 0 drive(s)" in combine_drive_laterals([])["lateral_reason"]
+    # a skipped drive's record comes back from JSON: null where it had no estimate
+    back = combine_drive_laterals([{"c_y": None, "c_y_log_sd": None, "lateral_reason": "x"}])
+    assert back["c_y_drives"] == 0 and "(first: x)" in back["lateral_reason"]
+    mixed = combine_drive_laterals([{"c_y": None, "c_y_log_sd": None}, _drive(14.0, 0.1)])
+    assert mixed["c_y_drives"] == 1 and math.isclose(mixed["c_y"], 14.0)
 
 
 def test_straight_drive_has_no_lateral_estimate_and_costs_no_fit():

@@ -138,8 +138,8 @@ def combine_drive_laterals(drives: list[dict]) -> dict:
     Parameters
     ----------
     drives : list of dict
-        Each with ``c_y`` and ``c_y_log_sd`` (NaN or missing where the drive had none) and
-        ``lateral_reason``.
+        Each with ``c_y`` and ``c_y_log_sd`` (NaN, None or missing where the drive had none)
+        and ``lateral_reason``.
 
     Returns
     -------
@@ -158,13 +158,12 @@ def combine_drive_laterals(drives: list[dict]) -> dict:
     >>> combine_drive_laterals([{"lateral_reason": "lateral: no usable cornering"}])["c_y_drives"]
     0
     """
-    used = [
-        d
+    # A drive record read back from its JSON file holds None where the drive had no estimate.
+    drives = [
+        {**d, "c_y": _number(d.get("c_y")), "c_y_log_sd": _number(d.get("c_y_log_sd"))}
         for d in drives
-        if np.isfinite(d.get("c_y", np.nan))
-        and np.isfinite(d.get("c_y_log_sd", np.nan))
-        and d.get("c_y_log_sd", 0.0) > 0
     ]
+    used = [d for d in drives if np.isfinite(d["c_y"]) and d["c_y_log_sd"] > 0]
     if not used:
         reasons = [str(d.get("lateral_reason") or "") for d in drives]
         first = next((r for r in reasons if r), "no lateral estimate")
@@ -195,6 +194,15 @@ def combine_drive_laterals(drives: list[dict]) -> dict:
         "c_y_drives": len(used),
         "lateral_reason": "",
     }
+
+
+def _number(value) -> float:
+    """A float, NaN for None (JSON's null) or anything that is not a finite number."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        return float("nan")
+    return x if math.isfinite(x) else float("nan")
 
 
 def _prior_median() -> float:
