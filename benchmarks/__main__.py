@@ -128,6 +128,12 @@ BENCHMARKS: dict[str, Benchmark] = {
             minutes=20,
         ),
         Benchmark(
+            "fleet_lateral_ratio",
+            "per-type ratio c_y / C_xr recovered over simulated fleets; straight-only V_max",
+            quick=("--seeds", "2", "--no-e2e"),
+            minutes=12,
+        ),
+        Benchmark(
             "discovery",
             "calibrated discovery: power and FDR on simulated fleets",
             quick=("--fleets", "4", "--null-fleets", "4", "--permutations", "99"),

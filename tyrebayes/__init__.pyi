@@ -76,10 +76,12 @@ from .inference.online import lateral_blocks as lateral_blocks
 
 # 3. predict
 from .inference.fleet import predict_friction as predict_friction
+from .inference.fleet import lateral_ratio_draws as lateral_ratio_draws
 from .inference.summary import summarize as summarize
 from .inference.vmax import VmaxInputs as VmaxInputs
 from .inference.vmax import VmaxPrediction as VmaxPrediction
 from .inference.vmax import fit_vmax_inputs as fit_vmax_inputs
+from .inference.vmax import fleet_ratio_vmax_inputs as fleet_ratio_vmax_inputs
 from .inference.vmax import lateral_vmax_inputs as lateral_vmax_inputs
 from .inference.vmax import predict_vmax as predict_vmax
 from .inference.vmax import type_vmax_inputs as type_vmax_inputs

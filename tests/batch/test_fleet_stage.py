@@ -94,3 +94,52 @@ def test_a_table_written_before_c_x_measured_existed_keeps_its_sets():
     old = _row("a", snow=0.31)
     del old["c_x_measured"]
     assert list(fleet_table(pd.DataFrame([old]))["tyre_id"]) == ["a"]
+
+
+def test_fleet_table_carries_c_y_beside_c_x_and_keeps_sets_that_only_cornered():
+    lat = {"c_y": 14.0, "c_y_sd": 1.4}
+    sets = pd.DataFrame(
+        [
+            _row("a", snow=0.31, dry=0.9) | lat,  # braked and cornered: c_y on both rows
+            _row("b", snow=0.35) | {"c_y": np.nan, "c_y_sd": np.nan},  # driven straight
+            _row("c") | lat,  # cornered, never braked at the limit: a row without μ
+            _row("d") | {"c_y": np.nan, "c_y_sd": np.nan},  # neither: not in the table
+            _row("e", converged=False) | lat,
+            _row("f", measured=False) | lat,  # C_x not measured: no ratio to learn
+            _row("g", tyre_type="") | lat,  # type unknown
+        ]
+    )
+    table = fleet_table(sets)
+    assert list(table.columns) == ["tyre_id", "tyre_type", "c_xr", "c_xr_sd", "c_y", "c_y_sd",
+                                   "mu", "surface"]  # fmt: skip
+    got = [(r.tyre_id, r.surface, r.c_y, r.mu) for r in table.itertuples()]
+    assert got[:3] == [
+        ("a", "snow", 14.0, 0.31),
+        ("a", "dry", 14.0, 0.9),
+        ("b", "snow", got[2][2], 0.35),
+    ]
+    assert np.isnan(got[2][2])
+    assert got[3][:3] == ("c", "snow", 14.0) and np.isnan(got[3][3])
+    assert len(got) == 4
+    # the fleet model reads it: c's set stays (stiffness and c_y), its row leaves the outcome's
+    from tyrebayes.inference.fleet import fleet_data_from_table
+
+    data = fleet_data_from_table(table[table["surface"] == "snow"], lateral_only_rows=True)
+    assert data.tyre_ids == ("a", "b", "c") and len(data.y) == 2
+    assert data.lateral_tyres.tolist() == [0, 2]
+
+
+def test_predictions_say_where_each_sets_c_y_comes_from():
+    from tests.inference.fleet.test_predict import stub_fleet_fit
+    from tyrebayes.batch.fleet_stage import _lateral_prediction
+
+    fit = stub_fleet_fit(loc=(0.5, 0.4, 0.3), loc_sd=0.01, spread=0.05)
+    own = _lateral_prediction(fit, _row("a") | {"c_y": 14.0, "c_y_sd": 1.4}, "winter", 0)
+    assert own["c_y_source"] == "measured" and own["c_y_mean"] == 14.0
+    assert own["c_y_q05"] < 14.0 < own["c_y_q95"]
+    straight = _lateral_prediction(fit, _row("b"), "winter", 0)  # C_xr 30 ± 1, no c_y
+    assert straight["c_y_source"] == "fleet_type_ratio"
+    assert abs(straight["c_y_mean"] / (0.5 * 30.0) - 1) < 0.03
+    assert straight["c_y_q05"] < 15.0 < straight["c_y_q95"]
+    unknown = _lateral_prediction(fit, _row("c"), None, 0)
+    assert unknown["c_y_source"] == "" and np.isnan(unknown["c_y_mean"])

@@ -143,6 +143,11 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
     # Simulated drives with normal driving measure C_x, and their surface labels are true.
     assert sets["c_x_measured"].all()
     assert (sets.filter(like="_prior_sds").abs().fillna(0.0) < 4.0).all().all()
+    # One-minute drives hold no usable cornering: no c_y, and why, beside C_x (the drives that
+    # were skipped on the rerun bring theirs back from their records).
+    assert sets["c_y"].isna().all() and (sets["c_y_drives"] == 0).all()
+    assert sets["lateral_reason"].str.contains("no usable cornering").all()
+    assert "c_y" in pd.read_csv(out / "fleet" / "fleet_table.csv").columns
     for rec in _records(out, "tyre_sets").values():
         if rec["tyre_set_id"] == "set9":
             assert rec["status"] == "failed" and "no drive" in rec["reason"]

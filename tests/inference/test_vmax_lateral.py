@@ -222,3 +222,45 @@ def test_report_section_names_each_sets_sources():
     assert "lateral parameters" in header
     assert "measured c_y front/rear; surface prior (μ_y not observed)" in table[0]
     assert "k_type · C_xr; 0.95 μ_type" in table[1]
+
+
+def test_straight_only_set_takes_its_types_fleet_ratio():
+    from tests.inference.fleet.test_predict import stub_fleet_fit
+
+    fleet = stub_fleet_fit(loc=(0.6, 0.4, 0.3))
+    fit = _tyre_fit(None)  # C_xr ≈ 35, no cornering
+    inputs = fit_vmax_inputs(fit, KEY, N, "winter", fleet=fleet)
+    assert (inputs.lateral_source, inputs.mu_y_source) == ("fleet_type_ratio", "type_prior")
+    assert "no usable cornering" in inputs.note and "20 winter set(s)" in inputs.note
+    np.testing.assert_array_equal(inputs.c_y_front, inputs.c_y_rear)
+    # C_y = k · C_xr with the fleet's k (0.6), not k_type (0.45)
+    assert abs(np.median(inputs.c_y_front) / (0.6 * 35.0) - 1) < 0.1
+    typed = fit_vmax_inputs(fit, KEY, N, "winter")
+    assert np.median(inputs.c_y_front) > 1.15 * np.median(typed.c_y_front)
+    # a type the fleet had no lateral estimate of: its prior, said so
+    summer = fit_vmax_inputs(fit, KEY, N, "summer", fleet=fleet)
+    assert summer.lateral_source == "fleet_type_ratio" and "(prior)" in summer.note
+    # a measured lateral posterior still wins over the fleet's ratio
+    measured = fit_vmax_inputs(_tyre_fit(_lateral(16.0, 18.0, 1.0, mu_observed=True)), KEY, N,
+                               fleet=fleet)  # fmt: skip
+    assert measured.lateral_source == "measured"
+    # and V_max runs on it
+    assert np.isfinite(_mean(inputs))
+
+
+def test_vmax_command_takes_a_fleets_ratio_for_a_straight_only_fit(tmp_path, capsys):
+    from tests.inference.fleet.test_predict import stub_fleet_fit
+
+    plain = _tyre_fit(None).save(tmp_path / "plain.nc")
+    fleet = stub_fleet_fit(loc=(0.6, 0.4, 0.3)).save(tmp_path / "fleet.nc")
+    args = ["vmax", str(plain), "--fleet", str(fleet), "--type", "winter", "--draws", str(N)]
+    assert main([*args, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert (out["lateral_source"], out["tyre_type"]) == ("fleet_type_ratio", "winter")
+    assert out["c_y_front"]["mean"] == pytest.approx(0.6 * 35.0, rel=0.1)
+    assert "20 winter set(s)" in out["note"]
+    # a fit of another kind as --fleet, or --fleet without a fit: exit 2, one line
+    assert main(["vmax", str(plain), "--fleet", str(plain)]) == 2
+    assert "expected a fleet fit (fit-fleet), got a tyre fit" in capsys.readouterr().err
+    assert main(["vmax", "--fleet", str(fleet), "--c-x", "30", "--mu", "1"]) == 2
+    assert "--fleet: expected a per-tyre fit" in capsys.readouterr().err

@@ -42,7 +42,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "fit-fleet",
         help="fit the hierarchical fleet model to a fleet table",
         description="Fit friction vs inverse stiffness, pooled by tyre type, to a fleet table "
-        "(CSV or Parquet: tyre_id, tyre_type, c_xr, [c_xr_sd], outcome, [surface]).",
+        "(CSV or Parquet: tyre_id, tyre_type, c_xr, [c_xr_sd], outcome, [surface], [c_y, c_y_sd]: "
+        "a set's lateral estimate, from which the fit learns each type's ratio c_y / C_xr).",
     )
     fit.add_argument("table", help="fleet table (.csv or .parquet)")
     fit.add_argument("--outcome", default="mu", help="outcome column (default mu)")
@@ -138,6 +139,12 @@ def run_fit(args: argparse.Namespace) -> int:
                     f"  {s:5s} {t:10s} mu@ref {a['mean']:.3f} [{a['hdi_90'][0]:.3f}, "
                     f"{a['hdi_90'][1]:.3f}]  slope {b['mean']:+.3f}  sigma {sig['mean']:.3f}"
                 )
+        for t, r in (summary["lateral_ratio"] or {}).items():
+            k = r["median_ratio"]
+            print(
+                f"  c_y/C_xr {t:10s} {k['mean']:.3f} [{k['hdi_90'][0]:.3f}, "
+                f"{k['hdi_90'][1]:.3f}]  from {r['from']} ({r['n_sets']} sets)"
+            )
     return exit_status(fit, "fit-fleet")
 
 

@@ -67,6 +67,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="fit the tyre sets with C_x following the driven axle's load (q's measured prior)",
     )
+    parser.add_argument(
+        "--no-lateral",
+        action="store_true",
+        help="skip the per-drive lateral fits (the tyre sets then carry no c_y, and the fleet "
+        "model learns no ratio c_y / C_xr)",
+    )
     parser.add_argument("--vehicle", help="vehicle of every log of a glob")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
@@ -103,6 +109,7 @@ def run(args: argparse.Namespace) -> int:
         load_sensitivity=args.load_sensitivity,
         seed=args.seed,
         pointwise=args.pointwise,
+        lateral=not args.no_lateral,
         jax_cache=default_cache_dir() if args.jax_cache is None else args.jax_cache,
     )
     prepare_out(out)  # a file where a stage folder belongs: one line, before the cluster

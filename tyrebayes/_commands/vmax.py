@@ -4,8 +4,10 @@
 per-tyre fit (``fit-tyre --out``). Where the fit carries a lateral posterior, the measured c_y
 front and rear and μ_y (or μ_max, or the lateral posterior's μ_y, where μ_y was not observed)
 enter the simulation, and ``lateral_source`` is ``"measured"``; otherwise C_y = k_type · C_xr
-and μ_y = 0.95 μ_type (``"type_prior"``). ``mu_y_source`` says where μ_y came from. The vehicle
-defaults to the one the fit was made with.
+and μ_y = 0.95 μ_type (``"type_prior"``), or, with ``--fleet FLEET.nc`` (a fleet fit that learnt
+the per-type ratio c_y / C_xr from sets with cornering), C_y = k · C_xr with k from the fleet's
+posterior predictive for ``--type`` (``"fleet_type_ratio"``). ``mu_y_source`` says where μ_y came
+from. The vehicle defaults to the one the fit was made with.
 
 ``tyrebayes vmax --vehicle compact_fwd --c-x 40 --mu 1.0 [--type all_season] [--c-y CY] [--json]``:
 one V_max at given values; C_y defaults to k_type · C_x (type-level relation in
@@ -45,6 +47,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--type", default="all_season", choices=TYRE_TYPES)
     p.add_argument("--c-y", type=float, default=None, help="override cornering stiffness [1/rad]")
     p.add_argument("--exit-lane", default="thesis", choices=["thesis", "standard"])
+    p.add_argument(
+        "--fleet",
+        default=None,
+        metavar="FLEET",
+        help="fleet fit (fit-fleet --out, or a fleet run's fleet/fleet.nc) whose per-type ratio "
+        "c_y / C_xr replaces k_type for a FIT without a lateral posterior",
+    )
     p.add_argument("--draws", type=int, default=400, help="posterior draws for FIT (default 400)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", action="store_true", help="machine-readable output")
@@ -63,6 +72,8 @@ def _vehicle(name: str):
 def run(args: argparse.Namespace) -> int:
     if args.fit is not None:
         return _run_fit(args)
+    if args.fleet is not None:
+        raise BadInputError("--fleet: expected a per-tyre fit FIT beside it, got values only")
     if args.c_x is None or args.mu is None:
         raise BadInputError("expected a fit file (FIT.nc) or both --c-x and --mu, got neither")
     if not (args.c_x > 0 and 0 < args.mu < 3):
@@ -121,11 +132,20 @@ def _run_fit(args: argparse.Namespace) -> int:
             f"expected the fit's vehicle {vehicle_name!r} to load (a name or a TOML path from "
             "where fit-tyre ran); give --vehicle"
         ) from None
-    inputs = fit_vmax_inputs(tyre, jax.random.PRNGKey(args.seed), args.draws, args.type)
+    fleet = None
+    if args.fleet is not None:
+        fleet = load_fit(fit_file(args.fleet, "a fleet fit (netCDF from fit-fleet --out)"))
+        if fleet.kind != "fleet":
+            raise BadInputError(
+                f"--fleet {args.fleet}: expected a fleet fit (fit-fleet), got a {fleet.kind} fit"
+            )
+    inputs = fit_vmax_inputs(
+        tyre, jax.random.PRNGKey(args.seed), args.draws, args.type, fleet=fleet
+    )
     course = iso3888_2_course(vehicle.width_m, exit_lane=args.exit_lane)
     pred = predict_vmax(vehicle, inputs, course=course, vehicle_name=vehicle_name)
     out = {"fit": str(args.fit), **pred.to_dict()}
-    if inputs.lateral_source == "type_prior":
+    if inputs.lateral_source in ("type_prior", "fleet_type_ratio"):
         out["tyre_type"] = args.type
     if args.json:
         print_json(out)

@@ -1,4 +1,4 @@
-"""The per-drive stage: read → validate → features → windows table and summary row.
+"""The per-drive stage: read → validate → features → lateral fit → windows table and summary row.
 
 :func:`process_drive` runs on a worker, one drive at a time. It writes, atomically and in this
 order, ``drives/ID.windows.parquet`` (:mod:`.windows`), ``drives/ID.summary.parquet`` (one row,
@@ -19,6 +19,7 @@ import pandas as pd
 from .._errors import BadInputError
 from .._io import is_url, url_identity
 from .drive_summary import drive_summary
+from .lateral import DRIVE_LATERAL_COLUMNS, drive_lateral, lateral_off
 from .manifest import DriveItem
 from .records import (
     file_hash,
@@ -112,6 +113,12 @@ def _windows_and_summary(
     ambient = stream.mean_ambient_c() if math.isnan(item.ambient_c) else item.ambient_c
     features = compute_features(stream, vehicle)
     cpu.append(time.process_time())
+    lateral = (
+        drive_lateral(stream.data, vehicle, item.surface, seed=settings.seed, source=item.path)
+        if settings.lateral
+        else lateral_off()
+    )
+    cpu.append(time.process_time())
     temperature = features_tyre_temperature(features, ambient_c=ambient)
     windows = observations_from_features(
         features, temperature_c=temperature, window_s=settings.window_s
@@ -122,10 +129,11 @@ def _windows_and_summary(
         windows, drive_id=item.drive_id, tyre_set_id=item.tyre_set_id, surface=item.surface
     )
     row = drive_summary(item, stream, features, windows, vehicle)
+    row.update(lateral)
     row["ambient_c"] = float(ambient)
     row[_REPAIRED] = repaired  # for the record, not the summary table (process_drive)
     cpu.append(time.process_time())
-    steps = ("read", "validate", "features", "windows_and_summary")
+    steps = ("read", "validate", "features", "lateral", "windows_and_summary")
     return table, row, {k: b - a for k, a, b in zip(steps, cpu[:-1], cpu[1:], strict=True)}
 
 
@@ -145,12 +153,14 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
     The record holds ``status`` (``"done"``, ``"failed"``), ``skipped`` (True when an earlier
     record with the same input hash and settings was reused), ``reason`` (one line, failed
     only), ``windows_hash`` (content hash of the windows table, what the tyre-set stage keys
-    on), ``seconds`` and ``cpu_seconds`` of this call (``step_cpu_seconds``: read, validate,
-    features, windows and summary), ``peak_rss_mb`` of the worker process, the
-    ``rss_mb_at_start`` and ``programs_dropped`` (the worker dropped its compiled programs
-    first to keep within ``settings.memory_budget_mb``: :mod:`.worker_memory`) and, for a raw
-    CAN log, ``time_faults_repaired`` (the time faults repaired, :mod:`tyrebayes.streams.can`,
-    as one line; "" when none; a log with more than 1 % of a message's frames at fault fails).
+    on), ``lateral`` (the drive's c_y or the reason it has none,
+    :func:`~.lateral.drive_lateral`), ``seconds`` and ``cpu_seconds`` of this call
+    (``step_cpu_seconds``: read, validate, features, lateral, windows and summary),
+    ``peak_rss_mb`` of the worker process, the ``rss_mb_at_start`` and ``programs_dropped``
+    (the worker dropped its compiled programs first to keep within
+    ``settings.memory_budget_mb``: :mod:`.worker_memory`) and, for a raw CAN log,
+    ``time_faults_repaired`` (the time faults repaired, :mod:`tyrebayes.streams.can`, as one
+    line; "" when none; a log with more than 1 % of a message's frames at fault fails).
     """
     rss_at_start, dropped = WORKER.start("drive", settings.memory_budget_mb)
     start, cpu = time.perf_counter(), time.process_time()
@@ -184,6 +194,8 @@ def process_drive(item: DriveItem, out_dir: str, settings: RunSettings) -> dict:
             "windows": int(len(table)),
             "duration_s": row["duration_s"],
             "step_cpu_seconds": step_cpu,
+            # The drive's c_y (tyrebayes.batch.lateral), what its tyre set's estimate combines.
+            "lateral": {k: row[k] for k in DRIVE_LATERAL_COLUMNS},
             # A CAN log's timestamps repaired (tyrebayes.streams.can.time_faults), or "".
             "time_faults_repaired": repaired,
             "outputs": [f"{item.drive_id}.windows.parquet", f"{item.drive_id}.summary.parquet"],

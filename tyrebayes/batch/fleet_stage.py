@@ -7,6 +7,12 @@ enters. :func:`run_fleet_stage` fits :func:`tyrebayes.fit_fleet` to it (what ``t
 fit-fleet`` does) and predicts every fitted set's friction on snow with its winter verdict
 (:func:`tyrebayes.predict_friction`, :func:`tyrebayes.winter_verdict`). Outputs in ``fleet/``:
 ``fleet_table.csv``, ``fleet.nc``, ``predictions.parquet`` and the record.
+
+Where sets carry a lateral estimate (c_y, :mod:`.lateral`), the fleet fit also learns each type's
+ratio c_y / C_xr, and each set's prediction row carries the c_y a lane change of it would use:
+``c_y_source`` ("measured": its own; "fleet_type_ratio": its type's ratio from the fleet fit times
+its C_xr, for a set driven only straight; "" without either), ``c_y_mean``, ``c_y_sd``,
+``c_y_q05``, ``c_y_q95`` [1/rad].
 """
 
 from __future__ import annotations
@@ -38,13 +44,28 @@ FLEET_DIR = "fleet"
 PREDICTION_SURFACE = "snow"
 
 
+#: The fleet table's columns as the fleet stage writes it.
+FLEET_TABLE_COLUMNS = ("tyre_id", "tyre_type", "c_xr", "c_xr_sd", "c_y", "c_y_sd", "mu", "surface")
+
+
 def fleet_table(tyre_sets: pd.DataFrame) -> pd.DataFrame:
-    """Fleet-table rows (``tyre_id``, ``tyre_type``, ``c_xr``, ``c_xr_sd``, ``mu``, ``surface``).
+    """Fleet-table rows (:data:`FLEET_TABLE_COLUMNS`) from the tyre-set table.
 
     One per converged set with a known type and surface where μ_max was observed, whose drives
     measured C_x (``c_x_measured``), and whose surface label the μ_max there does not put in
     doubt (:func:`~tyrebayes.inference.tyre.adequacy.label_in_doubt` of ``mu_<surface>_prior_sds``
     and ``mu_<surface>_label_log_bf``). A table without these columns keeps every such set.
+    Each row carries the set's lateral estimate beside C_x (``c_y``, ``c_y_sd``; empty where its
+    drives had no usable cornering, :mod:`.lateral`); a set with a lateral estimate and a
+    measured C_x but no observed μ_max gets one row with an empty ``mu`` (on
+    :data:`PREDICTION_SURFACE`), so that its ratio c_y / C_xr still reaches the fleet model.
+
+    Examples
+    --------
+    >>> sets = pd.DataFrame([{"tyre_id": "a", "tyre_type": "winter", "converged": True,
+    ...     "c_xr": 30.0, "c_xr_sd": 1.0, "c_y": 13.0, "c_y_sd": 1.3}])
+    >>> fleet_table(sets)[["tyre_id", "c_y", "mu"]].to_dict("records")
+    [{'tyre_id': 'a', 'c_y': 13.0, 'mu': nan}]
     """
     rows = []
     for rec in tyre_sets.to_dict("records"):
@@ -52,6 +73,12 @@ def fleet_table(tyre_sets: pd.DataFrame) -> pd.DataFrame:
             continue
         if not rec.get("c_x_measured", True):
             continue
+        c_y = float(rec.get("c_y", np.nan))
+        lateral = {
+            "c_y": c_y if np.isfinite(c_y) else np.nan,
+            "c_y_sd": float(rec.get("c_y_sd", np.nan)) if np.isfinite(c_y) else np.nan,
+        }
+        before = len(rows)
         for s in SURFACES:
             if label_in_doubt(
                 rec.get(f"mu_{s}_prior_sds", 0.0), rec.get(f"mu_{s}_label_log_bf", -np.inf)
@@ -64,11 +91,46 @@ def fleet_table(tyre_sets: pd.DataFrame) -> pd.DataFrame:
                         "tyre_type": rec["tyre_type"],
                         "c_xr": rec["c_xr"],
                         "c_xr_sd": rec["c_xr_sd"],
+                        **lateral,
                         "mu": rec[f"mu_{s}"],
                         "surface": s,
                     }
                 )
-    return pd.DataFrame(rows, columns=["tyre_id", "tyre_type", "c_xr", "c_xr_sd", "mu", "surface"])
+        if len(rows) == before and np.isfinite(lateral["c_y"]):
+            rows.append(
+                {
+                    "tyre_id": rec["tyre_id"],
+                    "tyre_type": rec["tyre_type"],
+                    "c_xr": rec["c_xr"],
+                    "c_xr_sd": rec["c_xr_sd"],
+                    **lateral,
+                    "mu": np.nan,
+                    "surface": PREDICTION_SURFACE,
+                }
+            )
+    return pd.DataFrame(rows, columns=list(FLEET_TABLE_COLUMNS))
+
+
+def _lateral_prediction(fit, rec: dict, tyre_type: str | None, seed: int) -> dict:
+    """The set's c_y for the lane change: its own, else its type's fleet ratio times its C_xr."""
+    from ..inference.fleet import has_lateral_ratio, lateral_ratio_draws
+
+    c_y = float(rec.get("c_y", np.nan))
+    if np.isfinite(c_y):
+        sd = float(rec.get("c_y_sd", np.nan))
+        z = 1.645 * sd / c_y  # the log-normal error the fleet model reads c_y_sd as
+        return {"c_y_source": "measured", "c_y_mean": c_y, "c_y_sd": sd,
+                "c_y_q05": c_y * np.exp(-z), "c_y_q95": c_y * np.exp(z)}  # fmt: skip
+    if tyre_type is None or not has_lateral_ratio(fit):
+        nan = float("nan")
+        return {"c_y_source": "", "c_y_mean": nan, "c_y_sd": nan, "c_y_q05": nan, "c_y_q95": nan}
+    k = lateral_ratio_draws(fit, tyre_type, 4000, seed=seed)
+    rng = np.random.default_rng(seed)
+    c_xr = np.maximum(float(rec["c_xr"]) + float(rec["c_xr_sd"]) * rng.standard_normal(k.size), 1.0)
+    draws = k * c_xr
+    lo, hi = np.quantile(draws, [0.05, 0.95])
+    return {"c_y_source": "fleet_type_ratio", "c_y_mean": float(np.mean(draws)),
+            "c_y_sd": float(np.std(draws)), "c_y_q05": float(lo), "c_y_q95": float(hi)}  # fmt: skip
 
 
 def _predictions(fit, tyre_sets: pd.DataFrame, seed: int) -> pd.DataFrame:
@@ -97,6 +159,7 @@ def _predictions(fit, tyre_sets: pd.DataFrame, seed: int) -> pd.DataFrame:
                 "mu_min": float(verdict.mu_min),
                 "reason": verdict.reason,
                 "set_converged": bool(rec.get("converged", False)),
+                **_lateral_prediction(fit, rec, tyre_type, seed),
             }
         )
     return pd.DataFrame(rows)
@@ -116,7 +179,10 @@ def run_fleet_stage(out_dir: str, tyre_sets: pd.DataFrame, settings: RunSettings
     input_hash = value_hash(
         {
             "fleet_table": table.to_dict("list"),
-            "sets": tyre_sets[["tyre_id", "c_xr", "c_xr_sd"]].to_dict("list")
+            # every set's prediction reads its stiffness and, where it has one, its c_y
+            "sets": tyre_sets[
+                [c for c in ("tyre_id", "c_xr", "c_xr_sd", "c_y", "c_y_sd") if c in tyre_sets]
+            ].to_dict("list")
             if len(tyre_sets)
             else {},
         }
@@ -136,7 +202,7 @@ def run_fleet_stage(out_dir: str, tyre_sets: pd.DataFrame, settings: RunSettings
         from .._io import atomic_write_bytes
 
         atomic_write_bytes(folder / "fleet_table.csv", table.to_csv(index=False).encode())
-        if len(table) == 0:
+        if not np.isfinite(table["mu"].to_numpy(float)).any():
             raise BadInputError(
                 "no tyre set observed μ_max (ABS stops) with a known tyre type and a converged fit"
             )

@@ -40,6 +40,11 @@ class RunSettings:
         compiled for earlier tasks when keeping them would take the next task past this
         (:mod:`.worker_memory`). The issue's 1.5 GB per worker by default. Results do not
         depend on it.
+    lateral : bool
+        Fit each drive's cornering (:func:`tyrebayes.batch.lateral.drive_lateral`) and give each
+        tyre set its c_y, which the fleet model's per-type ratio c_y / C_xr learns from. A drive
+        without usable cornering costs a fraction of a second; one with it, a lateral fit
+        (seconds per hour of driving, and a compilation per new length of its observations).
 
     Examples
     --------
@@ -55,6 +60,7 @@ class RunSettings:
     pointwise: bool = False
     jax_cache: str = ""
     memory_budget_mb: float = 1536.0
+    lateral: bool = True
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -65,8 +71,10 @@ class RunSettings:
             raise ValueError(f"memory_budget_mb: expected > 0, got {self.memory_budget_mb}")
 
     def drive_settings(self) -> dict:
-        """What a drive's outputs depend on (the fit method does not change them)."""
-        return {"stage": "drive", "window_s": self.window_s, "version": PACKAGE_VERSION}
+        """What a drive's outputs depend on (the fit method does not change them; the seed does
+        only through the lateral fit's draws)."""
+        lateral = {"lateral": True, "seed": self.seed} if self.lateral else {"lateral": False}
+        return {"stage": "drive", "window_s": self.window_s, **lateral, "version": PACKAGE_VERSION}
 
     def tyre_set_settings(self) -> dict:
         return {

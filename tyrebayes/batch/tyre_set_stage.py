@@ -2,7 +2,8 @@
 
 All drives of a set share its C_xr; each surface its μ_max
 (:func:`tyrebayes.inference.stack_drives` + :func:`tyrebayes.inference.fit_tyre`, the same fit
-as the demo's multi-drive sets). :func:`fit_tyre_set` writes ``tyre_sets/ID.fit.nc``
+as the demo's multi-drive sets). Its c_y combines the lateral fits its drives' records carry
+(:mod:`.lateral`). :func:`fit_tyre_set` writes ``tyre_sets/ID.fit.nc``
 (:func:`tyrebayes.load_fit` reads it), ``tyre_sets/ID.row.parquet`` (one row of the tyre-set
 table, :func:`tyre_set_row`) and the record; it reads only windows tables, so a set is refitted
 without its logs.
@@ -19,6 +20,7 @@ import pandas as pd
 from .._domain import SURFACES
 from .._errors import BadInputError
 from .drive_stage import DRIVES_DIR, one_line
+from .lateral import combine_drive_laterals
 from .records import (
     read_record,
     record_path,
@@ -61,7 +63,14 @@ def pad_size(n: int) -> int:
     return max(256, bucket_size(n, FIT_SIZES_PER_OCTAVE))
 
 
-def tyre_set_row(tyre_set_id: str, tyre_type: str, fit, n_drives: int, n_windows: int) -> dict:
+def tyre_set_row(
+    tyre_set_id: str,
+    tyre_type: str,
+    fit,
+    n_drives: int,
+    n_windows: int,
+    lateral: dict | None = None,
+) -> dict:
     """One row of the tyre-set table from a :class:`~tyrebayes.inference.tyre.fit.TyreFit`.
 
     Columns: ``tyre_id``, ``tyre_type``, ``c_xr``, ``c_xr_sd``, per surface ``mu_<surface>``,
@@ -76,7 +85,11 @@ def tyre_set_row(tyre_set_id: str, tyre_type: str, fit, n_drives: int, n_windows
     C_x: :attr:`~tyrebayes.inference.tyre.adequacy.Adequacy.measures_c_x`), ``r_hat_max``,
     ``ess_bulk_min``,
     ``divergences``, ``optimiser_result``, ``method``, ``model``, ``n_drives``, ``n_windows``,
-    ``n_abs_windows``.
+    ``n_abs_windows``, and the set's lateral estimate beside C_x
+    (:data:`~tyrebayes.batch.lateral.SET_LATERAL_COLUMNS`: ``c_y`` [1/rad], ``c_y_sd``,
+    ``c_y_log_sd``, ``c_y_drives``, ``lateral_reason``; NaN / 0 with the reason where its
+    drives had no usable cornering), from ``lateral``
+    (:func:`~tyrebayes.batch.lateral.combine_drive_laterals`; None: no drive was fitted).
     """
     summary = fit.summary()
     diag = fit.diagnostics
@@ -109,6 +122,7 @@ def tyre_set_row(tyre_set_id: str, tyre_type: str, fit, n_drives: int, n_windows
         "n_windows": int(n_windows),
         "n_abs_windows": int(summary["n_abs_windows"]),
     }
+    row |= combine_drive_laterals([]) if lateral is None else lateral
     return row
 
 
@@ -144,6 +158,7 @@ def fit_tyre_set(
             "tyre_set_id": tyre_set_id,
             "tyre_type": tyre_type,
             "drives": [(d["drive_id"], d["windows_hash"]) for d in drives],
+            "lateral": [d.get("lateral") for d in drives],
         }
     )
     old = read_record(rec_path)
@@ -184,7 +199,8 @@ def fit_tyre_set(
         )
         fit = _with_provenance(fit, provenance, tyre_set_id, drives, settings)
         fit.save(folder / f"{name}.fit.nc")
-        row = tyre_set_row(tyre_set_id, tyre_type, fit, len(drives), n)
+        lateral = combine_drive_laterals([d.get("lateral") or {} for d in drives])
+        row = tyre_set_row(tyre_set_id, tyre_type, fit, len(drives), n, lateral)
         write_parquet(pd.DataFrame([row]), folder / f"{name}.row.parquet")
         record |= {
             "status": "done",

@@ -19,7 +19,9 @@ from .._domain import TYRE_TYPES
 from .._errors import BadInputError
 from .scan import Candidate
 
-RESERVED = ("tyre_id", "tyre_type", "c_xr", "c_xr_sd", "surface")
+# c_y and c_y_sd are a set's lateral estimate (the fleet model's ratio c_y / C_xr), not
+# covariates of the outcome.
+RESERVED = ("tyre_id", "tyre_type", "c_xr", "c_xr_sd", "c_y", "c_y_sd", "surface")
 #: Prior variances (units of sigma^2 on the standardised scale).
 PRIOR_VAR_INTERCEPT = 100.0
 PRIOR_VAR_SLOPE = 25.0

@@ -14,9 +14,14 @@ enter the simulation as they are (:class:`~tyrebayes.physics.lanechange.AxleTyre
 c_y_front · m g l_r / L N/rad), and μ_y is the lateral fit's where the drive neared the peak,
 else the longitudinal μ_max where that fit observed it, else the lateral posterior's (the
 surface's prior, bounded below by the forces the drive used). Each prediction says which
-(:class:`VmaxInputs`: ``lateral_source`` "measured" / "type_prior", ``mu_y_source`` "measured" /
-"mu_max" / "surface_prior" / "type_prior"). A measured μ_y belongs to the drive's surface; the
-type relations describe dry asphalt.
+(:class:`VmaxInputs`: ``lateral_source`` "measured" / "fleet_type_ratio" / "type_prior",
+``mu_y_source`` "measured" / "mu_max" / "surface_prior" / "type_prior"). A measured μ_y belongs to
+the drive's surface; the type relations describe dry asphalt.
+
+A set measured only in straight driving, in a fleet whose fit learnt the per-type ratio
+k = c_y / C_xr (:func:`tyrebayes.inference.fleet.lateral_ratio_draws`), takes C_y = k · C_xr with
+k drawn from its type's posterior predictive (``lateral_source`` "fleet_type_ratio",
+:func:`fleet_ratio_vmax_inputs`) in place of the fixed k_type; μ_y stays the type relation's.
 
 Measurements (thesis Table 6.2): the driver raised the speed in steps of 10 km/h until a cone fell,
 so the recorded V_max means V ∈ [v_pass, v_pass + 10) km/h (interval censoring).
@@ -57,6 +62,7 @@ from ..physics.lanechange import (
     iso3888_2_course,
 )
 from ..physics.vehicle import Vehicle
+from .fleet.predict import has_lateral_ratio, lateral_ratio_draws, lateral_sets_per_type
 from .lateral.result import LateralFit
 from .nuts import run_nuts
 from .result import Fit, diagnose, loo, provenance
@@ -68,9 +74,10 @@ MU_TYPE = {"winter": 0.95, "all_season": 1.00, "summer": 1.05}
 MU_Y_RATIO = 0.95
 SPEED_STEP_KMH = 10.0
 REPEATABILITY_KMH = 2.0
-#: Where a prediction's cornering stiffness came from: the fit's lateral posterior, or the
-#: type-level relation C_y = k_type · C_xr.
-LATERAL_SOURCES = ("measured", "type_prior")
+#: Where a prediction's cornering stiffness came from: the fit's lateral posterior, the fleet's
+#: per-type ratio (C_y = k · C_xr, k from the fleet fit's posterior predictive for the type), or
+#: the type-level relation C_y = k_type · C_xr.
+LATERAL_SOURCES = ("measured", "fleet_type_ratio", "type_prior")
 #: Where its μ_y came from: the lateral fit (the drive neared the peak), the longitudinal fit's
 #: observed μ_max, the lateral posterior without the peak (the surface's prior, bounded below by
 #: the forces used), or the type relation μ_y = 0.95 μ_type.
@@ -280,6 +287,63 @@ def type_vmax_inputs(key: Array, c_xr, tyre_type: str, n: int, note: str = "") -
     return VmaxInputs(c_y, c_y, np.asarray(mu_y), "type_prior", "type_prior", TYPE_SURFACE, note)
 
 
+def fleet_ratio_vmax_inputs(
+    key: Array, fleet: Fit, c_xr, tyre_type: str, n: int, note: str = ""
+) -> VmaxInputs:
+    """Draws of C_y = k · C_xr on both axles with k from the fleet's ratio for the type.
+
+    k is the fleet fit's posterior predictive for a new set of the type
+    (:func:`tyrebayes.inference.fleet.lateral_ratio_draws`: the type's median ratio with its
+    uncertainty and the set-to-set scatter); μ_y is the type relation's (0.95 μ_type), as in
+    :func:`type_vmax_inputs`.
+
+    Parameters
+    ----------
+    key : jax.Array
+        PRNG key.
+    fleet : Fit
+        A fleet fit with the lateral ratio (a fleet table with ``c_y``).
+    c_xr : float or array_like
+        The set's C_xr [-]: a value, or its fit's posterior draws (resampled with replacement).
+    tyre_type : str
+        One of ``winter``, ``all_season``, ``summer``.
+    n : int
+        Number of draws.
+    note : str
+        Why no measured lateral posterior (carried into the result, with the ratio's sets).
+
+    Returns
+    -------
+    VmaxInputs
+        ``lateral_source`` ``"fleet_type_ratio"``, ``mu_y_source`` ``"type_prior"``.
+
+    Examples
+    --------
+    >>> x = fleet_ratio_vmax_inputs(key, fleet_fit, 30.0, "winter", 400)  # doctest: +SKIP
+    >>> x.lateral_source  # doctest: +SKIP
+    'fleet_type_ratio'
+    """
+    if tyre_type not in K_TYPE:
+        raise ValueError(f"tyre_type: expected one of {tuple(K_TYPE)}, got {tyre_type!r}")
+    k_k, k_mu, k_c = jax.random.split(key, 3)
+    seed = int(jax.random.randint(k_k, (), 0, 2**31 - 1))
+    k_ratio = lateral_ratio_draws(fleet, tyre_type, n, seed=seed)
+    _, mu_y = lateral_draws(k_mu, 1.0, tyre_type, n)
+    c = np.atleast_1d(np.asarray(c_xr, float))
+    c_draws = c[np.asarray(jax.random.randint(k_c, (n,), 0, c.size))]
+    c_y = k_ratio * c_draws
+    sets = lateral_sets_per_type(fleet).get(tyre_type, 0)
+    learnt = (
+        f"k = c_y / C_xr from the fleet's {sets} {tyre_type} set(s) with a lateral estimate"
+        if sets
+        else f"k = c_y / C_xr: the fleet had no {tyre_type} set with a lateral estimate (prior)"
+    )
+    note = f"{note}; {learnt}" if note else learnt
+    return VmaxInputs(
+        c_y, c_y, np.asarray(mu_y), "fleet_type_ratio", "type_prior", TYPE_SURFACE, note
+    )
+
+
 def lateral_vmax_inputs(
     key: Array,
     lateral: LateralFit,
@@ -338,13 +402,22 @@ def lateral_vmax_inputs(
     return VmaxInputs(c_f, c_r, mu, "measured", mu_source, surface, note)
 
 
-def fit_vmax_inputs(fit: TyreFit, key: Array, n: int, tyre_type: str = "all_season") -> VmaxInputs:
+def fit_vmax_inputs(
+    fit: TyreFit,
+    key: Array,
+    n: int,
+    tyre_type: str = "all_season",
+    *,
+    fleet: Fit | None = None,
+) -> VmaxInputs:
     """The V_max inputs of a per-tyre fit: its lateral posterior if it has one, else the types'.
 
     A converged lateral posterior gives :func:`lateral_vmax_inputs` (with the fit's μ_max on
     its first surface where it observed that peak and the lateral fit did not observe μ_y);
-    otherwise the type relations at the fit's C_xr draws (:func:`type_vmax_inputs`), with the
-    reason in ``note`` (the fit's ``lateral_reason``, or the lateral fit's convergence failure).
+    otherwise, given a fleet fit that learnt the per-type ratio c_y / C_xr, that ratio at the
+    fit's C_xr draws (:func:`fleet_ratio_vmax_inputs`), else the type relations there
+    (:func:`type_vmax_inputs`), with the reason in ``note`` (the fit's ``lateral_reason``, or
+    the lateral fit's convergence failure).
 
     Parameters
     ----------
@@ -356,10 +429,19 @@ def fit_vmax_inputs(fit: TyreFit, key: Array, n: int, tyre_type: str = "all_seas
         Number of draws.
     tyre_type : str
         The tyre type of the type relations (used only without a lateral posterior).
+    fleet : Fit, optional
+        A fleet fit (:func:`tyrebayes.fit_fleet`); used only without a lateral posterior, and
+        only where it carries the lateral ratio.
 
     Returns
     -------
     VmaxInputs
+
+    Examples
+    --------
+    >>> inputs = fit_vmax_inputs(tyre_fit, key, 400, "winter", fleet=fleet_fit)  # doctest: +SKIP
+    >>> inputs.lateral_source  # doctest: +SKIP
+    'fleet_type_ratio'
     """
     lateral = fit.lateral
     surface = str(fit.surfaces[0])
@@ -370,6 +452,8 @@ def fit_vmax_inputs(fit: TyreFit, key: Array, n: int, tyre_type: str = "all_seas
         why = "the lateral fit did not converge: " + "; ".join(lateral.fit.diagnostics.reasons)
     else:
         why = fit.lateral_reason or "the fit carries no lateral posterior"
+    if fleet is not None and has_lateral_ratio(fleet):
+        return fleet_ratio_vmax_inputs(key, fleet, fit.draws("c_xr"), tyre_type, n, note=why)
     return type_vmax_inputs(key, fit.draws("c_xr"), tyre_type, n, note=why)
 
 
@@ -389,7 +473,8 @@ def predict_vmax(
     vehicle : Vehicle
         The simulated car (its static axle loads turn each axle's c_y into N/rad).
     inputs : VmaxInputs
-        From :func:`fit_vmax_inputs`, :func:`lateral_vmax_inputs` or :func:`type_vmax_inputs`.
+        From :func:`fit_vmax_inputs`, :func:`lateral_vmax_inputs`,
+        :func:`fleet_ratio_vmax_inputs` or :func:`type_vmax_inputs`.
     course : Course, optional
         Default: :func:`~tyrebayes.physics.lanechange.iso3888_2_course` for the car's width.
     driver : Driver

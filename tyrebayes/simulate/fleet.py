@@ -45,6 +45,13 @@ Hidden effects (``effects=``) and the meaning of ``effect_size`` (natural units)
     tread packs and bites more snow); stiffness unchanged. Default 0.012 per mm (the weak effect of
     issue 25).
 
+Lateral estimates (``lateral_ratio=``): each set's ratio k_i = c_y / C_xr is drawn from its type's
+log-normal population, ``log k_i ~ Normal(log k_type, k_log_sd)``, and a share of the sets gets a
+measured ``c_y`` = k_i · C_true_i · exp(s_i · eps) with ``c_y_sd`` = s_i · c_y, s_i uniform in
+``c_y_log_sd`` (the per-drive lateral fits' relative sds are 0.1-0.15,
+``benchmarks/results/lateral_external.json``; a set of several drives is tighter). Sets without
+one have empty ``c_y`` and ``c_y_sd`` (driven only straight).
+
 On dry and wet roads the hidden effects act at a quarter of their size (the thesis' effect is a
 winter phenomenon); they never act on the covariates' distribution, only on mu and stiffness.
 """
@@ -197,6 +204,9 @@ def simulate_fleet(
     c_xr_sd: float = 1.5,
     type_shares: Mapping[str, float] | None = None,
     noise: str = "gaussian",
+    lateral_ratio: Mapping[str, tuple[float, float]] | None = None,
+    lateral_share: float = 1.0,
+    c_y_log_sd: tuple[float, float] = (0.06, 0.15),
 ) -> tuple[pd.DataFrame, dict]:
     """Simulate a fleet table with known type-level truth.
 
@@ -224,6 +234,14 @@ def simulate_fleet(
     noise : {"gaussian", "student_t3"}
         Distribution of the friction residuals: Gaussian, or Student-t with 3 degrees of freedom
         scaled to the same sd (heavier tails: the departure a criticism must not call a finding).
+    lateral_ratio : mapping or None
+        Per type ``(median k, log-sd of k)`` of the ratio c_y / C_xr (module docstring); None
+        (default) adds no lateral columns.
+    lateral_share : float
+        Share of the sets with a lateral estimate (the first ones in id order after shuffling:
+        a random subset), in [0, 1].
+    c_y_log_sd : (float, float)
+        Range of the sets' relative measurement error of c_y.
 
     Returns
     -------
@@ -232,7 +250,9 @@ def simulate_fleet(
     truth : dict
         ``type_params`` {surface: {type: {"a", "b", "sigma"}}}, ``c_xr_true`` (per set),
         ``effects`` {name: size}, ``effect_columns`` {name: column}, ``decoys``, ``c_xr_ref``,
-        ``x_scale``, ``stiffness`` {type: (median, log_sd)}.
+        ``x_scale``, ``stiffness`` {type: (median, log_sd)}; with ``lateral_ratio`` also
+        ``lateral_ratio`` (as given), ``k_true`` and ``c_y_true`` per set, ``has_lateral`` (bool
+        per set).
 
     Examples
     --------
@@ -320,6 +340,11 @@ def simulate_fleet(
             frame[f"decoy_{j + 1}"] = decoys[:, j]
         frames.append(frame)
     table = pd.concat(frames, ignore_index=True)
+    lateral = None
+    if lateral_ratio is not None:
+        lateral = _lateral_estimates(rng, types, c_true, lateral_ratio, lateral_share, c_y_log_sd)
+        table["c_y"] = np.tile(lateral["c_y"], len(surfaces))
+        table["c_y_sd"] = np.tile(lateral["c_y_sd"], len(surfaces))
 
     truth = {
         "type_params": {
@@ -344,4 +369,38 @@ def simulate_fleet(
         "type_counts": counts,
         "age_ref_years": AGE_REF_YEARS,
     }
+    if lateral is not None:
+        truth.update(
+            lateral_ratio=dict(lateral_ratio),
+            k_true=lateral["k_true"],
+            c_y_true=lateral["k_true"] * c_true,
+            has_lateral=lateral["has"],
+        )
     return table, truth
+
+
+def _lateral_estimates(rng, types, c_true, lateral_ratio, share, log_sd_range) -> dict:
+    """Per set: true ratio, measured c_y and its sd (NaN without a lateral estimate)."""
+    missing = [t for t in set(types) if t not in lateral_ratio]
+    if missing:
+        raise ValueError(
+            f"lateral_ratio: expected (median, log_sd) for {sorted(missing)}, got none"
+        )
+    if not 0.0 <= share <= 1.0:
+        raise ValueError(f"lateral_share: expected a share in [0, 1], got {share}")
+    lo, hi = log_sd_range
+    if not 0.0 < lo <= hi:
+        raise ValueError(f"c_y_log_sd: expected 0 < low <= high, got {log_sd_range}")
+    n = len(types)
+    median = np.array([lateral_ratio[t][0] for t in types], float)
+    spread = np.array([lateral_ratio[t][1] for t in types], float)
+    k_true = median * np.exp(spread * rng.normal(size=n))
+    s = rng.uniform(lo, hi, n)
+    c_y = k_true * c_true * np.exp(s * rng.normal(size=n))
+    has = np.arange(n) < int(round(share * n))
+    return {
+        "k_true": k_true,
+        "c_y": np.where(has, c_y, np.nan),
+        "c_y_sd": np.where(has, s * c_y, np.nan),
+        "has": has,
+    }

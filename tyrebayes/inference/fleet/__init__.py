@@ -9,7 +9,8 @@ type and surface from ``models/priors/tyre_types.toml`` (each number sourced the
 Modules: :mod:`.priors` (priors and their check against braking data), :mod:`.data` (the fleet
 table), :mod:`.model` (the NumPyro model), :mod:`.fit` (:func:`fit_fleet`, NUTS or SVI, returning a
 :class:`~tyrebayes.inference.result.Fit`), :mod:`.predict` (:func:`predict_friction`,
-:func:`predictive_logpdf`, :func:`predictive_draws`, :func:`fit_summary`).
+:func:`predictive_logpdf`, :func:`predictive_draws`, :func:`fit_summary`, and the per-type
+lateral ratio c_y / C_xr: :func:`lateral_ratio_draws`, :func:`lateral_ratio_summary`).
 """
 
 from .data import FleetData as FleetData
@@ -18,6 +19,10 @@ from .fit import fit_fleet as fit_fleet
 from .model import X_SCALE as X_SCALE
 from .model import fleet_model as fleet_model
 from .predict import fit_summary as fit_summary
+from .predict import has_lateral_ratio as has_lateral_ratio
+from .predict import lateral_ratio_draws as lateral_ratio_draws
+from .predict import lateral_ratio_summary as lateral_ratio_summary
+from .predict import lateral_sets_per_type as lateral_sets_per_type
 from .predict import predict_friction as predict_friction
 from .predict import predictive_draws as predictive_draws
 from .predict import predictive_logpdf as predictive_logpdf

@@ -10,11 +10,15 @@ from ..._domain import C_XR_RANGE, MU_RANGE, SURFACES, TYRE_TYPES
 from ..._errors import BadInputError
 from .priors import load_tyre_type_priors
 
+#: Plausible normalised cornering stiffness c_y [1/rad over the axle load]: car tyres 5-30.
+C_Y_RANGE: tuple[float, float] = (1.0, 100.0)
+
 
 class FleetData(eqx.Module):
     """A validated fleet table as index arrays (one latent stiffness per tyre set).
 
-    ``tyre_type``, ``c_xr``, ``c_xr_sd`` are per tyre set; ``row_tyre``, ``row_surface``, ``y``
+    ``tyre_type``, ``c_xr``, ``c_xr_sd``, ``c_y``, ``c_y_sd`` are per tyre set (``c_y`` and
+    ``c_y_sd`` NaN for a set without a lateral estimate); ``row_tyre``, ``row_surface``, ``y``
     per row (one row per set and surface).
     """
 
@@ -22,6 +26,8 @@ class FleetData(eqx.Module):
     tyre_type: np.ndarray
     c_xr: np.ndarray
     c_xr_sd: np.ndarray
+    c_y: np.ndarray
+    c_y_sd: np.ndarray
     row_tyre: np.ndarray
     row_surface: np.ndarray
     y: np.ndarray
@@ -35,6 +41,11 @@ class FleetData(eqx.Module):
     def row_type(self) -> np.ndarray:
         return self.tyre_type[self.row_tyre]
 
+    @property
+    def lateral_tyres(self) -> np.ndarray:
+        """Indices of the sets with a lateral estimate (finite ``c_y``)."""
+        return np.flatnonzero(np.isfinite(self.c_y))
+
 
 def fleet_data_from_table(
     table: pd.DataFrame,
@@ -42,6 +53,7 @@ def fleet_data_from_table(
     *,
     default_c_xr_sd: float | None = None,
     require_outcome: bool = True,
+    lateral_only_rows: bool = False,
 ) -> FleetData:
     """Validate a fleet table (DESIGN.md contract) and turn it into :class:`FleetData`.
 
@@ -52,6 +64,15 @@ def fleet_data_from_table(
     :data:`~tyrebayes._domain.C_XR_RANGE`, an outcome named ``mu...`` outside
     :data:`~tyrebayes._domain.MU_RANGE` (with a hint when it looks like percent). Without a
     ``surface`` column every row is on snow (the thesis' setting).
+
+    Optional lateral columns: ``c_y`` (the set's normalised cornering stiffness [1/rad over the
+    static axle load], empty where the set has no lateral estimate) with ``c_y_sd`` (its standard
+    error, required beside ``c_y``); a ``c_y`` outside :data:`C_Y_RANGE`, a missing or
+    non-positive ``c_y_sd`` where ``c_y`` is given, or a set whose rows disagree on them fail.
+    With ``lateral_only_rows`` (what :func:`~tyrebayes.inference.fleet.fit.fit_fleet` passes) a
+    row with a ``c_y`` and an empty outcome is a set that cornered but never observed the
+    outcome: the set keeps its stiffness and c_y, the row leaves the outcome's rows (at least
+    one row must have an outcome).
     """
     if default_c_xr_sd is None:
         default_c_xr_sd = load_tyre_type_priors().default_c_xr_sd
@@ -89,13 +110,16 @@ def fleet_data_from_table(
             raise BadInputError("c_xr_sd: expected positive finite values, got missing or <= 0")
     else:
         c_sd = np.full(len(table), float(default_c_xr_sd))
+    c_y, cy_sd = _lateral_columns(table)
     if require_outcome:
         y = pd.to_numeric(table[outcome], errors="coerce").to_numpy(float)
-        if not np.all(np.isfinite(y)):
+        allowed = np.isfinite(c_y) if lateral_only_rows else np.zeros(len(table), bool)
+        if not np.all(np.isfinite(y) | allowed):
             raise BadInputError(f"{outcome}: expected finite numbers, got missing or non-numeric")
+        if not np.isfinite(y).any():
+            raise BadInputError(f"{outcome}: expected at least one row with a value, got none")
     else:
         y = np.full(len(table), np.nan)
-
     ids = table["tyre_id"].astype(str).to_numpy()
     uniq, row_tyre = np.unique(ids, return_inverse=True)
     key = pd.Series(list(zip(ids, surface, strict=True)))
@@ -107,6 +131,8 @@ def fleet_data_from_table(
     tyre_type = np.zeros(len(uniq), int)
     tyre_c = np.zeros(len(uniq))
     tyre_sd = np.zeros(len(uniq))
+    tyre_cy = np.full(len(uniq), np.nan)
+    tyre_cy_sd = np.full(len(uniq), np.nan)
     type_idx = types.map({t: i for i, t in enumerate(TYRE_TYPES)}).to_numpy(int)
     for k in range(len(uniq)):
         rows = row_tyre == k
@@ -115,9 +141,22 @@ def fleet_data_from_table(
                 f"tyre_id {uniq[k]}: expected one tyre_type and c_xr for all its rows, got several"
             )
         tyre_type[k], tyre_c[k], tyre_sd[k] = type_idx[rows][0], c_xr[rows][0], c_sd[rows][0]
+        lateral = np.isfinite(c_y[rows])
+        if lateral.any():
+            values = c_y[rows][lateral]
+            if not lateral.all() or np.ptp(values) > 1e-9 * values[0]:
+                raise BadInputError(
+                    f"tyre_id {uniq[k]}: expected one c_y for all its rows (or none), got "
+                    f"{c_y[rows].tolist()}"
+                )
+            tyre_cy[k], tyre_cy_sd[k] = values[0], cy_sd[rows][lateral][0]
     row_surface = surface.map({s: i for i, s in enumerate(SURFACES)}).to_numpy(int)
+    row_tyre = np.asarray(row_tyre, int)
     if require_outcome:
-        counts = pd.crosstab(surface.to_numpy(), types.to_numpy())
+        # Lateral-only rows leave the outcome's rows; their sets stay (stiffness and c_y).
+        has_y = np.isfinite(y)
+        row_tyre, row_surface, y = row_tyre[has_y], row_surface[has_y], y[has_y]
+        counts = pd.crosstab(surface.to_numpy()[has_y], types.to_numpy()[has_y])
         thin = [
             (s, t, int(counts.loc[s, t]))
             for s in counts.index
@@ -135,11 +174,39 @@ def fleet_data_from_table(
         tyre_type=tyre_type,
         c_xr=tyre_c,
         c_xr_sd=tyre_sd,
-        row_tyre=np.asarray(row_tyre, int),
+        c_y=tyre_cy,
+        c_y_sd=tyre_cy_sd,
+        row_tyre=row_tyre,
         row_surface=row_surface,
         y=y,
         outcome=outcome,
     )
+
+
+def _lateral_columns(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Per row ``c_y`` and ``c_y_sd`` (NaN where the set has no lateral estimate), checked."""
+    if "c_y" not in table.columns:
+        nan = np.full(len(table), np.nan)
+        return nan, nan.copy()
+    if "c_y_sd" not in table.columns:
+        raise BadInputError("fleet table: expected a c_y_sd column beside c_y, got none")
+    c_y = pd.to_numeric(table["c_y"], errors="coerce").to_numpy(float)
+    sd = pd.to_numeric(table["c_y_sd"], errors="coerce").to_numpy(float)
+    given = np.isfinite(c_y)
+    lo, hi = C_Y_RANGE
+    bad = np.flatnonzero(given & ((c_y < lo) | (c_y > hi)))
+    if bad.size:
+        raise BadInputError(
+            f"c_y: expected a normalised cornering stiffness in [{lo:g}, {hi:g}] 1/rad (car "
+            f"tyres 5-30), got {c_y[bad[0]]:g} in row {int(bad[0])}"
+        )
+    bad = np.flatnonzero(given & ~(np.isfinite(sd) & (sd > 0)))
+    if bad.size:
+        raise BadInputError(
+            f"c_y_sd: expected a positive finite value where c_y is given, got {sd[bad[0]]} "
+            f"in row {int(bad[0])}"
+        )
+    return c_y, np.where(given, sd, np.nan)
 
 
 def _first_outside(table: pd.DataFrame, column: str, inside) -> tuple[int, float] | None:

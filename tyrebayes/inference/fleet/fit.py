@@ -26,7 +26,7 @@ from ...internal.renamed import renamed_keyword
 from ..nuts import run_nuts
 from ..result import Fit, diagnose, posterior_predictive_adequacy, provenance
 from .data import FleetData, fleet_data_from_table
-from .model import X_SCALE, fleet_model, normal_logpdf, row_mean_sigma
+from .model import X_SCALE, fleet_model, lateral_arrays, normal_logpdf, row_mean_sigma
 from .priors import FleetPriors, load_tyre_type_priors, prior_arrays, prior_draws
 
 
@@ -45,6 +45,7 @@ def _model_args(data: FleetData, priors: FleetPriors) -> tuple:
         jnp.asarray(data.row_tyre),
         jnp.asarray(local),
         jnp.asarray(data.y),
+        lateral_arrays(data),
     )
 
 
@@ -74,6 +75,12 @@ _POSTERIOR_DIMS = {
     "c_xr_true": ["tyre"],
 }
 _TYPE_LEVEL = ("a", "b", "sigma", "slope", "sigma0", "stiff_loc")
+# The lateral ratio's sites, present where some set has a lateral estimate.
+_LATERAL_DIMS = {"k_loc": ["tyre_type"], "k_scale": ["tyre_type"]}
+
+
+def _posterior_dims(data: FleetData) -> dict:
+    return {**_POSTERIOR_DIMS, **(_LATERAL_DIMS if data.lateral_tyres.size else {})}
 
 
 def _run_nuts(data, priors, key, num_warmup, num_samples, num_chains, target_accept):
@@ -108,7 +115,9 @@ def _run_svi(data, priors, key, num_steps, num_draws, learning_rate):
     pred = Predictive(guide, params=result.params, num_samples=num_draws)
     latent = pred(k_draw, *args)
     det = Predictive(
-        fleet_model, posterior_samples=latent, return_sites=list(_POSTERIOR_DIMS) + ["log_c_xr"]
+        fleet_model,
+        posterior_samples=latent,
+        return_sites=list(_posterior_dims(data)) + ["log_c_xr"],
     )(k_draw, *args)
     samples = {k: np.asarray(v)[None] for k, v in {**latent, **det}.items()}
     samples["c_xr_true"] = np.exp(samples.pop("log_c_xr"))
@@ -150,7 +159,9 @@ def fit_fleet(
     table : pandas.DataFrame
         Fleet table (DESIGN.md contract): ``tyre_id``, ``tyre_type``, ``c_xr``, optional
         ``c_xr_sd`` (else the priors' ``default_c_xr_sd``), the outcome column, optional
-        ``surface``.
+        ``surface``, optional ``c_y`` and ``c_y_sd`` (a set's lateral estimate, empty where it
+        has none: :func:`~tyrebayes.inference.fleet.data.fleet_data_from_table`); a row with
+        ``c_y`` and an empty outcome adds a set that cornered but never observed the outcome.
     outcome : str
         Column with the friction potential mu_max (thesis eq. 3.3), dimensionless.
     method : {"nuts", "svi"}
@@ -176,13 +187,16 @@ def fit_fleet(
     -------
     Fit
         ``kind="fleet"``. ``data`` holds ``posterior`` (a, b, sigma per surface and type;
-        slope/scale hyper-parameters; stiffness population; ``c_xr_true`` per set),
+        slope/scale hyper-parameters; stiffness population; ``c_xr_true`` per set; where some
+        set has a lateral estimate, ``k_loc`` and ``k_scale`` per type, the log-normal
+        population of the ratio c_y / C_xr),
         ``observed_data``, ``log_likelihood`` and ``posterior_predictive`` (variable named after
         ``outcome``, per row), ``constant_data`` and (NUTS) ``sample_stats``; ``data.attrs``
-        carries ``c_xr_ref``, ``fitted_surfaces``, ``outcome``, ``x_scale`` and the SVI loss
-        (JSON). ``diagnostics`` judge the type-level parameters of the fitted surfaces (the
-        others are prior draws) under :data:`tyrebayes.inference.result.POLICY`; ``adequate``
-        reports a posterior predictive check of the outcome's mean and sd.
+        carries ``c_xr_ref``, ``fitted_surfaces``, ``outcome``, ``x_scale``, the SVI loss and
+        ``lateral_sets_per_type`` (JSON). ``diagnostics`` judge the type-level parameters of
+        the fitted surfaces (the others are prior draws) and the lateral ratio's, under
+        :data:`tyrebayes.inference.result.POLICY`; ``adequate`` reports a posterior predictive
+        check of the outcome's mean and sd.
 
     Examples
     --------
@@ -195,7 +209,9 @@ def fit_fleet(
     if method not in ("nuts", "svi"):
         raise BadInputError(f"method: expected 'nuts' or 'svi', got {method!r}")
     priors = load_tyre_type_priors() if priors is None else priors
-    data = fleet_data_from_table(table, outcome, default_c_xr_sd=priors.default_c_xr_sd)
+    data = fleet_data_from_table(
+        table, outcome, default_c_xr_sd=priors.default_c_xr_sd, lateral_only_rows=True
+    )
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
         raise TypeError(f"seed: expected an int, got {type(seed).__name__}")
     rng_key = jax.random.key(int(seed))
@@ -214,7 +230,7 @@ def fit_fleet(
     diagnostics = diagnose(
         tree,
         method=method,
-        var_names=_TYPE_LEVEL,
+        var_names=_TYPE_LEVEL + (tuple(_LATERAL_DIMS) if data.lateral_tyres.size else ()),
         coords={"surface": fitted},
         optimiser_result=info.get("optimiser_result", "n/a"),
     ).with_adequacy(posterior_predictive_adequacy(tree, outcome))
@@ -248,7 +264,7 @@ def _to_datatree(samples, data, priors, info, rng_key) -> xr.DataTree:
         "row": np.arange(len(data.y)),
     }
     groups = {
-        "posterior": {k: samples[k] for k in _POSTERIOR_DIMS},
+        "posterior": {k: samples[k] for k in _posterior_dims(data)},
         "posterior_predictive": {name: y_rep},
         "log_likelihood": {name: normal_logpdf(data.y, mean, sd)},
         "observed_data": {name: data.y},
@@ -259,6 +275,8 @@ def _to_datatree(samples, data, priors, info, rng_key) -> xr.DataTree:
             "tyre_type_index": data.tyre_type,
             "c_xr_obs": data.c_xr,
             "c_xr_sd": data.c_xr_sd,
+            "c_y_obs": data.c_y,
+            "c_y_sd": data.c_y_sd,
         },
     }
     if "diverging" in info:
@@ -269,7 +287,7 @@ def _to_datatree(samples, data, priors, info, rng_key) -> xr.DataTree:
         groups,
         coords=coords,
         dims={
-            **_POSTERIOR_DIMS,
+            **_posterior_dims(data),
             name: ["row"],
             "row_tyre": ["row"],
             "row_surface": ["row"],
@@ -277,6 +295,8 @@ def _to_datatree(samples, data, priors, info, rng_key) -> xr.DataTree:
             "tyre_type_index": ["tyre"],
             "c_xr_obs": ["tyre"],
             "c_xr_sd": ["tyre"],
+            "c_y_obs": ["tyre"],
+            "c_y_sd": ["tyre"],
         },
     )
     # Kind-specific facts a prediction from a loaded fit needs (netCDF attributes: strings).
@@ -289,6 +309,13 @@ def _to_datatree(samples, data, priors, info, rng_key) -> xr.DataTree:
             "outcome": name,
             "x_scale": X_SCALE,
             "svi": json.dumps(svi),
+            # Sets with a lateral estimate per type: a type without any keeps its prior ratio.
+            "lateral_sets_per_type": json.dumps(
+                {
+                    t: int(np.sum(data.tyre_type[data.lateral_tyres] == i))
+                    for i, t in enumerate(TYRE_TYPES)
+                }
+            ),
         }
     )
     return tree

@@ -5,6 +5,14 @@ stiffness), a slope ``b[s,t]`` against z = 100 / C_xr - 100 / c_xr_ref[t] and a 
 ``sigma[s,t]``; slopes and log-scales partially pooled over types, all non-centred. The stiffness
 C_xr of each set is a latent variable, observed with its standard error and drawn from a per-type
 log-normal population.
+
+Sets with a lateral estimate c_y also observe the ratio k = c_y / C_xr of their type: log k of a
+set is Normal(k_loc[t], k_scale[t]) and its c_y is measured with a log-normal error of relative
+size c_y_sd / c_y, so log c_y ~ Normal(log C_xr + k_loc[t], sqrt(k_scale[t]^2 + (c_y_sd/c_y)^2))
+with the set's own k integrated out (it is pinned by one measurement, and the marginal keeps the
+sampler off a funnel). The ratio replaces the lane change's fixed type relation C_y = k_type ·
+C_xr (:mod:`tyrebayes.inference.vmax`). Without any lateral estimate these sites are absent and
+the model is the one above, draw for draw.
 """
 
 from __future__ import annotations
@@ -31,11 +39,13 @@ def fleet_model(
     row_tyre: Int[Array, " n_rows"],
     row_surface: Int[Array, " n_rows"],
     y: Float[Array, " n_rows"] | None = None,
+    lateral: tuple | None = None,
 ):
     """NumPyro model of a fleet (module docstring).
 
     ``priors`` from :func:`_prior_arrays`, restricted to the surfaces in the data
-    (``row_surface`` indexes that restricted list).
+    (``row_surface`` indexes that restricted list). ``lateral`` is ``(set index, log c_y, its
+    log-sd)`` of the sets with a lateral estimate (:func:`lateral_arrays`), or None.
     """
     p = priors
     n_s, n_t = p["mu"].shape
@@ -72,11 +82,42 @@ def fleet_model(
     s_raw = numpyro.sample("sigma_raw", dist.Normal(0.0, 1.0).expand([n_s, n_t]).to_event(2))
     sigma = numpyro.deterministic("sigma", jnp.exp(log_s0[:, None] + tau_s[:, None] * s_raw))
 
+    if lateral is not None:
+        _lateral_ratio(p, tyre_type, log_c, *lateral)
+
     row_type = tyre_type[row_tyre]
     z = X_SCALE / c_xr[row_tyre] - X_SCALE / p["c_xr_ref"][row_type]
     mean = a[row_surface, row_type] + b[row_surface, row_type] * z
     with numpyro.plate("row", row_tyre.shape[0]):
         numpyro.sample("y", dist.Normal(mean, sigma[row_surface, row_type]), obs=y)
+
+
+def _lateral_ratio(p: dict, tyre_type, log_c, lat_tyre, log_c_y, log_c_y_sd) -> None:
+    """The per-type ratio k = c_y / C_xr and the sets' c_y observations (module docstring)."""
+    n_t = p["k_ratio"].shape[0]
+    k_raw = numpyro.sample("k_loc_raw", dist.Normal(0.0, 1.0).expand([n_t]).to_event(1))
+    k_loc = numpyro.deterministic("k_loc", jnp.log(p["k_ratio"]) + p["k_ratio_log_sd"] * k_raw)
+    # Log-normal like the stiffness spread: a few sets of a type must not pull it to zero.
+    k_scale = numpyro.sample(
+        "k_scale", dist.LogNormal(jnp.log(p["k_spread"]), jnp.full(n_t, 0.5)).to_event(1)
+    )
+    t = tyre_type[lat_tyre]
+    with numpyro.plate("lateral_set", lat_tyre.shape[0]):
+        numpyro.sample(
+            "c_y_obs",
+            dist.Normal(log_c[lat_tyre] + k_loc[t], jnp.sqrt(k_scale[t] ** 2 + log_c_y_sd**2)),
+            obs=log_c_y,
+        )
+
+
+def lateral_arrays(data: FleetData) -> tuple | None:
+    """``(set index, log c_y, log-sd c_y_sd / c_y)`` of the sets with a lateral estimate, or
+    None when the table has none."""
+    idx = data.lateral_tyres
+    if idx.size == 0:
+        return None
+    c_y = data.c_y[idx]
+    return (jnp.asarray(idx), jnp.asarray(np.log(c_y)), jnp.asarray(data.c_y_sd[idx] / c_y))
 
 
 def row_mean_sigma(samples: dict, data: FleetData, c_ref: np.ndarray):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -147,6 +148,103 @@ def predictive_draws(
     return mean + sd * rng.standard_normal(mean.shape)
 
 
+def has_lateral_ratio(fit: Fit) -> bool:
+    """Whether a fleet fit carries the per-type ratio c_y / C_xr (some set had a lateral estimate).
+
+    Examples
+    --------
+    >>> has_lateral_ratio(fit)  # doctest: +SKIP
+    True
+    """
+    return fit.kind == "fleet" and "k_loc" in fit.posterior.data_vars
+
+
+def lateral_sets_per_type(fit: Fit) -> dict[str, int]:
+    """How many sets of each type had a lateral estimate in the fleet table (0 for each type of a
+    fit made before the ratio existed)."""
+    raw = fit.data.attrs.get("lateral_sets_per_type")
+    return {t: 0 for t in TYRE_TYPES} if raw is None else dict(json.loads(raw))
+
+
+def lateral_ratio_draws(fit: Fit, tyre_type: str, n: int | None = None, *, seed: int = 0):
+    """Posterior predictive draws of k = c_y / C_xr for a new set of a type [1/rad per unit C_xr].
+
+    Each draw is one posterior draw of the type's population (``k_loc``, ``k_scale``) and one set
+    from it, so the spread holds both the uncertainty of the type's median and the set-to-set
+    scatter. A type without lateral estimates in the fleet gives its prior predictive
+    (:func:`lateral_sets_per_type` says which).
+
+    Parameters
+    ----------
+    fit : Fit
+        A fleet fit with the ratio (:func:`has_lateral_ratio`).
+    tyre_type : str
+        ``winter``, ``all_season`` or ``summer``.
+    n : int, optional
+        Number of draws (default: one per posterior draw; more or fewer resample them).
+    seed : int
+        Randomness of the set-to-set scatter and the resampling.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``n`` draws of k; c_y = k · C_xr [1/rad over the static axle load].
+
+    Raises
+    ------
+    BadInputError
+        Not a fleet fit, no lateral ratio in it, or an unknown type.
+
+    Examples
+    --------
+    >>> k = lateral_ratio_draws(fit, "winter", 1000)  # doctest: +SKIP
+    >>> float(np.median(k))  # doctest: +SKIP
+    0.45
+    """
+    if fit.kind != "fleet":
+        raise BadInputError(f"fit: expected a fleet fit, got a {fit.kind} fit")
+    if tyre_type not in TYRE_TYPES:
+        raise BadInputError(f"tyre type: expected one of {list(TYRE_TYPES)}, got {tyre_type!r}")
+    if not has_lateral_ratio(fit):
+        raise BadInputError(
+            "fleet fit: expected the lateral ratio c_y / C_xr (a table with c_y), got a fit "
+            "without any lateral estimate"
+        )
+    t = TYRE_TYPES.index(tyre_type)
+    loc, scale = fit.draws("k_loc")[:, t], fit.draws("k_scale")[:, t]
+    rng = np.random.default_rng(seed)
+    if n is not None:
+        if n < 1:
+            raise BadInputError(f"n: expected at least 1 draw, got {n}")
+        idx = rng.integers(0, loc.size, n) if n > loc.size else rng.permutation(loc.size)[:n]
+        loc, scale = loc[idx], scale[idx]
+    return np.exp(loc + scale * rng.standard_normal(loc.size))
+
+
+def lateral_ratio_summary(fit: Fit) -> dict | None:
+    """Per type: the ratio's median (``exp(k_loc)``) and spread (``k_scale``) as ``{"mean",
+    "sd", "hdi_90"}``, the sets it was learnt from, and ``"from"`` (``"data"`` or ``"prior"``);
+    None for a fit without the ratio. The ``lateral_ratio`` object of ``fit-fleet --json``.
+
+    Examples
+    --------
+    >>> lateral_ratio_summary(fit)["winter"]["from"]  # doctest: +SKIP
+    'data'
+    """
+    if not has_lateral_ratio(fit):
+        return None
+    counts = lateral_sets_per_type(fit)
+    out = {}
+    for i, t in enumerate(TYRE_TYPES):
+        out[t] = {
+            "median_ratio": summarize(np.exp(fit.draws("k_loc")[:, i])),
+            "log_spread": summarize(fit.draws("k_scale")[:, i]),
+            "n_sets": int(counts.get(t, 0)),
+            "from": "data" if counts.get(t, 0) > 0 else "prior",
+        }
+    return out
+
+
 def fit_summary(fit: Fit) -> dict:
     """JSON-ready summary of a fleet fit: diagnostics and a, b, sigma per fitted surface and type.
 
@@ -176,4 +274,5 @@ def fit_summary(fit: Fit) -> dict:
         "n_rows": int(fit.data["observed_data"].sizes["row"]),
         "fitted_surfaces": fitted,
         "parameters": params,
+        "lateral_ratio": lateral_ratio_summary(fit),
     }

@@ -22,7 +22,10 @@ class FleetPriors(eqx.Module):
 
     Arrays are indexed ``[type]`` (order :data:`TYRE_TYPES`), ``[surface]`` (order
     :data:`SURFACES`) or ``[surface, type]``. Stiffness numbers are dimensionless C_xr; friction
-    numbers are dimensionless mu; slopes are mu per unit of z = 100 / C_xr.
+    numbers are dimensionless mu; slopes are mu per unit of z = 100 / C_xr. The lateral ratio
+    k = c_y / C_xr [1/rad per unit C_xr] has a per-type median ``k_ratio`` (prior uncertainty
+    ``k_ratio_log_sd``, on the log scale) and a within-type log-sd ``k_spread`` (median of its
+    log-normal prior).
     """
 
     c_xr_ref: np.ndarray
@@ -37,9 +40,21 @@ class FleetPriors(eqx.Module):
     sigma_log_sd: np.ndarray
     tau_sigma: np.ndarray
     default_c_xr_sd: float
+    k_ratio: np.ndarray
+    k_ratio_log_sd: np.ndarray
+    k_spread: np.ndarray
 
     def __check_init__(self):
-        for name in ("c_xr_ref", "c_xr_ref_log_sd", "c_xr_log_sd", "mu_sd", "slope_sd"):
+        for name in (
+            "c_xr_ref",
+            "c_xr_ref_log_sd",
+            "c_xr_log_sd",
+            "mu_sd",
+            "slope_sd",
+            "k_ratio",
+            "k_ratio_log_sd",
+            "k_spread",
+        ):
             value = np.asarray(getattr(self, name))
             if not np.all(value > 0):
                 raise ValueError(f"{name}: expected > 0, got {value.tolist()}")
@@ -77,6 +92,9 @@ def load_tyre_type_priors(path: str | Path | None = None) -> FleetPriors:
             sigma_log_sd=np.array([s["sigma_log_sd"] for s in surfs], float),
             tau_sigma=np.array([s["tau_sigma"] for s in surfs], float),
             default_c_xr_sd=float(raw["default_c_xr_sd"]),
+            k_ratio=np.array([t["k_ratio"] for t in types], float),
+            k_ratio_log_sd=np.array([t["k_ratio_log_sd"] for t in types], float),
+            k_spread=np.array([t["k_spread"] for t in types], float),
         )
     except KeyError as err:
         raise BadInputError(f"priors file {path}: expected key {err}, not found") from err
@@ -109,7 +127,14 @@ def prior_draws(priors: FleetPriors, n: int, seed: int = 0) -> dict[str, np.ndar
 
 
 def prior_arrays(priors: FleetPriors, surfaces: np.ndarray) -> dict:
-    per_type = ("c_xr_ref", "c_xr_ref_log_sd", "c_xr_log_sd")
+    per_type = (
+        "c_xr_ref",
+        "c_xr_ref_log_sd",
+        "c_xr_log_sd",
+        "k_ratio",
+        "k_ratio_log_sd",
+        "k_spread",
+    )
     per_surface = (
         "mu",
         "mu_sd",

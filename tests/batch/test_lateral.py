@@ -1,0 +1,94 @@
+"""A tyre set's lateral estimate in a fleet run (tyrebayes.batch.lateral)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tyrebayes._domain import load_vehicle
+from tyrebayes.batch.lateral import (
+    DRIVE_LATERAL_COLUMNS,
+    SET_LATERAL_COLUMNS,
+    combine_drive_laterals,
+    drive_lateral,
+    lateral_off,
+)
+from tyrebayes.batch.settings import RunSettings
+from tyrebayes.inference.lateral import LateralPriors
+
+VEHICLE = load_vehicle("compact_fwd")
+
+
+def _drive(c_y, log_sd):
+    return {"c_y": c_y, "c_y_log_sd": log_sd, "lateral_reason": ""}
+
+
+def test_drives_combine_as_gaussians_in_log_c_y_with_the_prior_counted_once():
+    s0 = LateralPriors().c_y_log_sd / math.sqrt(2)
+    m0 = math.log(LateralPriors().c_y_median)
+    drives = [_drive(14.0, 0.10), _drive(15.0, 0.20), _drive(float("nan"), float("nan"))]
+    out = combine_drive_laterals(drives)
+    assert set(out) == set(SET_LATERAL_COLUMNS)
+    prec = 1 / 0.1**2 + 1 / 0.2**2 - 1 / s0**2
+    mean = (math.log(14) / 0.1**2 + math.log(15) / 0.2**2 - m0 / s0**2) / prec
+    assert out["c_y_drives"] == 2 and out["lateral_reason"] == ""
+    assert math.isclose(out["c_y"], math.exp(mean), rel_tol=1e-12)
+    assert math.isclose(out["c_y_log_sd"], prec**-0.5, rel_tol=1e-12)
+    assert math.isclose(out["c_y_sd"], out["c_y"] * out["c_y_log_sd"])
+    # one drive is its own posterior
+    one = combine_drive_laterals([_drive(14.0, 0.1)])
+    assert math.isclose(one["c_y"], 14.0) and math.isclose(one["c_y_log_sd"], 0.1)
+
+
+def test_a_set_without_cornering_says_why():
+    out = combine_drive_laterals(
+        [lateral_off(), {"lateral_reason": "lateral: no usable cornering: 3 s"}]
+    )
+    assert out["c_y_drives"] == 0 and np.isnan(out["c_y"]) and np.isnan(out["c_y_sd"])
+    assert out["lateral_reason"].startswith("none of 2 drive(s) gave c_y (first: lateral: not")
+    assert "none of 0 drive(s)" in combine_drive_laterals([])["lateral_reason"]
+    # a skipped drive's record comes back from JSON: null where it had no estimate
+    back = combine_drive_laterals([{"c_y": None, "c_y_log_sd": None, "lateral_reason": "x"}])
+    assert back["c_y_drives"] == 0 and "(first: x)" in back["lateral_reason"]
+    mixed = combine_drive_laterals([{"c_y": None, "c_y_log_sd": None}, _drive(14.0, 0.1)])
+    assert mixed["c_y_drives"] == 1 and math.isclose(mixed["c_y"], 14.0)
+
+
+def test_straight_drive_has_no_lateral_estimate_and_costs_no_fit():
+    t = np.arange(0, 60, 0.01)
+    frame = pd.DataFrame(
+        {
+            "time": t,
+            "yaw_rate": 0 * t,
+            "ay": 0 * t,
+            "speed_reference": 20 + 0 * t,
+            "steering_wheel_angle": 0 * t,
+        }
+    )
+    out = drive_lateral(frame, VEHICLE, "snow")
+    assert set(out) == set(DRIVE_LATERAL_COLUMNS)
+    assert np.isnan(out["c_y"]) and "no usable cornering" in out["lateral_reason"]
+
+
+def test_lateral_fits_are_part_of_the_drive_settings():
+    on, off = RunSettings(), RunSettings(lateral=False)
+    assert on.drive_settings()["lateral"] is True and off.drive_settings()["lateral"] is False
+    # the seed reaches the drives only through the lateral fit's draws
+    assert RunSettings(seed=1).drive_settings() != on.drive_settings()
+    assert RunSettings(lateral=False, seed=1).drive_settings() == off.drive_settings()
+
+
+@pytest.mark.slow
+def test_cornering_drive_gives_its_geometric_mean_c_y():
+    from tyrebayes.simulate.cornering import simulate_cornering
+
+    frame, truth = simulate_cornering(VEHICLE, kind="mixed", duration_s=180.0, seed=0,
+                                      c_y_front=12.0, c_y_rear=15.0)  # fmt: skip
+    out = drive_lateral(frame, VEHICLE, "dry", seed=0)
+    assert out["lateral_reason"] == "", out
+    c = math.sqrt(12.0 * 15.0)
+    assert abs(math.log(out["c_y"] / c)) < max(3 * out["c_y_log_sd"], 0.02)
+    assert abs(out["c_y_front"] / 12.0 - 1) < 0.05 and abs(out["c_y_rear"] / 15.0 - 1) < 0.05

@@ -1,0 +1,211 @@
+"""A tyre set's lateral estimate in a fleet run: one lateral fit per drive, combined per set.
+
+The fleet model learns the per-type ratio k = c_y / C_xr from the sets whose drives cornered
+(:mod:`tyrebayes.inference.fleet.model`); this module gives each set its c_y.
+
+Per drive, not per set: the drive stage holds the log (the set stage reads only windows
+tables, so a set is refitted without its logs), the lateral model's nuisances (steering and a_y
+offsets, roll, relaxation) belong to one drive and one sensor mounting, and the time derivatives
+of its equations do not run across two logs. So :func:`drive_lateral` fits each drive
+(:func:`tyrebayes.inference.lateral.fit_lateral`, MAP + Laplace, as ``fit-tyre`` does) and the set
+stage combines the drives' posteriors (:func:`combine_drive_laterals`).
+
+The quantity is the car's normalised cornering stiffness c_y = sqrt(c_y_front · c_y_rear)
+[1/rad over the static axle load], the geometric mean of the axles': a drive measures the
+understeer gradient (the axles' difference) well and their split poorly, while their common
+level is what the type relation C_y = k · C_xr describes (one c_y on both axles,
+:mod:`tyrebayes.inference.vmax`). Its posterior is close to log-normal; a drive gives its log
+mean and log-sd, and the set's is the product of the drives' Gaussians in log c_y with the prior
+counted once: precision Σ 1/s_d² − (D − 1)/s_0², s_0 the prior's log-sd of c_y
+(``LateralPriors.c_y_log_sd`` / √2, the axles' priors being independent).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: The drive summary's lateral columns (:func:`drive_lateral`).
+DRIVE_LATERAL_COLUMNS = (
+    "c_y",
+    "c_y_log_sd",
+    "c_y_front",
+    "c_y_rear",
+    "lateral_cornering_s",
+    "lateral_reason",
+)
+#: The tyre-set table's lateral columns (:func:`combine_drive_laterals`).
+SET_LATERAL_COLUMNS = ("c_y", "c_y_sd", "c_y_log_sd", "c_y_drives", "lateral_reason")
+
+
+def _none(reason: str, cornering_s: float = float("nan")) -> dict:
+    return {
+        "c_y": float("nan"),
+        "c_y_log_sd": float("nan"),
+        "c_y_front": float("nan"),
+        "c_y_rear": float("nan"),
+        "lateral_cornering_s": cornering_s,
+        "lateral_reason": reason,
+    }
+
+
+def lateral_off() -> dict:
+    """The drive summary's lateral values of a run without lateral fits
+    (``RunSettings(lateral=False)``).
+
+    Examples
+    --------
+    >>> lateral_off()["lateral_reason"]
+    'lateral: not fitted (the run was started without lateral fits)'
+    """
+    return _none("lateral: not fitted (the run was started without lateral fits)")
+
+
+def drive_lateral(frame, vehicle, surface: str, *, seed: int = 0, source: str = "") -> dict:
+    """One drive's c_y (log-normal summary) from its lateral fit, or NaN with the reason.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The validated stream's frame (``ValidatedStream.data``).
+    vehicle : Vehicle
+    surface : str
+        The drive's surface (the centre of the lateral fit's μ_y prior).
+    seed : int
+        Randomness of the Laplace draws.
+    source : str
+        The log's path (the lateral fit's provenance).
+
+    Returns
+    -------
+    dict
+        :data:`DRIVE_LATERAL_COLUMNS`: ``c_y`` = exp(mean log sqrt(c_f c_r)) [1/rad],
+        ``c_y_log_sd`` (its posterior log-sd), the axles' posterior means, the seconds of
+        cornering, and ``lateral_reason`` ("" when usable; else no usable cornering, not
+        identified, or not converged, in one line).
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd
+    >>> from tyrebayes import load_vehicle
+    >>> t = np.arange(0, 30, 0.01)
+    >>> f = pd.DataFrame({"time": t, "yaw_rate": 0 * t, "ay": 0 * t,
+    ...                   "speed_reference": 20 + 0 * t, "steering_wheel_angle": 0 * t})
+    >>> drive_lateral(f, load_vehicle("compact_fwd"), "dry")["lateral_reason"]
+    'lateral: no usable cornering: 0.0 s with |a_y| > 1 m/s² above 8 m/s (need 15 s)'
+    """
+    from ..inference.lateral import NoCornering, cornering_observations, fit_lateral
+
+    try:
+        obs = cornering_observations(frame, vehicle)
+    except NoCornering as err:
+        return _none(str(err).splitlines()[0])
+    seconds = float(obs.cornering_seconds)
+    fit = fit_lateral(
+        obs, "laplace", surface=surface, seed=seed, inputs=(source,) if source else ()
+    )
+    if not fit.identified:
+        return _none(
+            "lateral: not identified: the cornering did not narrow the understeer gradient to "
+            "half its prior's spread",
+            seconds,
+        )
+    if not fit.converged:
+        reasons = "; ".join(fit.fit.diagnostics.reasons) or "diagnostics"
+        return _none(f"lateral: not converged: {reasons}", seconds)
+    c_f, c_r = fit.draws("c_y_front"), fit.draws("c_y_rear")
+    log_c = 0.5 * (np.log(c_f) + np.log(c_r))
+    return {
+        "c_y": float(np.exp(np.mean(log_c))),
+        "c_y_log_sd": float(np.std(log_c)),
+        "c_y_front": float(np.mean(c_f)),
+        "c_y_rear": float(np.mean(c_r)),
+        "lateral_cornering_s": seconds,
+        "lateral_reason": "",
+    }
+
+
+def _prior_log_sd() -> float:
+    from ..inference.lateral import LateralPriors
+
+    return LateralPriors().c_y_log_sd / math.sqrt(2.0)
+
+
+def combine_drive_laterals(drives: list[dict]) -> dict:
+    """A tyre set's c_y from its drives' (:func:`drive_lateral` values; module docstring).
+
+    Parameters
+    ----------
+    drives : list of dict
+        Each with ``c_y`` and ``c_y_log_sd`` (NaN, None or missing where the drive had none)
+        and ``lateral_reason``.
+
+    Returns
+    -------
+    dict
+        :data:`SET_LATERAL_COLUMNS`: ``c_y`` [1/rad] (the combined log-normal's median),
+        ``c_y_sd`` = c_y · ``c_y_log_sd`` (the fleet table's standard error, read back as a
+        relative error), ``c_y_drives`` (drives that contributed) and ``lateral_reason`` (""
+        with an estimate; else why none, with the first drive's reason).
+
+    Examples
+    --------
+    >>> one = {"c_y": 16.5, "c_y_log_sd": 0.1, "lateral_reason": ""}
+    >>> out = combine_drive_laterals([one, one])
+    >>> round(out["c_y"], 3), out["c_y_drives"], round(out["c_y_log_sd"], 4)
+    (16.5, 2, 0.0722)
+    >>> combine_drive_laterals([{"lateral_reason": "lateral: no usable cornering"}])["c_y_drives"]
+    0
+    """
+    # A drive record read back from its JSON file holds None where the drive had no estimate.
+    drives = [
+        {**d, "c_y": _number(d.get("c_y")), "c_y_log_sd": _number(d.get("c_y_log_sd"))}
+        for d in drives
+    ]
+    used = [d for d in drives if np.isfinite(d["c_y"]) and d["c_y_log_sd"] > 0]
+    if not used:
+        reasons = [str(d.get("lateral_reason") or "") for d in drives]
+        first = next((r for r in reasons if r), "no lateral estimate")
+        return {
+            "c_y": float("nan"),
+            "c_y_sd": float("nan"),
+            "c_y_log_sd": float("nan"),
+            "c_y_drives": 0,
+            "lateral_reason": f"none of {len(drives)} drive(s) gave c_y (first: {first})",
+        }
+    m = np.log([d["c_y"] for d in used])
+    prec = 1.0 / np.square([d["c_y_log_sd"] for d in used])
+    prior_prec = 1.0 / _prior_log_sd() ** 2
+    prior_mean = math.log(_prior_median())
+    extra = len(used) - 1
+    total = float(prec.sum() - extra * prior_prec)
+    mean_num = float((prec * m).sum() - extra * prior_prec * prior_mean)
+    if total <= prec.max():
+        # The prior correction can only tighten the sharpest drive's posterior so far; below it
+        # the drives' log-normal summaries are not what the correction assumes: keep the product.
+        total, mean_num = float(prec.sum()), float((prec * m).sum())
+    log_mean, log_sd = mean_num / total, 1.0 / math.sqrt(total)
+    c_y = math.exp(log_mean)
+    return {
+        "c_y": c_y,
+        "c_y_sd": c_y * log_sd,
+        "c_y_log_sd": log_sd,
+        "c_y_drives": len(used),
+        "lateral_reason": "",
+    }
+
+
+def _number(value) -> float:
+    """A float, NaN for None (JSON's null) or anything that is not a finite number."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        return float("nan")
+    return x if math.isfinite(x) else float("nan")
+
+
+def _prior_median() -> float:
+    from ..inference.lateral import LateralPriors
+
+    return LateralPriors().c_y_median
