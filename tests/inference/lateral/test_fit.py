@@ -115,7 +115,10 @@ def test_observations_are_padded_outside_both_masks():
     from tyrebayes.inference.lateral import fit as lateral_fit
 
     frame, _ = simulate_cornering(VEHICLE, kind="mixed", duration_s=DURATION_S, seed=11)
-    obs = cornering_observations(frame, VEHICLE)
+    whole = cornering_observations(frame, VEHICLE)
+    obs = dataclasses.replace(
+        whole, **{name: getattr(whole, name)[:2390] for name in lateral_fit._SERIES}
+    )
     padded = lateral_fit._padded(obs)
     n = obs.speed.shape[0]
     assert padded.speed.shape[0] == lateral_fit.padded_length(n) > n

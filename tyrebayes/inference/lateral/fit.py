@@ -200,8 +200,8 @@ def padded_length(n: int) -> int:
 
     Examples
     --------
-    >>> padded_length(36000), padded_length(2400)
-    (38400, 2500)
+    >>> padded_length(36000), padded_length(2390)
+    (38400, 2400)
     """
     blocks = -(-n // SEARCH_BLOCK)
     k = 0
@@ -232,9 +232,10 @@ def _padded(obs: CorneringObservations) -> CorneringObservations:
     return dataclasses.replace(obs, **series)
 
 
-def _search_stride(n: int, samples: int = SEARCH_SAMPLES) -> int:
-    """Every how many stretches a search of about ``samples`` reads of ``n`` padded samples."""
-    return max(1, round(n / samples))
+def _search_stride(n: int, samples: int | None = None) -> int:
+    """Every how many stretches a search of about ``samples`` (default :data:`SEARCH_SAMPLES`)
+    reads of ``n`` padded samples."""
+    return max(1, round(n / (SEARCH_SAMPLES if samples is None else samples)))
 
 
 def _search_subset(obs: CorneringObservations, stride: int) -> tuple[CorneringObservations, float]:
@@ -428,16 +429,17 @@ def _weighted_mode(obs, priors, surface, max_steps):
     (:data:`INFLATION_SEARCH_SAMPLES`) and refined on a denser one (:data:`SEARCH_SAMPLES`),
     the data scaled to the whole's weight; the weighted mode is searched on the denser subset
     and refined on all samples. A drive of at most about 1.5 × :data:`SEARCH_SAMPLES` has both
-    modes found on all its samples (the sparse search only finds the start): on a short steady
-    drive, whose gradient rests on the steering ratio's prior, the residuals' VIF at a
-    half-subset's mode was well below that at all samples'.
+    modes searched on all its samples from the priors' medians: the unweighted potential can
+    have several local minima, and on a short steady drive, whose gradient rests on the
+    steering ratio's prior, the residuals' VIF at a subset's mode was well below that at all
+    samples'.
     Returns ``(mode, converged, hessian, weights, vif)``.
     """
     dtype = obs.ay.dtype
     n = obs.speed.shape[0]
     stride = _search_stride(n)
     unit = jnp.ones(2, dtype=dtype)
-    strides = (_search_stride(n, INFLATION_SEARCH_SAMPLES), stride)
+    strides = (_search_stride(n, INFLATION_SEARCH_SAMPLES), stride) if stride > 1 else (1,)
     start = _start(obs, priors, surface)
     mode, _, _ = _levels(obs, start, strides, unit, priors, surface, max_steps)
     point = {k: v[0] for k, v in _constrain(mode[None], obs, unit, priors, surface).items()}
