@@ -108,7 +108,9 @@ def test_a_search_on_stretches_of_the_drive_refines_to_the_mode_of_all_samples(m
     assert searched["converged"]
     for key in ("c_y_front", "c_y_rear", "understeer_gradient", "steering_ratio"):
         assert abs(searched[key]["mean"] - whole[key]["mean"]) < 0.01 * whole[key]["sd"], key
-        assert abs(searched[key]["sd"] / whole[key]["sd"] - 1.0) < 0.01, key
+        # the weights come from the residuals at the subsets' unweighted mode, a point near the
+        # whole's: the sds follow their VIFs' small difference
+        assert abs(searched[key]["sd"] / whole[key]["sd"] - 1.0) < 0.03, key
 
 
 def test_observations_are_padded_outside_both_masks():
