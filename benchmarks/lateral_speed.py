@@ -3,10 +3,12 @@
 1. The lateral part of a one-hour drive's fast fit (``cornering_observations`` + ``fit_lateral``,
    Laplace) in this process held to one core (affinity set before JAX starts, XLA's CPU thread
    pools at one thread): compile time, then the median of three fits after compilation
-   (target ≤ 2 s).
-2. ``tyrebayes fit-tyre STREAM --method fast --json`` on the same drive in a fresh child process:
-   wall time and the child's peak RSS (the whole fit: reading, validation, longitudinal and
-   lateral fits).
+   (target ≤ 2 s), as the process's CPU time (the headline: on a machine shared with other
+   work the wall time also counts the waits for the core) and as wall time.
+2. ``tyrebayes fit-tyre STREAM --method fast --json`` on the same drive in a fresh child process
+   with an empty JAX compilation cache (a first fit): wall time and the child's peak RSS (the
+   whole fit: reading, validation, longitudinal and lateral fits, their compilation;
+   target ≤ 2 GB).
 
 The drive is the package's cornering simulator's (``simulate_cornering``, mixed, 3,600 s at
 100 Hz); its content does not change the cost of a fit of this length.
@@ -57,12 +59,13 @@ def main() -> None:
     start = time.perf_counter()
     fit_lateral(obs)
     first_s = time.perf_counter() - start
-    times = []
+    times, cpu_times = [], []
     for seed in range(3):
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         fit = fit_lateral(obs, seed=seed)
         times.append(time.perf_counter() - start)
-    after = float(np.median(times))
+        cpu_times.append(time.process_time() - cpu)
+    after = float(np.median(cpu_times))
     with tempfile.TemporaryDirectory() as tmp:
         stream = Path(tmp) / "hour.parquet"
         write_stream(frame, stream)
@@ -72,6 +75,7 @@ def main() -> None:
             [*command, "--vehicle", "compact_fwd", "--method", "fast", "--json"],
             capture_output=True,
             text=True,
+            env={**os.environ, "TYREBAYES_JAX_CACHE": str(Path(tmp) / "jax-cache")},
         )
         command_s = time.perf_counter() - start
     peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
@@ -81,6 +85,8 @@ def main() -> None:
         "observations_s": observations_s,
         "first_fit_s_with_compilation": first_s,
         "fit_s_after_compilation": times,
+        "fit_cpu_s_after_compilation": cpu_times,
+        "shared_machine": "timings taken on a 2-core machine shared with other work",
         "converged": fit.converged,
         "command_exit_status": child.returncode,
         "command_wall_s": command_s,
@@ -89,18 +95,28 @@ def main() -> None:
     }
     figures = [
         figure(
-            "lateral fit of a one-hour drive after compilation, one core",
+            "lateral fit of a one-hour drive after compilation, one core: CPU time",
             after,
             unit="s",
             target=("<=", 2.0),
             count=3,
             headline=True,
+            note="median of three fits; shared machine",
+        ),
+        figure(
+            "the same fits' wall time",
+            float(np.median(times)),
+            unit="s",
+            count=3,
+            note="shared machine: includes waits for the core",
         ),
         figure("its first fit, compilation included", first_s, unit="s", count=1),
         figure(
-            "fit-tyre --method fast on the one-hour drive: peak RSS of the process",
+            "fit-tyre --method fast on the one-hour drive, fresh process, empty JAX cache: "
+            "peak RSS of the process",
             peak_mb,
             unit="MB",
+            target=("<=", 2048.0),
             count=1,
             note=f"exit status {child.returncode}, {command_s:.0f} s wall",
         ),

@@ -141,6 +141,34 @@ def test_load_sensitivity_flag_gives_the_fit_the_measured_prior(tmp_path, capsys
     assert main(argv) == 0 and given["priors"] is None
 
 
+def test_fit_tyre_validates_the_stream_once(tmp_path, capsys, monkeypatch):
+    """The command's flags, its lateral fit and its longitudinal windows read one validation."""
+    from tyrebayes import streams
+    from tyrebayes._resources import data_dir
+    from tyrebayes.inference.tyre import fit as tyre_fit
+    from tyrebayes.inference.tyre.data import stack_drives
+
+    from .inference.tyre.test_model import PAD, linear_region_windows
+
+    fit = tyre_fit.fit_tyre(
+        stack_drives([linear_region_windows(3)], ["dry"], pad_to=PAD), method="fast"
+    )
+    monkeypatch.setattr(tyre_fit, "fit_tyre", lambda *args, **kwargs: fit)
+    calls = []
+    validate = streams.validate_stream
+
+    def counting(*args, **kwargs):
+        calls.append(args)
+        return validate(*args, **kwargs)
+
+    monkeypatch.setattr(streams, "validate_stream", counting)
+    stream = data_dir() / "comma2k19_rav4_segment.csv"
+    argv = ["fit-tyre", str(stream), "--vehicle", "suv_rav4", "--method", "fast", "--json"]
+    assert main(argv) == 0
+    assert json.loads(capsys.readouterr().out)["n_samples_used"] > 0
+    assert len(calls) == 1
+
+
 def _slow_stream(path):
     from tyrebayes._domain import load_vehicle
     from tyrebayes.streams import write_stream

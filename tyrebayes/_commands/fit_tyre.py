@@ -103,11 +103,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _validated(path, vehicle_name: str):
     """The validated stream and its vehicle: its flags (low rate, long gaps, dropped samples)
-    qualify the answer, and its frame is what the lateral fit reads.
-
-    Validation runs again inside the longitudinal fit's data preparation; a second pass here
-    costs well under a second against the fit.
-    """
+    qualify the answer, and it is what both fits read (validated once)."""
     from .._domain import load_vehicle
     from ..streams import read_stream, validate_stream
 
@@ -118,14 +114,26 @@ def _validated(path, vehicle_name: str):
     return validate_stream(read_stream(path), vehicle), vehicle
 
 
-def _lateral(validated, vehicle, surface: str, seed: int, stream: str):
-    """The drive's lateral fit and "", or None and the one-line reason there is none."""
-    from ..inference.lateral import NoCornering, cornering_observations, fit_lateral
+def _cornering(validated, vehicle):
+    """The drive's cornering observations and "", or None and the one-line reason there are none.
+
+    Taken before the longitudinal fit, so that the full-rate frame need not be held through it.
+    """
+    from ..inference.lateral import NoCornering, cornering_observations
 
     try:
-        obs = cornering_observations(validated.data, vehicle)
+        return cornering_observations(validated.data, vehicle), ""
     except NoCornering as err:
         return None, str(err)
+
+
+def _lateral(cornering, surface: str, seed: int, stream: str):
+    """The drive's lateral fit and "", or None and the one-line reason there is none."""
+    from ..inference.lateral import fit_lateral
+
+    obs, reason = cornering
+    if obs is None:
+        return None, reason
     # MAP + Laplace with either --method: it is the lateral path the benchmarks validate
     # (benchmarks/lateral_external.py), and takes seconds where NUTS takes minutes.
     lateral = fit_lateral(
@@ -217,16 +225,18 @@ def run(args: argparse.Namespace) -> int:
     with stream_file(args, args.vehicle) as path:
         validated, vehicle = _validated(path, args.vehicle)
         stream_flags = list(validated.flags)
+        cornering = _cornering(validated, vehicle)
         obs = observations_from_stream(
-            path,
-            args.vehicle,
+            validated,
+            vehicle,
             surface=args.surface,
             temperature_c=args.temperature,
             ambient_c=args.ambient,
         )
+        del validated
     priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
     fit = fit_tyre(obs, priors=priors, method=args.method, kind=args.model, seed=args.seed)
-    lateral, lateral_reason = _lateral(validated, vehicle, args.surface, args.seed, args.stream)
+    lateral, lateral_reason = _lateral(cornering, args.surface, args.seed, args.stream)
     fit = dataclasses.replace(
         fit,
         lateral=lateral,

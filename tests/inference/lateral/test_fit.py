@@ -95,6 +95,39 @@ def test_a_lateral_fit_round_trips_through_the_tyre_fit_file(mixed, tmp_path):
     assert again.lateral is None and again.summary()["lateral_reason"].startswith("lateral: no")
 
 
+def test_a_search_on_stretches_of_the_drive_refines_to_the_mode_of_all_samples(mixed, monkeypatch):
+    """A drive searched on every n-th stretch and refined on all samples: the same posterior."""
+    from tyrebayes.inference.lateral import fit as lateral_fit
+
+    frame, _ = simulate_cornering(VEHICLE, kind="mixed", duration_s=DURATION_S, seed=11)
+    obs = cornering_observations(frame, VEHICLE)
+    monkeypatch.setattr(lateral_fit, "SEARCH_SAMPLES", 800)
+    assert lateral_fit._search_stride(lateral_fit.padded_length(obs.speed.shape[0])) == 3
+    searched = fit_lateral(obs, seed=1).to_dict()
+    whole = mixed[0].to_dict()
+    assert searched["converged"]
+    for key in ("c_y_front", "c_y_rear", "understeer_gradient", "steering_ratio"):
+        assert abs(searched[key]["mean"] - whole[key]["mean"]) < 0.01 * whole[key]["sd"], key
+        # the weights come from the residuals at the subsets' unweighted mode, a point near the
+        # whole's: the sds follow their VIFs' small difference
+        assert abs(searched[key]["sd"] / whole[key]["sd"] - 1.0) < 0.03, key
+
+
+def test_observations_are_padded_outside_both_masks():
+    from tyrebayes.inference.lateral import fit as lateral_fit
+
+    frame, _ = simulate_cornering(VEHICLE, kind="mixed", duration_s=DURATION_S, seed=11)
+    whole = cornering_observations(frame, VEHICLE)
+    obs = dataclasses.replace(
+        whole, **{name: getattr(whole, name)[:2390] for name in lateral_fit._SERIES}
+    )
+    padded = lateral_fit._padded(obs)
+    n = obs.speed.shape[0]
+    assert padded.speed.shape[0] == lateral_fit.padded_length(n) > n
+    assert not np.asarray(padded.mask)[n:].any() and not np.asarray(padded.mask_kinematic)[n:].any()
+    assert padded.n_used == obs.n_used
+
+
 def test_residual_inflation_sees_slow_correlation():
     rng = np.random.default_rng(0)
     white = rng.normal(size=20000)

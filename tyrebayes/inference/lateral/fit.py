@@ -11,6 +11,7 @@ independent and be several times too narrow.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 
@@ -94,40 +95,72 @@ def _start(obs: CorneringObservations, priors: LateralPriors, surface: str) -> j
     return jnp.asarray([values[n] for n in names], dtype=obs.ay.dtype)
 
 
-def _potential(x, obs, weights, priors, surface):
+def _potential(x, obs, weights, scale, priors, surface):
     params = dict(zip(_site_names(obs.road_wheel, priors), x, strict=True))
-    return potential_energy(lateral_model, (obs, priors, surface, weights), {}, params)
+    return potential_energy(lateral_model, (obs, priors, surface, weights, scale), {}, params)
+
+
+# BFGS works in whitened coordinates y, x = start + W y with W W' ≈ H⁻¹ (posterior sds), and
+# stops when a step moves every one by less than BFGS_ATOL and the potential by less than
+# about BFGS_RTOL·|f| (the tyre fit's tolerances, inference/tyre/laplace.py says why): 1e-4
+# sds is far below the Laplace draws' Monte-Carlo error (1/√2000 = 0.022 sds).
+BFGS_ATOL = 1e-4
+BFGS_RTOL = 1e-8
 
 
 @functools.partial(jax.jit, static_argnames=("priors", "surface", "max_steps"))
-def _mode(x0, obs, weights, priors, surface, max_steps):
-    """BFGS mode of the potential, whether it converged, and the Hessian there.
+def _bfgs(x0, whiten, obs, weights, scale, priors, surface, max_steps):
+    """BFGS minimum of the potential from ``x0`` in the coordinates ``whiten`` gives.
 
-    Compiled once per observation shape, priors and surface; the weights are data.
+    Returns ``(mode, converged, steps)``. Compiled once per observation shape, priors and
+    surface; the start, whitening, weights and data scale are data.
     """
 
-    def f(x, _):
-        return _potential(x, obs, weights, priors, surface)
+    def f(y, _):
+        return _potential(x0 + whiten @ y, obs, weights, scale, priors, surface)
 
-    sol = optx.minimise(f, optx.BFGS(rtol=1e-8, atol=1e-8), x0, max_steps=max_steps, throw=False)
-    return sol.value, sol.result == optx.RESULTS.successful, jax.hessian(f)(sol.value, None)
+    solver = optx.BFGS(rtol=BFGS_RTOL, atol=BFGS_ATOL)
+    sol = optx.minimise(f, solver, jnp.zeros_like(x0), max_steps=max_steps, throw=False)
+    return x0 + whiten @ sol.value, sol.result == optx.RESULTS.successful, sol.stats["num_steps"]
 
 
 _potential_at = jax.jit(_potential, static_argnames=("priors", "surface"))
+_hessian = jax.jit(jax.hessian(_potential), static_argnames=("priors", "surface"))
 
 
-def _minimum(x0, obs, weights, priors, surface, max_steps, escapes: int = 3):
-    """A local minimum of the potential (not a saddle): BFGS, then away from any saddle.
+def _whitening(hess: np.ndarray) -> np.ndarray:
+    """W = V |Λ|^(-1/2) of a Hessian (eigenvalues in absolute value, floored at 1).
 
-    BFGS stops where the gradient vanishes; near the tyre curve's peak (a drive that used most
-    of μ_y) the potential has saddles, where the Hessian has a negative eigenvalue. From one,
-    the search steps both ways along that eigenvector, by the distance at which a quadratic of
-    that curvature would drop the potential by 2, and goes on from the lower side.
+    The posterior's curvatures differ by orders of magnitude between the directions the data
+    fix (c_y, the noise scales) and those only the prior does; BFGS from the identity took
+    hundreds of steps on a one-hour drive. In coordinates where the Hessian is
+    the identity its first step is a Newton step. Away from the mode H need not be positive
+    definite, hence the absolute value; the floor keeps directions of no curvature at the
+    unconstrained prior's unit scale.
+    """
+    sym = 0.5 * (hess + hess.T)
+    if not np.all(np.isfinite(sym)):
+        return np.eye(sym.shape[0])
+    eig, vec = np.linalg.eigh(sym)
+    return vec / np.sqrt(np.maximum(np.abs(eig), 1.0))[None, :]
+
+
+def _minimum(x0, obs, weights, scale, priors, surface, max_steps, hess0=None, escapes: int = 3):
+    """A local minimum of the potential (not a saddle): whitened BFGS, then away from any saddle.
+
+    The whitening is the Hessian at ``x0`` (or ``hess0``, one at a nearby point). BFGS stops
+    where the gradient vanishes; near the tyre curve's peak (a drive that used most of μ_y) the
+    potential has saddles, where the Hessian has a negative eigenvalue. From one, the search
+    steps both ways along that eigenvector, by the distance at which a quadratic of that
+    curvature would drop the potential by 2, and goes on from the lower side.
     Returns ``(mode, converged, hessian)``.
     """
-    mode, ok, hess = _mode(x0, obs, weights, priors, surface, max_steps)
+    args = (obs, weights, scale, priors, surface)
+    hess = np.asarray(_hessian(x0, *args)) if hess0 is None else hess0
+    mode, ok, _ = _bfgs(x0, jnp.asarray(_whitening(hess)), *args, max_steps=max_steps)
+    hess = np.asarray(_hessian(mode, *args))
     for _ in range(escapes):
-        sym = 0.5 * (np.asarray(hess) + np.asarray(hess).T)
+        sym = 0.5 * (hess + hess.T)
         if not np.all(np.isfinite(sym)):
             break
         eig, vec = np.linalg.eigh(sym)
@@ -135,11 +168,99 @@ def _minimum(x0, obs, weights, priors, surface, max_steps, escapes: int = 3):
             break
         step = 2.0 / np.sqrt(abs(eig[0]))
         starts = [mode + sign * step * jnp.asarray(vec[:, 0]) for sign in (1.0, -1.0)]
-        values = [float(_potential_at(x, obs, weights, priors, surface)) for x in starts]
-        mode, ok, hess = _mode(
-            starts[int(np.argmin(values))], obs, weights, priors, surface, max_steps
+        values = [float(_potential_at(x, *args)) for x in starts]
+        mode, ok, _ = _bfgs(
+            starts[int(np.argmin(values))],
+            jnp.asarray(_whitening(hess)),
+            *args,
+            max_steps=max_steps,
         )
-    return mode, ok, hess
+        hess = np.asarray(_hessian(mode, *args))
+    return mode, bool(ok), hess
+
+
+#: Observations are padded to SEARCH_BLOCK times one of these numbers of blocks times a power of
+#: two (at most a quarter more samples), so that drives of any length share a few compiled
+#: programs instead of compiling one each.
+_PADDED_BLOCKS = (4, 5, 6, 7)
+#: Length of the stretches of a drive the search keeps [samples at 10 Hz]: the kinematic
+#: equation differentiates V_x α_r along time, so the search reads whole 5 s stretches (their
+#: two samples at each end left out of the equations) rather than every n-th sample.
+SEARCH_BLOCK = 50
+#: Samples the search for the weighted mode reads, about: a drive of more than 1.5 times as many
+#: is searched on every n-th stretch, and the search's optimum refined on all samples.
+SEARCH_SAMPLES = 6000
+#: Samples the first search for the unweighted mode reads, about (:func:`_weighted_mode`): from
+#: the priors' medians it takes the most BFGS steps of the fit, here each a quarter as dear.
+INFLATION_SEARCH_SAMPLES = 1500
+
+
+def padded_length(n: int) -> int:
+    """The length a fit pads ``n`` observations to: SEARCH_BLOCK × m × 2^k, m in 4..7.
+
+    Examples
+    --------
+    >>> padded_length(36000), padded_length(2390)
+    (38400, 2400)
+    """
+    blocks = -(-n // SEARCH_BLOCK)
+    k = 0
+    while True:
+        for m in _PADDED_BLOCKS:
+            if m << k >= blocks:
+                return SEARCH_BLOCK * (m << k)
+        k += 1
+
+
+_SERIES = ("speed", "yaw_rate", "yaw_acceleration", "ay", "steering", "mask", "mask_kinematic")
+
+
+def _padded(obs: CorneringObservations) -> CorneringObservations:
+    """``obs`` padded to :func:`padded_length` with samples outside both masks."""
+    n = obs.speed.shape[0]
+    extra = padded_length(n) - n
+    if extra == 0:
+        return obs
+    # Padding's speed stays away from zero: the equations divide by it before the mask applies.
+    fill = {"speed": 10.0, "mask": False, "mask_kinematic": False}
+    series = {
+        name: jnp.concatenate(
+            [getattr(obs, name), jnp.full(extra, fill.get(name, 0.0), getattr(obs, name).dtype)]
+        )
+        for name in _SERIES
+    }
+    return dataclasses.replace(obs, **series)
+
+
+def _search_stride(n: int, samples: int | None = None) -> int:
+    """Every how many stretches a search of about ``samples`` (default :data:`SEARCH_SAMPLES`)
+    reads of ``n`` padded samples."""
+    return max(1, round(n / (SEARCH_SAMPLES if samples is None else samples)))
+
+
+def _search_subset(obs: CorneringObservations, stride: int) -> tuple[CorneringObservations, float]:
+    """Every ``stride``-th stretch of ``obs`` and the data scale that gives it the whole's weight.
+
+    The scale is the whole drive's used samples over the subset's, so that the subset's
+    potential has the whole's curvature (its Hessian whitens the refinement on all samples).
+    """
+    if stride == 1:
+        return obs, 1.0
+    blocks = obs.speed.shape[0] // SEARCH_BLOCK
+    inner = np.ones(SEARCH_BLOCK, bool)
+    inner[:2] = inner[-2:] = False
+    inner = jnp.asarray(np.tile(inner, -(-blocks // stride)))
+
+    def take(x):
+        return x.reshape(blocks, SEARCH_BLOCK)[::stride].reshape(-1)
+
+    series = {name: take(getattr(obs, name)) for name in _SERIES}
+    # Each stretch's ends: the five-point derivatives there would reach into the next stretch.
+    series["mask"] = series["mask"] & inner
+    series["mask_kinematic"] = series["mask_kinematic"] & inner
+    subset = dataclasses.replace(obs, **series)
+    scale = float(jnp.sum(obs.mask)) / max(float(jnp.sum(subset.mask)), 1.0)
+    return subset, scale
 
 
 #: The sites on the real line (Normal priors); every other site is positive (LogNormal), its
@@ -286,22 +407,50 @@ def _adequacy(obs: CorneringObservations, samples: dict, vif: tuple[float, float
     return []
 
 
+def _levels(obs, x, strides, weights, priors, surface, max_steps):
+    """The mode found on every ``strides[0]``-th stretch, refined on every ``strides[1]``-th...
+
+    Each level starts at the last one's mode, whitened by its Hessian (the subsets' data are
+    scaled to the whole drive's weight, so every level's Hessian has about the whole's
+    curvature). Returns ``(mode, converged, hessian)`` of the last level.
+    """
+    hess = None
+    for stride in dict.fromkeys(strides):
+        subset, scale = _search_subset(obs, stride)
+        scale = jnp.asarray(scale, dtype=obs.ay.dtype)
+        x, ok, hess = _minimum(x, subset, weights, scale, priors, surface, max_steps, hess)
+    return x, ok, hess
+
+
 def _weighted_mode(obs, priors, surface, max_steps):
     """The mode with each equation weighted by 1/VIF of its residuals at the unweighted mode.
 
+    A long drive's unweighted mode is searched on a sparse subset of it
+    (:data:`INFLATION_SEARCH_SAMPLES`) and refined on a denser one (:data:`SEARCH_SAMPLES`),
+    the data scaled to the whole's weight; the weighted mode is searched on the denser subset
+    and refined on all samples. A drive of at most about 1.5 × :data:`SEARCH_SAMPLES` has both
+    modes searched on all its samples from the priors' medians: the unweighted potential can
+    have several local minima, and on a short steady drive, whose gradient rests on the
+    steering ratio's prior, the residuals' VIF at a subset's mode was well below that at all
+    samples'.
     Returns ``(mode, converged, hessian, weights, vif)``.
     """
-    unit = jnp.ones(2, dtype=obs.ay.dtype)
-    mode, _, _ = _minimum(_start(obs, priors, surface), obs, unit, priors, surface, max_steps)
+    dtype = obs.ay.dtype
+    n = obs.speed.shape[0]
+    stride = _search_stride(n)
+    unit = jnp.ones(2, dtype=dtype)
+    strides = (_search_stride(n, INFLATION_SEARCH_SAMPLES), stride) if stride > 1 else (1,)
+    start = _start(obs, priors, surface)
+    mode, _, _ = _levels(obs, start, strides, unit, priors, surface, max_steps)
     point = {k: v[0] for k, v in _constrain(mode[None], obs, unit, priors, surface).items()}
     steer, kin = (np.asarray(x) for x in _residuals_at(point, obs))
     vif = (
         residual_inflation(steer, np.asarray(obs.mask)),
         residual_inflation(kin, np.asarray(obs.mask_kinematic)),
     )
-    weights = jnp.asarray([1.0 / vif[0], 1.0 / vif[1]], dtype=obs.ay.dtype)
-    mode, ok, hess = _minimum(mode, obs, weights, priors, surface, max_steps)
-    return mode, bool(ok), np.asarray(hess), weights, vif
+    weights = jnp.asarray([1.0 / vif[0], 1.0 / vif[1]], dtype=dtype)
+    mode, ok, hess = _levels(obs, mode, (stride, 1), weights, priors, surface, max_steps)
+    return mode, ok, hess, weights, vif
 
 
 def _covariance_root(hess: np.ndarray) -> tuple[np.ndarray, list[str]]:
@@ -397,6 +546,7 @@ def fit_lateral(
     if method not in LATERAL_METHODS:
         raise ValueError(f"lateral fit method: expected one of {LATERAL_METHODS}, got {method!r}")
     priors = LateralPriors() if priors is None else priors
+    obs = _padded(obs)
     key_draw, key_nuts = jax.random.split(jax.random.PRNGKey(seed))
     mode, ok, hess, weights, vif = _weighted_mode(obs, priors, surface, max_steps)
     chol, problems = _covariance_root(hess)

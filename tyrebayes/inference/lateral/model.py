@@ -228,10 +228,16 @@ def _slope_near_peak(slope, rho, c_y, mu):
     return jnp.minimum(jnp.where(jnp.abs(rho) < mu, slope, cap), cap)
 
 
-def residuals(obs: CorneringObservations, p: dict) -> tuple[jnp.ndarray, jnp.ndarray]:
-    """The two equations' residuals (steering [rad], kinematics [m/s²]) at ``p``."""
+def residuals(
+    obs: CorneringObservations, p: dict, state: AxleState | None = None
+) -> tuple[jnp.ndarray, jnp.ndarray]:
+    """The two equations' residuals (steering [rad], kinematics [m/s²]) at ``p``.
+
+    ``state`` is :func:`axle_state` at ``p`` where the caller has it already (the model
+    reads it for the peak bound too: one evaluation of the curve's inverse serves all three).
+    """
     p = {**_NULL_VALUES, **p}
-    s = axle_state(obs, p)
+    s = axle_state(obs, p) if state is None else state
     ratio = 1.0 if obs.road_wheel else p["steering_ratio"]
     delta = (obs.steering - p["steering_offset"]) / ratio
     steer = delta - obs.wheelbase_m * obs.yaw_rate / obs.speed - (s.alpha_front - s.alpha_rear)
@@ -248,11 +254,15 @@ def lateral_model(
     priors: LateralPriors,
     surface: str = "dry",
     weights=(1.0, 1.0),
+    data_scale=1.0,
 ):
     """NumPyro model of one drive's cornering (module docstring).
 
     ``weights`` are the two equations' likelihood weights, 1/VIF of their residuals'
-    correlation between samples (:func:`.fit.residual_inflation`).
+    correlation between samples (:func:`.fit.residual_inflation`). ``data_scale`` multiplies
+    every term of the data (both equations and the peak bound): a subset of a drive's samples
+    scaled by the whole drive's count over the subset's has the whole drive's curvature, which
+    is what the fit's search on a subset needs (:func:`.fit.search_stride`).
     """
     mu_median, mu_log_sd = priors.mu_y_prior(surface)
     p = {
@@ -308,25 +318,31 @@ def lateral_model(
     )
     numpyro.factor(
         "peak_bound",
-        -0.5 * jnp.sum(jnp.where(obs.mask, (beyond / priors.peak_margin) ** 2, 0.0)),
+        -0.5 * data_scale * jnp.sum(jnp.where(obs.mask, (beyond / priors.peak_margin) ** 2, 0.0)),
     )
-    log_steer, log_kin = log_likelihoods(obs, p)
-    numpyro.factor("steering_equation", weights[0] * jnp.sum(jnp.where(obs.mask, log_steer, 0.0)))
+    log_steer, log_kin = log_likelihoods(obs, p, state)
+    numpyro.factor(
+        "steering_equation",
+        data_scale * weights[0] * jnp.sum(jnp.where(obs.mask, log_steer, 0.0)),
+    )
     numpyro.factor(
         "kinematic_equation",
-        weights[1] * jnp.sum(jnp.where(obs.mask_kinematic, log_kin, 0.0)),
+        data_scale * weights[1] * jnp.sum(jnp.where(obs.mask_kinematic, log_kin, 0.0)),
     )
 
 
-def log_likelihoods(obs: CorneringObservations, p: dict) -> tuple[jnp.ndarray, jnp.ndarray]:
+def log_likelihoods(
+    obs: CorneringObservations, p: dict, state: AxleState | None = None
+) -> tuple[jnp.ndarray, jnp.ndarray]:
     """Each sample's log-likelihood under the steering and the kinematic equation at ``p``.
 
     Errors in variables: the axle forces come from measured a_y and ṙ, so each slip angle
     carries their noise through the curve's slope dα/dρ; near the peak that slope is steep and
-    the sample says little (its effective variance is large).
+    the sample says little (its effective variance is large). ``state``: as in
+    :func:`residuals`.
     """
-    steer, kinematic = residuals(obs, p)
-    state = axle_state(obs, p)
+    state = axle_state(obs, p) if state is None else state
+    steer, kinematic = residuals(obs, p, state)
     steer_sd = jnp.sqrt(
         p["steer_noise"] ** 2 + p["force_noise"] ** 2 * (state.slope_front**2 + state.slope_rear**2)
     )

@@ -31,8 +31,9 @@ def windows_from_stream(
 
     Parameters
     ----------
-    path : path-like
-        Stream file (CSV, Parquet or MDF4) in the DESIGN.md contract.
+    path : path-like or ValidatedStream
+        Stream file (CSV, Parquet or MDF4) in the DESIGN.md contract, or a stream already read
+        and validated against ``vehicle`` (``channel_map`` then unused).
     vehicle : Vehicle or str
         Vehicle parameters, a preset name (``suv_rav4``) or a TOML path.
     surface : str
@@ -54,7 +55,7 @@ def windows_from_stream(
     """
     from ..._domain import load_vehicle
     from ...physics.vehicle import Vehicle
-    from ...streams import compute_features, read_stream, validate_stream
+    from ...streams import ValidatedStream, compute_features, read_stream, validate_stream
     from ...streams.tyre_temperature import features_tyre_temperature
 
     if not isinstance(vehicle, Vehicle):
@@ -64,7 +65,11 @@ def windows_from_stream(
             raise BadInputError(str(err).splitlines()[0]) from None
     if surface not in SURFACES:
         raise BadInputError(f"surface: expected one of {SURFACES}, got {surface!r}")
-    stream = validate_stream(read_stream(path, channel_map), vehicle)
+    if isinstance(path, ValidatedStream):
+        # Already read and validated by the caller (fit-tyre reads the flags and the frame too).
+        stream = path
+    else:
+        stream = validate_stream(read_stream(path, channel_map), vehicle)
     if ambient_c is None:
         ambient_c = stream.mean_ambient_c()
     features = compute_features(stream, vehicle)
