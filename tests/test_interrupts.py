@@ -76,27 +76,27 @@ def test_three_signals_end_the_process_at_once():
         "import time\n"
         "from tyrebayes import _interrupts\n"
         "with _interrupts.signals_as_interruptions():\n"
-        "    print('ready', flush=True)\n"
         "    try:\n"
+        "        print('ready', flush=True)  # inside: the signal may come as soon as it is read\n"
         "        time.sleep(60)\n"
         "    finally:\n"
         "        print('cleaning up', flush=True)\n"
         "        time.sleep(60)\n"
     )
-    proc = subprocess.Popen(
+    with subprocess.Popen(
         [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE
-    )
-    try:
-        assert proc.stdout.readline() == b"ready\n"
-        proc.send_signal(signal.SIGINT)
-        assert proc.stdout.readline() == b"cleaning up\n"
-        for _ in range(2):
-            time.sleep(0.2)
+    ) as proc:
+        try:
+            assert proc.stdout.readline() == b"ready\n"
             proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
+            assert proc.stdout.readline() == b"cleaning up\n", proc.communicate(timeout=30)
+            for _ in range(2):
+                time.sleep(0.2)
+                proc.send_signal(signal.SIGINT)
+            _, err = proc.communicate(timeout=30)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
     assert proc.returncode == 130
     assert err.decode() == "tyrebayes: interrupted again, stopping without clean-up\n"
 
