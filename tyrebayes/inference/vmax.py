@@ -164,6 +164,17 @@ class VmaxInputs:
         The surface μ_y belongs to: the drive's, or :data:`TYPE_SURFACE`.
     note : str
         Why this source (e.g. the reason a fit has no lateral posterior); "" when nothing to say.
+
+    Examples
+    --------
+    >>> c = np.array([14.0, 15.0, 16.0])
+    >>> x = VmaxInputs(c, c, np.array([0.9, 0.95, 1.0]), "type_prior", "type_prior", TYPE_SURFACE)
+    >>> x.n_draws, round(x.to_dict()["mu_y"]["mean"], 3)
+    (3, 0.95)
+    >>> VmaxInputs(c, c, c, "guess", "type_prior", TYPE_SURFACE)
+    Traceback (most recent call last):
+    ...
+    ValueError: lateral_source: expected one of (...), got 'guess'
     """
 
     c_y_front: np.ndarray
@@ -217,6 +228,14 @@ class VmaxPrediction:
         The draws it ran on and their sources.
     vehicle : str
         The simulated vehicle's name (or file).
+
+    Examples
+    --------
+    >>> c = np.full(3, 15.0)
+    >>> x = VmaxInputs(c, c, np.full(3, 0.95), "type_prior", "type_prior", TYPE_SURFACE)
+    >>> pred = VmaxPrediction(np.array([70.0, 74.0, np.nan]), x, "compact_fwd")
+    >>> pred.not_bracketed, pred.summary()["mean"]
+    (1, 72.0)
     """
 
     v_max_kmh: np.ndarray
