@@ -148,6 +148,14 @@ class LateralPriors(eqx.Module):
     force_noise_median : float
         Median of the noise of the axle forces ρ [-] (log-sd 1), which reaches the steering
         equation through the curve's slope dα/dρ.
+
+    Examples
+    --------
+    >>> priors = LateralPriors()
+    >>> priors.c_y_median, priors.effects
+    (16.5, ('roll', 'ay_offset', 'steering_offset', 'yaw_inertia'))
+    >>> LateralPriors(c_y_median=20.0).c_y_median
+    20.0
     """
 
     c_y_median: float = 16.5
