@@ -129,6 +129,13 @@ def vmax_draws(
 
     ``c_y`` [1/rad] is both axles' normalised cornering stiffness, or the front axle's where
     ``c_y_rear`` is given (each over its static axle load, as the lateral fit reports them).
+
+    Examples
+    --------
+    >>> from tyrebayes._domain import load_vehicle
+    >>> v = vmax_draws(load_vehicle("compact_fwd"), np.array([15.0]), np.array([0.95]))
+    >>> v.shape, bool(40 < float(v[0]) < 90)
+    ((1,), True)
     """
     course = iso3888_2_course(vehicle.width_m) if course is None else course
     c_front = jnp.asarray(c_y, dtype=float)
