@@ -89,6 +89,19 @@ class OnlineEstimator(eqx.Module):
         Drift, Newton steps, change detection, readiness.
     priors : TyrePriors
         The batch model's prior scales (the shape family's constants).
+
+    Examples
+    --------
+    An estimator for the Magic Formula on dry roads, and its state before any window:
+
+    >>> estimator = OnlineEstimator.create(kind="magic", surface="dry")
+    >>> estimator.kind, estimator.prior.names[:3]
+    ('magic', ('log_c_xr', 'temp_sensitivity', 'log_mu_max'))
+    >>> state = estimator.init()
+    >>> state.mean.shape, float(state.time_s), float(state.n_slip_windows)
+    ((11,), 0.0, 0.0)
+
+    :meth:`run` takes it through the steps of a stream (:func:`online_estimate`).
     """
 
     prior: GaussianPrior
