@@ -443,7 +443,27 @@ def online_estimate(
     config: OnlineConfig | None = None,
     imu_gain_log_sd: float = 0.0,
 ) -> tuple[FilterState, OnlineSummary]:
-    """Run the estimator from the type prior over one stream's blocks (the command's path)."""
+    """Run the estimator from the type prior over one stream's blocks (the command's path).
+
+    Returns the final filter state and the trajectory of summaries, one per step
+    (:func:`~.summary.summary_record` reads a step).
+
+    Examples
+    --------
+    The shipped one-minute segment in two steps; the filter's first compilation takes longer
+    than a doctest should, so that line is not run here (``tyrebayes online`` runs it):
+
+    >>> from tyrebayes import load_vehicle, summary_record
+    >>> from tyrebayes._resources import data_dir
+    >>> from tyrebayes.inference.online import stream_steps, stream_windows
+    >>> path = data_dir() / "comma2k19_rav4_segment.csv"
+    >>> blocks = stream_steps(stream_windows(path, load_vehicle("suv_rav4")))
+    >>> blocks.slip.shape[0], blocks.surface
+    (2, 'dry')
+    >>> state, trajectory = online_estimate(blocks)  # doctest: +SKIP
+    >>> summary_record(trajectory, -1)["enough_evidence"]  # doctest: +SKIP
+    False
+    """
     estimator = OnlineEstimator.create(
         kind=kind,
         surface=blocks.surface,
