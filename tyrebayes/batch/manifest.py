@@ -244,6 +244,31 @@ def read_manifest(
     BadInputError
         One line: no such manifest, unreadable table, a bad row, a glob without ``vehicle`` or
         matching nothing.
+
+    Examples
+    --------
+    A manifest whose relative paths are taken from its folder:
+
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     manifest = Path(folder) / "drives.csv"
+    ...     pd.DataFrame({"path": ["a.parquet", "b.parquet"], "vehicle": "compact_fwd",
+    ...                   "tyre_set_id": ["s1", "s2"], "surface": ["dry", "wet"]}).to_csv(
+    ...         manifest, index=False)
+    ...     items = read_manifest(manifest)
+    ...     [(Path(d.path).name, d.tyre_set_id, d.surface) for d in items]
+    [('a.parquet', 's1', 'dry'), ('b.parquet', 's2', 'wet')]
+
+    A glob needs the vehicle of its logs:
+
+    >>> from tyrebayes._resources import data_dir
+    >>> items = read_manifest(str(data_dir() / "comma2k19*.csv"), vehicle="suv_rav4")
+    >>> [(Path(d.path).name, d.tyre_set_id) for d in items]
+    [('comma2k19_rav4_segment.csv', 'suv_rav4')]
+    >>> read_manifest(str(data_dir() / "comma2k19*.csv"))
+    Traceback (most recent call last):
+    ...
+    tyrebayes._errors.BadInputError: manifest glob '...': expected --vehicle for its logs, got none
     """
     text = str(source)
     if any(ch in text for ch in "*?["):

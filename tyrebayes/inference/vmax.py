@@ -129,6 +129,13 @@ def vmax_draws(
 
     ``c_y`` [1/rad] is both axles' normalised cornering stiffness, or the front axle's where
     ``c_y_rear`` is given (each over its static axle load, as the lateral fit reports them).
+
+    Examples
+    --------
+    >>> from tyrebayes._domain import load_vehicle
+    >>> v = vmax_draws(load_vehicle("compact_fwd"), np.array([15.0]), np.array([0.95]))
+    >>> v.shape, bool(40 < float(v[0]) < 90)
+    ((1,), True)
     """
     course = iso3888_2_course(vehicle.width_m) if course is None else course
     c_front = jnp.asarray(c_y, dtype=float)
@@ -164,6 +171,17 @@ class VmaxInputs:
         The surface μ_y belongs to: the drive's, or :data:`TYPE_SURFACE`.
     note : str
         Why this source (e.g. the reason a fit has no lateral posterior); "" when nothing to say.
+
+    Examples
+    --------
+    >>> c = np.array([14.0, 15.0, 16.0])
+    >>> x = VmaxInputs(c, c, np.array([0.9, 0.95, 1.0]), "type_prior", "type_prior", TYPE_SURFACE)
+    >>> x.n_draws, round(x.to_dict()["mu_y"]["mean"], 3)
+    (3, 0.95)
+    >>> VmaxInputs(c, c, c, "guess", "type_prior", TYPE_SURFACE)
+    Traceback (most recent call last):
+    ...
+    ValueError: lateral_source: expected one of (...), got 'guess'
     """
 
     c_y_front: np.ndarray
@@ -217,6 +235,14 @@ class VmaxPrediction:
         The draws it ran on and their sources.
     vehicle : str
         The simulated vehicle's name (or file).
+
+    Examples
+    --------
+    >>> c = np.full(3, 15.0)
+    >>> x = VmaxInputs(c, c, np.full(3, 0.95), "type_prior", "type_prior", TYPE_SURFACE)
+    >>> pred = VmaxPrediction(np.array([70.0, 74.0, np.nan]), x, "compact_fwd")
+    >>> pred.not_bracketed, pred.summary()["mean"]
+    (1, 72.0)
     """
 
     v_max_kmh: np.ndarray

@@ -185,6 +185,21 @@ class DriveWearEvidence(eqx.Module):
         Median ambient temperature [°C] (NaN without an ambient column).
     tyre_temperature_c : float
         Friction-power weighted mean temperature of the driven tyres [°C].
+
+    Examples
+    --------
+    From :func:`drive_wear_evidence` on the shipped one-minute RAV4 segment:
+
+    >>> from tyrebayes import load_vehicle, read_stream, validate_stream
+    >>> from tyrebayes._resources import data_dir
+    >>> vehicle = load_vehicle("suv_rav4")
+    >>> stream = validate_stream(read_stream(data_dir() / "comma2k19_rav4_segment.csv"), vehicle)
+    >>> evidence = drive_wear_evidence(stream, vehicle)
+    >>> round(evidence.duration_s), round(evidence.distance_km, 2), evidence.work_x_j.shape
+    (60, 1.0, (2,))
+    >>> row = evidence.row()
+    >>> sorted(row) == sorted(WEAR_EVIDENCE_COLUMNS)
+    True
     """
 
     duration_s: float
@@ -498,6 +513,16 @@ def drive_wear_evidence(
     Returns
     -------
     DriveWearEvidence
+
+    Examples
+    --------
+    >>> from tyrebayes import load_vehicle, read_stream, validate_stream
+    >>> from tyrebayes._resources import data_dir
+    >>> vehicle = load_vehicle("suv_rav4")
+    >>> stream = validate_stream(read_stream(data_dir() / "comma2k19_rav4_segment.csv"), vehicle)
+    >>> evidence = drive_wear_evidence(stream, vehicle)
+    >>> evidence.cornering.source, bool(evidence.work_x_j.sum() > 0)
+    ('type_prior', True)
     """
     cornering = TYPE_PRIOR_CORNERING if cornering is None else cornering
     if not isinstance(cornering, CorneringStiffness):
@@ -607,6 +632,15 @@ def wear_evidence_table(
         :func:`drive_wear_evidence`'s row per drive, with ``drive_id`` (file stem), ``vehicle``,
         ``drive_order`` and ``cornering_stiffness_source`` columns added (the fleet-run summary
         table's layout).
+
+    Examples
+    --------
+    >>> from tyrebayes import load_vehicle
+    >>> from tyrebayes._resources import data_dir
+    >>> path = data_dir() / "comma2k19_rav4_segment.csv"
+    >>> table = wear_evidence_table([path, path], load_vehicle("suv_rav4"), "suv_rav4")
+    >>> table[["drive_id", "drive_order", "cornering_stiffness_source"]].values.tolist()
+    [['comma2k19_rav4_segment', 0, 'type_prior'], ['comma2k19_rav4_segment', 1, 'type_prior']]
     """
     from .io import read_stream
     from .validate import validate_stream

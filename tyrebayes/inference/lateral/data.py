@@ -38,7 +38,18 @@ G = 9.80665
 
 
 class NoCornering(ValueError):
-    """A drive without the cornering a lateral fit needs; the message is the one-line reason."""
+    """A drive without the cornering a lateral fit needs; the message is the one-line reason.
+
+    Examples
+    --------
+    >>> issubclass(NoCornering, ValueError)
+    True
+    >>> try:
+    ...     raise NoCornering("lateral: no usable cornering")
+    ... except ValueError as err:
+    ...     print(err)
+    lateral: no usable cornering
+    """
 
 
 class CorneringObservations(eqx.Module):
@@ -70,6 +81,18 @@ class CorneringObservations(eqx.Module):
         inertia and the steering ratio are priors' centres.
     cornering_seconds : Array
         Time spent above :data:`CORNERING_AY_MPS2` and :data:`CORNERING_SPEED_MPS` [s].
+
+    Examples
+    --------
+    A steady 30 s circle at 15 m/s and 3 m/s² (:func:`cornering_observations` builds it):
+
+    >>> from tyrebayes import load_vehicle
+    >>> t = np.arange(0, 30, 0.01)
+    >>> f = pd.DataFrame({"time": t, "yaw_rate": 0.2 + 0 * t, "ay": 3.0 + 0 * t,
+    ...                   "speed_reference": 15 + 0 * t, "steering_wheel_angle": 0.5 + 0 * t})
+    >>> obs = cornering_observations(f, load_vehicle("compact_fwd"))
+    >>> obs.speed.shape, round(float(obs.cornering_seconds)), obs.road_wheel
+    ((300,), 30, False)
     """
 
     speed: Float[Array, " n"]

@@ -27,12 +27,13 @@ from numpyro.infer.util import potential_energy
 from ..result import Fit, diagnose, provenance
 from .data import CorneringObservations, G
 from .model import (
-    EFFECT_SITES,
-    LATERAL_EFFECTS,
+    REAL_SITES,
+    SAMPLE_SITES,
     LateralPriors,
     axle_state,
     lateral_model,
     residuals,
+    sample_sites,
 )
 from .result import LateralFit
 
@@ -45,31 +46,14 @@ MU_Y_CONTRACTION = 0.5
 #: The understeer gradient counts as identified where its posterior sd is at most this share
 #: of the prior's.
 K_CONTRACTION = 0.5
-_SITES = (
-    "c_y_front",
-    "c_y_rear",
-    "understeer_gradient",
-    "mu_y",
-    "steering_ratio",
-    "steering_offset",
-    "ay_offset",
-    "roll_gradient",
-    "yaw_inertia_factor",
-    "relaxation_length",
-    "curve_shape_excess",
-    "curve_curvature_gap",
-    "steer_noise",
-    "kinematic_noise",
-    "force_noise",
-)
+#: The posterior's variables in the order of the fit's summary: the sample sites with the
+#: understeer gradient (derived from the two stiffnesses) after them.
+_SUMMARY_SITES = (*SAMPLE_SITES[:2], "understeer_gradient", *SAMPLE_SITES[2:])
 
 
 def _site_names(road_wheel: bool, priors: LateralPriors) -> tuple[str, ...]:
     """The model's sample sites in the order of the flat parameter vector."""
-    left_out = {EFFECT_SITES[e] for e in LATERAL_EFFECTS if e not in priors.effects}
-    if road_wheel:
-        left_out.add("steering_ratio")
-    return tuple(n for n in _SITES if n != "understeer_gradient" and n not in left_out)
+    return sample_sites(priors, road_wheel=road_wheel)
 
 
 def _start(obs: CorneringObservations, priors: LateralPriors, surface: str) -> jnp.ndarray:
@@ -265,7 +249,6 @@ def _search_subset(obs: CorneringObservations, stride: int) -> tuple[CorneringOb
 
 #: The sites on the real line (Normal priors); every other site is positive (LogNormal), its
 #: unconstrained value the logarithm.
-_REAL_SITES = ("steering_offset", "ay_offset")
 
 
 def _constrain(xs, obs, weights, priors, surface) -> dict:
@@ -278,7 +261,7 @@ def _constrain(xs, obs, weights, priors, surface) -> dict:
     del weights
     names = _site_names(obs.road_wheel, priors)
     xs = np.asarray(xs)
-    out = {n: xs[:, i] if n in _REAL_SITES else np.exp(xs[:, i]) for i, n in enumerate(names)}
+    out = {n: xs[:, i] if n in REAL_SITES else np.exp(xs[:, i]) for i, n in enumerate(names)}
     out["understeer_gradient"] = (1.0 / out["c_y_front"] - 1.0 / out["c_y_rear"]) / G
     return out
 
@@ -563,7 +546,7 @@ def fit_lateral(
             obs, priors, surface, weights, init, key_nuts, (num_chains, num_warmup, num_samples)
         )
         optimiser = "n/a"
-    names = [k for k in _SITES if k in samples]
+    names = [k for k in _SUMMARY_SITES if k in samples]
     groups = {"posterior": {k: samples[k] for k in names}}
     if sample_stats is not None:
         groups["sample_stats"] = sample_stats

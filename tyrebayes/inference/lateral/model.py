@@ -65,6 +65,45 @@ EFFECT_SITES = {
     "relaxation": "relaxation_length",
     "yaw_inertia": "yaw_inertia_factor",
 }
+#: The model's sample sites, in the order of the fitters' flat parameter vectors (the batch fit's
+#: and the in-car estimator's).
+SAMPLE_SITES = (
+    "c_y_front",
+    "c_y_rear",
+    "mu_y",
+    "steering_ratio",
+    "steering_offset",
+    "ay_offset",
+    "roll_gradient",
+    "yaw_inertia_factor",
+    "relaxation_length",
+    "curve_shape_excess",
+    "curve_curvature_gap",
+    "steer_noise",
+    "kinematic_noise",
+    "force_noise",
+)
+#: Sample sites on the real line; every other is positive and carried as its logarithm.
+REAL_SITES = ("steering_offset", "ay_offset")
+
+
+def sample_sites(priors: LateralPriors, *, road_wheel: bool = False) -> tuple[str, ...]:
+    """The sample sites of ``priors``' effects, in :data:`SAMPLE_SITES` order.
+
+    With ``road_wheel`` (the log gives the road-wheel angle) the steering ratio is left out:
+    nothing reads it.
+
+    Examples
+    --------
+    >>> sample_sites(LateralPriors())[:3]
+    ('c_y_front', 'c_y_rear', 'mu_y')
+    >>> "steering_ratio" in sample_sites(LateralPriors(), road_wheel=True)
+    False
+    """
+    left_out = {EFFECT_SITES[e] for e in LATERAL_EFFECTS if e not in priors.effects}
+    if road_wheel:
+        left_out.add("steering_ratio")
+    return tuple(n for n in SAMPLE_SITES if n not in left_out)
 
 
 class LateralPriors(eqx.Module):
@@ -109,6 +148,14 @@ class LateralPriors(eqx.Module):
     force_noise_median : float
         Median of the noise of the axle forces ρ [-] (log-sd 1), which reaches the steering
         equation through the curve's slope dα/dρ.
+
+    Examples
+    --------
+    >>> priors = LateralPriors()
+    >>> priors.c_y_median, priors.effects
+    (16.5, ('roll', 'ay_offset', 'steering_offset', 'yaw_inertia'))
+    >>> LateralPriors(c_y_median=20.0).c_y_median
+    20.0
     """
 
     c_y_median: float = 16.5

@@ -146,6 +146,18 @@ class OnlineConfig(eqx.Module):
     mu_observed_contraction : float
         μ_max is reported only after an ABS window and once its log-sd has shrunk by this
         fraction of the prior's (the batch fit's rule, ``MU_OBSERVED_CONTRACTION``).
+
+    Examples
+    --------
+    :func:`default_config` fills the per-coordinate drifts and reversions for a model's θ:
+
+    >>> config = default_config("magic")
+    >>> config.drift_sd_per_sqrt_s.shape, int(config.min_slip_windows)
+    ((11,), 240)
+    >>> float(config.change_threshold) == CHANGE_THRESHOLD
+    True
+    >>> default_config(min_slip_windows=100).min_slip_windows.item()
+    100
     """
 
     drift_sd_per_sqrt_s: Float[Array, "p"]

@@ -89,6 +89,19 @@ class OnlineEstimator(eqx.Module):
         Drift, Newton steps, change detection, readiness.
     priors : TyrePriors
         The batch model's prior scales (the shape family's constants).
+
+    Examples
+    --------
+    An estimator for the Magic Formula on dry roads, and its state before any window:
+
+    >>> estimator = OnlineEstimator.create(kind="magic", surface="dry")
+    >>> estimator.kind, estimator.prior.names[:3]
+    ('magic', ('log_c_xr', 'temp_sensitivity', 'log_mu_max'))
+    >>> state = estimator.init()
+    >>> state.mean.shape, float(state.time_s), float(state.n_slip_windows)
+    ((11,), 0.0, 0.0)
+
+    :meth:`run` takes it through the steps of a stream (:func:`online_estimate`).
     """
 
     prior: GaussianPrior
@@ -430,7 +443,27 @@ def online_estimate(
     config: OnlineConfig | None = None,
     imu_gain_log_sd: float = 0.0,
 ) -> tuple[FilterState, OnlineSummary]:
-    """Run the estimator from the type prior over one stream's blocks (the command's path)."""
+    """Run the estimator from the type prior over one stream's blocks (the command's path).
+
+    Returns the final filter state and the trajectory of summaries, one per step
+    (:func:`~.summary.summary_record` reads a step).
+
+    Examples
+    --------
+    The shipped one-minute segment in two steps; the filter's first compilation takes longer
+    than a doctest should, so that line is not run here (``tyrebayes online`` runs it):
+
+    >>> from tyrebayes import load_vehicle, summary_record
+    >>> from tyrebayes._resources import data_dir
+    >>> from tyrebayes.inference.online import stream_steps, stream_windows
+    >>> path = data_dir() / "comma2k19_rav4_segment.csv"
+    >>> blocks = stream_steps(stream_windows(path, load_vehicle("suv_rav4")))
+    >>> blocks.slip.shape[0], blocks.surface
+    (2, 'dry')
+    >>> state, trajectory = online_estimate(blocks)  # doctest: +SKIP
+    >>> summary_record(trajectory, -1)["enough_evidence"]  # doctest: +SKIP
+    False
+    """
     estimator = OnlineEstimator.create(
         kind=kind,
         surface=blocks.surface,

@@ -53,30 +53,10 @@ from jaxtyping import Array, Bool, Float
 
 from ..lateral.data import CorneringObservations
 from ..lateral.fit import K_CONTRACTION
-from ..lateral.model import EFFECT_SITES, LATERAL_EFFECTS, LateralPriors, axle_state, residuals
+from ..lateral.model import REAL_SITES, LateralPriors, axle_state, residuals, sample_sites
 from .laplace_update import laplace_update
 from .lateral_blocks import LateralBlocks
 from .lateral_summary import LateralTrajectory, OnlineLateral
-
-#: The batch model's sample sites in the state's order (less those of effects left out).
-SITES = (
-    "c_y_front",
-    "c_y_rear",
-    "mu_y",
-    "steering_ratio",
-    "steering_offset",
-    "ay_offset",
-    "roll_gradient",
-    "yaw_inertia_factor",
-    "relaxation_length",
-    "curve_shape_excess",
-    "curve_curvature_gap",
-    "steer_noise",
-    "kinematic_noise",
-    "force_noise",
-)
-#: Sites on the real line; every other is positive and carried as its logarithm.
-REAL_SITES = ("steering_offset", "ay_offset")
 
 #: Time constant over which a block's information fades [s]: a tyre's cornering stiffness moves
 #: with tread wear, temperature and pressure over hours, not minutes; an hour keeps a 10-minute
@@ -117,8 +97,7 @@ def site_names(priors: LateralPriors, road_wheel: bool = False) -> tuple[str, ..
     ('c_y_front', 'c_y_rear', 'mu_y')
     """
     del road_wheel
-    left_out = {EFFECT_SITES[e] for e in LATERAL_EFFECTS if e not in priors.effects}
-    return tuple(n for n in SITES if n not in left_out)
+    return sample_sites(priors)
 
 
 class LateralPrior(eqx.Module):

@@ -22,6 +22,17 @@ def stream_windows(
 
     Returns the windows, in time order of their steps once grouped by :func:`stream_steps`; at
     least 10 of them, or :class:`~tyrebayes.BadInputError`.
+
+    Examples
+    --------
+    The shipped one-minute RAV4 segment:
+
+    >>> from tyrebayes import load_vehicle
+    >>> from tyrebayes._resources import data_dir
+    >>> path = data_dir() / "comma2k19_rav4_segment.csv"
+    >>> windows = stream_windows(path, load_vehicle("suv_rav4"))
+    >>> windows["slip"].shape, bool(np.all(np.diff(windows["time_s"]) > 0))
+    ((123,), True)
     """
     windows = windows_from_stream(
         path,
@@ -58,6 +69,18 @@ def stream_steps(
     Returns
     -------
     WindowBlocks
+
+    Examples
+    --------
+    The shipped one-minute segment fills two steps of 30 s:
+
+    >>> from tyrebayes import load_vehicle
+    >>> from tyrebayes._resources import data_dir
+    >>> path = data_dir() / "comma2k19_rav4_segment.csv"
+    >>> windows = stream_windows(path, load_vehicle("suv_rav4"))
+    >>> blocks = stream_steps(windows)
+    >>> blocks.slip.shape[0], int(blocks.mask.sum())
+    (2, 123)
     """
     times = np.asarray(windows["time_s"], dtype=float)
     spacing = float(np.median(np.diff(np.sort(times)))) if times.size > 1 else 0.25

@@ -273,6 +273,20 @@ def summary_record(summary: OnlineSummary, i=()) -> dict:
     """One step of a summary as plain data; withheld values are ``None`` with a reason.
 
     ``i`` indexes the step of a trajectory (default: an unbatched summary).
+
+    Examples
+    --------
+    The summary of an estimator that has seen no window yet: C_x is withheld, with the reason.
+
+    >>> import equinox as eqx
+    >>> from tyrebayes import OnlineEstimator
+    >>> estimator = OnlineEstimator.create(kind="magic")
+    >>> summary = eqx.filter_jit(estimator.summary)(estimator.init())
+    >>> record = summary_record(summary)
+    >>> record["enough_evidence"], record["c_x"], record["n_slip_windows"]
+    (False, None, 0)
+    >>> record["reason"]
+    'too little excitation: too few windows pushing the tyre'
     """
     ready = bool(np.asarray(summary.ready)[i])
     reason = REASONS[int(np.asarray(summary.reason)[i])]

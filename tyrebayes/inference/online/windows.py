@@ -220,6 +220,17 @@ def window_blocks(
     ------
     BadInputError
         No windows, or ``step_s`` of the stream holding more than ``width`` windows.
+
+    Examples
+    --------
+    >>> from tyrebayes import load_vehicle
+    >>> from tyrebayes._resources import data_dir
+    >>> from tyrebayes.inference.online import stream_windows
+    >>> path = data_dir() / "comma2k19_rav4_segment.csv"
+    >>> windows = stream_windows(path, load_vehicle("suv_rav4"))
+    >>> blocks = window_blocks(windows)
+    >>> blocks.slip.shape[0], int(blocks.mask.sum()) == windows["slip"].size
+    (2, True)
     """
     max_step_s = step_s if max_step_s is None else max_step_s
     blocks_per_step = step_s / BLOCK_S

@@ -91,6 +91,15 @@ def observations_from_stream(
     """Read, validate and window one stream file for :func:`tyrebayes.inference.fit_tyre`.
 
     :func:`windows_from_stream` (same parameters and errors), stacked as one drive.
+
+    Examples
+    --------
+    >>> from tyrebayes import load_vehicle
+    >>> from tyrebayes._resources import data_dir
+    >>> path = data_dir() / "comma2k19_rav4_segment.csv"
+    >>> obs = observations_from_stream(path, load_vehicle("suv_rav4"))
+    >>> obs.n_drives, obs.surfaces, int(obs.mask.sum()) > 100
+    (1, ('dry',), True)
     """
     windows = windows_from_stream(
         path,

@@ -129,6 +129,22 @@ def build_wear_data(
     ``use_depth`` / ``use_drift`` select the observation sources (at least one); ``type_names``
     fixes the order of the type-level parameters (default: the package's order of the types
     present).
+
+    Examples
+    --------
+    Two sets of three and two drives (two temperature bins), the shorter padded:
+
+    >>> import jax.numpy as jnp
+    >>> from tyrebayes.physics.wear import DriveWork, WearObservations
+    >>> def tyre_set(n, tyre_type):
+    ...     work = DriveWork(jnp.full(n, 20.0), jnp.full(n, 10.0), jnp.full((n, 2, 2), 1e6),
+    ...                      jnp.array([10.0, 30.0]), jnp.zeros((n, 2)), jnp.full((n, 2), 20.0))
+    ...     obs = WearObservations(jnp.array([0, n]), jnp.array([0, 0]), jnp.array([8.0, 7.9]),
+    ...                            jnp.zeros(n), depth_noise_mm=0.1, radius_noise=1e-4)
+    ...     return WearSet.from_c_xr(work, obs, tyre_type, (35.0, 1.5))
+    >>> data = build_wear_data([tyre_set(3, "summer"), tyre_set(2, "winter")])
+    >>> data.kernel.shape, data.type_names, data.drift_mask.sum(axis=1).tolist()
+    ((2, 3, 2, 2), ('winter', 'summer'), [3, 2])
     """
     if not (use_depth or use_drift):
         raise ValueError("build_wear_data: expected use_depth or use_drift, got neither")

@@ -119,6 +119,22 @@ def drive_history(
 
     Raises :class:`~tyrebayes.BadInputError` for fewer than two drives, missing columns, drives
     without a radius ratio or friction work, or an odometer that runs backwards.
+
+    Examples
+    --------
+    Two drives of the shipped segment (:func:`tyrebayes.wear_evidence_table`):
+
+    >>> from tyrebayes import load_vehicle, wear_evidence_table
+    >>> from tyrebayes._resources import data_dir
+    >>> path = data_dir() / "comma2k19_rav4_segment.csv"
+    >>> table = wear_evidence_table([path, path], load_vehicle("suv_rav4"))
+    >>> history = drive_history(table)
+    >>> history.work_j.shape, history.lateral_source, history.changes.index.size
+    ((2, 2), 'type_prior', 0)
+    >>> drive_history(table.iloc[:1])
+    Traceback (most recent call last):
+    ...
+    tyrebayes._errors.BadInputError: drive history: expected at least 2 drives, got 1
     """
     geom = TreadGeometry() if geom is None else geom
     n = len(table)
@@ -234,7 +250,19 @@ def _lateral(table: pd.DataFrame, n: int) -> tuple[np.ndarray, float, str]:
 
 
 def tread_readings(table: pd.DataFrame) -> TreadReadings:
-    """Readings from a table with ``odometer_km``, ``axle`` (front/rear) and ``depth_mm``."""
+    """Readings from a table with ``odometer_km``, ``axle`` (front/rear) and ``depth_mm``.
+
+    Rows are sorted by odometer; an axle other than front/rear, a non-number or a depth outside
+    (0, 15] mm is a :class:`~tyrebayes.BadInputError`.
+
+    Examples
+    --------
+    >>> table = pd.DataFrame({"odometer_km": [12000.0, 0.0], "axle": ["Rear", "front"],
+    ...                       "depth_mm": [6.5, 8.0]})
+    >>> readings = tread_readings(table)
+    >>> readings.odometer_km.tolist(), readings.axle.tolist(), readings.depth_mm.tolist()
+    ([0.0, 12000.0], [0, 1], [8.0, 6.5])
+    """
     for name in ("odometer_km", "axle", "depth_mm"):
         if name not in table:
             raise BadInputError(

@@ -288,6 +288,25 @@ def read_can_log(
         DBC; no frames of the profile's messages (on the chosen bus); frames whose length differs
         from the DBC's; a signal outside its DBC range; a message with more time faults than
         ``max_time_faults`` allows.
+
+    Examples
+    --------
+    Two wheel-speed frames of a RAV4 (candump text; raw 0x417F · 0.01 − 67.67 = 100 km/h):
+
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> log = folder / "bus.log"
+    >>> _ = log.write_text("(5.00) can0 0AA#417F417F417F417F\\n(5.01) can0 0AA#41A341A341A341A3\\n")
+    >>> conv = read_can_log(log, "toyota_rav4_2017", check_complete=False)
+    >>> list(conv.data.columns), conv.time_origin_s, conv.frames_per_message
+    (['time', 'wheel_speed_fl', ...], 5.0, {'WHEEL_SPEEDS': 2})
+
+    By default every message of the profile must be in the log:
+
+    >>> read_can_log(log, "toyota_rav4_2017")
+    Traceback (most recent call last):
+    ...
+    tyrebayes._errors.BadInputError: CAN log bus.log: expected frames of message KINEMATICS...
     """
     from ..._domain import load_vehicle
     from ..time_bases import merge_time_bases
