@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import os
 
+from _data import EXTERNAL_LATERAL, Drive, external_lateral_drives  # noqa: E402
 from _results import figure, write_result  # noqa: E402
 
 os.environ["XLA_FLAGS"] = os.environ.get("XLA_FLAGS", "") + " --xla_cpu_multi_thread_eigen=false"
@@ -48,18 +49,14 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 from paramsd_ekf import run_paramsd  # noqa: E402
 
-from tyrebayes import load_vehicle  # noqa: E402
-from tyrebayes.inference.lateral import cornering_observations, fit_lateral  # noqa: E402
+from tyrebayes import cornering_observations, fit_lateral  # noqa: E402
 from tyrebayes.inference.online.lateral import (  # noqa: E402
     OnlineLateralEstimator,
     run_online_lateral,
 )
 from tyrebayes.inference.online.lateral_blocks import lateral_blocks  # noqa: E402
 from tyrebayes.inference.online.lateral_summary import prior_k_sd  # noqa: E402
-from tyrebayes.streams import read_stream, validate_stream  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_DIR = ROOT.parent / "shared" / "data" / "external_lateral"
 KEYS = ("c_y_front", "c_y_rear", "understeer_gradient")
 #: Braking in a corner: a_x below minus this [m/s²] (the drives brake gently in corners: a_x
 #: below −1.5 m/s² at |a_y| > 2 m/s² for under 2 s per drive; below −1 for up to 12 s) ...
@@ -110,9 +107,10 @@ def _jumps(blocks, trajectory, ready_k, ready_split) -> tuple[list[dict], float]
     return rows, worst
 
 
-def _drive(folder: Path, name: str, truth: dict, reps: int) -> dict:
-    vehicle = load_vehicle(folder / "drives" / truth["vehicle"])
-    validated = validate_stream(read_stream(folder / "drives" / name), vehicle)
+def _drive(drive: Drive, reps: int) -> dict:
+    name, truth = drive.path.name, drive.truth
+    vehicle = drive.vehicle()
+    validated = drive.validated(vehicle)
     obs = cornering_observations(validated.data, vehicle)
     batch = fit_lateral(obs, surface=truth["surface"], inputs=(name,))
     b = batch.to_dict()
@@ -182,19 +180,14 @@ def _drive(folder: Path, name: str, truth: dict, reps: int) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("folder", nargs="?", default=str(DEFAULT_DIR))
+    parser.add_argument("folder", nargs="?", type=Path, default=EXTERNAL_LATERAL)
     parser.add_argument("--drives", default="", help="comma-separated drive names (default all)")
     parser.add_argument("--reps", type=int, default=3, help="timed runs per drive")
     args = parser.parse_args()
-    folder = Path(args.folder)
-    truth = json.loads((folder / "truth.json").read_text())
-    names = sorted(truth)
-    if args.drives:
-        wanted = {f"{d}.parquet" for d in args.drives.split(",")}
-        names = [n for n in names if n in wanted]
     rows = []
-    for name in names:
-        row = _drive(folder, name, truth[name], args.reps)
+    for drive in external_lateral_drives(args.folder, args.drives):
+        name = drive.path.name
+        row = _drive(drive, args.reps)
         rows.append(row)
         print(
             name,
@@ -269,7 +262,7 @@ def main() -> None:
         ),
     ]
     payload = {
-        "folder": str(folder),
+        "folder": str(args.folder),
         "settings": {
             "braking_mps2": BRAKING_MPS2,
             "corner_ay_mps2": CORNER_AY_MPS2,
