@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from _results import write_result  # noqa: E402
+from _results import figure, write_result  # noqa: E402
 
 from tyrebayes.batch.worker_memory import peak_rss_mb, rss_mb
 
@@ -141,7 +141,9 @@ def plain_loop(items, out: Path, settings, traced_drives: bool = False) -> dict:
         "tyre_set_stage_cpu_seconds": fit_cpu,
         "drive_step_cpu_seconds": {
             step: sum(r.get("step_cpu_seconds", {}).get(step, 0.0) for r in drives.values())
-            for step in ("read", "validate", "features", "windows_and_summary")
+            for step in dict.fromkeys(
+                s for r in drives.values() for s in r.get("step_cpu_seconds", {})
+            )
         },
         "drives_done": sum(r["status"] == "done" for r in drives.values()),
         # Tasks that started by dropping this process's compiled programs (memory budget or a
@@ -169,16 +171,18 @@ def pinned(cpus: set[int] | None):
     if cpus is None:
         yield
         return
-    threads = [int(t) for t in os.listdir("/proc/self/task")]
-    before = {t: os.sched_getaffinity(t) for t in threads}
-    for t in threads:
-        os.sched_setaffinity(t, cpus)
+    before = {}
+    for t in (int(t) for t in os.listdir("/proc/self/task")):
+        with contextlib.suppress(OSError):  # a thread that ended since the listing
+            before[t] = os.sched_getaffinity(t)
+            os.sched_setaffinity(t, cpus)
+    default = before.get(os.getpid(), set(range(os.cpu_count() or 1)))
     try:
         yield
     finally:
         for t in (int(t) for t in os.listdir("/proc/self/task")):
             with contextlib.suppress(OSError):  # a thread that ended meanwhile
-                os.sched_setaffinity(t, before.get(t, before[threads[0]]))
+                os.sched_setaffinity(t, before.get(t, default))
 
 
 def cluster_run(
@@ -248,6 +252,82 @@ def _compiled_programs_mb() -> float:
     before = rss_mb()
     drop_compiled_programs()
     return before - rss_mb()
+
+
+def _previous_run(path: Path) -> dict | None:
+    """The figures of the result this run replaces: the "before" of a change's before and after."""
+    try:
+        old = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return {
+        "revision": old.get("run", {}).get("revision"),
+        "date": old.get("run", {}).get("date"),
+        "lateral_fit": "lateral"
+        in old.get("plain_loop_warm_cache", {}).get("drive_step_cpu_seconds", {}),
+        "per_drive_hour_cpu_seconds": old.get("per_drive_hour_cpu_seconds"),
+        "drive_hours_per_core_hour": old.get("drive_hours_per_core_hour"),
+        "peak_rss_mb_per_worker_max": old.get("peak_rss_mb_per_worker_max"),
+    }
+
+
+def _figures(results: dict) -> list[dict]:
+    """The headline figures of the run (the issue's targets), with the run's counts."""
+    size = results["size"]
+    count = size["drives"]
+    done = results["one_worker_one_core"]["summary"]
+    failed = {
+        stage: done[stage]["items"] - done[stage]["done"]
+        for stage in ("drives", "tyre_sets")
+        if done[stage]["items"] != done[stage]["done"]
+    }
+    exclusions = {f"{stage} not done": n for stage, n in failed.items()}
+    steps = results["per_drive_hour_cpu_seconds"]
+    return [
+        figure(
+            "drive-hours per core-hour, full path (lateral fit included), one worker on one core",
+            results["drive_hours_per_core_hour"]["one_worker_one_core"],
+            target=(">=", TARGET_DRIVE_HOURS_PER_CORE_HOUR),
+            count=count,
+            exclusions=exclusions,
+            note=f"{size['drive_hours']:.1f} drive-hours in {size['tyre_sets']} tyre sets; "
+            "wall time x workers, worker start and tracing included",
+            headline=True,
+        ),
+        figure(
+            "peak RSS per worker over the fleet run",
+            results["peak_rss_mb_per_worker_max"],
+            unit="MB",
+            target=("<=", TARGET_PEAK_MB),
+            count=count,
+        ),
+        figure(
+            "peak RSS of the plain loop with a cold compilation cache",
+            results["plain_loop_cold_cache"]["peak_rss_mb"],
+            unit="MB",
+            count=count,
+            note="one process: every stage, every compile",
+        ),
+        figure(
+            "scaling efficiency, one worker on one core to two workers on two cores",
+            results["scaling_efficiency_1_to_2"],
+            target=(">=", TARGET_SCALING),
+            count=count,
+        ),
+        figure(
+            "CPU seconds per drive-hour, per-drive stage (steady state)",
+            steps["drive_stage"],
+            unit="s",
+            count=count,
+            note=", ".join(f"{k} {v:.2f}" for k, v in steps["drive_stage_steps"].items()),
+        ),
+        figure(
+            "CPU seconds per drive-hour, tyre-set fast fit (steady state)",
+            steps["tyre_set_fit_fast"],
+            unit="s",
+            count=size["tyre_sets"],
+        ),
+    ]
 
 
 def main() -> int:
@@ -412,9 +492,12 @@ def main() -> int:
             "plain_loop_cold_cache", "plain_loop_warm_cache", "one_worker", "one_worker_one_core",
             "two_workers")},
             indent=1))  # fmt: skip
+        results["previous_run"] = _previous_run(args.out)
         # Only the issue's size is the benchmark's result; a smaller run is a quick one.
         quick = True if not args.full else None
-        saved = write_result("fleet_run", results, path=args.out, quick=quick)
+        saved = write_result(
+            "fleet_run", results, path=args.out, quick=quick, figures=_figures(results)
+        )
         print(f"saved {saved}")
     finally:
         shutil.rmtree(work, ignore_errors=True)
