@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -47,6 +48,7 @@ MIN_SAMPLES_PER_SEGMENT = 4
 
 
 def _load(stream, vehicle, brake_front_share: float):
+    """The validated stream, the vehicle and the stream's features, from what the caller gave."""
     if not isinstance(vehicle, Vehicle):
         try:
             vehicle = load_vehicle(vehicle)
@@ -66,6 +68,7 @@ def _load(stream, vehicle, brake_front_share: float):
 
 
 def _segment_mean(values: np.ndarray, seg: np.ndarray, n_seg: int) -> np.ndarray:
+    """Mean of the finite values of each segment (NaN where it has none)."""
     ok = np.isfinite(values)
     total = np.bincount(seg[ok], weights=values[ok], minlength=n_seg)
     count = np.bincount(seg[ok], minlength=n_seg)
@@ -73,6 +76,7 @@ def _segment_mean(values: np.ndarray, seg: np.ndarray, n_seg: int) -> np.ndarray
 
 
 def _standardise(v: np.ndarray) -> tuple[np.ndarray, float]:
+    """``v`` centred and scaled by its sd (1 where that is 0), and the sd."""
     sd = float(np.nanstd(v))
     sd = sd if sd > 0 else 1.0
     return (v - np.nanmean(v)) / sd, sd
@@ -101,61 +105,10 @@ def stream_design(
     duration = float(t[-1] - t[0])
     if window_s is None:
         window_s = float(np.clip(duration / TARGET_SEGMENTS, MIN_WINDOW_S, MAX_WINDOW_S))
-    rate = float(f.sample_rate_hz)
-    step = max(1, int(round(thin_s * rate)))
-    use = f.valid & ~f.spin & np.isfinite(f.slip_driven) & np.isfinite(f.rho_driven)
-    idx = np.flatnonzero(use)
-    idx = idx[(idx - idx[0]) % step == 0] if idx.size else idx
-    seg_all = np.floor((t - t[0]) / window_s).astype(int)
-    counts = np.bincount(seg_all[idx], minlength=int(seg_all.max()) + 1)
-    keep_seg = np.flatnonzero(counts >= MIN_SAMPLES_PER_SEGMENT)
-    if keep_seg.size < 6:
-        raise BadInputError(
-            f"stream: expected at least 6 usable segments of {window_s:.1f} s, got {keep_seg.size}"
-        )
-    idx = idx[np.isin(seg_all[idx], keep_seg)]
-    relabel = np.full(seg_all.max() + 1, -1)
-    relabel[keep_seg] = np.arange(keep_seg.size)
-    units = relabel[seg_all[idx]]
-    n_seg = keep_seg.size
-    seg_of_sample = np.where(np.isin(seg_all, keep_seg), relabel[seg_all], 0)
-    in_seg = np.isin(seg_all, keep_seg) & f.valid
-
-    def seg_mean(values: np.ndarray) -> np.ndarray:
-        v = np.where(in_seg, values, np.nan)
-        return _segment_mean(v, seg_of_sample, n_seg)
-
-    data = validated.data
-    cand_values: dict[str, np.ndarray] = {
-        "speed_mps": seg_mean(f.vx_mps),
-        "accel_mps2": seg_mean(f.dvx_dt_mps2),
-        "braking_fraction": seg_mean((f.dvx_dt_mps2 < 0).astype(float)),
-        "grade_imu_offset_rad": seg_mean(f.grade_rad),
-        "abs_yaw_rate_radps": seg_mean(np.abs(f.yaw_rate_radps)),
-        "abs_ay_mps2": seg_mean(np.abs(f.ay_mps2)),
-        "abs_steer_rad": seg_mean(np.abs(f.steer_rad)),
-        "time_s": seg_mean(t),
-    }
-    if "speed_reference" in data:
-        ref = data["speed_reference"].to_numpy(dtype=float)
-        ratio = np.where(ref > 1.0, f.vx_mps / np.where(ref > 1.0, ref, 1.0) - 1.0, np.nan)
-        cand_values["radius_mismatch_vs_gnss"] = seg_mean(ratio)
-    if "az" in data:
-        az = data["az"].to_numpy(dtype=float)
-        cand_values["vertical_accel_mps2"] = seg_mean(az - np.nanmedian(az))
-    if "ambient_temperature" in data:
-        cand_values["ambient_temperature_c"] = seg_mean(
-            data["ambient_temperature"].to_numpy(dtype=float)
-        )
-
-    candidates = []
-    for name, v_seg in cand_values.items():
-        finite = v_seg[np.isfinite(v_seg)]
-        if finite.size < 3 or np.ptp(finite) <= 1e-12 * max(1.0, float(np.abs(finite).max())):
-            continue
-        v_rows = v_seg[units]
-        v_std, sd = _standardise(v_rows)
-        candidates.append(Candidate(name, "numeric", v_std[:, None], np.array([sd]), (name,)))
+    seg = _segments(f, window_s, thin_s)
+    idx, units, n_seg = seg.rows, seg.units, seg.n_segments
+    cand_values = _candidate_values(f, validated.data, seg)
+    candidates = _segment_candidates(cand_values, units)
 
     rho = f.rho_driven[idx]
     slip = f.slip_driven[idx]
@@ -180,6 +133,87 @@ def stream_design(
         "notes": notes,
         "features": f,
     }
+
+
+class _Segments(NamedTuple):
+    """The thinned rows kept for the baseline and the segments they fall in."""
+
+    rows: np.ndarray  # sample index of each kept row
+    units: np.ndarray  # segment of each kept row
+    n_segments: int
+    of_sample: np.ndarray  # segment of every sample (0 outside the kept segments)
+    in_segment: np.ndarray  # valid samples inside a kept segment
+
+    def mean(self, values: np.ndarray) -> np.ndarray:
+        """Per-segment mean of a per-sample signal over the valid samples (NaN where none)."""
+        v = np.where(self.in_segment, values, np.nan)
+        return _segment_mean(v, self.of_sample, self.n_segments)
+
+
+def _segments(f, window_s: float, thin_s: float) -> _Segments:
+    """Usable rows thinned to one per ``thin_s``, in segments of ``window_s`` with enough rows."""
+    t = f.time_s
+    rate = float(f.sample_rate_hz)
+    step = max(1, int(round(thin_s * rate)))
+    use = f.valid & ~f.spin & np.isfinite(f.slip_driven) & np.isfinite(f.rho_driven)
+    idx = np.flatnonzero(use)
+    idx = idx[(idx - idx[0]) % step == 0] if idx.size else idx
+    seg_all = np.floor((t - t[0]) / window_s).astype(int)
+    counts = np.bincount(seg_all[idx], minlength=int(seg_all.max()) + 1)
+    keep_seg = np.flatnonzero(counts >= MIN_SAMPLES_PER_SEGMENT)
+    if keep_seg.size < 6:
+        raise BadInputError(
+            f"stream: expected at least 6 usable segments of {window_s:.1f} s, got {keep_seg.size}"
+        )
+    idx = idx[np.isin(seg_all[idx], keep_seg)]
+    relabel = np.full(seg_all.max() + 1, -1)
+    relabel[keep_seg] = np.arange(keep_seg.size)
+    return _Segments(
+        rows=idx,
+        units=relabel[seg_all[idx]],
+        n_segments=keep_seg.size,
+        of_sample=np.where(np.isin(seg_all, keep_seg), relabel[seg_all], 0),
+        in_segment=np.isin(seg_all, keep_seg) & f.valid,
+    )
+
+
+def _candidate_values(f, data: pd.DataFrame, seg: _Segments) -> dict[str, np.ndarray]:
+    """Per-segment means of the candidate covariates (the logged ones where the stream has them)."""
+    cand_values: dict[str, np.ndarray] = {
+        "speed_mps": seg.mean(f.vx_mps),
+        "accel_mps2": seg.mean(f.dvx_dt_mps2),
+        "braking_fraction": seg.mean((f.dvx_dt_mps2 < 0).astype(float)),
+        "grade_imu_offset_rad": seg.mean(f.grade_rad),
+        "abs_yaw_rate_radps": seg.mean(np.abs(f.yaw_rate_radps)),
+        "abs_ay_mps2": seg.mean(np.abs(f.ay_mps2)),
+        "abs_steer_rad": seg.mean(np.abs(f.steer_rad)),
+        "time_s": seg.mean(f.time_s),
+    }
+    if "speed_reference" in data:
+        ref = data["speed_reference"].to_numpy(dtype=float)
+        ratio = np.where(ref > 1.0, f.vx_mps / np.where(ref > 1.0, ref, 1.0) - 1.0, np.nan)
+        cand_values["radius_mismatch_vs_gnss"] = seg.mean(ratio)
+    if "az" in data:
+        az = data["az"].to_numpy(dtype=float)
+        cand_values["vertical_accel_mps2"] = seg.mean(az - np.nanmedian(az))
+    if "ambient_temperature" in data:
+        cand_values["ambient_temperature_c"] = seg.mean(
+            data["ambient_temperature"].to_numpy(dtype=float)
+        )
+    return cand_values
+
+
+def _segment_candidates(cand_values: dict[str, np.ndarray], units: np.ndarray) -> list[Candidate]:
+    """Numeric candidates of the covariates that vary over the segments, standardised by row."""
+    candidates = []
+    for name, v_seg in cand_values.items():
+        finite = v_seg[np.isfinite(v_seg)]
+        if finite.size < 3 or np.ptp(finite) <= 1e-12 * max(1.0, float(np.abs(finite).max())):
+            continue
+        v_rows = v_seg[units]
+        v_std, sd = _standardise(v_rows)
+        candidates.append(Candidate(name, "numeric", v_std[:, None], np.array([sd]), (name,)))
+    return candidates
 
 
 def criticize_stream(

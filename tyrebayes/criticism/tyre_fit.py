@@ -46,6 +46,7 @@ _MIN_WINDOWS = 12
 
 
 def _numeric(name: str, values: np.ndarray) -> Candidate | None:
+    """A standardised numeric candidate (None where the values do not vary)."""
     finite = values[np.isfinite(values)]
     if finite.size < 3 or np.ptp(finite) <= 1e-12 * max(1.0, float(np.abs(finite).max())):
         return None
@@ -56,6 +57,7 @@ def _numeric(name: str, values: np.ndarray) -> Candidate | None:
 
 
 def _categorical(name: str, labels: np.ndarray, names: list[str]) -> Candidate | None:
+    """Indicator columns of each level against the commonest (None for a single level)."""
     levels, counts = np.unique(labels, return_counts=True)
     if levels.size < 2:
         return None
@@ -134,11 +136,7 @@ def criticize_tyre_fit(
     rho = np.asarray(fit.data["observed_data"]["rho_obs"], float)
     n = slip.shape[0]
     at_limit = np.asarray(const["at_limit"], bool)
-
-    def window(name: str, default):
-        return np.asarray(const[name]) if name in const.data_vars else default
-
-    drive = window("drive_index", np.zeros(n, int)).astype(int)
+    drive = _window(const, "drive_index", np.zeros(n, int)).astype(int)
     y_rep = np.asarray(fit.data["posterior_predictive"]["slip_obs"], float).reshape(-1, n)
     rows = _thinned_slip_windows(fit, at_limit, drive)
     if rows.shape[0] < _MIN_WINDOWS:
@@ -151,22 +149,7 @@ def criticize_tyre_fit(
     scale = float(np.std(resid))
     scale = scale if scale > 0 else 1.0
 
-    candidates = [_numeric("force_rho", rho[rows])]
-    notes = []
-    if "temperature_c" in const.data_vars:
-        candidates.append(_numeric("tyre_temperature_c", window("temperature_c", None)[rows]))
-    else:
-        notes.append("the fit file holds no window temperatures (made before they were stored)")
-    if "block_index" in const.data_vars:
-        block = window("block_index", None).astype(int)
-        first = np.array([block[drive == d].min() for d in range(int(drive.max()) + 1)])
-        candidates.append(_numeric("time_in_drive_s", BLOCK_S * (block - first[drive])[rows]))
-    surfaces = json.loads(fit.data.attrs.get("surfaces", "[]"))
-    if "surface_index" in const.data_vars and surfaces:
-        candidates.append(
-            _categorical("surface", window("surface_index", None).astype(int)[rows], surfaces)
-        )
-    candidates = [c for c in candidates if c is not None]
+    candidates, notes = _condition_candidates(fit, const, rho, drive, rows)
     drives = np.unique(drive[rows], return_inverse=True)[1]
     onehot = np.eye(int(drives.max()) + 1)[drives]
     if onehot.shape[1] > 1:
@@ -189,17 +172,7 @@ def criticize_tyre_fit(
         se_factor=se_factor,
     )
     slip_windows = ~at_limit
-    loglik = np.asarray(fit.data["log_likelihood"]["slip_obs"], float).reshape(-1, n)
-    elpd_i, k = psis_loo_pointwise(loglik[:, slip_windows])
-    baseline = loo_from_pointwise(elpd_i, k, 0)
-    ppc = posterior_predictive_check(slip[slip_windows], y_rep[:, slip_windows]).to_dict()
-    r_obs = slip[None, slip_windows] - pred[slip_windows]
-    r_rep = y_rep[:, slip_windows] - pred[slip_windows]
-    t_obs, t_rep = _lag1(r_obs)[0], _lag1(r_rep)
-    ppc["lag-1 autocorrelation of slip residuals"] = {
-        "observed": float(t_obs),
-        "p_value": float(np.mean(t_rep >= t_obs)),
-    }
+    baseline, ppc = _slip_loo_and_ppc(fit, slip, y_rep, pred, slip_windows)
     notes = [
         f"fitted model: per-tyre fit ({fit.provenance.method}, {fit.provenance.model}; "
         f"converged {fit.converged}, adequate {fit.adequate}); PSIS-LOO of the slip "
@@ -221,6 +194,57 @@ def criticize_tyre_fit(
     )
 
 
+def _window(const, name: str, default):
+    """A per-window variable of the fit's constant data (``default`` where it is not stored)."""
+    return np.asarray(const[name]) if name in const.data_vars else default
+
+
+def _condition_candidates(
+    fit: Fit, const, rho: np.ndarray, drive: np.ndarray, rows: np.ndarray
+) -> tuple[list[Candidate], list[str]]:
+    """The conditions the fit file holds, at the kept windows, as candidates; notes on gaps."""
+    candidates = [_numeric("force_rho", rho[rows])]
+    notes = []
+    if "temperature_c" in const.data_vars:
+        candidates.append(
+            _numeric("tyre_temperature_c", _window(const, "temperature_c", None)[rows])
+        )
+    else:
+        notes.append("the fit file holds no window temperatures (made before they were stored)")
+    if "block_index" in const.data_vars:
+        block = _window(const, "block_index", None).astype(int)
+        first = np.array([block[drive == d].min() for d in range(int(drive.max()) + 1)])
+        candidates.append(_numeric("time_in_drive_s", BLOCK_S * (block - first[drive])[rows]))
+    surfaces = json.loads(fit.data.attrs.get("surfaces", "[]"))
+    if "surface_index" in const.data_vars and surfaces:
+        candidates.append(
+            _categorical(
+                "surface", _window(const, "surface_index", None).astype(int)[rows], surfaces
+            )
+        )
+    return [c for c in candidates if c is not None], notes
+
+
+def _slip_loo_and_ppc(
+    fit: Fit, slip: np.ndarray, y_rep: np.ndarray, pred: np.ndarray, slip_windows: np.ndarray
+):
+    """The fit's PSIS-LOO of the slip windows, and the slip's posterior predictive checks."""
+    n = slip.shape[0]
+    loglik = np.asarray(fit.data["log_likelihood"]["slip_obs"], float).reshape(-1, n)
+    elpd_i, k = psis_loo_pointwise(loglik[:, slip_windows])
+    baseline = loo_from_pointwise(elpd_i, k, 0)
+    ppc = posterior_predictive_check(slip[slip_windows], y_rep[:, slip_windows]).to_dict()
+    r_obs = slip[None, slip_windows] - pred[slip_windows]
+    r_rep = y_rep[:, slip_windows] - pred[slip_windows]
+    t_obs, t_rep = _lag1(r_obs)[0], _lag1(r_rep)
+    ppc["lag-1 autocorrelation of slip residuals"] = {
+        "observed": float(t_obs),
+        "p_value": float(np.mean(t_rep >= t_obs)),
+    }
+    return baseline, ppc
+
+
 def _lag1(r: np.ndarray) -> np.ndarray:
+    """Lag-1 autocorrelation of each row of ``r`` (over its last axis)."""
     c = r - r.mean(axis=-1, keepdims=True)
     return (c[..., 1:] * c[..., :-1]).sum(axis=-1) / np.maximum((c**2).sum(axis=-1), 1e-300)

@@ -50,6 +50,7 @@ class CorneringTruth:
 
 
 def _magic(alpha, c, mu, shape, curvature):
+    """Magic Formula force over load at slip angle ``alpha`` [rad] (slope ``c``, peak ``mu``)."""
     b = c / (shape * mu)
     x = b * alpha
     return mu * jnp.sin(shape * jnp.arctan(x - curvature * (x - jnp.arctan(x))))
@@ -133,28 +134,50 @@ def simulate_cornering(
         ay_offset=ay_offset,
         kind=kind,
     )
+    fine = np.arange(n * substeps) * (dt / substeps)
+    speed, delta = _planned_inputs(kind, rng, vehicle, truth, duration_s, fine)
+    vy, r, ay_true = _integrate(vehicle, truth, speed, delta, dt / substeps)
+    vy, r, ay_true = (np.asarray(x, float)[::substeps] for x in (vy, r, ay_true))
+    speed, delta = speed[::substeps], delta[::substeps]
+    frame = _sensor_frame(rng, vehicle, truth, speed, delta, vy, r, ay_true, dt, noise)
+    return frame, truth
+
+
+def _planned_inputs(
+    kind: str,
+    rng: np.random.Generator,
+    vehicle: Vehicle,
+    truth: CorneringTruth,
+    duration_s: float,
+    fine: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Speed [m/s] and road-wheel angle [rad] at the times ``fine`` [s]: a smooth plan."""
     # The plan on a 10 Hz grid, interpolated by a cubic spline: a driver's inputs are smooth, and
     # the tyres answer a steering step at once (no relaxation here), so an input that is only
     # continuous would put a sample-rate yaw transient into every step.
     plan_dt = 0.1
     n_plan = int(np.ceil(duration_s / plan_dt)) + 2
     speed_plan, delta_plan = _plan(kind, rng, n_plan, plan_dt, vehicle, truth.understeer_gradient)
-    fine = np.arange(n * substeps) * (dt / substeps)
     plan_time = np.arange(n_plan) * plan_dt
     speed = CubicSpline(plan_time, speed_plan)(fine)
     delta = CubicSpline(plan_time, delta_plan)(fine)
-    m, lf, lr = float(vehicle.mass_kg), float(vehicle.cog_to_front_axle_m), 0.0
+    return speed, delta
+
+
+def _integrate(
+    vehicle: Vehicle, truth: CorneringTruth, speed: np.ndarray, delta: np.ndarray, h: float
+) -> tuple[jax.Array, jax.Array, jax.Array]:
+    """v_y [m/s], yaw rate [rad/s] and a_y [m/s²] of the single-track car (RK4, step ``h`` [s])."""
+    m, lf = float(vehicle.mass_kg), float(vehicle.cog_to_front_axle_m)
     lr = float(vehicle.cog_to_rear_axle_m)
     fz_front, fz_rear = m * G * lr / (lf + lr), m * G * lf / (lf + lr)
 
     def forces(vy, r, vx, d):
         alpha_f = d - (vy + lf * r) / vx
         alpha_r = -(vy - lr * r) / vx
-        fy_f = fz_front * _magic(alpha_f, c_y_front, mu_y, shape, curvature)
-        fy_r = fz_rear * _magic(alpha_r, c_y_rear, mu_y, shape, curvature)
+        fy_f = fz_front * _magic(alpha_f, truth.c_y_front, truth.mu_y, truth.shape, truth.curvature)
+        fy_r = fz_rear * _magic(alpha_r, truth.c_y_rear, truth.mu_y, truth.shape, truth.curvature)
         return fy_f, fy_r
-
-    h = dt / substeps
 
     def deriv(x, vx, d):
         fy_f, fy_r = forces(x[0], x[1], vx, d)
@@ -176,14 +199,29 @@ def simulate_cornering(
     delta_next = np.append(delta[1:], delta[-1])
     inputs = ((jnp.asarray(speed), jnp.asarray(delta)), (speed_next, delta_next))
     _, (vy, r, ay_true) = jax.lax.scan(step, jnp.zeros(2), inputs)
-    vy, r, ay_true = (np.asarray(x, float)[::substeps] for x in (vy, r, ay_true))
-    speed, delta = speed[::substeps], delta[::substeps]
+    return vy, r, ay_true
+
+
+def _sensor_frame(
+    rng: np.random.Generator,
+    vehicle: Vehicle,
+    truth: CorneringTruth,
+    speed: np.ndarray,
+    delta: np.ndarray,
+    vy: np.ndarray,
+    r: np.ndarray,
+    ay_true: np.ndarray,
+    dt: float,
+    noise: bool,
+) -> pd.DataFrame:
+    """The stream a car's sensors log of the motion (noise drawn even when ``noise`` is off)."""
+    n = speed.shape[0]
     vx_dot = np.gradient(speed, dt)
     scale = 1.0 if noise else 0.0
     radius = float(vehicle.wheel_radius_m)
     wheel = speed / radius
     time = np.arange(n) * dt
-    frame = pd.DataFrame(
+    return pd.DataFrame(
         {
             "time": time,
             **{
@@ -191,12 +229,13 @@ def simulate_cornering(
                 for w in ("fl", "fr", "rl", "rr")
             },
             "ax": vx_dot - r * vy + scale * rng.normal(0, 0.05, n),
-            "ay": (1.0 + G * roll_gradient) * ay_true + ay_offset + scale * rng.normal(0, 0.05, n),
+            "ay": (1.0 + G * truth.roll_gradient) * ay_true
+            + truth.ay_offset
+            + scale * rng.normal(0, 0.05, n),
             "lateral_velocity": vy,
             "yaw_rate": r + scale * rng.normal(0, 0.002, n),
             "steering_wheel_angle": truth.steering_ratio * delta
-            + steering_offset_rad
+            + truth.steering_offset_rad
             + scale * rng.normal(0, 0.002, n),
         }
     )
-    return frame, truth

@@ -39,6 +39,8 @@ True
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import equinox as eqx
 import numpy as np
 import pandas as pd
@@ -51,7 +53,7 @@ from .abs_braking import ABS_HZ as ABS_HZ
 from .abs_braking import ABS_SWING as ABS_SWING
 from .drive_forces import ENGINE_BRAKE_SHARE as ENGINE_BRAKE_SHARE
 from .drive_forces import MIN_SLIP_SPEED_MPS as MIN_SLIP_SPEED_MPS
-from .drive_forces import _kinematics, _wheel_rho
+from .drive_forces import _Kinematics, _kinematics, _wheel_rho
 from .drive_forces import wheel_loads_np as wheel_loads_np
 from .drive_thermal import _temperatures
 from .profiles import DriveProfile, ProfileOptions, make_profile
@@ -174,6 +176,60 @@ def simulate_drive(
     # 1. Plan.
     static = wheel_loads_np(vehicle, 0.0, 0.0)
     plan = _plan(rng_profile, vehicle, static, mu, opts, duration_s, sample_rate_hz, planned)
+
+    # 2-6. Forces, tyre temperatures, ABS and each wheel's slip.
+    state = _tyre_states(
+        rng_abs, plan, vehicle, tyre, tyre_model, mu, thermal, static, ambient_c, t0_tyre
+    )
+
+    # 7. Wheel-centre speeds (yaw rate and steering) and wheel speeds.
+    offsets = sensor_offsets or draw_sensor_truth(rng_offsets, sensor, vehicle.wheel_radius_m)
+    radius = vehicle.wheel_radius_m * (1.0 + np.asarray(offsets.radius_error))
+    v_wheel = _wheel_centre_speeds(vehicle, state.kin, state.v)
+    omega = v_wheel * (1.0 + state.slip) / radius[None, :]
+
+    # Sample times (jitter) and the logged stream.
+    t_log = sample_times(rng_sensor, len(state.v), sample_rate_hz, sensor.timing_jitter)
+    stream = _logged_stream(
+        rng_sensor, sensor, offsets, vehicle, plan, state, t_log, omega, ambient_c
+    )
+    truth = _drive_truth(
+        vehicle_name=vehicle_name,
+        vehicle=vehicle,
+        tyre=tyre,
+        surface=surface,
+        tyre_model=tyre_model,
+        seed=_seed_int(key_or_seed),
+        mu=mu,
+        ambient_c=ambient_c,
+        static=static,
+        plan=plan,
+        state=state,
+        offsets=offsets,
+        radius=radius,
+        v_wheel=v_wheel,
+        t_log=t_log,
+    )
+    return stream, truth
+
+
+class _TyreStates(NamedTuple):
+    """Steps 2-6's outcome: the final motion and each wheel's slip, force and stiffness."""
+
+    v: np.ndarray  # speed after ABS [m/s]
+    kin: _Kinematics  # forces and loads of the final motion
+    slip: np.ndarray  # (n, 4) slip (0 below MIN_SLIP_SPEED_MPS) [-]
+    rho: np.ndarray  # (n, 4) normalised force [-]
+    ok: np.ndarray  # (n, 4) whether the truth curve had a slip for the force
+    in_abs: np.ndarray  # (n,) ABS samples
+    c_x_wheel: np.ndarray  # (n, 4) slip stiffness at the tyre temperature [-]
+    temps: np.ndarray  # (n, 4) tyre temperature [°C]
+
+
+def _tyre_states(
+    rng_abs, plan, vehicle, tyre, tyre_model, mu, thermal, static, ambient_c, t0_tyre
+) -> _TyreStates:
+    """Steps 2-6: forces of the plan, tyre temperatures, ABS, then slips of the final motion."""
     dt = plan.dt_s
     v, a, ay, grade = plan.speed_mps, plan.accel_mps2, plan.ay_mps2, plan.grade_rad
 
@@ -198,59 +254,79 @@ def simulate_drive(
 
     # 5. Slip by inverting the truth curve; ABS samples keep their prescribed slip.
     slip, rho, ok, in_abs = _slips(tyre_model, tyre, mu, kin, rho, c_x_wheel, static, abs_slip, v)
-    fx_wheel = rho * kin.fz
+    return _TyreStates(v, kin, slip, rho, ok, in_abs, c_x_wheel, temps)
+
+
+def _at_log(x: np.ndarray) -> np.ndarray:
+    """A true signal at the logged rows (the identity: the rows align one to one).
+
+    The ECU samples on its regular clock; the logger stamps each value on arrival, so jitter
+    is in the time stamps only (CAN receive-time jitter), and the truth rows align one to one.
+    """
+    return x
+
+
+def _logged_stream(
+    rng_sensor, sensor, offsets, vehicle, plan, state, t_log, omega, ambient_c
+) -> pd.DataFrame:
+    """The sensors' view of the drive (:func:`~tyrebayes.simulate.sensors.measure`)."""
+    kin = state.kin
+    steer_wheel = kin.delta * vehicle.steering_ratio
+    return measure(
+        rng_sensor,
+        sensor,
+        offsets,
+        time_s=t_log,
+        wheel_speed_radps=_at_log(omega),
+        accel_mps2=_at_log(kin.ax),
+        ay_mps2=_at_log(plan.ay_mps2),
+        grade_rad=_at_log(plan.grade_rad),
+        yaw_rate_radps=_at_log(kin.yaw),
+        steering_wheel_angle_rad=_at_log(steer_wheel),
+        speed_mps=_at_log(np.hypot(state.v, kin.vy)),
+        ambient_c=ambient_c,
+        wheelbase_m=vehicle.wheelbase_m,
+        pitch_gradient_rad_per_mps2=vehicle.pitch_gradient_rad_per_mps2,
+    )
+
+
+def _drive_truth(
+    *,
+    vehicle_name,
+    vehicle,
+    tyre,
+    surface,
+    tyre_model,
+    seed,
+    mu,
+    ambient_c,
+    static,
+    plan,
+    state,
+    offsets,
+    radius,
+    v_wheel,
+    t_log,
+) -> DriveTruth:
+    """The drive's truth, row by row with its stream, with the driven-axle summary."""
+    kin, slip, c_x_wheel, in_abs = state.kin, state.slip, state.c_x_wheel, state.in_abs
+    fx_wheel = state.rho * kin.fz
     fx_front = np.where(in_abs, fx_wheel[:, 0] + fx_wheel[:, 1], kin.fx_front)
     fx_rear = np.where(in_abs, fx_wheel[:, 2] + fx_wheel[:, 3], kin.fx_rear)
-
-    # 7. Wheel-centre speeds (yaw rate and steering) and wheel speeds.
-    offsets = sensor_offsets or draw_sensor_truth(rng_offsets, sensor, vehicle.wheel_radius_m)
-    radius = vehicle.wheel_radius_m * (1.0 + np.asarray(offsets.radius_error))
-    v_wheel = _wheel_centre_speeds(vehicle, kin, v)
-    omega = v_wheel * (1.0 + slip) / radius[None, :]
-
-    # Driven-axle summary.
     idx = _DRIVEN_WHEELS.get(vehicle.drive, [0, 1, 2, 3])
     slip_driven = slip[:, idx].mean(axis=1)
     rho_driven = fx_wheel[:, idx].sum(axis=1) / kin.fz[:, idx].sum(axis=1)
     c_x = c_x_wheel[:, idx].mean(axis=1)
     friction_total = np.abs(fx_wheel * v_wheel * slip).sum(axis=1)
-
-    # Sample times (jitter) and the logged stream.
-    n = len(v)
-    t_log = sample_times(rng_sensor, n, sample_rate_hz, sensor.timing_jitter)
-
-    # The ECU samples on its regular clock; the logger stamps each value on arrival, so jitter
-    # is in the time stamps only (CAN receive-time jitter), and the truth rows align one to one.
-    def at_log(x: np.ndarray) -> np.ndarray:
-        return x
-
-    steer_wheel = kin.delta * vehicle.steering_ratio
-    stream = measure(
-        rng_sensor,
-        sensor,
-        offsets,
-        time_s=t_log,
-        wheel_speed_radps=at_log(omega),
-        accel_mps2=at_log(kin.ax),
-        ay_mps2=at_log(ay),
-        grade_rad=at_log(grade),
-        yaw_rate_radps=at_log(kin.yaw),
-        steering_wheel_angle_rad=at_log(steer_wheel),
-        speed_mps=at_log(np.hypot(v, kin.vy)),
-        ambient_c=ambient_c,
-        wheelbase_m=vehicle.wheelbase_m,
-        pitch_gradient_rad_per_mps2=vehicle.pitch_gradient_rad_per_mps2,
-    )
-    mu_peak = float(mu)
     abs_pk = _abs_peak_slip(tyre_model, tyre, mu, static, c_x_wheel, in_abs, idx)
-    truth = DriveTruth(
+    return DriveTruth(
         vehicle_name=vehicle_name,
         drive=vehicle.drive,
         surface=surface,
         tyre_model=tyre_model,
-        seed=_seed_int(key_or_seed),
+        seed=seed,
         c_xr=float(tyre.c_xr),
-        mu_max=mu_peak,
+        mu_max=float(mu),
         mu_slide_ratio=float(tyre.mu_slide_ratio),
         c_y_per_rad=float(tyre.c_y_per_rad),
         ambient_c=float(ambient_c),
@@ -265,30 +341,29 @@ def simulate_drive(
         imu_bias_mps2=np.asarray(offsets.imu_bias_mps2, dtype=float),
         fz_static_n=static,
         time_s=t_log,
-        vx_mps=at_log(v),
-        vy_mps=at_log(kin.vy),
-        ax_mps2=at_log(kin.ax),
-        ay_mps2=at_log(ay),
-        yaw_rate_radps=at_log(kin.yaw),
-        road_wheel_angle_rad=at_log(kin.delta),
-        grade_rad=at_log(grade),
-        c_x=at_log(c_x),
-        slip_driven=at_log(slip_driven),
-        rho_x_driven=at_log(rho_driven),
-        fx_front_n=at_log(fx_front),
-        fx_rear_n=at_log(fx_rear),
-        friction_power_w=at_log(friction_total),
+        vx_mps=_at_log(state.v),
+        vy_mps=_at_log(kin.vy),
+        ax_mps2=_at_log(kin.ax),
+        ay_mps2=_at_log(plan.ay_mps2),
+        yaw_rate_radps=_at_log(kin.yaw),
+        road_wheel_angle_rad=_at_log(kin.delta),
+        grade_rad=_at_log(plan.grade_rad),
+        c_x=_at_log(c_x),
+        slip_driven=_at_log(slip_driven),
+        rho_x_driven=_at_log(rho_driven),
+        fx_front_n=_at_log(fx_front),
+        fx_rear_n=_at_log(fx_rear),
+        friction_power_w=_at_log(friction_total),
         long_label=plan.long_label,
         lat_label=plan.lat_label,
-        force_clipped=~ok.all(axis=1) | kin.clipped,
-        slip=at_log(slip),
-        rho_x=at_log(rho),
-        wheel_load_n=at_log(kin.fz),
-        wheel_centre_speed_mps=at_log(v_wheel),
-        c_x_wheel=at_log(c_x_wheel),
-        tyre_temperature_c=at_log(temps),
+        force_clipped=~state.ok.all(axis=1) | kin.clipped,
+        slip=_at_log(slip),
+        rho_x=_at_log(state.rho),
+        wheel_load_n=_at_log(kin.fz),
+        wheel_centre_speed_mps=_at_log(v_wheel),
+        c_x_wheel=_at_log(c_x_wheel),
+        tyre_temperature_c=_at_log(state.temps),
     )
-    return stream, truth
 
 
 def _checked_numbers(duration_s, sample_rate_hz, ambient_c) -> tuple[float, float, float]:

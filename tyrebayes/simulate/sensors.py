@@ -116,6 +116,7 @@ def _bumps(
 
 
 def _quantise(x: np.ndarray, step: float) -> np.ndarray:
+    """``x`` rounded to multiples of ``step`` (unchanged for a step of 0)."""
     return np.round(x / step) * step if step > 0 else x
 
 
@@ -175,26 +176,11 @@ def measure(
     n = len(time_s)
     dt = float(np.median(np.diff(time_s))) if n > 1 else 0.01
     duration = float(time_s[-1] - time_s[0]) if n > 1 else dt
-    rough = (
-        np.exp(
-            ou_process(rng, n, dt, 10.0, sensor.roughness_log_sd) - 0.5 * sensor.roughness_log_sd**2
-        )
-        if sensor.roughness_log_sd > 0
-        else np.ones(n)
-    )
+    rough = _roughness(rng, sensor, n, dt)
 
     # Wheel speeds: vibration partly common to an axle, plus white noise, then CAN quantisation
     # (the CAN value is a speed; the logger divides by the nominal radius).
-    c = sensor.axle_noise_correlation
-    vib = np.empty((n, 4))
-    for axle, (f_hz, amp) in enumerate(
-        zip(sensor.wheel_vibration_hz, sensor.wheel_vibration_radps, strict=True)
-    ):
-        common = _resonance(rng, (n, 1), f_hz, dt)
-        own = _resonance(rng, (n, 2), f_hz, dt)
-        vib[:, 2 * axle : 2 * axle + 2] = amp * (np.sqrt(c) * common + np.sqrt(1 - c) * own)
-    white_sd = np.repeat(np.asarray(sensor.wheel_speed_noise_radps, dtype=float), 2)
-    wheel_noise = vib + white_sd[None, :] * rng.standard_normal((n, 4))
+    wheel_noise = _wheel_noise(rng, sensor, n, dt)
     bump_wheels, bump_imu = _bumps(rng, sensor, np.asarray(speed_mps, dtype=float), dt, wheelbase_m)
     # Road-induced speed fluctuations vanish at standstill (and a wheel-speed sensor reports a
     # magnitude, never a negative speed).
@@ -202,23 +188,13 @@ def measure(
     omega = wheel_speed_radps + wheel_noise * (rough * moving)[:, None] + bump_wheels
     omega = np.maximum(_quantise(omega, offsets.wheel_speed_step_radps), 0.0)
 
-    # IMU: specific force in the sensor frame, pitched by mounting + suspension pitch on a grade.
-    pitch = offsets.mounting_pitch_rad + pitch_gradient_rad_per_mps2 * accel_mps2
     # Vehicle vibration (one mode, three axes) and white noise, both scaled by road roughness and
     # fading out at standstill like the wheel noise.
     shake = (rough * np.maximum(moving, 0.2))[:, None]
-    body = (
-        np.asarray(sensor.accel_vibration_mps2)[None, :]
-        * _resonance(rng, (n, 3), sensor.accel_vibration_hz, dt, zeta=0.3)
-        + np.asarray(sensor.accel_noise_mps2)[None, :] * rng.standard_normal((n, 3))
-    ) * shake + bump_imu
-    g = GRAVITY_MPS2
-    fx = accel_mps2 + g * np.sin(grade_rad)
-    fz = g * np.cos(grade_rad)
-    ax = offsets.ax_gain * (fx * np.cos(pitch) + fz * np.sin(pitch)) + offsets.imu_bias_mps2[0]
-    ax = ax + body[:, 0]
-    ay = ay_mps2 + offsets.imu_bias_mps2[1] + body[:, 1]
-    az = -fx * np.sin(pitch) + fz * np.cos(pitch) + body[:, 2]
+    ax, ay, az = _imu(
+        rng, sensor, offsets, accel_mps2, ay_mps2, grade_rad, shake, bump_imu, dt,
+        pitch_gradient_rad_per_mps2,
+    )  # fmt: skip
     yaw = (
         yaw_rate_radps
         + offsets.yaw_rate_bias_radps
@@ -236,20 +212,87 @@ def measure(
     columns.update(ax=ax, ay=ay, az=az, yaw_rate=yaw, steering_wheel_angle=steer)
     columns["ambient_temperature"] = ambient
     if sensor.gnss_rate_hz > 0:
-        fix_t = np.arange(0.0, duration + 1e-9, 1.0 / sensor.gnss_rate_hz) + time_s[0]
-        fix_v = np.interp(fix_t, time_s, speed_mps) + sensor.gnss_noise_mps * rng.standard_normal(
-            len(fix_t)
-        )
-        if sensor.gnss_hold:
-            # Zero-order hold: each sample sees the most recent fix.
-            idx = np.clip(np.searchsorted(fix_t, time_s, side="right") - 1, 0, len(fix_t) - 1)
-            ref = fix_v[idx]
-        else:
-            ref = np.interp(time_s, fix_t, fix_v)
-        columns["speed_reference"] = np.maximum(ref, 0.0)
+        columns["speed_reference"] = _gnss_speed(rng, sensor, time_s, speed_mps, duration)
 
     _drop(rng, sensor, columns, dt, duration)
     return pd.DataFrame(columns)
+
+
+def _roughness(rng: np.random.Generator, sensor: SensorModel, n: int, dt: float) -> np.ndarray:
+    """Road roughness: a log-normal factor (mean 1) on the road-induced noise, per sample."""
+    return (
+        np.exp(
+            ou_process(rng, n, dt, 10.0, sensor.roughness_log_sd) - 0.5 * sensor.roughness_log_sd**2
+        )
+        if sensor.roughness_log_sd > 0
+        else np.ones(n)
+    )
+
+
+def _wheel_noise(rng: np.random.Generator, sensor: SensorModel, n: int, dt: float) -> np.ndarray:
+    """Wheel-speed noise (n, 4) [rad/s]: each axle's vibration, partly common, and white noise."""
+    c = sensor.axle_noise_correlation
+    vib = np.empty((n, 4))
+    for axle, (f_hz, amp) in enumerate(
+        zip(sensor.wheel_vibration_hz, sensor.wheel_vibration_radps, strict=True)
+    ):
+        common = _resonance(rng, (n, 1), f_hz, dt)
+        own = _resonance(rng, (n, 2), f_hz, dt)
+        vib[:, 2 * axle : 2 * axle + 2] = amp * (np.sqrt(c) * common + np.sqrt(1 - c) * own)
+    white_sd = np.repeat(np.asarray(sensor.wheel_speed_noise_radps, dtype=float), 2)
+    return vib + white_sd[None, :] * rng.standard_normal((n, 4))
+
+
+def _imu(
+    rng: np.random.Generator,
+    sensor: SensorModel,
+    offsets: SensorTruth,
+    accel_mps2: np.ndarray,
+    ay_mps2: np.ndarray,
+    grade_rad: np.ndarray,
+    shake: np.ndarray,
+    bump_imu: np.ndarray,
+    dt: float,
+    pitch_gradient_rad_per_mps2: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The IMU's a_x, a_y, a_z [m/s²]: specific force pitched by mounting and suspension."""
+    n = shake.shape[0]
+    # Specific force in the sensor frame, pitched by mounting + suspension pitch on a grade.
+    pitch = offsets.mounting_pitch_rad + pitch_gradient_rad_per_mps2 * accel_mps2
+    body = (
+        np.asarray(sensor.accel_vibration_mps2)[None, :]
+        * _resonance(rng, (n, 3), sensor.accel_vibration_hz, dt, zeta=0.3)
+        + np.asarray(sensor.accel_noise_mps2)[None, :] * rng.standard_normal((n, 3))
+    ) * shake + bump_imu
+    g = GRAVITY_MPS2
+    fx = accel_mps2 + g * np.sin(grade_rad)
+    fz = g * np.cos(grade_rad)
+    ax = offsets.ax_gain * (fx * np.cos(pitch) + fz * np.sin(pitch)) + offsets.imu_bias_mps2[0]
+    ax = ax + body[:, 0]
+    ay = ay_mps2 + offsets.imu_bias_mps2[1] + body[:, 1]
+    az = -fx * np.sin(pitch) + fz * np.cos(pitch) + body[:, 2]
+    return ax, ay, az
+
+
+def _gnss_speed(
+    rng: np.random.Generator,
+    sensor: SensorModel,
+    time_s: np.ndarray,
+    speed_mps: np.ndarray,
+    duration: float,
+) -> np.ndarray:
+    """The GNSS speed at the logged times [m/s]: noisy fixes, held or interpolated."""
+    fix_t = np.arange(0.0, duration + 1e-9, 1.0 / sensor.gnss_rate_hz) + time_s[0]
+    fix_v = np.interp(fix_t, time_s, speed_mps) + sensor.gnss_noise_mps * rng.standard_normal(
+        len(fix_t)
+    )
+    if sensor.gnss_hold:
+        # Zero-order hold: each sample sees the most recent fix.
+        idx = np.clip(np.searchsorted(fix_t, time_s, side="right") - 1, 0, len(fix_t) - 1)
+        ref = fix_v[idx]
+    else:
+        ref = np.interp(time_s, fix_t, fix_v)
+    return np.maximum(ref, 0.0)
 
 
 def _drop(

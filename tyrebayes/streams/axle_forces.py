@@ -7,6 +7,7 @@ Called by :func:`tyrebayes.streams.features.compute_features`.
 from __future__ import annotations
 
 import dataclasses
+from typing import NamedTuple
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -205,6 +206,7 @@ def _forces(
     scales: _Scales,
     brake_front_share: float,
 ) -> _Forces:
+    """Step 4: axle forces, the driven axle's normalised forces and their noise."""
     m, window, span = motion, scales.window, scales.span
     ax_traction, ax_traction_sd = _traction_acceleration(
         m.vx_prefix, imu.ax, noise.vx_probe, vehicle.drive, scales.dt_s, window,
@@ -217,17 +219,63 @@ def _forces(
     no_force = ~(m.valid & np.isfinite(imu.ax))
     for i in range(2):
         fx_axle[no_force, i] = np.nan
-
-    def driven(per_axle: np.ndarray) -> np.ndarray:
-        """The driven axle's column, or the sum of both for AWD."""
-        if vehicle.driven_axle == "both":
-            return per_axle.sum(axis=1)
-        return per_axle[:, 0 if vehicle.driven_axle == "front" else 1]
-
-    fx_driven, fz_driven = driven(fx_axle), driven(fz_axle)
-    fx_traction, fz_traction = balance.fx_traction, balance.fz_traction
-    fx_traction_driven, fz_traction_driven = driven(fx_traction), driven(fz_traction)
+    fx_driven, fz_driven = _driven(vehicle, fx_axle), _driven(vehicle, fz_axle)
     has_traction = m.valid & np.isfinite(ax_traction)
+    traction = _traction_ratios(vehicle, balance, has_traction)
+    slip_driven_noise = _slip_noise(noise, m, traction, window, span)
+    # Per-sample noise of the smoothed ax, scaled by the axle's share of m·ax. The offset's
+    # uncertainty is common to the whole log and reported apart (nuisances.rho_offset_sd).
+    ax_raw = stream.data["ax"].to_numpy(dtype=float)
+    ax_sd_local = local_noise_sd(ax_raw, window, span, prefix=m.ax_prefix) / (
+        imu.pitch_gain * imu.imu_gain.applied
+    )
+    share = _driven_share(fx_axle, fx_driven)
+    return _Forces(
+        resistance=resistance,
+        fx_axle=fx_axle,
+        fz_axle=fz_axle,
+        rho_axle=np.divide(fx_axle, fz_axle, out=_table(*fx_axle.shape)),
+        fx_driven=fx_driven,
+        fz_driven=fz_driven,
+        rho_driven=fx_driven / fz_driven,
+        rho_driven_sd=vehicle.mass_kg * ax_sd_local * np.maximum(share, 0.5) / fz_driven,
+        rho_driven_traction=traction.rho_driven,
+        rho_driven_traction_sd=(
+            vehicle.mass_kg
+            * np.where(np.isfinite(ax_traction_sd), ax_traction_sd, ax_sd_local)
+            / traction.fz_driven
+        ),
+        rho_total_traction=traction.rho_total,
+        load_change_driven=traction.load_change_driven,
+        slip_driven_noise=slip_driven_noise,
+        slip_driven_sd=slip_driven_noise / m.vx_safe,
+        ax_sd_local=ax_sd_local,
+    )
+
+
+def _driven(vehicle: Vehicle, per_axle: np.ndarray) -> np.ndarray:
+    """The driven axle's column, or the sum of both for AWD."""
+    if vehicle.driven_axle == "both":
+        return per_axle.sum(axis=1)
+    return per_axle[:, 0 if vehicle.driven_axle == "front" else 1]
+
+
+class _TractionRatios(NamedTuple):
+    """Normalised forces and load change of the traction force (NaN where it is not known)."""
+
+    fz_driven: np.ndarray  # the driven axle's load [N]
+    rho_driven: np.ndarray  # the driven axle's force over its load [-]
+    rho_total: np.ndarray  # both axles' force over both loads [-]
+    load_change_driven: np.ndarray  # ΔF_z/F_z,static of the driven axle [-]
+
+
+def _traction_ratios(
+    vehicle: Vehicle, balance: _AxleForces, has_traction: np.ndarray
+) -> _TractionRatios:
+    """The traction force's normalised forces and the driven axle's load change."""
+    fx_traction, fz_traction = balance.fx_traction, balance.fz_traction
+    fx_traction_driven = _driven(vehicle, fx_traction)
+    fz_traction_driven = _driven(vehicle, fz_traction)
     rho_driven_traction = np.where(has_traction, fx_traction_driven / fz_traction_driven, np.nan)
     rho_total_traction = np.where(
         has_traction,
@@ -239,14 +287,23 @@ def _forces(
         vehicle.driven_axle, static_front + static_rear
     )
     load_change_driven = np.where(has_traction, fz_traction_driven / static_driven - 1.0, np.nan)
-    pushing = rho_total_traction >= 0.0
+    return _TractionRatios(
+        fz_traction_driven, rho_driven_traction, rho_total_traction, load_change_driven
+    )
+
+
+def _slip_noise(
+    noise: _WheelNoise, m: _Motion, traction: _TractionRatios, window: int, span: int
+) -> np.ndarray:
+    """Local noise of the driven wheels' slip velocity [m/s], where the tyres push or brake."""
+    pushing = traction.rho_total >= 0.0
     velocity = PrefixSums.of(noise.slip_velocity_driven, like=m.vx_prefix)
     slip_driven_noise = local_noise_sd(
         _columns(
             _slip_noise_probe(
                 noise.slip_velocity_driven,
                 velocity,
-                rho_driven_traction * m.vx_safe,
+                traction.rho_driven * m.vx_safe,
                 pushing,
                 window,
             ),
@@ -257,37 +314,14 @@ def _forces(
         prefix=(None, velocity),
     )
     # Where the tyres brake (no slip window there) the plain slip velocity's noise stands in.
-    slip_driven_noise = np.where(
+    return np.where(
         np.isfinite(slip_driven_noise[:, 0]), slip_driven_noise[:, 0], slip_driven_noise[:, 1]
     )
-    # Per-sample noise of the smoothed ax, scaled by the axle's share of m·ax. The offset's
-    # uncertainty is common to the whole log and reported apart (nuisances.rho_offset_sd).
-    ax_raw = stream.data["ax"].to_numpy(dtype=float)
-    ax_sd_local = local_noise_sd(ax_raw, window, span, prefix=m.ax_prefix) / (
-        imu.pitch_gain * imu.imu_gain.applied
-    )
+
+
+def _driven_share(fx_axle: np.ndarray, fx_driven: np.ndarray) -> np.ndarray:
+    """The driven axle's share of the axles' total force, in [0, 1] (1 where it is 0)."""
     fx_total = np.abs(fx_axle[:, 0] + fx_axle[:, 1])
     with np.errstate(invalid="ignore", divide="ignore"):
         share = np.where(fx_total > 0, np.abs(fx_driven) / fx_total, 1.0)
-    share = np.clip(np.nan_to_num(share, nan=1.0), 0.0, 1.0)
-    return _Forces(
-        resistance=resistance,
-        fx_axle=fx_axle,
-        fz_axle=fz_axle,
-        rho_axle=np.divide(fx_axle, fz_axle, out=_table(*fx_axle.shape)),
-        fx_driven=fx_driven,
-        fz_driven=fz_driven,
-        rho_driven=fx_driven / fz_driven,
-        rho_driven_sd=vehicle.mass_kg * ax_sd_local * np.maximum(share, 0.5) / fz_driven,
-        rho_driven_traction=rho_driven_traction,
-        rho_driven_traction_sd=(
-            vehicle.mass_kg
-            * np.where(np.isfinite(ax_traction_sd), ax_traction_sd, ax_sd_local)
-            / fz_traction_driven
-        ),
-        rho_total_traction=rho_total_traction,
-        load_change_driven=load_change_driven,
-        slip_driven_noise=slip_driven_noise,
-        slip_driven_sd=slip_driven_noise / m.vx_safe,
-        ax_sd_local=ax_sd_local,
-    )
+    return np.clip(np.nan_to_num(share, nan=1.0), 0.0, 1.0)

@@ -16,6 +16,8 @@ Examples
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import pandas as pd
 
@@ -26,6 +28,7 @@ _KMH_STEP = 0.01 / 3.6  # CAN wheel-speed resolution of 0.01 km/h, in m/s
 
 
 def _relative_slip(slip: np.ndarray, drive: str) -> np.ndarray:
+    """The driven wheels' slip relative to the free wheels' (0 for AWD)."""
     if drive == "awd":
         return np.zeros(slip.shape[0])
     driven, free = ((0, 1), (2, 3)) if drive == "fwd" else ((2, 3), (0, 1))
@@ -99,6 +102,45 @@ def synthetic_stream(
     n = int(round(duration_s * rate_hz))
     t = np.arange(n) / rate_hz
     ph = rng.uniform(0, 2 * np.pi, 6)
+    motion = _motion(vehicle, t, ph, grade_amplitude_rad, accel_ripple_mps2, accel_ripple_hz)
+    forces = _axle_forces(vehicle, motion, brake_front_share)
+    slip = (
+        np.column_stack([forces.rho_front, forces.rho_front, forces.rho_rear, forces.rho_rear])
+        / c_x
+    )
+    radius_error = rng.normal(0.0, radius_error_sd, 4)
+    omega = _wheel_speeds(rng, vehicle, motion, slip, radius_error, wheel_noise_radps, quantise)
+    table = _sensor_table(
+        rng, vehicle, motion, omega, ax_offset_mps2, imu_noise_mps2, speed_reference
+    )
+    df = pd.DataFrame(table)
+    if drop_fraction > 0:
+        _drop_samples(rng, df, drop_fraction)
+    return df, _truth(vehicle, motion, forces, slip, radius_error, ax_offset_mps2)
+
+
+class _Kinematics(NamedTuple):
+    """The prescribed motion of the car, sample by sample."""
+
+    time: np.ndarray  # [s]
+    vx: np.ndarray  # speed [m/s]
+    ax: np.ndarray  # dV/dt [m/s²]
+    steer: np.ndarray  # road-wheel angle [rad]
+    yaw: np.ndarray  # yaw rate [rad/s]
+    yaw_acc: np.ndarray  # yaw acceleration [rad/s²]
+    ay: np.ndarray  # lateral acceleration [m/s²]
+    grade: np.ndarray  # road grade [rad]
+
+
+def _motion(
+    vehicle: Vehicle,
+    t: np.ndarray,
+    ph: np.ndarray,
+    grade_amplitude_rad: float,
+    accel_ripple_mps2: float,
+    accel_ripple_hz: float,
+) -> _Kinematics:
+    """Smooth speed, steering and grade profiles with the phases ``ph``, and the yaw they give."""
     w = 2 * np.pi * np.array([0.01, 0.05, 0.13])
     amp = np.array([6.0, 3.0, 1.0])
     ripple_w = 2 * np.pi * accel_ripple_hz
@@ -115,7 +157,22 @@ def synthetic_stream(
     yaw_acc = np.gradient(yaw, t)
     ay_true = vx * yaw
     grade = grade_amplitude_rad * np.sin(2 * np.pi * t / 120.0 + ph[5])
+    return _Kinematics(t, vx, ax_true, steer, yaw, yaw_acc, ay_true, grade)
 
+
+class _AxleForces(NamedTuple):
+    """The tyres' total force and each axle's load and normalised force."""
+
+    f_total: np.ndarray  # [N]
+    fz_front: np.ndarray  # [N]
+    fz_rear: np.ndarray  # [N]
+    rho_front: np.ndarray  # [-]
+    rho_rear: np.ndarray  # [-]
+
+
+def _axle_forces(vehicle: Vehicle, motion: _Kinematics, brake_front_share: float) -> _AxleForces:
+    """The force balance: the tyres' force, split between the axles, over their loads."""
+    ax_true, grade, vx = motion.ax, motion.grade, motion.vx
     m, g = vehicle.mass_kg, GRAVITY_MPS2
     resistance = 0.6 * vehicle.drag_area_m2 * vx**2 + vehicle.rolling_resistance * m * g
     f_total = m * ax_true + m * g * np.sin(grade) + resistance
@@ -130,13 +187,26 @@ def synthetic_stream(
     )
     fz_rear = m * g - fz_front
     rho_front, rho_rear = fx_front / fz_front, fx_rear / fz_rear
-    slip = np.column_stack([rho_front, rho_front, rho_rear, rho_rear]) / c_x
+    return _AxleForces(f_total, fz_front, fz_rear, rho_front, rho_rear)
 
+
+def _wheel_speeds(
+    rng: np.random.Generator,
+    vehicle: Vehicle,
+    motion: _Kinematics,
+    slip: np.ndarray,
+    radius_error: np.ndarray,
+    wheel_noise_radps: float,
+    quantise: bool,
+) -> np.ndarray:
+    """Logged wheel speeds (n, 4) [rad/s]: wheel-centre speeds with slip, radius errors, noise."""
+    vx, yaw, steer = motion.vx, motion.yaw, motion.steer
+    g = GRAVITY_MPS2
     # The body's sideslip of a steady turn (single-track model): the rear axle moves sideways at
     # −α_r V_x, so the front axle's lateral speed is ψ̇ L − α_r V_x; the rear slip angle takes
     # the cornering stiffness the features assume, so this term's truth is theirs.
     half = 0.5 * vehicle.track_width_m
-    rear_slip_angle = ay_true / (g * REAR_CORNERING_PER_RAD)
+    rear_slip_angle = motion.ay / (g * REAR_CORNERING_PER_RAD)
     front_lat = yaw * vehicle.wheelbase_m - rear_slip_angle * vx
     u = np.column_stack(
         [
@@ -146,59 +216,87 @@ def synthetic_stream(
             vx + yaw * half,
         ]
     )
-    radius_error = rng.normal(0.0, radius_error_sd, 4)
     radius = vehicle.wheel_radius_m * (1.0 + radius_error)
     omega = u * (1.0 + slip) / radius[None, :]
     omega = omega + rng.normal(0.0, wheel_noise_radps, omega.shape)
     if quantise:
         step = _KMH_STEP / vehicle.wheel_radius_m
         omega = np.round(omega / step) * step
+    return omega
 
+
+def _sensor_table(
+    rng: np.random.Generator,
+    vehicle: Vehicle,
+    motion: _Kinematics,
+    omega: np.ndarray,
+    ax_offset_mps2: float,
+    imu_noise_mps2: float,
+    speed_reference: bool,
+) -> dict[str, np.ndarray]:
+    """The stream's columns: wheel speeds, noisy IMU and steering, optional GNSS speed."""
+    n, g = motion.time.shape[0], GRAVITY_MPS2
     table = {
-        "time": t,
+        "time": motion.time,
         "wheel_speed_fl": omega[:, 0],
         "wheel_speed_fr": omega[:, 1],
         "wheel_speed_rl": omega[:, 2],
         "wheel_speed_rr": omega[:, 3],
         # The body squats and dives by k·a_x: to first order the IMU reads a_x (1 + g·k).
-        "ax": ax_true * float(body_pitch_gain(vehicle))
-        + g * np.sin(grade)
+        "ax": motion.ax * float(body_pitch_gain(vehicle))
+        + g * np.sin(motion.grade)
         + ax_offset_mps2
         + rng.normal(0, imu_noise_mps2, n),
-        "ay": ay_true + rng.normal(0, imu_noise_mps2, n),
-        "yaw_rate": yaw + rng.normal(0, 0.002, n),
-        "steering_wheel_angle": steer * vehicle.steering_ratio + rng.normal(0, 0.002, n),
+        "ay": motion.ay + rng.normal(0, imu_noise_mps2, n),
+        "yaw_rate": motion.yaw + rng.normal(0, 0.002, n),
+        "steering_wheel_angle": motion.steer * vehicle.steering_ratio + rng.normal(0, 0.002, n),
         "az": g + rng.normal(0, imu_noise_mps2, n),
     }
     if speed_reference:
-        table["speed_reference"] = vx + rng.normal(0, 0.05, n)
-    df = pd.DataFrame(table)
-    if drop_fraction > 0:
-        cols = [c for c in df.columns if c != "time"]
-        rows = np.flatnonzero(rng.random(n) < drop_fraction)
-        which = rng.integers(0, len(cols), rows.size)
-        for j, col in enumerate(cols):
-            df.loc[rows[which == j], col] = np.nan
+        table["speed_reference"] = motion.vx + rng.normal(0, 0.05, n)
+    return table
+
+
+def _drop_samples(rng: np.random.Generator, df: pd.DataFrame, drop_fraction: float) -> None:
+    """Set one random channel of about ``drop_fraction`` of the rows to NaN, in place."""
+    n = df.shape[0]
+    cols = [c for c in df.columns if c != "time"]
+    rows = np.flatnonzero(rng.random(n) < drop_fraction)
+    which = rng.integers(0, len(cols), rows.size)
+    for j, col in enumerate(cols):
+        df.loc[rows[which == j], col] = np.nan
+
+
+def _truth(
+    vehicle: Vehicle,
+    motion: _Kinematics,
+    forces: _AxleForces,
+    slip: np.ndarray,
+    radius_error: np.ndarray,
+    ax_offset_mps2: float,
+) -> dict[str, np.ndarray | float]:
+    """The truth of :func:`synthetic_stream` (its Returns section)."""
+    m, g = vehicle.mass_kg, GRAVITY_MPS2
     driven = {"front": [0, 1], "rear": [2, 3], "both": [0, 1, 2, 3]}[vehicle.driven_axle]
     if vehicle.driven_axle == "both":
-        rho_driven = f_total / (fz_front + fz_rear)
+        rho_driven = forces.f_total / (forces.fz_front + forces.fz_rear)
     else:
-        rho_driven = rho_front if vehicle.driven_axle == "front" else rho_rear
-    truth: dict[str, np.ndarray | float] = {
-        "time": t,
-        "vx_mps": vx,
-        "ax_mps2": ax_true,
-        "grade_rad": grade,
-        "yaw_acc_radps2": yaw_acc,
+        rho_driven = forces.rho_front if vehicle.driven_axle == "front" else forces.rho_rear
+    return {
+        "time": motion.time,
+        "vx_mps": motion.vx,
+        "ax_mps2": motion.ax,
+        "grade_rad": motion.grade,
+        "yaw_acc_radps2": motion.yaw_acc,
         "slip_driven": slip[:, driven].mean(axis=1),
         # What wheel speeds can show: the driven wheels' slip relative to the wheels that give
         # V_x (non-driven wheels slip too when they brake).
         "slip_driven_relative": _relative_slip(slip, vehicle.drive),
         "rho_driven": rho_driven,
         # The front axle's load over its static load, minus 1.
-        "front_load_change": fz_front / (m * g * vehicle.cog_to_rear_axle_m / vehicle.wheelbase_m)
+        "front_load_change": forces.fz_front
+        / (m * g * vehicle.cog_to_rear_axle_m / vehicle.wheelbase_m)
         - 1.0,
         "radius_error": radius_error,
         "ax_offset_mps2": float(ax_offset_mps2),
     }
-    return df, truth

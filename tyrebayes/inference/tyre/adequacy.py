@@ -274,6 +274,37 @@ def assess_adequacy(
             mu_prior_sds=mu_prior_sds,
             mu_likelier_surface=mu_likelier_surface,
         )
+    reasons = _identification_reasons(excited, c_xr_prior_sds)
+    reasons += _label_reasons(mu_prior_sds, mu_likelier_surface)
+    inflation = max(
+        (
+            variance_inflation(z[drive_index == d])
+            for d in range(n_drives)
+            if (drive_index == d).any()
+        ),
+        default=1.0,
+    )
+    outside = float(np.mean(np.abs(z) > 1.645)) if z.size else 0.0
+    trend_t = _trend_t(z, rho, inflation)
+    step_t, step_size = max((offset_step(b) for b in block_offsets), default=(0.0, 0.0))
+    reasons += _misfit_reasons(inflation, outside, trend_t, step_t, step_size)
+    reasons += _shape_reasons(shape_prior_sds)
+    return Adequacy(
+        adequate=not reasons,
+        reasons=tuple(reasons),
+        variance_inflation=float(inflation),
+        outside_90=outside,
+        trend_t=trend_t,
+        step_t=step_t,
+        excited_windows=excited,
+        c_xr_prior_sds=float(c_xr_prior_sds),
+        mu_prior_sds=mu_prior_sds,
+        mu_likelier_surface=mu_likelier_surface,
+    )
+
+
+def _identification_reasons(excited: int, c_xr_prior_sds: float) -> list[str]:
+    """Reasons why the drive does not identify C_x (too little excitation, C_xr off the type)."""
     reasons = []
     if excited < MIN_EXCITED_WINDOWS:
         reasons.append(
@@ -287,6 +318,14 @@ def assess_adequacy(
             f"{MAX_C_XR_PRIOR_SDS:g}): no tyre of the type has it; check the vehicle's wheel "
             "radius, mass and driven axle, and the stream's units"
         )
+    return reasons
+
+
+def _label_reasons(
+    mu_prior_sds: dict[str, float], mu_likelier_surface: dict[str, list]
+) -> list[str]:
+    """Reasons to doubt a surface label: μ_max far from its prior, or likelier on a grippier one."""
+    reasons = []
     for surface, sds in mu_prior_sds.items():
         if abs(sds) > MAX_MU_PRIOR_SDS:
             reasons.append(
@@ -302,26 +341,11 @@ def assess_adequacy(
                 f"than under {surface}'s (Bayes factor beyond "
                 f"{np.exp(MAX_LABEL_LOG_BAYES_FACTOR):.0f}): check the drive's surface label"
             )
-    inflation = max(
-        (
-            variance_inflation(z[drive_index == d])
-            for d in range(n_drives)
-            if (drive_index == d).any()
-        ),
-        default=1.0,
-    )
-    if inflation > MAX_VARIANCE_INFLATION:
-        reasons.append(
-            f"slip errors correlated over many windows (variance inflation {inflation:.1f} > "
-            f"{MAX_VARIANCE_INFLATION:g}): a slowly varying slip or force error the model does "
-            "not describe"
-        )
-    outside = float(np.mean(np.abs(z) > 1.645)) if z.size else 0.0
-    if outside > MAX_OUTSIDE_90:
-        reasons.append(
-            f"{outside:.0%} of slip windows outside the 90 % predictive band "
-            f"(> {MAX_OUTSIDE_90:.0%})"
-        )
+    return reasons
+
+
+def _trend_t(z: np.ndarray, rho: np.ndarray, inflation: float) -> float:
+    """t-value of the residuals' least-squares slope on the force, deflated by √inflation."""
     trend_t = 0.0
     if z.size > 10 and np.std(rho) > 0:
         x = rho - rho.mean()
@@ -329,35 +353,46 @@ def assess_adequacy(
         resid = z - z.mean() - slope * x
         se = np.sqrt(np.sum(resid**2) / (z.size - 2) / np.sum(x * x))
         trend_t = float(slope / se / np.sqrt(inflation))
+    return trend_t
+
+
+def _misfit_reasons(
+    inflation: float, outside: float, trend_t: float, step_t: float, step_size: float
+) -> list[str]:
+    """Reasons why the residuals are not the model's: correlated, too wide, trending, stepping."""
+    reasons = []
+    if inflation > MAX_VARIANCE_INFLATION:
+        reasons.append(
+            f"slip errors correlated over many windows (variance inflation {inflation:.1f} > "
+            f"{MAX_VARIANCE_INFLATION:g}): a slowly varying slip or force error the model does "
+            "not describe"
+        )
+    if outside > MAX_OUTSIDE_90:
+        reasons.append(
+            f"{outside:.0%} of slip windows outside the 90 % predictive band "
+            f"(> {MAX_OUTSIDE_90:.0%})"
+        )
     if abs(trend_t) > MAX_TREND_T:
         reasons.append(
             f"slip residuals trend with the force (t = {trend_t:.1f}, |t| > {MAX_TREND_T:g}): the "
             "curve's shape does not fit the range of force the drive used"
         )
-    step_t, step_size = max((offset_step(b) for b in block_offsets), default=(0.0, 0.0))
     if step_t > MAX_STEP_T and step_size > MIN_STEP_SLIP:
         reasons.append(
             f"the slip offset steps by {step_size:.4f} within the drive (t = {step_t:.1f}): a "
             "tyre, a rolling radius or a wheel-speed sensor changed"
         )
-    for name, sds in shape_prior_sds.items():
-        if abs(sds) > MAX_SHAPE_PRIOR_SDS:
-            reasons.append(
-                f"curve {name} {sds:+.1f} prior sds from the measured tyres' mean "
-                f"(beyond {MAX_SHAPE_PRIOR_SDS:g})"
-            )
-    return Adequacy(
-        adequate=not reasons,
-        reasons=tuple(reasons),
-        variance_inflation=float(inflation),
-        outside_90=outside,
-        trend_t=trend_t,
-        step_t=step_t,
-        excited_windows=excited,
-        c_xr_prior_sds=float(c_xr_prior_sds),
-        mu_prior_sds=mu_prior_sds,
-        mu_likelier_surface=mu_likelier_surface,
-    )
+    return reasons
+
+
+def _shape_reasons(shape_prior_sds: dict[str, float]) -> list[str]:
+    """Reasons why the curve's shape is at the edge of the measured tyres'."""
+    return [
+        f"curve {name} {sds:+.1f} prior sds from the measured tyres' mean "
+        f"(beyond {MAX_SHAPE_PRIOR_SDS:g})"
+        for name, sds in shape_prior_sds.items()
+        if abs(sds) > MAX_SHAPE_PRIOR_SDS
+    ]
 
 
 def offset_step(offsets: np.ndarray) -> tuple[float, float]:

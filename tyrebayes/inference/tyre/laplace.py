@@ -69,12 +69,35 @@ def _laplace_core(
     priors = TyrePriors(*priors_key)
     model, template, params = _model_layout(priors_key, kind, obs_key)
     flat0, unravel = ravel_pytree(params)
-    hessian_at = _block_hessian(model, template, params)
+    posterior = _Posterior(model, unravel, _block_hessian(model, template, params), max_steps)
+    mode_program = _mode_program(posterior, priors, _search_stride(obs_key[0]))
+    laplace_program = _laplace_program(posterior, num_draws)
+    key = (priors_key, kind, obs_key, num_draws, max_steps)
+    return LaplaceCore(
+        mode=stored_program(mode_program, ("tyre-mode-core", *key)),
+        laplace=stored_program(laplace_program, ("tyre-laplace-core", *key)),
+        flat0=flat0,
+    )
 
-    def negative_log_posterior(flat, obs):
-        return potential_energy(model, (obs,), {}, unravel(flat))
 
-    def whitening_at(flat, obs, scale=1.0):
+class _Posterior(NamedTuple):
+    """The model's posterior over the flat unconstrained parameters, and BFGS on it."""
+
+    model: Callable
+    unravel: Callable  # flat vector -> the model's unconstrained sites
+    hessian_at: Callable  # block-arrow Hessian (:func:`._block_hessian`)
+    max_steps: int
+
+    def negative_log_posterior(self, flat, obs):
+        """The potential energy at the flat unconstrained parameters."""
+        return potential_energy(self.model, (obs,), {}, self.unravel(flat))
+
+    def constrained(self, flat, obs):
+        """The constrained sites at the flat parameters, deterministic sites included."""
+        return constrain_fn(self.model, (obs,), {}, self.unravel(flat), return_deterministic=True)
+
+    def whitening_at(self, flat, obs, scale=1.0):
+        """W = V |Λ|^(-1/2) from the Hessian at ``flat`` (times ``scale``), eigenvalues floored."""
         # BFGS starts from the identity, but the posterior's scales differ by orders of magnitude
         # (a slip offset known to 1e-5, a force level to 1e-2) and its parameters are
         # correlated (C_xr with μ_max and the slip offsets). It works in y with
@@ -88,25 +111,35 @@ def _laplace_core(
         # took 240-360.
         # ``scale`` multiplies the Hessian: that of a subset of the windows, scaled to all of
         # them, whitens about as well at a fraction of the cost.
-        hessian = scale * hessian_at(lambda f: negative_log_posterior(f, obs), flat)
+        hessian = scale * self.hessian_at(lambda f: self.negative_log_posterior(f, obs), flat)
         finite = jnp.all(jnp.isfinite(hessian))
         eigenvalues, vectors = jnp.linalg.eigh(jnp.where(finite, hessian, jnp.eye(len(flat))))
         return vectors / jnp.sqrt(jnp.maximum(jnp.abs(eigenvalues), 1.0))[None, :]
 
-    def minimise_whitened(flat_start, obs, whiten):
+    def minimise_whitened(self, flat_start, obs, whiten):
+        """One BFGS run from ``flat_start`` in the coordinates ``whiten`` gives."""
+
         def rescaled(y, obs):
-            return negative_log_posterior(flat_start + whiten @ y, obs)
+            return self.negative_log_posterior(flat_start + whiten @ y, obs)
 
         solver = optx.BFGS(rtol=BFGS_RTOL, atol=BFGS_ATOL)
         sol = optx.minimise(
-            rescaled, solver, jnp.zeros_like(flat_start), args=obs, max_steps=max_steps, throw=False
+            rescaled,
+            solver,
+            jnp.zeros_like(flat_start),
+            args=obs,
+            max_steps=self.max_steps,
+            throw=False,
         )
         return flat_start + whiten @ sol.value, sol.result, whiten
 
-    def minimise_from(flat_start, obs):
-        return minimise_whitened(flat_start, obs, whitening_at(flat_start, obs))
+    def minimise_from(self, flat_start, obs):
+        """One BFGS run from ``flat_start``, whitened by the Hessian there."""
+        return self.minimise_whitened(flat_start, obs, self.whitening_at(flat_start, obs))
 
-    stride = _search_stride(obs_key[0])
+
+def _searched_start(posterior: _Posterior, priors: TyrePriors, stride: int) -> Callable:
+    """The search for the basin from the starts of ``MAP_STARTS`` on every stride-th window."""
 
     def searched_start(flat_init, obs, _):
         # Several starts on every stride-th window find the basin; the best successful one is
@@ -114,11 +147,11 @@ def _laplace_core(
         # its whitening, and the search's outcome code where the search already ended at the
         # mode (on all windows: no refinement), else -1.
         coarse = _every_nth_window(obs, stride)
-        starts = jax.vmap(lambda c, m: _start(flat_init, unravel, coarse, priors, c, m))(
+        starts = jax.vmap(lambda c, m: _start(flat_init, posterior.unravel, coarse, priors, c, m))(
             *map(jnp.asarray, zip(*MAP_STARTS, strict=True))
         )
-        values, results, whitens = jax.vmap(minimise_from, (0, None))(starts, coarse)
-        energies = jax.vmap(negative_log_posterior, (0, None))(values, coarse)
+        values, results, whitens = jax.vmap(posterior.minimise_from, (0, None))(starts, coarse)
+        energies = jax.vmap(posterior.negative_log_posterior, (0, None))(values, coarse)
         ok = (results == optx.RESULTS.successful) & jnp.isfinite(energies)
         best = jnp.argmin(jnp.where(ok, energies, jnp.inf))
         best = jnp.where(ok.any(), best, jnp.argmin(jnp.nan_to_num(energies, nan=jnp.inf)))
@@ -129,13 +162,20 @@ def _laplace_core(
         # prior's curvature scaled with them: only the first steps' lengths depend on it). A
         # Hessian of every window cost about as much as the refinement's BFGS steps together.
         windows = jnp.sum(obs.mask) / jnp.maximum(jnp.sum(coarse.mask), 1)
-        return mode, whitening_at(mode, coarse, windows), _NOT_YET
+        return mode, posterior.whitening_at(mode, coarse, windows), _NOT_YET
+
+    return searched_start
+
+
+def _mode_program(posterior: _Posterior, priors: TyrePriors, stride: int) -> Callable:
+    """The jitted ``mode`` program of :class:`LaplaceCore` (the search, or the second pass)."""
+    searched_start = _searched_start(posterior, priors, stride)
 
     def given_start(start, obs, whiten):
         return start, whiten, _NOT_YET
 
     def refined(start, obs, whiten):
-        mode, result, whiten = minimise_whitened(start, obs, whiten)
+        mode, result, whiten = posterior.minimise_whitened(start, obs, whiten)
         return mode, _outcome_code(result), whiten
 
     @jax.jit
@@ -148,12 +188,17 @@ def _laplace_core(
             lambda: (start, code, whiten),
             lambda: refined(start, obs, whiten),
         )
-        point = constrain_fn(model, (obs,), {}, unravel(mode), return_deterministic=True)
-        return mode, code, whiten, point
+        return mode, code, whiten, posterior.constrained(mode, obs)
+
+    return mode_program
+
+
+def _laplace_program(posterior: _Posterior, num_draws: int) -> Callable:
+    """The jitted ``laplace`` program of :class:`LaplaceCore`: Hessian, scale and draws."""
 
     @jax.jit
     def laplace_program(mode, obs, key):
-        hessian = hessian_at(lambda f: negative_log_posterior(f, obs), mode)
+        hessian = posterior.hessian_at(lambda f: posterior.negative_log_posterior(f, obs), mode)
         eigenvalues, vectors = jnp.linalg.eigh(hessian)
         finite = jnp.all(jnp.isfinite(hessian))
         # A non-positive-definite Hessian still gives draws (eigenvalues floored) so that the
@@ -164,18 +209,11 @@ def _laplace_core(
         scale = vectors / jnp.sqrt(floored)[None, :]
         eps = jax.random.normal(key, (num_draws, len(mode)), dtype=mode.dtype)
         z = mode[None, :] + eps @ scale.T
-        draws = jax.vmap(
-            lambda f: constrain_fn(model, (obs,), {}, unravel(f), return_deterministic=True)
-        )(z)
+        draws = jax.vmap(lambda f: posterior.constrained(f, obs))(z)
         min_eig = jnp.where(finite, eigenvalues.min(), -jnp.inf)
         return min_eig, scale, draws
 
-    key = (priors_key, kind, obs_key, num_draws, max_steps)
-    return LaplaceCore(
-        mode=stored_program(mode_program, ("tyre-mode-core", *key)),
-        laplace=stored_program(laplace_program, ("tyre-laplace-core", *key)),
-        flat0=flat0,
-    )
+    return laplace_program
 
 
 # Outcomes of an optimistix solve by name, in the order of the codes the core returns.

@@ -126,13 +126,26 @@ def tyre_model(
     """
     priors = TyrePriors() if priors is None else priors
     check_kind(kind)
-    n_drives, n_surfaces = obs.n_drives, obs.n_surfaces
+    params = _tyre_parameters(obs, priors, kind)
+    params.update(_drive_nuisances(obs, priors))
+    weights = obs.mask.astype(obs.temperature_c.dtype)
+    mean_temperature = jnp.sum(weights * obs.temperature_c) / jnp.maximum(jnp.sum(weights), 1.0)
+    numpyro.deterministic(
+        "c_x",
+        stiffness_with_sensitivity(params["c_xr"], mean_temperature, params["temp_sensitivity"]),
+    )
+    params.update(_optional_parameters(priors))
+    lik = window_likelihood(params, obs, kind)
+    _observe(lik, obs, priors, observed)
 
+
+def _tyre_parameters(obs: TyreObservations, priors: TyrePriors, kind: str) -> dict:
+    """The tyre's and the noise scales' sample sites: C_xr, κ, μ_max per surface, the curve."""
     c_xr = numpyro.sample("c_xr", dist.LogNormal(jnp.log(priors.c_xr_median), priors.c_xr_log_sd))
     kappa = numpyro.sample(
         "temp_sensitivity", dist.Normal(priors.temp_sensitivity_mean, priors.temp_sensitivity_sd)
     )
-    with numpyro.plate("surface", n_surfaces):
+    with numpyro.plate("surface", obs.n_surfaces):
         mu = numpyro.sample(
             "mu_max",
             dist.LogNormal(jnp.log(priors.mu_median(obs.surfaces)), priors.mu_log_sd(obs.surfaces)),
@@ -143,6 +156,27 @@ def tyre_model(
         # 600 draws, the rest ≥ 275), and 1.05 is already two sds out.
         dist.Normal(priors.abs_force_ratio, priors.abs_force_ratio_sd),
     )
+    curve = _curve_parameters(priors, kind)
+    rho_noise_scale = numpyro.sample(
+        "rho_noise_scale", dist.LogNormal(0.0, priors.force_noise_log_sd)
+    )
+    # The stated slip noise is a local estimate of coloured noise; its scale is inferred.
+    slip_noise_scale = numpyro.sample(
+        "slip_noise_scale", dist.LogNormal(0.0, priors.slip_noise_log_sd)
+    )
+    return dict(
+        c_xr=c_xr,
+        temp_sensitivity=kappa,
+        mu_max=mu,
+        abs_force_ratio=abs_ratio,
+        **curve,
+        rho_noise_scale=rho_noise_scale,
+        slip_noise_scale=slip_noise_scale,
+    )
+
+
+def _curve_parameters(priors: TyrePriors, kind: str) -> dict:
+    """The curve's shape sites: Magic Formula C and E (``"magic"``), p (``"shaped"``), or none."""
     curve = {}
     if kind == "magic":
         shape_excess = numpyro.sample(
@@ -161,13 +195,12 @@ def tyre_model(
             dist.LogNormal(jnp.log(priors.curve_bend_median), priors.curve_bend_log_sd),
         )
         curve["curve_shape"] = numpyro.deterministic("curve_shape", priors.curve_shape_min + bend)
-    rho_noise_scale = numpyro.sample(
-        "rho_noise_scale", dist.LogNormal(0.0, priors.force_noise_log_sd)
-    )
-    # The stated slip noise is a local estimate of coloured noise; its scale is inferred.
-    slip_noise_scale = numpyro.sample(
-        "slip_noise_scale", dist.LogNormal(0.0, priors.slip_noise_log_sd)
-    )
+    return curve
+
+
+def _drive_nuisances(obs: TyreObservations, priors: TyrePriors) -> dict:
+    """Each drive's nuisances: slip offset, force gain, and its forces' level and spread."""
+    n_drives = obs.n_drives
     # A drive whose forces the stream pipeline divided by an estimated IMU scale factor (a
     # dashcam's) carries that estimate's uncertainty on top of the car's own spread.
     imu_gain_log_sd = jnp.maximum(
@@ -182,24 +215,17 @@ def tyre_model(
         force_gain = numpyro.sample("force_gain", dist.LogNormal(0.0, force_gain_log_sd))
         force_level = numpyro.sample("force_level", dist.Normal(0.0, 0.3))
         force_spread = numpyro.sample("force_spread", dist.HalfNormal(priors.force_spread_scale))
-
-    weights = obs.mask.astype(obs.temperature_c.dtype)
-    mean_temperature = jnp.sum(weights * obs.temperature_c) / jnp.maximum(jnp.sum(weights), 1.0)
-    numpyro.deterministic("c_x", stiffness_with_sensitivity(c_xr, mean_temperature, kappa))
-
-    params = dict(
-        c_xr=c_xr,
-        temp_sensitivity=kappa,
-        mu_max=mu,
-        abs_force_ratio=abs_ratio,
-        **curve,
-        rho_noise_scale=rho_noise_scale,
-        slip_noise_scale=slip_noise_scale,
+    return dict(
         slip_offset=slip_offset,
         force_gain=force_gain,
         force_level=force_level,
         force_spread=force_spread,
     )
+
+
+def _optional_parameters(priors: TyrePriors) -> dict:
+    """The opt-in sites: load sensitivity q, and the slip drift's sd between blocks."""
+    params = {}
     if priors.load_sensitive:
         params["load_sensitivity"] = numpyro.sample(
             "load_sensitivity",
@@ -210,7 +236,13 @@ def tyre_model(
             "slip_drift_sd",
             dist.LogNormal(jnp.log(priors.slip_drift_median), priors.slip_drift_log_sd),
         )
-    lik = window_likelihood(params, obs, kind)
+    return params
+
+
+def _observe(
+    lik: WindowLikelihood, obs: TyreObservations, priors: TyrePriors, observed: bool
+) -> None:
+    """The likelihood terms: the factors, then each window's force and (weighted) slip."""
     numpyro.factor("force_below_peak", jnp.sum(lik.below_peak))
     # The blocks' slip offsets, integrated out (window_likelihood): with them the slope comes
     # from how slip and force vary within blocks, not from slow errors shared by a block.
