@@ -49,7 +49,6 @@ WITHOUT_ARGUMENT_SECTION = {
     "summary_record",
     "vmax_draws",
     "predict_wear_volume",
-    "wear_history_predictions",
     "critical_speed",
     "compensate_stiffness",
     "relative_wear",
