@@ -62,6 +62,12 @@ def lateral_vmax_inputs(
     VmaxInputs
         ``lateral_source`` ``"measured"``; ``mu_y_source`` ``"measured"`` where
         ``lateral.mu_y_observed``, else as above, with a note saying so.
+
+    Examples
+    --------
+    >>> x = lateral_vmax_inputs(key, fit_lateral(obs), 400)  # doctest: +SKIP
+    >>> x.lateral_source, x.mu_y_source  # doctest: +SKIP
+    ('measured', 'surface_prior')
     """
     if surface is None:
         surface = str(json.loads(lateral.fit.provenance.settings).get("surface", "unknown"))

@@ -18,8 +18,11 @@ from jaxtyping import Array, Float
 
 from .inputs import TYPE_SURFACE, VmaxInputs
 
+#: Median ratio k_type = C_y / C_xr per tyre type [1/rad per unit C_xr].
 K_TYPE = {"winter": 0.45, "all_season": 0.40, "summer": 0.35}
+#: Mean longitudinal peak friction μ_type per tyre type on dry asphalt at 5-10 °C [-].
 MU_TYPE = {"winter": 0.95, "all_season": 1.00, "summer": 1.05}
+#: μ_y / μ_x [-].
 MU_Y_RATIO = 0.95
 
 

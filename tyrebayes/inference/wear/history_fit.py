@@ -261,6 +261,13 @@ def fit_wear_history(
         over log γ s, σ_ratio, τ (and κ); ``gamma``, ``work_scale`` and ``lateral_work_scale``
         (front, rear) are drawn after the chains (module docstring). ``data.attrs`` holds the
         history's tyre changes and the cornering stiffness' source.
+
+    Examples
+    --------
+    >>> history = drive_history(wear_evidence_table(paths, vehicle))  # doctest: +SKIP
+    >>> fit = fit_wear_history(history, tread_readings(readings_table))  # doctest: +SKIP
+    >>> fit.kind, fit.converged  # doctest: +SKIP
+    ('wear_history', True)
     """
     priors = WearPriors() if priors is None else priors
     geom = TreadGeometry() if geom is None else geom
