@@ -6,13 +6,13 @@ ADAC convoy range), κ = 0.02 /K, commuting drives whose corners and lane change
 half of the friction work (:data:`~tyrebayes.simulate.wear_history.COMMUTE_PROFILE`; the truth
 wears by the longitudinal and the lateral work, eq. 4.19a + b), 15,000 km a year, a rotation and a
 replacement, tread readings every 5,000 km) the pipeline reads only the stream files
-(:func:`tyrebayes.streams.wear_evidence.wear_evidence_table`), builds the history (tyre changes
+(:func:`tyrebayes.wear_evidence_table`), builds the history (tyre changes
 detected) and fits γ and κ with the readings (:func:`tyrebayes.inference.wear.fit_wear_history`,
 NUTS). Two sources of the cornering stiffness behind the lateral work, each its own fit:
 
 ``type_prior``
     what the package uses without a lateral posterior
-    (:data:`~tyrebayes.streams.wear_evidence.TYPE_PRIOR_CORNERING`: 16.5 /rad, log-sd 0.5; the
+    (:data:`~tyrebayes.streams.cornering_stiffness.TYPE_PRIOR_CORNERING`: 16.5 /rad, log-sd 0.5; the
     simulated tyre's is 22 /rad).
 ``posterior_stand_in``
     a per-axle c_y as a lateral posterior would give it, drawn as the true c_y times
@@ -51,10 +51,8 @@ from tyrebayes.inference.wear.history_fit import WORK_SCALE_LOG_SD, fit_wear_his
 from tyrebayes.inference.wear.history_predict import wear_history_predictions  # noqa: E402
 from tyrebayes.physics.wear import TreadGeometry  # noqa: E402
 from tyrebayes.simulate.wear_history import simulate_wear_year  # noqa: E402
-from tyrebayes.streams.wear_evidence import (  # noqa: E402
-    CorneringStiffness,
-    wear_evidence_table,
-)
+from tyrebayes.streams.cornering_stiffness import CorneringStiffness  # noqa: E402
+from tyrebayes.streams.wear_evidence_table import wear_evidence_table  # noqa: E402
 
 GAMMA = 0.022
 KAPPA = 0.02
@@ -80,7 +78,7 @@ def _fit_source(table, truth, seed: int, nuts: dict) -> dict:
     readings = tread_readings(truth.readings)
     t0 = time.time()
     fit = fit_wear_history(history, readings, seed=seed, **nuts)
-    out, _ = wear_history_predictions(fit, history, readings)
+    out = wear_history_predictions(fit, history, readings).to_dict()
     rates = {}
     per_km = np.asarray(truth.wear_mm_per_1000km)  # mm per 1000 km, (front, rear)
     for a, name in enumerate(("front", "rear")):

@@ -89,7 +89,7 @@ def test_the_summary_table_gives_the_same_answer(tiny_year, capsys):
     main([*argv, "--json"])
     out = json.loads(capsys.readouterr().out)
     from tyrebayes._domain import load_vehicle
-    from tyrebayes.streams.wear_evidence import wear_evidence_table
+    from tyrebayes.streams.wear_evidence_table import wear_evidence_table
 
     table = wear_evidence_table(truth.stream_paths, load_vehicle("compact_fwd"), "compact_fwd")
     summary = truth.stream_paths[0].rsplit("/", 1)[0] + "/drives.parquet"

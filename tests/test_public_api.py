@@ -49,7 +49,6 @@ WITHOUT_ARGUMENT_SECTION = {
     "summary_record",
     "vmax_draws",
     "predict_wear_volume",
-    "wear_history_predictions",
     "critical_speed",
     "compensate_stiffness",
     "relative_wear",
@@ -59,7 +58,7 @@ WITHOUT_ARGUMENT_SECTION = {
 
 #: Fewest public callables with an Examples section; raise it as examples are added. The issue's
 #: target is 90 %.
-EXAMPLES_FLOOR = 93
+EXAMPLES_FLOOR = 97
 
 _SECTION = re.compile(r"^(?P<name>[A-Z][A-Za-z ]*)\n(?P<rule>-+)$", re.M)
 

@@ -22,10 +22,10 @@ from .streams.tyre_temperature import features_tyre_temperature as features_tyre
 from .streams.validate import ValidatedStream as ValidatedStream
 from .streams.validate import validate_stream as validate_stream
 from .streams.wear_evidence import WEAR_EVIDENCE_COLUMNS as WEAR_EVIDENCE_COLUMNS
-from .streams.wear_evidence import CorneringStiffness as CorneringStiffness
+from .streams.cornering_stiffness import CorneringStiffness as CorneringStiffness
 from .streams.wear_evidence import DriveWearEvidence as DriveWearEvidence
 from .streams.wear_evidence import drive_wear_evidence as drive_wear_evidence
-from .streams.wear_evidence import wear_evidence_table as wear_evidence_table
+from .streams.wear_evidence_table import wear_evidence_table as wear_evidence_table
 
 # 2. fit: observations, fitters, the one result type
 from .inference.fleet import fit_fleet as fit_fleet
@@ -78,15 +78,16 @@ from .inference.online import lateral_blocks as lateral_blocks
 from .inference.fleet import predict_friction as predict_friction
 from .inference.fleet import lateral_ratio_draws as lateral_ratio_draws
 from .inference.summary import summarize as summarize
-from .inference.vmax import VmaxInputs as VmaxInputs
-from .inference.vmax import VmaxPrediction as VmaxPrediction
-from .inference.vmax import fit_vmax_inputs as fit_vmax_inputs
-from .inference.vmax import fleet_ratio_vmax_inputs as fleet_ratio_vmax_inputs
-from .inference.vmax import lateral_vmax_inputs as lateral_vmax_inputs
-from .inference.vmax import predict_vmax as predict_vmax
-from .inference.vmax import type_vmax_inputs as type_vmax_inputs
-from .inference.vmax import vmax_draws as vmax_draws
+from .inference.vmax.inputs import VmaxInputs as VmaxInputs
+from .inference.vmax.prediction import VmaxPrediction as VmaxPrediction
+from .inference.vmax.fit_inputs import fit_vmax_inputs as fit_vmax_inputs
+from .inference.vmax.fleet_ratio import fleet_ratio_vmax_inputs as fleet_ratio_vmax_inputs
+from .inference.vmax.lateral import lateral_vmax_inputs as lateral_vmax_inputs
+from .inference.vmax.prediction import predict_vmax as predict_vmax
+from .inference.vmax.type_relations import type_vmax_inputs as type_vmax_inputs
+from .inference.vmax.prediction import vmax_draws as vmax_draws
 from .inference.wear import predict_wear_volume as predict_wear_volume
+from .inference.wear.history_predict import WearHistoryPrediction as WearHistoryPrediction
 from .inference.wear.history_predict import wear_history_predictions as wear_history_predictions
 from .physics.lanechange import critical_speed as critical_speed
 from .physics.lanechange import iso3888_2_course as iso3888_2_course

@@ -137,7 +137,7 @@ def test_files_that_are_not_fits_are_bad_input(tmp_path):
 
 #: Per kind, the method its fitter records and the kind-specific attributes it keeps as JSON in
 #: ``data.attrs`` (shapes as the fitters write them; the fitters' own tests round-trip their real
-#: fits: tests/inference/tyre/test_model.py, test_fleet.py, test_wear.py, test_vmax.py,
+#: fits: tests/inference/tyre/test_model.py, test_fleet.py, test_wear.py, vmax/test_censored.py,
 #: tests/test_cli_fit_wear.py, tests/inference/lateral/test_fit.py).
 _KIND_CASES = {
     "tyre": ("laplace", {"surfaces": ["dry"], "model_kind": "magic"}),

@@ -140,7 +140,8 @@ def test_gamma_is_recovered_from_radius_drift():
     # γ itself keeps the work-scale prior's width
     g = fit.draws("gamma")
     assert np.quantile(g, 0.95) - np.quantile(g, 0.05) > hi - lo
-    out, ratio = wear_history_predictions(fit, h)
+    pred = wear_history_predictions(fit, h)
+    out, ratio = pred.to_dict(), pred.wear_over_reference
     assert out["tyre_changes"][0]["kind"] == "rotation"
     assert out["km_to_1_6mm"]["mean"] > out["km_to_3mm"]["mean"]
     assert ratio.shape == gw.shape
@@ -261,7 +262,7 @@ def test_the_rear_axles_lateral_wear_rate_is_recovered():
     fit = fit_wear_history(
         h, readings, extended=False, num_warmup=150, num_samples=150, num_chains=1, seed=2
     )
-    out, _ = wear_history_predictions(fit, h, readings)
+    out = wear_history_predictions(fit, h, readings).to_dict()
     for a, axle in enumerate(("front", "rear")):
         lo, hi = out["wear_mm_per_1000km"][axle]["hdi_90"]
         assert lo < true_rate[a] < hi, (axle, lo, true_rate[a], hi)

@@ -30,9 +30,9 @@ from ..report.sections import (
     fleet_section,
     lateral_section,
     tyre_section,
-    vmax_section,
     warning_rows,
 )
+from ..report.vmax_section import vmax_section
 from ..simulate.cornering import simulate_cornering
 from ..simulate.drive_io import write_drive
 from ..simulate.fleet import (

@@ -150,7 +150,7 @@ def drive_table(drives: list[str], vehicle: str, cornering=None):
     its own; giving one with a table is bad input).
     """
     from .._domain import load_vehicle
-    from ..streams.wear_evidence import wear_evidence_table
+    from ..streams.wear_evidence_table import wear_evidence_table
 
     paths = [existing_file(d) for d in drives]
     if len(paths) == 1:
@@ -242,8 +242,9 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         source=" ".join(args.drives),
     )
-    out, ratio = wear_history_predictions(fit, history, readings, tyre_type=args.tyre_type)
-    out["high_wear"] = high_wear_warning(ratio).to_dict()
+    prediction = wear_history_predictions(fit, history, readings, tyre_type=args.tyre_type)
+    out = prediction.to_dict()
+    out["high_wear"] = high_wear_warning(prediction.wear_over_reference).to_dict()
     if note:
         out["lateral_work"]["note"] = note
     out["vehicle"] = _vehicle_name(args.vehicle)

@@ -101,9 +101,9 @@ def run(args: argparse.Namespace) -> int:
         fleet_section,
         lateral_section,
         tyre_section,
-        vmax_section,
         warning_rows,
     )
+    from ..report.vmax_section import vmax_section
 
     t0, c0 = time.perf_counter(), time.process_time()
     report = Report(

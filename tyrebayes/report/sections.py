@@ -8,13 +8,12 @@ loaded from what ``fit-tyre --out`` and ``fit-fleet --out`` write). Diagnostics 
 
 from __future__ import annotations
 
-import jax
-import jax.numpy as jnp
+import dataclasses
+
 import numpy as np
 
 from .. import decisions
-from .._domain import SURFACES, TYRE_TYPES, load_vehicle
-from ..inference import vmax as vm
+from .._domain import SURFACES, TYRE_TYPES
 from ..inference.fleet import fit_summary, predict_friction
 from ..inference.ols import fit_ols, ols_interval
 from ..inference.result import Diagnostics, Fit
@@ -25,7 +24,7 @@ from ..physics.tyre import (
     magic_formula_inverse_and_slope,
     shaped_longitudinal_inverse_and_slope,
 )
-from .content import FleetSection, LateralSection, TyreSection, VmaxSection
+from .content import FleetSection, LateralSection, TyreSection
 
 #: Posterior draws used for the drawn curves and bands (a band needs a few hundred, not 4000).
 CURVE_DRAWS = 400
@@ -98,6 +97,44 @@ def tyre_section(
     idata = fit.data
     post = idata["posterior"]
     surfaces = tuple(str(s) for s in np.atleast_1d(post["mu_max"].coords["surface"].values))
+    win = _tyre_windows(idata)
+    slip_c, rho_c = _corrected_windows(idata, win)
+    c_x = _flat(idata, "c_x")
+    mu = _flat(idata, "mu_max").reshape(c_x.shape[0], -1)
+    curve = {
+        s: _surface_curve(idata, win, slip_c, i, c_x, mu[:, i]) for i, s in enumerate(surfaces)
+    }
+    return TyreSection(
+        name=name,
+        tyre_type=tyre_type,
+        surfaces=surfaces,
+        slip=slip_c,
+        rho=rho_c,
+        window_surface=win.surface_index,
+        at_limit=win.at_limit,
+        curve=curve,
+        summary=_tyre_summary(idata, c_x, mu, surfaces, win),
+        diagnostics=diagnostics_row(fit.diagnostics),
+        truth=truth,
+        source=source,
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class _TyreWindows:
+    """A tyre fit's windows as observed: slip and ρ [-], ABS flags, drive and surface indices
+    (``drive_index`` None: not in the file), tyre temperature [°C] (None: not in the file)."""
+
+    slip: np.ndarray
+    rho: np.ndarray
+    at_limit: np.ndarray
+    drive_index: np.ndarray | None
+    surface_index: np.ndarray
+    temperature_c: np.ndarray | None
+
+
+def _tyre_windows(idata) -> _TyreWindows:
+    """The observed windows of a tyre fit's data, with defaults for what the file lacks."""
     slip = np.asarray(idata["observed_data"]["slip_obs"], float)
     rho = np.asarray(idata["observed_data"]["rho_obs"], float)
     n_win = slip.size
@@ -109,90 +146,99 @@ def tyre_section(
         if "surface_index" in const
         else np.zeros(n_win, int)
     )
-
-    def per_window(name: str, default: float) -> np.ndarray:
-        """Posterior mean of a per-drive nuisance at each window (the mean without indices)."""
-        if name not in post:
-            return np.full(n_win, default)
-        v = np.atleast_1d(_flat(idata, name).mean(axis=0))
-        if drive is None or v.size <= int(drive.max(initial=0)):
-            return np.full(n_win, float(v.mean()))
-        return v[drive]
-
-    # Offsets and gains of the per-tyre model versions: slip offset s0 (all), force gain g
-    # (slip-on-force model: rho_obs = g rho_true) or force offset b (force-on-slip model).
-    slip_c = slip - per_window("slip_offset", 0.0)
-    rho_c = rho / per_window("force_gain", 1.0) - per_window("rho_offset", 0.0)
-    s0 = np.atleast_1d(_flat(idata, "slip_offset").mean(axis=0)) if "slip_offset" in post else None
-
-    c_x = _flat(idata, "c_x")
-    mu = _flat(idata, "mu_max").reshape(c_x.shape[0], -1)
-    slide = _flat(idata, "mu_slide_ratio") if "mu_slide_ratio" in post else np.ones_like(c_x)
-    idx = _thin(c_x.shape[0])
-    use = ~at_limit
-    curve = {}
     temps = np.asarray(const["temperature_c"], float) if "temperature_c" in const else None
-    c_xr = _flat(idata, "c_xr")
-    for i, s in enumerate(surfaces):
-        sel = use & (surf_idx == i)
-        # C_x at this surface's tyre temperature when the fit says what that was
-        c_s = c_x
-        if temps is not None and "temp_sensitivity" in post and (surf_idx == i).any():
-            t_s = float(temps[surf_idx == i].mean())
-            kappa = _flat(idata, "temp_sensitivity")
-            c_s = np.asarray(stiffness_with_sensitivity(c_xr, t_s, kappa))
-        pts = slip_c[sel] if sel.any() else slip_c[use]
-        lo = min(float(np.quantile(pts, 0.005)), -0.002) if pts.size else -0.01
-        hi = max(float(np.quantile(pts, 0.995)), 0.004) if pts.size else 0.02
-        grid = np.linspace(lo * 1.15, hi * 1.15, GRID_POINTS)
-        if "curve_shape_c" in post:
-            f = _shaped_curves(
-                grid,
-                c_s[idx],
-                mu[idx, i],
-                _flat(idata, "curve_shape_c")[idx],
-                _flat(idata, "curve_curvature_e")[idx],
-            )
-        elif "curve_shape" in post:
-            f = _shaped_curves(grid, c_s[idx], mu[idx, i], _flat(idata, "curve_shape")[idx])
-        else:
-            f = np.asarray(
-                brush_longitudinal(
-                    grid[None, :], c_s[idx, None], mu[idx, i, None], slide[idx, None]
-                )
-            )
-        q = np.quantile(f, BAND, axis=0)
-        curve[s] = (grid, q[0], q[1], q[2])
+    return _TyreWindows(slip, rho, at_limit, drive, surf_idx, temps)
 
+
+def _per_window(idata, win: _TyreWindows, name: str, default: float) -> np.ndarray:
+    """Posterior mean of a per-drive nuisance at each window (the mean without indices)."""
+    n_win = win.slip.size
+    if name not in idata["posterior"]:
+        return np.full(n_win, default)
+    v = np.atleast_1d(_flat(idata, name).mean(axis=0))
+    drive = win.drive_index
+    if drive is None or v.size <= int(drive.max(initial=0)):
+        return np.full(n_win, float(v.mean()))
+    return v[drive]
+
+
+def _corrected_windows(idata, win: _TyreWindows) -> tuple[np.ndarray, np.ndarray]:
+    """(slip, ρ) of the windows with the posterior mean offsets and gain taken out.
+
+    Offsets and gains of the per-tyre model versions: slip offset s0 (all), force gain g
+    (slip-on-force model: rho_obs = g rho_true) or force offset b (force-on-slip model).
+    """
+    slip_c = win.slip - _per_window(idata, win, "slip_offset", 0.0)
+    rho_c = win.rho / _per_window(idata, win, "force_gain", 1.0) - _per_window(
+        idata, win, "rho_offset", 0.0
+    )
+    return slip_c, rho_c
+
+
+def _surface_curve(
+    idata, win: _TyreWindows, slip_c: np.ndarray, i: int, c_x: np.ndarray, mu: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(slip grid, 5 %, 50 %, 95 % of ρ there) of surface ``i``'s posterior curves.
+
+    The grid spans the surface's corrected slips (all surfaces' without ABS-free windows of
+    its own); C_x is taken at the surface's mean tyre temperature where the fit has a
+    temperature sensitivity. ``mu``: μ_max draws on this surface.
+    """
+    post = idata["posterior"]
+    use = ~win.at_limit
+    sel = use & (win.surface_index == i)
+    c_s = c_x
+    # C_x at this surface's tyre temperature when the fit says what that was
+    if (
+        win.temperature_c is not None
+        and "temp_sensitivity" in post
+        and (win.surface_index == i).any()
+    ):
+        t_s = float(win.temperature_c[win.surface_index == i].mean())
+        kappa = _flat(idata, "temp_sensitivity")
+        c_s = np.asarray(stiffness_with_sensitivity(_flat(idata, "c_xr"), t_s, kappa))
+    pts = slip_c[sel] if sel.any() else slip_c[use]
+    lo = min(float(np.quantile(pts, 0.005)), -0.002) if pts.size else -0.01
+    hi = max(float(np.quantile(pts, 0.995)), 0.004) if pts.size else 0.02
+    grid = np.linspace(lo * 1.15, hi * 1.15, GRID_POINTS)
+    idx = _thin(c_x.shape[0])
+    if "curve_shape_c" in post:
+        f = _shaped_curves(
+            grid,
+            c_s[idx],
+            mu[idx],
+            _flat(idata, "curve_shape_c")[idx],
+            _flat(idata, "curve_curvature_e")[idx],
+        )
+    elif "curve_shape" in post:
+        f = _shaped_curves(grid, c_s[idx], mu[idx], _flat(idata, "curve_shape")[idx])
+    else:
+        slide = _flat(idata, "mu_slide_ratio") if "mu_slide_ratio" in post else np.ones_like(c_x)
+        f = np.asarray(
+            brush_longitudinal(grid[None, :], c_s[idx, None], mu[idx, None], slide[idx, None])
+        )
+    q = np.quantile(f, BAND, axis=0)
+    return (grid, q[0], q[1], q[2])
+
+
+def _tyre_summary(idata, c_x, mu, surfaces, win: _TyreWindows) -> dict:
+    """The section's numbers: C_x, C_xr, μ_max per surface, slip offset, window counts, κ."""
+    post = idata["posterior"]
     summary = {
         "c_x": summarize(c_x),
-        "c_xr": summarize(c_xr),
+        "c_xr": summarize(_flat(idata, "c_xr")),
         "mu_max": {s: summarize(mu[:, i]) for i, s in enumerate(surfaces)},
         "slip_offset": (
             summarize(_flat(idata, "slip_offset").reshape(c_x.shape[0], -1)[:, 0])
-            if s0 is not None
+            if "slip_offset" in post
             else None
         ),
-        "n_windows": int(n_win),
-        "n_abs_windows": int(at_limit.sum()),
+        "n_windows": int(win.slip.size),
+        "n_abs_windows": int(win.at_limit.sum()),
     }
     if "temp_sensitivity" in post:
         summary["temp_sensitivity"] = summarize(_flat(idata, "temp_sensitivity"))
-    diag = diagnostics_row(fit.diagnostics)
-    return TyreSection(
-        name=name,
-        tyre_type=tyre_type,
-        surfaces=surfaces,
-        slip=slip_c,
-        rho=rho_c,
-        window_surface=surf_idx,
-        at_limit=at_limit,
-        curve=curve,
-        summary=summary,
-        diagnostics=diag,
-        truth=truth,
-        source=source,
-    )
+    return summary
 
 
 def lateral_section(lateral, name: str) -> LateralSection:
@@ -272,108 +318,6 @@ def fleet_section(
         n_sets=int(rows.sum()),
         source=source,
     )
-
-
-def vmax_section(
-    vehicle_name: str,
-    sets: list[dict],
-    *,
-    n_draws: int = 200,
-    seed: int = 0,
-    extended: bool = True,
-) -> VmaxSection:
-    """Predictive V_max per set; measured sets (``measured_lo`` given) also test the models.
-
-    ``sets``: ``{"tyre", "tyre_type", "c_xr" (value or posterior draws), ["measured_lo"],
-    ["inputs"]}``. A set with ``inputs`` (a :class:`~tyrebayes.inference.vmax.VmaxInputs`, e.g.
-    :func:`~tyrebayes.inference.vmax.fit_vmax_inputs` of a fit with a lateral posterior) runs on
-    those draws; the others on the type relations at their C_xr. Each row says its sources.
-    Driver-free model: censored log predictive density of the measured intervals
-    (:func:`tyrebayes.inference.vmax.censored_loglik`); extended (driver offset, adaptation,
-    noise): PSIS-LOO of :func:`~tyrebayes.inference.vmax.fit_extended`.
-    """
-    vehicle = load_vehicle(vehicle_name)
-    key = jax.random.PRNGKey(seed)
-    rows = []
-    inputs = []
-    for i, s in enumerate(sets):
-        if "inputs" in s:
-            inputs.append(s["inputs"])
-        else:
-            k = jax.random.fold_in(key, i)
-            inputs.append(vm.type_vmax_inputs(k, s["c_xr"], s["tyre_type"], n_draws))
-    # one vmapped batch: a single compilation for every set
-    v = np.asarray(
-        vm.vmax_draws(
-            vehicle,
-            jnp.asarray(np.concatenate([x.c_y_front for x in inputs])),
-            jnp.asarray(np.concatenate([x.mu_y for x in inputs])),
-            c_y_rear=jnp.asarray(np.concatenate([x.c_y_rear for x in inputs])),
-        )
-    )
-    v = np.split(v, np.cumsum([x.n_draws for x in inputs])[:-1])
-    for s, draws, x in zip(sets, v, inputs, strict=True):
-        lo = float(s.get("measured_lo", np.nan))
-        c = np.atleast_1d(np.asarray(s["c_xr"], float))
-        rows.append(
-            {
-                "tyre": s["tyre"],
-                "tyre_type": s["tyre_type"],
-                "c_xr": float(c.mean()),
-                "draws": draws,
-                "summary": summarize(draws[np.isfinite(draws)]),
-                "not_bracketed": int(np.sum(~np.isfinite(draws))),
-                "measured_lo": lo,
-                "measured_hi": lo + vm.SPEED_STEP_KMH if np.isfinite(lo) else float("nan"),
-                "lateral_source": x.lateral_source,
-                "mu_y_source": x.mu_y_source,
-                "surface": x.surface,
-                "source_note": x.note,
-            }
-        )
-    measured = [r for r in rows if np.isfinite(r["measured_lo"])]
-    comparison = {}
-    if len(measured) >= 3:
-        lo = np.array([r["measured_lo"] for r in measured])
-        m = np.array([r["summary"]["mean"] for r in measured])
-        sd = np.array([r["summary"]["sd"] for r in measured])
-        ll0 = np.asarray(
-            vm.censored_loglik(
-                jnp.asarray(lo),
-                vm.SPEED_STEP_KMH,
-                jnp.asarray(m),
-                jnp.sqrt(jnp.asarray(sd) ** 2 + vm.REPEATABILITY_KMH**2),
-            )
-        )
-        comparison["driver_free"] = {
-            "elpd": float(ll0.sum()),
-            "se": float(np.sqrt(ll0.size * ll0.var())),
-        }
-        comparison["measured_slope_kmh_per_cxr"] = float(
-            np.polyfit([r["c_xr"] for r in measured], lo, 1)[0]
-        )
-        comparison["predicted_slope_kmh_per_cxr"] = float(
-            np.polyfit([r["c_xr"] for r in measured], m, 1)[0]
-        )
-        if extended:
-            ext = vm.fit_extended(lo, m, sd, seed=seed, num_samples=1000)
-            loo = vm.psis_loo(vm.pointwise_log_lik(ext))
-            diff = np.asarray(loo["pointwise"]) - ll0
-            comparison["extended"] = {
-                "elpd_loo": float(loo["elpd_loo"]),
-                "se": float(loo["se"]),
-                "pareto_k_max": float(loo["pareto_k_max"]),
-                "delta_kmh": summarize(ext.draws("delta_kmh")),
-                "adaptation": summarize(ext.draws("adaptation")),
-                "sigma_driver_kmh": summarize(ext.draws("sigma_driver_kmh")),
-                "divergences": ext.diagnostics.divergences,
-                "diagnostics": diagnostics_row(ext.diagnostics, "V_max extended"),
-            }
-            comparison["elpd_gain"] = {
-                "diff": float(diff.sum()),
-                "se": float(np.sqrt(diff.size * diff.var())),
-            }
-    return VmaxSection(vehicle=vehicle_name, rows=rows, comparison=comparison)
 
 
 def warning_rows(fleet: Fit, tyres: list[TyreSection], *, seed: int = 0) -> list[dict]:

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import NamedTuple
 
 import equinox as eqx
 import numpy as np
@@ -144,101 +145,210 @@ def simulate_wear_year(
     """
     profile = COMMUTE_PROFILE if profile is None else profile
     geom = TreadGeometry() if geom is None else geom
+    law = _WearLaw(gamma_mm3_per_j, kappa_per_k, representativeness_sd, geom.wear_area_mm2)
     car = load_vehicle(vehicle)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed_sequence(seed).spawn(1)[0])
-    sensor = SensorModel()
-    base = draw_sensor_truth(rng, sensor, car.wheel_radius_m)
+    base = draw_sensor_truth(rng, SensorModel(), car.wheel_radius_m)
     eps = radius_spread * rng.standard_normal(4)  # per tyre, moves with the tyre
     loss = np.zeros(4)  # per tyre [mm]
     on_wheel = np.arange(4)  # tyre index on (fl, fr, rl, rr)
-    mean_interval = km_per_year / n_drives
+    changes = _change_schedule(n_drives, rotation_at, replacement_at)
+    ambient = _ambient_c(rng, n_drives)
+    odometer_m = 0.0
+    drives, depth_rows, readings, losses = [], [], [], []
+    next_reading = reading_every_km
+    for k in range(n_drives):
+        if k in changes:
+            on_wheel, eps, loss = _change_tyres(changes[k], on_wheel, eps, loss, rng, radius_spread)
+        depth_rows.append(new_depth_mm - loss[on_wheel])
+        radius_error = eps[on_wheel] - loss[on_wheel] / (1000.0 * car.wheel_radius_m)
+        drive = _year_drive(
+            rng,
+            car,
+            out / f"drive_{k:03d}.parquet",
+            odometer_m,
+            km_per_year / n_drives,
+            law,
+            tyre=tyre,
+            duration_s=drive_s,
+            sample_rate_hz=sample_rate_hz,
+            ambient_c=float(np.clip(ambient[k], -20.0, 40.0)),
+            sensor_offsets=eqx.tree_at(lambda s: s.radius_error, base, np.asarray(radius_error)),
+            profile=profile,
+        )
+        drives.append(drive)
+        loss[on_wheel] += drive.lost_mm
+        losses.append([drive.lost_mm[:2].mean(), drive.lost_mm[2:].mean()])
+        odometer_m += drive.interval_km * 1000.0
+        depth_wheel = new_depth_mm - loss[on_wheel]
+        due, next_reading = _readings_due(
+            odometer_m / 1000.0, next_reading, reading_every_km, depth_wheel, reading_noise_mm, rng
+        )
+        readings.extend(due)
+    return WearYearTruth(
+        stream_paths=tuple(d.path for d in drives),
+        gamma_mm3_per_j=gamma_mm3_per_j,
+        kappa_per_k=kappa_per_k,
+        change_drive_index=tuple(sorted(changes)),
+        change_kind=tuple(changes[k] for k in sorted(changes)),
+        total_km=odometer_m / 1000.0,
+        depth_mm=np.asarray(depth_rows),
+        drive_work_j=np.asarray([d.work_j for d in drives]),
+        drive_work_y_j=np.asarray([d.work_y_j for d in drives]),
+        interval_loss_mm=np.asarray(losses),
+        c_y_per_rad=drives[-1].c_y_per_rad if drives else float("nan"),
+        readings=pd.DataFrame(readings, columns=["odometer_km", "axle", "depth_mm"]),
+    )
+
+
+class _WearLaw(NamedTuple):
+    """The simulated wear law: γ [mm³/J], κ [1/K], the log-sd of how far a drive's wear
+    stands for its interval's, and the tread's wear area [mm²]."""
+
+    gamma_mm3_per_j: float
+    kappa_per_k: float
+    representativeness_sd: float
+    wear_area_mm2: float
+
+
+class _YearDrive(NamedTuple):
+    """One drive of the year: its stream file, the tyre's true c_y [1/rad], the true work per
+    axle (longitudinal, lateral) [J], the tread lost per wheel position over the interval it
+    stands for [mm], and that interval [km]."""
+
+    path: str
+    c_y_per_rad: float
+    work_j: list[float]
+    work_y_j: np.ndarray
+    lost_mm: np.ndarray
+    interval_km: float
+
+
+def _year_drive(
+    rng: np.random.Generator,
+    car: Vehicle,
+    path: Path,
+    odometer_m: float,
+    mean_interval_km: float,
+    law: _WearLaw,
+    **drive,
+) -> _YearDrive:
+    """Simulate and write one drive (``drive``: :func:`simulate_drive`'s arguments) and wear
+    the tyres by it over the interval it stands for: its own distance or more, about
+    ``mean_interval_km``, its wear scaled by a log-normal representativeness factor."""
+    truth, dt, drive_km = _write_drive(rng, car, path, odometer_m, **drive)
+    interval_km = max(drive_km, mean_interval_km * rng.uniform(0.6, 1.4))
+    work, work_y, volume = _wheel_wear(truth, car, dt, law.gamma_mm3_per_j, law.kappa_per_k)
+    factor = interval_km / drive_km * rng.lognormal(0.0, law.representativeness_sd)
+    lost = volume * factor / law.wear_area_mm2  # per wheel position (fl, fr, rl, rr)
+    return _YearDrive(str(path), truth.c_y_per_rad, work, work_y, lost, interval_km)
+
+
+def _change_schedule(
+    n_drives: int, rotation_at: float | None, replacement_at: float | None
+) -> dict[int, str]:
+    """Drive index → ``"rotation"`` / ``"replacement"`` at those fractions of the year."""
     changes = {}
     if rotation_at is not None:
         changes[int(round(rotation_at * n_drives))] = "rotation"
     if replacement_at is not None:
         changes[int(round(replacement_at * n_drives))] = "replacement"
+    return changes
+
+
+def _ambient_c(rng: np.random.Generator, n_drives: int) -> np.ndarray:
+    """Ambient temperature of each drive over the year [°C]: a seasonal cosine (10 ± 9 °C,
+    warmest about mid-July) plus 3 °C day-to-day noise."""
     day = np.linspace(0.0, 365.0, n_drives, endpoint=False)
-    ambient = (
+    return (
         10.0 + 9.0 * np.cos(2 * np.pi * (day - 200.0) / 365.0) + 3 * rng.standard_normal(n_drives)
     )
-    odometer_m = 0.0
-    paths, depth_rows, readings, works, works_y, losses = [], [], [], [], [], []
-    c_y = float("nan")
-    next_reading = reading_every_km
-    for k in range(n_drives):
-        if k in changes:
-            if changes[k] == "rotation":
-                on_wheel = on_wheel[_ROTATED]
-            else:
-                on_wheel = np.arange(4)
-                eps = radius_spread * rng.standard_normal(4)
-                loss = np.zeros(4)
-        depth_rows.append(new_depth_mm - loss[on_wheel])
-        radius_error = eps[on_wheel] - loss[on_wheel] / (1000.0 * car.wheel_radius_m)
-        offsets = eqx.tree_at(lambda s: s.radius_error, base, np.asarray(radius_error))
-        df, truth = simulate_drive(
-            int(rng.integers(2**31)),
-            car,
-            tyre,
-            duration_s=drive_s,
-            sample_rate_hz=sample_rate_hz,
-            ambient_c=float(np.clip(ambient[k], -20.0, 40.0)),
-            sensor_offsets=offsets,
-            profile=profile,
-        )
-        c_y = truth.c_y_per_rad
-        dt = np.diff(truth.time_s, append=truth.time_s[-1])
-        travelled = np.cumsum(truth.vx_mps * dt)
-        df["odometer"] = odometer_m + np.interp(df["time"], truth.time_s, travelled)
-        path = out / f"drive_{k:03d}.parquet"
-        write_stream(df, path)
-        paths.append(str(path))
-        drive_km = float(travelled[-1] / 1000.0)
-        interval_km = max(drive_km, mean_interval * rng.uniform(0.6, 1.4))
-        power = np.abs(
-            truth.rho_x * truth.wheel_load_n * truth.wheel_centre_speed_mps[:, :] * truth.slip
-        )
-        wheel_work = np.sum(power * dt[:, None], axis=0)
-        works.append([wheel_work[:2].sum(), wheel_work[2:].sum()])
-        lateral = lateral_sliding_power(truth, car)  # (n, 2) per axle, half on each wheel
-        works_y.append(np.sum(lateral * dt[:, None], axis=0))
-        power = power + np.repeat(lateral / 2.0, 2, axis=1)
-        rate = np.exp(kappa_per_k * (truth.tyre_temperature_c - 20.0))
-        volume = gamma_mm3_per_j * np.sum(rate * power * dt[:, None], axis=0)  # per wheel
-        factor = interval_km / drive_km * rng.lognormal(0.0, representativeness_sd)
-        lost = volume * factor / geom.wear_area_mm2  # per wheel position (fl, fr, rl, rr)
-        loss[on_wheel] += lost
-        losses.append([lost[:2].mean(), lost[2:].mean()])
-        odometer_m += interval_km * 1000.0
-        while odometer_m / 1000.0 >= next_reading:
-            depth_axle = new_depth_mm - loss[on_wheel]
-            for axle, cols in (("front", [0, 1]), ("rear", [2, 3])):
-                readings.append(
-                    {
-                        "odometer_km": odometer_m / 1000.0,
-                        "axle": axle,
-                        "depth_mm": round(
-                            float(depth_axle[cols].mean())
-                            + reading_noise_mm * float(rng.standard_normal()),
-                            2,
-                        ),
-                    }
-                )
-            next_reading += reading_every_km
-    kinds = tuple(changes[k] for k in sorted(changes))
-    return WearYearTruth(
-        stream_paths=tuple(paths),
-        gamma_mm3_per_j=gamma_mm3_per_j,
-        kappa_per_k=kappa_per_k,
-        change_drive_index=tuple(sorted(changes)),
-        change_kind=kinds,
-        total_km=odometer_m / 1000.0,
-        depth_mm=np.asarray(depth_rows),
-        drive_work_j=np.asarray(works),
-        drive_work_y_j=np.asarray(works_y),
-        interval_loss_mm=np.asarray(losses),
-        c_y_per_rad=c_y,
-        readings=pd.DataFrame(readings, columns=["odometer_km", "axle", "depth_mm"]),
+
+
+def _change_tyres(
+    kind: str,
+    on_wheel: np.ndarray,
+    eps: np.ndarray,
+    loss: np.ndarray,
+    rng: np.random.Generator,
+    radius_spread: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(tyre on each wheel, per-tyre radius error, per-tyre loss [mm]) after a change.
+
+    A rotation swaps the axles' tyres; a replacement mounts four new ones, each with its own
+    manufacturing radius error and no wear.
+    """
+    if kind == "rotation":
+        return on_wheel[_ROTATED], eps, loss
+    return np.arange(4), radius_spread * rng.standard_normal(4), np.zeros(4)
+
+
+def _write_drive(
+    rng: np.random.Generator, car: Vehicle, path: Path, odometer_m: float, *, tyre: str, **drive
+) -> tuple[DriveTruth, np.ndarray, float]:
+    """Simulate one drive (keyword arguments of :func:`simulate_drive`) and write its stream with
+    an ``odometer`` column [m] continuing from ``odometer_m``.
+
+    Returns its truth, the sample intervals [s] and the distance it drove [km].
+    """
+    df, truth = simulate_drive(int(rng.integers(2**31)), car, tyre, **drive)
+    dt = np.diff(truth.time_s, append=truth.time_s[-1])
+    travelled = np.cumsum(truth.vx_mps * dt)
+    df["odometer"] = odometer_m + np.interp(df["time"], truth.time_s, travelled)
+    write_stream(df, path)
+    return truth, dt, float(travelled[-1] / 1000.0)
+
+
+def _wheel_wear(
+    truth: DriveTruth, car: Vehicle, dt: np.ndarray, gamma_mm3_per_j: float, kappa_per_k: float
+) -> tuple[list[float], np.ndarray, np.ndarray]:
+    """One drive's true friction work and worn volume (eq. 4.19a + b, 4.26).
+
+    Returns the longitudinal work per axle (front, rear) [J], the lateral work per axle [J]
+    and the worn volume per wheel position (fl, fr, rl, rr) [mm³] over the drive itself, each
+    wheel's friction power (the lateral half each) times γ exp(κ (T − 20)).
+    """
+    power = np.abs(
+        truth.rho_x * truth.wheel_load_n * truth.wheel_centre_speed_mps[:, :] * truth.slip
     )
+    wheel_work = np.sum(power * dt[:, None], axis=0)
+    work = [wheel_work[:2].sum(), wheel_work[2:].sum()]
+    lateral = lateral_sliding_power(truth, car)  # (n, 2) per axle, half on each wheel
+    work_y = np.sum(lateral * dt[:, None], axis=0)
+    power = power + np.repeat(lateral / 2.0, 2, axis=1)
+    rate = np.exp(kappa_per_k * (truth.tyre_temperature_c - 20.0))
+    volume = gamma_mm3_per_j * np.sum(rate * power * dt[:, None], axis=0)  # per wheel
+    return work, work_y, volume
+
+
+def _readings_due(
+    odometer_km: float,
+    next_reading_km: float,
+    reading_every_km: float,
+    depth_wheel_mm: np.ndarray,
+    noise_mm: float,
+    rng: np.random.Generator,
+) -> tuple[list[dict], float]:
+    """The tread readings due by ``odometer_km`` (every ``reading_every_km``), and the next one.
+
+    Each is the axle's mean depth over its two wheels plus Normal(0, ``noise_mm``) noise,
+    rounded to 0.01 mm as a gauge reads.
+    """
+    readings = []
+    while odometer_km >= next_reading_km:
+        for axle, cols in (("front", [0, 1]), ("rear", [2, 3])):
+            readings.append(
+                {
+                    "odometer_km": odometer_km,
+                    "axle": axle,
+                    "depth_mm": round(
+                        float(depth_wheel_mm[cols].mean())
+                        + noise_mm * float(rng.standard_normal()),
+                        2,
+                    ),
+                }
+            )
+        next_reading_km += reading_every_km
+    return readings, next_reading_km

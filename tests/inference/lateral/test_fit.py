@@ -7,12 +7,10 @@ is compiled once for the module.
 
 import dataclasses
 
-import numpy as np
 import pytest
 
 from tyrebayes._domain import load_vehicle
 from tyrebayes.inference.lateral import cornering_observations, fit_lateral
-from tyrebayes.inference.lateral.fit import residual_inflation
 from tyrebayes.inference.result import load_fit
 from tyrebayes.inference.tyre.result import TyreFit
 from tyrebayes.simulate.cornering import simulate_cornering
@@ -97,12 +95,12 @@ def test_a_lateral_fit_round_trips_through_the_tyre_fit_file(mixed, tmp_path):
 
 def test_a_search_on_stretches_of_the_drive_refines_to_the_mode_of_all_samples(mixed, monkeypatch):
     """A drive searched on every n-th stretch and refined on all samples: the same posterior."""
-    from tyrebayes.inference.lateral import fit as lateral_fit
+    from tyrebayes.inference.lateral import search
 
     frame, _ = simulate_cornering(VEHICLE, kind="mixed", duration_s=DURATION_S, seed=11)
     obs = cornering_observations(frame, VEHICLE)
-    monkeypatch.setattr(lateral_fit, "SEARCH_SAMPLES", 800)
-    assert lateral_fit._search_stride(lateral_fit.padded_length(obs.speed.shape[0])) == 3
+    monkeypatch.setattr(search, "SEARCH_SAMPLES", 800)
+    assert search._search_stride(search.padded_length(obs.speed.shape[0])) == 3
     searched = fit_lateral(obs, seed=1).to_dict()
     whole = mixed[0].to_dict()
     assert searched["converged"]
@@ -111,29 +109,6 @@ def test_a_search_on_stretches_of_the_drive_refines_to_the_mode_of_all_samples(m
         # the weights come from the residuals at the subsets' unweighted mode, a point near the
         # whole's: the sds follow their VIFs' small difference
         assert abs(searched[key]["sd"] / whole[key]["sd"] - 1.0) < 0.03, key
-
-
-def test_observations_are_padded_outside_both_masks():
-    from tyrebayes.inference.lateral import fit as lateral_fit
-
-    frame, _ = simulate_cornering(VEHICLE, kind="mixed", duration_s=DURATION_S, seed=11)
-    whole = cornering_observations(frame, VEHICLE)
-    obs = dataclasses.replace(
-        whole, **{name: getattr(whole, name)[:2390] for name in lateral_fit._SERIES}
-    )
-    padded = lateral_fit._padded(obs)
-    n = obs.speed.shape[0]
-    assert padded.speed.shape[0] == lateral_fit.padded_length(n) > n
-    assert not np.asarray(padded.mask)[n:].any() and not np.asarray(padded.mask_kinematic)[n:].any()
-    assert padded.n_used == obs.n_used
-
-
-def test_residual_inflation_sees_slow_correlation():
-    rng = np.random.default_rng(0)
-    white = rng.normal(size=20000)
-    assert residual_inflation(white, np.ones(20000, bool)) < 1.5
-    slow = np.repeat(rng.normal(size=200), 100) + 0.1 * white  # 10 s steps at 10 Hz
-    assert residual_inflation(slow, np.ones(20000, bool)) > 50
 
 
 @pytest.mark.slow

@@ -137,7 +137,7 @@ def test_block_information_gradient_matches_autodiff(mixed):
 
 
 def test_residual_vif_follows_the_batch_rule():
-    from tyrebayes.inference.lateral.fit import residual_inflation
+    from tyrebayes.inference.lateral.inflation import residual_inflation
     from tyrebayes.inference.online.lateral import INITIAL_VIF, VIF_PRIOR_CHUNKS, ResidualMoments
 
     rng = np.random.default_rng(0)

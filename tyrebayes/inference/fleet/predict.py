@@ -166,7 +166,9 @@ def lateral_sets_per_type(fit: Fit) -> dict[str, int]:
     return {t: 0 for t in TYRE_TYPES} if raw is None else dict(json.loads(raw))
 
 
-def lateral_ratio_draws(fit: Fit, tyre_type: str, n: int | None = None, *, seed: int = 0):
+def lateral_ratio_draws(
+    fit: Fit, tyre_type: str, n: int | None = None, *, seed: int = 0
+) -> np.ndarray:
     """Posterior predictive draws of k = c_y / C_xr for a new set of a type [1/rad per unit C_xr].
 
     Each draw is one posterior draw of the type's population (``k_loc``, ``k_scale``) and one set

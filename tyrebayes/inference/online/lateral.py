@@ -52,8 +52,8 @@ import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float
 
 from ..lateral.data import CorneringObservations
-from ..lateral.fit import K_CONTRACTION
 from ..lateral.model import REAL_SITES, LateralPriors, axle_state, residuals, sample_sites
+from ..lateral.posterior_checks import K_CONTRACTION
 from .laplace_update import laplace_update
 from .lateral_blocks import LateralBlocks
 from .lateral_summary import LateralTrajectory, OnlineLateral

@@ -26,8 +26,9 @@ a decision: :func:`tyrebayes.decisions.high_wear_warning`.
 One car's own drive history (``tyrebayes fit-wear``): :mod:`.history` (:func:`drive_history`,
 :func:`tread_readings`), :mod:`.changepoint` (:func:`detect_tyre_changes`), :mod:`.history_fit`
 (:func:`fit_wear_history`, a Fit of kind "wear_history") and :mod:`.history_predict`
-(:func:`wear_history_predictions`); :mod:`.cornering` (:func:`cornering_stiffness_from_lateral`:
-the per-axle c_y behind the evidence's lateral work, from a lateral posterior).
+(:func:`wear_history_predictions`, a :class:`WearHistoryPrediction`); :mod:`.cornering`
+(:func:`cornering_stiffness_from_lateral`: the per-axle c_y behind the evidence's lateral work,
+from a lateral posterior).
 """
 
 from .changepoint import TyreChanges as TyreChanges
@@ -47,6 +48,7 @@ from .history import TreadReadings as TreadReadings
 from .history import drive_history as drive_history
 from .history import tread_readings as tread_readings
 from .history_fit import fit_wear_history as fit_wear_history
+from .history_predict import WearHistoryPrediction as WearHistoryPrediction
 from .history_predict import wear_history_predictions as wear_history_predictions
 from .model import init_values as init_values
 from .model import wear_factor as wear_factor

@@ -4,16 +4,16 @@ The lateral friction work W_y = ∫ F_y V_x tan α dt (thesis eq. 4.19b) needs e
 angle, which the forces alone do not give: it takes the axle's cornering stiffness c_y. Where a
 lateral fit of the car exists (:func:`~tyrebayes.inference.lateral.fit.fit_lateral`, or the
 ``lateral`` part of a tyre fit), :func:`cornering_stiffness_from_lateral` turns its per-axle c_y
-posterior into the :class:`~tyrebayes.streams.wear_evidence.CorneringStiffness` that
+posterior into the :class:`~tyrebayes.streams.cornering_stiffness.CorneringStiffness` that
 :func:`~tyrebayes.streams.wear_evidence.drive_wear_evidence` takes; without one the evidence uses
-the type prior :data:`~tyrebayes.streams.wear_evidence.TYPE_PRIOR_CORNERING`.
+the type prior :data:`~tyrebayes.streams.cornering_stiffness.TYPE_PRIOR_CORNERING`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ...streams.wear_evidence import CorneringStiffness
+from ...streams.cornering_stiffness import CorneringStiffness
 from ..lateral.result import LateralFit
 from ..result import Fit
 from ..tyre.result import LATERAL_NODE

@@ -143,12 +143,52 @@ def drive_history(
     missing = [c for c in HISTORY_COLUMNS if c not in table]
     if missing:
         raise BadInputError(f"drive history: expected columns {missing}, not found")
+    work_y, lateral_log_sd, lateral_source = _lateral(table, n)
+    distance, work, work_sd, ratio, ratio_sd = _evidence(table)
+    odometer, interval = _intervals(_column(table, "odometer_start_km"), distance)
+    scale = interval / distance
+    radius_mm = float(geom.outer_radius_mm)
+    ratio_mm = (ratio - 1.0) * radius_mm
+    ratio_sd_mm = ratio_sd * radius_mm
+    ss = _column(table, "speed_scale") if "speed_scale" in table else np.full(n, np.nan)
+    ss_mm = -(ss - 1.0) * radius_mm
+    work_iv = (work + work_y) * scale[:, None]  # both components wear the tread
+    changes = detect_tyre_changes(
+        ratio_mm, work_iv[:, 0] - work_iv[:, 1], ss_mm, false_alarm=false_alarm
+    )
+    pair, n_pairs = _pairs(changes, n)
+    return DriveHistory(
+        odometer_km=odometer,
+        interval_km=interval,
+        scale=scale,
+        work_j=work * scale[:, None],
+        work_sd_j=work_sd * scale[:, None],
+        work_y_j=work_y * scale[:, None],
+        lateral_log_sd=lateral_log_sd,
+        ratio_mm=ratio_mm,
+        ratio_sd_mm=ratio_sd_mm,
+        speed_scale_mm=ss_mm,
+        tyre_temperature_c=_tyre_temperatures(table),
+        segment=changes.segments(n),
+        pair=pair,
+        n_pairs=n_pairs,
+        changes=changes,
+        radius_mm=radius_mm,
+        lateral_source=lateral_source,
+    )
+
+
+def _evidence(table: pd.DataFrame) -> tuple[np.ndarray, ...]:
+    """(distance [km], work (n, 2) [J], its sd, radius ratio, its sd) of the rows, checked.
+
+    Every drive needs a distance > 0, finite friction work and a radius ratio with its sd.
+    """
+    n = len(table)
     distance = _column(table, "distance_km")
     work = np.column_stack([_column(table, "work_x_front_j"), _column(table, "work_x_rear_j")])
     work_sd = np.column_stack(
         [_column(table, "work_x_front_sd_j"), _column(table, "work_x_rear_sd_j")]
     )
-    work_y, lateral_log_sd, lateral_source = _lateral(table, n)
     ratio = _column(table, "radius_ratio_front_rear")
     ratio_sd = _column(table, "radius_ratio_front_rear_sd")
     if not np.all(np.isfinite(distance) & (distance > 0)):
@@ -161,7 +201,15 @@ def drive_history(
             f"drive history: expected a radius ratio for every drive (too little straight free "
             f"rolling), got none for {int(bad.sum())} of {n}"
         )
-    odometer = _column(table, "odometer_start_km")
+    return distance, work, work_sd, ratio, ratio_sd
+
+
+def _intervals(odometer: np.ndarray, distance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(start of each drive's interval [km], distance it stands for [km]).
+
+    With an odometer on every drive each stands for the distance to the next one's start (the
+    last for its own); without, each for its own distance, the starts their running sum.
+    """
     if np.all(np.isfinite(odometer)):
         interval = np.diff(odometer)
         if np.any(interval < distance[:-1] * 0.99):
@@ -173,19 +221,20 @@ def drive_history(
     else:
         interval = distance.copy()
         odometer = np.concatenate([[0.0], np.cumsum(distance[:-1])])
-    scale = interval / distance
+    return odometer, interval
+
+
+def _tyre_temperatures(table: pd.DataFrame) -> np.ndarray:
+    """Each drive's tyre temperature [°C]; a missing one the drives' mean (20 °C: none at all)."""
     temp = _column(table, "tyre_temperature_c")
-    temp = np.where(np.isfinite(temp), temp, np.nanmean(temp) if np.isfinite(temp).any() else 20.0)
-    radius_mm = float(geom.outer_radius_mm)
-    ratio_mm = (ratio - 1.0) * radius_mm
-    ratio_sd_mm = ratio_sd * radius_mm
-    ss = _column(table, "speed_scale") if "speed_scale" in table else np.full(n, np.nan)
-    ss_mm = -(ss - 1.0) * radius_mm
-    work_iv = (work + work_y) * scale[:, None]  # both components wear the tread
-    changes = detect_tyre_changes(
-        ratio_mm, work_iv[:, 0] - work_iv[:, 1], ss_mm, false_alarm=false_alarm
-    )
-    segment = changes.segments(n)
+    return np.where(np.isfinite(temp), temp, np.nanmean(temp) if np.isfinite(temp).any() else 20.0)
+
+
+def _pairs(changes: TyreChanges, n: int) -> tuple[np.ndarray, int]:
+    """The tyre pair on the (front, rear) axle in each of ``n`` drives, and the number of pairs.
+
+    A rotation swaps the current pairs; a replacement mounts two new ones.
+    """
     pair = np.zeros((n, 2), dtype=int)
     current, next_pair = np.array([0, 1]), 2
     change_at = dict(zip(changes.index.tolist(), changes.kind, strict=True))
@@ -197,29 +246,11 @@ def drive_history(
                 current = np.array([next_pair, next_pair + 1])
                 next_pair += 2
         pair[k] = current
-    return DriveHistory(
-        odometer_km=odometer,
-        interval_km=interval,
-        scale=scale,
-        work_j=work * scale[:, None],
-        work_sd_j=work_sd * scale[:, None],
-        work_y_j=work_y * scale[:, None],
-        lateral_log_sd=lateral_log_sd,
-        ratio_mm=ratio_mm,
-        ratio_sd_mm=ratio_sd_mm,
-        speed_scale_mm=ss_mm,
-        tyre_temperature_c=temp,
-        segment=segment,
-        pair=pair,
-        n_pairs=int(next_pair),
-        changes=changes,
-        radius_mm=radius_mm,
-        lateral_source=lateral_source,
-    )
+    return pair, int(next_pair)
 
 
 def _is_type_prior(table: pd.DataFrame) -> bool:
-    from ...streams.wear_evidence import TYPE_PRIOR_CORNERING as prior
+    from ...streams.cornering_stiffness import TYPE_PRIOR_CORNERING as prior
 
     expected = {
         "cornering_stiffness_front_per_rad": prior.front_per_rad,

@@ -52,7 +52,7 @@ from .history import DriveHistory, TreadReadings, reading_exposure
 #: F_x and σ_x, the radius-ratio correction of the slip, the linear slip under braking). On the
 #: drive-history simulator the evidence reads the true front-axle work low
 #: (benchmarks/results/wear_history.json, ``evidence_work_over_true``): the braking part was
-#: split by a fixed brake balance (now re-split, streams.wear_evidence.braking_split); what is
+#: split by a fixed brake balance (now re-split, streams.longitudinal_work.braking_split); what is
 #: left comes from the radius ratios, read on "free-rolling" samples whose force the a_x offset's
 #: residual hides (the driven wheels' slip at that force is read as radius and taken off the
 #: traction slip). The prior does not correct that, it makes γ's interval honest: its 90 % range,
@@ -185,6 +185,44 @@ def _split_work_scale(
     }
 
 
+def _init_values(priors: WearPriors, extended: bool, n_pairs: int | None) -> dict:
+    """NUTS's start: γ at its prior median, small noise scales, κ = 0 where inferred, and each
+    tyre pair new (``n_pairs``: with readings; None without, when depths are not sampled)."""
+    init = {
+        "log_gamma_work": np.log(priors.gamma_median_mm3_per_j),
+        "sigma_ratio_mm": 0.02,
+        "tau": 0.1,
+        "lateral_z": np.zeros(2),
+    }
+    if extended:
+        init["kappa"] = 0.0
+    if n_pairs is not None:
+        init["initial_depth_mm"] = np.full(n_pairs, NEW_DEPTH_MM)
+        init["sigma_depth_mm"] = 0.2
+    return init
+
+
+def _history_attrs(history: DriveHistory, extended: bool) -> dict:
+    """The fit file's attributes from the history: its tyre changes (JSON), the model, and the
+    cornering stiffness' source and log-sd behind the lateral work."""
+    changes = history.changes
+    return {
+        "tyre_changes": json.dumps(
+            {
+                "drive_index": changes.index.tolist(),
+                "kind": list(changes.kind),
+                "probability": changes.probability.tolist(),
+                "statistic": changes.statistic.tolist(),
+                "threshold": changes.threshold,
+                "false_alarm_rate": changes.false_alarm_rate,
+            }
+        ),
+        "model": "extended" if extended else "baseline",
+        "lateral_source": history.lateral_source,
+        "lateral_log_sd": float(history.lateral_log_sd),
+    }
+
+
 def fit_wear_history(
     history: DriveHistory,
     readings: TreadReadings | None = None,
@@ -223,6 +261,13 @@ def fit_wear_history(
         over log γ s, σ_ratio, τ (and κ); ``gamma``, ``work_scale`` and ``lateral_work_scale``
         (front, rear) are drawn after the chains (module docstring). ``data.attrs`` holds the
         history's tyre changes and the cornering stiffness' source.
+
+    Examples
+    --------
+    >>> history = drive_history(wear_evidence_table(paths, vehicle))  # doctest: +SKIP
+    >>> fit = fit_wear_history(history, tread_readings(readings_table))  # doctest: +SKIP
+    >>> fit.kind, fit.converged  # doctest: +SKIP
+    ('wear_history', True)
     """
     priors = WearPriors() if priors is None else priors
     geom = TreadGeometry() if geom is None else geom
@@ -231,17 +276,7 @@ def fit_wear_history(
         exposure, read_pair = reading_exposure(history, readings)
         depth = np.asarray(readings.depth_mm)
     args = (history, exposure, read_pair, depth, extended, priors, float(geom.wear_area_mm2))
-    init = {
-        "log_gamma_work": np.log(priors.gamma_median_mm3_per_j),
-        "sigma_ratio_mm": 0.02,
-        "tau": 0.1,
-        "lateral_z": np.zeros(2),
-    }
-    if extended:
-        init["kappa"] = 0.0
-    if depth is not None:
-        init["initial_depth_mm"] = np.full(history.n_pairs, NEW_DEPTH_MM)
-        init["sigma_depth_mm"] = 0.2
+    init = _init_values(priors, extended, history.n_pairs if depth is not None else None)
     draws = run_nuts(
         wear_history_model,
         args,
@@ -263,22 +298,8 @@ def fit_wear_history(
             seed,
         )
     )
-    stats = {"diverging": draws.diverging}
-    tree = azb.from_dict({"posterior": samples, "sample_stats": stats})
-    changes = history.changes
-    tree.attrs["tyre_changes"] = json.dumps(
-        {
-            "drive_index": changes.index.tolist(),
-            "kind": list(changes.kind),
-            "probability": changes.probability.tolist(),
-            "statistic": changes.statistic.tolist(),
-            "threshold": changes.threshold,
-            "false_alarm_rate": changes.false_alarm_rate,
-        }
-    )
-    tree.attrs["model"] = "extended" if extended else "baseline"
-    tree.attrs["lateral_source"] = history.lateral_source
-    tree.attrs["lateral_log_sd"] = float(history.lateral_log_sd)
+    tree = azb.from_dict({"posterior": samples, "sample_stats": {"diverging": draws.diverging}})
+    tree.attrs.update(_history_attrs(history, extended))
     names = ["log_gamma_work", "lateral_z", "sigma_ratio_mm", "tau"]
     names += ["kappa"] if extended else []
     diagnostics = diagnose(tree, method="nuts", var_names=names)

@@ -203,8 +203,8 @@ def test_vmax_command_reads_a_lateral_fit_file(tmp_path, capsys):
 
 def test_report_section_names_each_sets_sources():
     from tyrebayes.report.content import Report
-    from tyrebayes.report.sections import vmax_section
     from tyrebayes.report.tables import vmax_table
+    from tyrebayes.report.vmax_section import vmax_section
 
     half = N // 2  # the two sets together make one batch of N draws (the module's program)
     measured = lateral_vmax_inputs(KEY, _lateral(19.6, 19.6, 0.95, mu_observed=False), half)

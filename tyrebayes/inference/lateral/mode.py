@@ -1,0 +1,200 @@
+"""The lateral posterior's mode: whitened BFGS on the model's potential, away from saddles.
+
+The potential is the NumPyro model's on its unconstrained space; BFGS runs in coordinates the
+Hessian whitens, steps off any saddle near the tyre curve's peak, searches a long drive on
+subsets of it (:mod:`.search`) and refines on all samples, and finds the mode again with each
+equation weighted by 1/VIF of its residuals (:func:`~.inflation.residual_inflation`).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from numpyro.infer.util import potential_energy
+
+from .data import CorneringObservations, G
+from .inflation import residual_inflation
+from .model import REAL_SITES, LateralPriors, lateral_model, residuals, sample_sites
+from .search import INFLATION_SEARCH_SAMPLES, _search_stride, _search_subset
+
+
+def _site_names(road_wheel: bool, priors: LateralPriors) -> tuple[str, ...]:
+    """The model's sample sites in the order of the flat parameter vector."""
+    return sample_sites(priors, road_wheel=road_wheel)
+
+
+def _start(obs: CorneringObservations, priors: LateralPriors, surface: str) -> jnp.ndarray:
+    """The unconstrained start: the priors' medians (log for the positive sites)."""
+    mu, _ = priors.mu_y_prior(surface)
+    values = {
+        "c_y_front": np.log(priors.c_y_median),
+        "c_y_rear": np.log(priors.c_y_median),
+        "mu_y": np.log(mu),
+        "curve_shape_excess": priors.curve_shape_excess_log_mean,
+        "curve_curvature_gap": priors.curve_curvature_gap_log_mean,
+        "steering_offset": 0.0,
+        "ay_offset": 0.0,
+        "roll_gradient": np.log(priors.roll_gradient_median),
+        "yaw_inertia_factor": 0.0,
+        "relaxation_length": np.log(priors.relaxation_length_median_m),
+        "steer_noise": np.log(priors.steer_noise_median),
+        "kinematic_noise": np.log(priors.kinematic_noise_median),
+        "force_noise": np.log(priors.force_noise_median),
+        "steering_ratio": float(np.log(obs.steering_ratio)),
+    }
+    names = _site_names(obs.road_wheel, priors)
+    return jnp.asarray([values[n] for n in names], dtype=obs.ay.dtype)
+
+
+def _potential(x, obs, weights, scale, priors, surface):
+    params = dict(zip(_site_names(obs.road_wheel, priors), x, strict=True))
+    return potential_energy(lateral_model, (obs, priors, surface, weights, scale), {}, params)
+
+
+# BFGS works in whitened coordinates y, x = start + W y with W W' ≈ H⁻¹ (posterior sds), and
+# stops when a step moves every one by less than BFGS_ATOL and the potential by less than
+# about BFGS_RTOL·|f| (the tyre fit's tolerances, inference/tyre/laplace.py says why): 1e-4
+# sds is far below the Laplace draws' Monte-Carlo error (1/√2000 = 0.022 sds).
+BFGS_ATOL = 1e-4
+BFGS_RTOL = 1e-8
+
+
+@functools.partial(jax.jit, static_argnames=("priors", "surface", "max_steps"))
+def _bfgs(x0, whiten, obs, weights, scale, priors, surface, max_steps):
+    """BFGS minimum of the potential from ``x0`` in the coordinates ``whiten`` gives.
+
+    Returns ``(mode, converged, steps)``. Compiled once per observation shape, priors and
+    surface; the start, whitening, weights and data scale are data.
+    """
+
+    def f(y, _):
+        return _potential(x0 + whiten @ y, obs, weights, scale, priors, surface)
+
+    solver = optx.BFGS(rtol=BFGS_RTOL, atol=BFGS_ATOL)
+    sol = optx.minimise(f, solver, jnp.zeros_like(x0), max_steps=max_steps, throw=False)
+    return x0 + whiten @ sol.value, sol.result == optx.RESULTS.successful, sol.stats["num_steps"]
+
+
+_potential_at = jax.jit(_potential, static_argnames=("priors", "surface"))
+_hessian = jax.jit(jax.hessian(_potential), static_argnames=("priors", "surface"))
+
+
+def _whitening(hess: np.ndarray) -> np.ndarray:
+    """W = V |Λ|^(-1/2) of a Hessian (eigenvalues in absolute value, floored at 1).
+
+    The posterior's curvatures differ by orders of magnitude between the directions the data
+    fix (c_y, the noise scales) and those only the prior does; BFGS from the identity took
+    hundreds of steps on a one-hour drive. In coordinates where the Hessian is
+    the identity its first step is a Newton step. Away from the mode H need not be positive
+    definite, hence the absolute value; the floor keeps directions of no curvature at the
+    unconstrained prior's unit scale.
+    """
+    sym = 0.5 * (hess + hess.T)
+    if not np.all(np.isfinite(sym)):
+        return np.eye(sym.shape[0])
+    eig, vec = np.linalg.eigh(sym)
+    return vec / np.sqrt(np.maximum(np.abs(eig), 1.0))[None, :]
+
+
+def _minimum(x0, obs, weights, scale, priors, surface, max_steps, hess0=None, escapes: int = 3):
+    """A local minimum of the potential (not a saddle): whitened BFGS, then away from any saddle.
+
+    The whitening is the Hessian at ``x0`` (or ``hess0``, one at a nearby point). BFGS stops
+    where the gradient vanishes; near the tyre curve's peak (a drive that used most of μ_y) the
+    potential has saddles, where the Hessian has a negative eigenvalue. From one, the search
+    steps both ways along that eigenvector, by the distance at which a quadratic of that
+    curvature would drop the potential by 2, and goes on from the lower side.
+    Returns ``(mode, converged, hessian)``.
+    """
+    args = (obs, weights, scale, priors, surface)
+    hess = np.asarray(_hessian(x0, *args)) if hess0 is None else hess0
+    mode, ok, _ = _bfgs(x0, jnp.asarray(_whitening(hess)), *args, max_steps=max_steps)
+    hess = np.asarray(_hessian(mode, *args))
+    for _ in range(escapes):
+        sym = 0.5 * (hess + hess.T)
+        if not np.all(np.isfinite(sym)):
+            break
+        eig, vec = np.linalg.eigh(sym)
+        if eig[0] > 0:
+            break
+        step = 2.0 / np.sqrt(abs(eig[0]))
+        starts = [mode + sign * step * jnp.asarray(vec[:, 0]) for sign in (1.0, -1.0)]
+        values = [float(_potential_at(x, *args)) for x in starts]
+        mode, ok, _ = _bfgs(
+            starts[int(np.argmin(values))],
+            jnp.asarray(_whitening(hess)),
+            *args,
+            max_steps=max_steps,
+        )
+        hess = np.asarray(_hessian(mode, *args))
+    return mode, bool(ok), hess
+
+
+def _constrain(xs, obs, weights, priors, surface) -> dict:
+    """Constrained draws of unconstrained draws ``xs`` (draws × sites), K included.
+
+    The model's transforms are known (exp for the LogNormal sites, identity for the Normal
+    ones), so the draws are mapped directly, without running the model's likelihood once per
+    draw. ``weights`` is unused; kept so that the signature follows the model's arguments.
+    """
+    del weights
+    names = _site_names(obs.road_wheel, priors)
+    xs = np.asarray(xs)
+    out = {n: xs[:, i] if n in REAL_SITES else np.exp(xs[:, i]) for i, n in enumerate(names)}
+    out["understeer_gradient"] = (1.0 / out["c_y_front"] - 1.0 / out["c_y_rear"]) / G
+    return out
+
+
+@jax.jit
+def _residuals_at(point: dict, obs):
+    return residuals(obs, point)
+
+
+def _levels(obs, x, strides, weights, priors, surface, max_steps):
+    """The mode found on every ``strides[0]``-th stretch, refined on every ``strides[1]``-th...
+
+    Each level starts at the last one's mode, whitened by its Hessian (the subsets' data are
+    scaled to the whole drive's weight, so every level's Hessian has about the whole's
+    curvature). Returns ``(mode, converged, hessian)`` of the last level.
+    """
+    hess = None
+    for stride in dict.fromkeys(strides):
+        subset, scale = _search_subset(obs, stride)
+        scale = jnp.asarray(scale, dtype=obs.ay.dtype)
+        x, ok, hess = _minimum(x, subset, weights, scale, priors, surface, max_steps, hess)
+    return x, ok, hess
+
+
+def _weighted_mode(obs, priors, surface, max_steps):
+    """The mode with each equation weighted by 1/VIF of its residuals at the unweighted mode.
+
+    A long drive's unweighted mode is searched on a sparse subset of it
+    (:data:`INFLATION_SEARCH_SAMPLES`) and refined on a denser one (:data:`SEARCH_SAMPLES`),
+    the data scaled to the whole's weight; the weighted mode is searched on the denser subset
+    and refined on all samples. A drive of at most about 1.5 × :data:`SEARCH_SAMPLES` has both
+    modes searched on all its samples from the priors' medians: the unweighted potential can
+    have several local minima, and on a short steady drive, whose gradient rests on the
+    steering ratio's prior, the residuals' VIF at a subset's mode was well below that at all
+    samples'.
+    Returns ``(mode, converged, hessian, weights, vif)``.
+    """
+    dtype = obs.ay.dtype
+    n = obs.speed.shape[0]
+    stride = _search_stride(n)
+    unit = jnp.ones(2, dtype=dtype)
+    strides = (_search_stride(n, INFLATION_SEARCH_SAMPLES), stride) if stride > 1 else (1,)
+    start = _start(obs, priors, surface)
+    mode, _, _ = _levels(obs, start, strides, unit, priors, surface, max_steps)
+    point = {k: v[0] for k, v in _constrain(mode[None], obs, unit, priors, surface).items()}
+    steer, kin = (np.asarray(x) for x in _residuals_at(point, obs))
+    vif = (
+        residual_inflation(steer, np.asarray(obs.mask)),
+        residual_inflation(kin, np.asarray(obs.mask_kinematic)),
+    )
+    weights = jnp.asarray([1.0 / vif[0], 1.0 / vif[1]], dtype=dtype)
+    mode, ok, hess = _levels(obs, mode, (stride, 1), weights, priors, surface, max_steps)
+    return mode, ok, hess, weights, vif

@@ -1,0 +1,98 @@
+"""Where the lateral fit's mode search reads a drive: padded lengths and subsets of stretches.
+
+Observations are padded to a few lengths (drives of any length share a few compiled programs);
+a long drive's mode is searched on every n-th 5 s stretch, its data scaled to the whole drive's
+weight, and refined on all samples (:func:`~tyrebayes.inference.lateral.mode._weighted_mode`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax.numpy as jnp
+import numpy as np
+
+from .data import CorneringObservations
+
+#: Observations are padded to SEARCH_BLOCK times one of these numbers of blocks times a power of
+#: two (at most a quarter more samples), so that drives of any length share a few compiled
+#: programs instead of compiling one each.
+_PADDED_BLOCKS = (4, 5, 6, 7)
+#: Length of the stretches of a drive the search keeps [samples at 10 Hz]: the kinematic
+#: equation differentiates V_x α_r along time, so the search reads whole 5 s stretches (their
+#: two samples at each end left out of the equations) rather than every n-th sample.
+SEARCH_BLOCK = 50
+#: Samples the search for the weighted mode reads, about: a drive of more than 1.5 times as many
+#: is searched on every n-th stretch, and the search's optimum refined on all samples.
+SEARCH_SAMPLES = 6000
+#: Samples the first search for the unweighted mode reads, about (:func:`_weighted_mode`): from
+#: the priors' medians it takes the most BFGS steps of the fit, here each a quarter as dear.
+INFLATION_SEARCH_SAMPLES = 1500
+
+
+def padded_length(n: int) -> int:
+    """The length a fit pads ``n`` observations to: SEARCH_BLOCK × m × 2^k, m in 4..7.
+
+    Examples
+    --------
+    >>> padded_length(36000), padded_length(2390)
+    (38400, 2400)
+    """
+    blocks = -(-n // SEARCH_BLOCK)
+    k = 0
+    while True:
+        for m in _PADDED_BLOCKS:
+            if m << k >= blocks:
+                return SEARCH_BLOCK * (m << k)
+        k += 1
+
+
+_SERIES = ("speed", "yaw_rate", "yaw_acceleration", "ay", "steering", "mask", "mask_kinematic")
+
+
+def _padded(obs: CorneringObservations) -> CorneringObservations:
+    """``obs`` padded to :func:`padded_length` with samples outside both masks."""
+    n = obs.speed.shape[0]
+    extra = padded_length(n) - n
+    if extra == 0:
+        return obs
+    # Padding's speed stays away from zero: the equations divide by it before the mask applies.
+    fill = {"speed": 10.0, "mask": False, "mask_kinematic": False}
+    series = {
+        name: jnp.concatenate(
+            [getattr(obs, name), jnp.full(extra, fill.get(name, 0.0), getattr(obs, name).dtype)]
+        )
+        for name in _SERIES
+    }
+    return dataclasses.replace(obs, **series)
+
+
+def _search_stride(n: int, samples: int | None = None) -> int:
+    """Every how many stretches a search of about ``samples`` (default :data:`SEARCH_SAMPLES`)
+    reads of ``n`` padded samples."""
+    return max(1, round(n / (SEARCH_SAMPLES if samples is None else samples)))
+
+
+def _search_subset(obs: CorneringObservations, stride: int) -> tuple[CorneringObservations, float]:
+    """Every ``stride``-th stretch of ``obs`` and the data scale that gives it the whole's weight.
+
+    The scale is the whole drive's used samples over the subset's, so that the subset's
+    potential has the whole's curvature (its Hessian whitens the refinement on all samples).
+    """
+    if stride == 1:
+        return obs, 1.0
+    blocks = obs.speed.shape[0] // SEARCH_BLOCK
+    inner = np.ones(SEARCH_BLOCK, bool)
+    inner[:2] = inner[-2:] = False
+    inner = jnp.asarray(np.tile(inner, -(-blocks // stride)))
+
+    def take(x):
+        return x.reshape(blocks, SEARCH_BLOCK)[::stride].reshape(-1)
+
+    series = {name: take(getattr(obs, name)) for name in _SERIES}
+    # Each stretch's ends: the five-point derivatives there would reach into the next stretch.
+    series["mask"] = series["mask"] & inner
+    series["mask_kinematic"] = series["mask_kinematic"] & inner
+    subset = dataclasses.replace(obs, **series)
+    scale = float(jnp.sum(obs.mask)) / max(float(jnp.sum(subset.mask)), 1.0)
+    return subset, scale

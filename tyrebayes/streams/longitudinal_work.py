@@ -1,0 +1,348 @@
+"""Longitudinal friction work of one drive per axle (thesis eq. 4.19a, 4.25, 4.27).
+
+* **Longitudinal friction work** per axle, W_x = ∫ F_x V_x σ_x dt (eq. 4.19a, 4.25). On the
+  driven axle in traction the slip is measured: the wheel speeds' σ_x, corrected for the drive's
+  own per-wheel radius ratios (free rolling), times the force balance's F_x. Under braking the
+  wheel speeds only see slip relative to the braking free wheels, and the free axle's slip is
+  not seen at all, so there the linear slip σ_x = ρ_x / C_x of eq. 4.27 is used with the drive's
+  own secant stiffness Ĉ_x = Σ ρ_x² F_z V dt / Σ F_x V σ_x dt over the driven axle's traction
+  samples (both axles carry the same tyre model). Its uncertainty: the slip noise of every sample
+  (correlated over the smoothing window), and the radius-ratio error, which multiplies the whole
+  traction energy ∫ F_x V dt.
+* **Braking split**: the features split a braking force by one fixed brake balance (0.7
+  front). Coasting in gear is engine drag on the driven wheels alone, and a service brake with
+  electronic brake-force distribution follows the axle loads, so the evidence re-splits each
+  braking sample's total force: up to :data:`ENGINE_BRAKE_SHARE` of the weight on the driven
+  axle(s), the rest in proportion to the axle loads (:func:`braking_split`). With the fixed
+  balance the mild decelerations that dominate braking put too little force on the driven front
+  axle and too much on the rear; the linear braking work goes with the force squared, so the
+  front's braking work read low and the rear's, on the drive-history simulator, well above the
+  truth. That was one cause of the evidence reading the simulator's front-axle work at 0.85 of
+  the truth; the other remains (``benchmarks/results/wear_history.json``,
+  ``evidence_work_over_true``): the radius ratios are read on "free-rolling" samples, chosen by
+  the force balance's ρ_x, whose true force the a_x offset's residual hides; the driven wheels'
+  slip at that force is read as radius and taken off every traction sample's slip.
+
+:func:`longitudinal_work` iterates the radius ratios and Ĉ_x (the ratios need Ĉ_x, Ĉ_x needs the
+slip) and returns a :class:`LongitudinalWork`.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import numpy as np
+
+from ..physics.vehicle import GRAVITY_MPS2, Vehicle
+from .features import StreamFeatures
+
+#: Coasting in gear brakes the driven wheels with the engine's drag, up to this share of the
+#: weight (0.05 g, about 0.5 m/s²: a petrol car's deceleration in gear with the throttle shut).
+ENGINE_BRAKE_SHARE = 0.05
+
+
+def _free_slip_ratios(
+    feats: StreamFeatures,
+    driven: list[int],
+    c_hat: float,
+    free_force: dict[int, float] | None = None,
+) -> np.ndarray:
+    """Per-wheel radius ratios with the driven wheels' free-rolling slip taken out.
+
+    "Free rolling" (|ρ_x| < 0.02 on the driven axle) still pushes against drag and rolling
+    resistance, so the driven wheels turn faster by σ ≈ ρ_x / C_x there: the free-rolling ratio
+    reads that slip as radius. Divided out with the drive's secant stiffness (eq. 4.27).
+    ``free_force``: :func:`_free_rolling_force` of ``feats``, when the caller has it (it does
+    not change with Ĉ_x, which :func:`longitudinal_work` iterates on).
+    """
+    ratio = np.asarray(feats.nuisances.radius_ratio, dtype=float).copy()
+    if not (np.all(np.isfinite(ratio)) and np.isfinite(c_hat)):
+        return ratio
+    if free_force is None:
+        free_force = _free_rolling_force(feats, driven)
+    for axle in driven:
+        ratio[2 * axle : 2 * axle + 2] /= 1.0 + np.nan_to_num(free_force[axle]) / c_hat
+    return ratio
+
+
+def _free_rolling_force(feats: StreamFeatures, driven: list[int]) -> dict[int, float]:
+    """Mean ρ_x of each driven axle over the straight free-rolling samples.
+
+    0 without such samples, NaN when none has a force (:func:`_free_slip_ratios` counts that
+    as 0 too); found once per drive, also where the ratios turn out not to need it, so an
+    all-NaN axle gives NaN without ``np.nanmean``'s warning.
+    """
+    free = feats.mask("free_rolling") & (np.abs(feats.steer_rad) < 0.02)
+    rho = feats.rho_axle[free]
+    if not rho.size:
+        return dict.fromkeys(driven, 0.0)
+    return {
+        axle: float(np.nanmean(rho[:, axle])) if np.isfinite(rho[:, axle]).any() else np.nan
+        for axle in driven
+    }
+
+
+def _corrected_slip(feats: StreamFeatures, ratio: np.ndarray, drive: str) -> np.ndarray:
+    """Per-wheel slip with the drive's own radius ratios removed (NaN ratios: nominal radii).
+
+    A wheel of true radius r_i R_nom reads wheel_vx_i = (1 + σ_i) V r_ref / r_i, where r_ref is
+    the mean ratio of the wheels V_x comes from; hence σ_i = (1 + slip_i) r_i / r_ref − 1.
+    """
+    scale = _slip_scale(ratio, drive)
+    if scale is None:
+        return feats.slip
+    return (1.0 + feats.slip) * scale[None, :] - 1.0
+
+
+def _slip_scale(ratio: np.ndarray, drive: str) -> np.ndarray | None:
+    """r_i / r_ref of :func:`_corrected_slip`, or None for nominal radii (a NaN ratio)."""
+    if not np.all(np.isfinite(ratio)):
+        return None
+    ref = {"fwd": (2, 3), "rwd": (0, 1)}.get(drive, (0, 1, 2, 3))
+    return ratio / float(np.mean(ratio[list(ref)]))
+
+
+def _corrected_slip_axle(feats: StreamFeatures, ratio: np.ndarray, drive: str) -> np.ndarray:
+    """Per-axle slip, (n, 2): the mean of its wheels' :func:`_corrected_slip`.
+
+    An axle's slip is (σ_a + σ_b) / 2 (what ndarray.mean gives for two), formed column by
+    column in the axle table itself with the same arithmetic as the (n, 4) table of σ_i: the
+    same numbers without its three temporaries of the whole table (four times a drive).
+    """
+    slip = feats.slip
+    scale = _slip_scale(ratio, drive)
+    out = np.empty((2, slip.shape[0])).T  # columns contiguous, like the features' tables
+    other = np.empty(slip.shape[0])
+    for axle, wheels in enumerate(((0, 1), (2, 3))):
+        for wheel, target in zip(wheels, (out[:, axle], other), strict=True):
+            if scale is None:
+                np.copyto(target, slip[:, wheel])
+            else:
+                np.add(slip[:, wheel], 1.0, out=target)
+                target *= scale[wheel]
+                target -= 1.0
+        out[:, axle] += other
+    out /= 2.0
+    return out
+
+
+def _front_rear_ratio(ratio: np.ndarray, sd: np.ndarray) -> tuple[float, float]:
+    front, rear = ratio[:2].mean(), ratio[2:].mean()
+    # the four ratios share one normalisation; their errors are treated as independent
+    value = front / rear
+    value_sd = value * np.hypot(
+        np.hypot(sd[0], sd[1]) / 2 / front, np.hypot(sd[2], sd[3]) / 2 / rear
+    )
+    return float(value), float(value_sd)
+
+
+def braking_split(fx_axle_n: np.ndarray, fz_axle_n: np.ndarray, vehicle: Vehicle) -> np.ndarray:
+    """Axle forces (n, 2) [N] with each braking sample's total re-split (module docstring).
+
+    Where F_x,front + F_x,rear < 0: engine drag up to :data:`ENGINE_BRAKE_SHARE` m g on the
+    driven axle(s) (split as the drive splits traction), the rest of the braking force in
+    proportion to the axle loads (ideal, EBD-like distribution). Traction samples and NaN are
+    kept as they are.
+
+    Examples
+    --------
+    >>> from tyrebayes._domain import load_vehicle
+    >>> car = load_vehicle("compact_fwd")
+    >>> fx = braking_split(np.array([[-700.0, -300.0]]), np.array([[8000.0, 6000.0]]), car)
+    >>> bool(fx[0, 0] < -700.0), float(fx.sum())
+    (True, -1000.0)
+    """
+    fx = np.asarray(fx_axle_n, dtype=float)
+    fz = np.asarray(fz_axle_n, dtype=float)
+    total = fx[:, 0] + fx[:, 1]
+    with np.errstate(invalid="ignore"):
+        braking = total < 0.0
+        engine = np.clip(total, -ENGINE_BRAKE_SHARE * vehicle.mass_kg * GRAVITY_MPS2, 0.0)
+        load_share = fz[:, 0] / (fz[:, 0] + fz[:, 1])
+    front = vehicle.traction_front_share * engine + load_share * (total - engine)
+    split = np.column_stack([front, total - front])
+    return np.where(braking[:, None], split, fx)
+
+
+class _WorkTerms(eqx.Module):
+    """What :func:`_longitudinal_work` needs that does not change with the radius ratios.
+
+    Per sample and axle, shape (n, 2): ``power_w`` F_x V [W] (NaN where F_x is), ``usable``
+    (valid, finite F_x, no spin), ``pushing`` (F_x > 0 on a driven axle), ``slip_sd`` [-],
+    ``kernel_j`` ρ² F_z |V| dt [J], not yet masked.
+    """
+
+    power_w: np.ndarray
+    usable: np.ndarray
+    pushing: np.ndarray
+    slip_sd: np.ndarray
+    kernel_j: np.ndarray
+
+
+def _work_terms(feats, fx, is_driven, valid, dt) -> _WorkTerms:
+    vx = feats.vx_mps
+    fz = feats.fz_axle_n
+    slip_axle_sd = np.column_stack(
+        [
+            np.hypot(feats.slip_sd[:, 0], feats.slip_sd[:, 1]) / 2,
+            np.hypot(feats.slip_sd[:, 2], feats.slip_sd[:, 3]) / 2,
+        ]
+    )
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        return _WorkTerms(
+            power_w=fx * vx[:, None],
+            usable=valid[:, None] & np.isfinite(fx) & ~feats.spin[:, None],
+            pushing=(fx > 0) & is_driven[None, :],
+            slip_sd=slip_axle_sd,
+            kernel_j=(fx / fz) ** 2 * fz * np.abs(vx)[:, None] * dt,
+        )
+
+
+class _MaskedSums(eqx.Module):
+    """The sums of :func:`_longitudinal_work` that depend on the usable samples, not the slip.
+
+    ``use`` (n, 2) the usable samples, ``traction`` (n, 2) those pushing on a driven axle,
+    ``power_w`` (n, 2) F_x V there [W] (0 elsewhere), ``kernel_j`` (n, 2) ρ² F_z |V| dt there
+    [J]; per axle ``noise_var_j2`` [J²], ``traction_energy_j`` [J], ``linear_kernel_j`` [J]
+    (the kernel of usable samples that do not push), and ``traction_kernel_j`` [J] in all.
+    """
+
+    use: np.ndarray
+    traction: np.ndarray
+    power_w: np.ndarray
+    kernel_j: np.ndarray
+    noise_var_j2: np.ndarray
+    traction_energy_j: np.ndarray
+    linear_kernel_j: np.ndarray
+    traction_kernel_j: float
+
+
+def _masked_sums(feats, terms: _WorkTerms, use: np.ndarray, dt: float) -> _MaskedSums:
+    traction = use & terms.pushing
+    power = np.where(use, terms.power_w, 0.0)  # F_x V [W]
+    # Slip noise is correlated over the smoothing window: a sum of n samples has the variance
+    # of n / window independent ones, each window-fold larger.
+    window = max(1.0, feats.smoothing_s * feats.sample_rate_hz)
+    noise_var = np.where(traction, (power * terms.slip_sd) ** 2, 0.0).sum(axis=0) * dt**2 * window
+    kernel = np.where(use, terms.kernel_j, 0.0)
+    return _MaskedSums(
+        use=use,
+        traction=traction,
+        power_w=power,
+        kernel_j=kernel,
+        noise_var_j2=noise_var,
+        traction_energy_j=np.where(traction, power, 0.0).sum(axis=0) * dt,
+        linear_kernel_j=np.where(use & ~traction, kernel, 0.0).sum(axis=0),
+        traction_kernel_j=np.where(traction, kernel, 0.0).sum(),
+    )
+
+
+def _longitudinal_work(feats, ratios, ratio_sd4, drive, terms: _WorkTerms, dt, sums=None):
+    """(work [J], its sd, Ĉ_x, per-sample kernel ρ² F_z V dt (n, 2), usable mask (n, 2), sums).
+
+    Only the slip changes with the radius ratios; the rest comes from ``terms``, computed once
+    for the iteration over ratios in :func:`longitudinal_work`, and from ``sums`` (the
+    previous iteration's :class:`_MaskedSums`), reused while the usable samples are the same.
+    """
+    slip_axle = _corrected_slip_axle(feats, ratios, drive)
+    use = terms.usable & np.isfinite(slip_axle)
+    if sums is None or not np.array_equal(sums.use, use):
+        sums = _masked_sums(feats, terms, use, dt)
+    measured = np.where(sums.traction, sums.power_w * slip_axle, 0.0).sum(axis=0) * dt
+    noise_var, traction_kernel = sums.noise_var_j2, sums.traction_kernel_j
+    _, ratio_sd = _front_rear_ratio(ratios, ratio_sd4)
+    ratio_sd = ratio_sd if np.isfinite(ratio_sd) else 2e-3  # nominal radii: ~0.2 % unknown
+    offset_var = (sums.traction_energy_j * ratio_sd) ** 2
+    measured_total = float(measured.sum())
+    measured_sd = float(np.sqrt(noise_var.sum() + offset_var.sum()))
+    if measured_total > 0 and traction_kernel > 0:
+        c_hat = float(traction_kernel / measured_total)
+        rel_sd = measured_sd / measured_total
+    else:
+        c_hat, rel_sd = float("nan"), float("nan")
+    linear_part = sums.linear_kernel_j
+    linear = linear_part / c_hat if np.isfinite(c_hat) else np.zeros(2)
+    work_x = measured + linear
+    work_x_sd = np.sqrt(noise_var + offset_var + (linear * np.nan_to_num(rel_sd)) ** 2)
+    return work_x, work_x_sd, c_hat, sums.kernel_j, use, sums
+
+
+class LongitudinalWork(eqx.Module):
+    """One drive's longitudinal friction work per axle (front, rear) and what it rests on.
+
+    Attributes
+    ----------
+    work_x_j, work_x_sd_j : ndarray, shape (2,)
+        Longitudinal friction work of each axle [J] and its standard error.
+    secant_stiffness : float
+        The drive's Ĉ_x [-] (NaN without traction samples).
+    kernel_j : ndarray, shape (n, 2)
+        ρ_x² F_z |V| dt of each usable sample and axle [J] (0 elsewhere).
+    usable : ndarray, shape (n, 2)
+        The samples that count (valid, finite F_x and slip, no spin).
+    radius_ratio_front_rear, radius_ratio_front_rear_sd : float
+        Front over rear rolling radius [-] (free-rolling slip taken out) and its standard error.
+
+    Examples
+    --------
+    >>> from tyrebayes import load_vehicle, read_stream, validate_stream, compute_features
+    >>> from tyrebayes._resources import data_dir
+    >>> vehicle = load_vehicle("suv_rav4")
+    >>> stream = validate_stream(read_stream(data_dir() / "comma2k19_rav4_segment.csv"), vehicle)
+    >>> feats = compute_features(stream, vehicle)
+    >>> work = longitudinal_work(feats, vehicle, feats.valid, 1.0 / feats.sample_rate_hz)
+    >>> work.work_x_j.shape, work.weight_j.shape == feats.vx_mps.shape
+    ((2,), True)
+    """
+
+    work_x_j: np.ndarray
+    work_x_sd_j: np.ndarray
+    secant_stiffness: float
+    kernel_j: np.ndarray
+    usable: np.ndarray
+    radius_ratio_front_rear: float
+    radius_ratio_front_rear_sd: float
+
+    @property
+    def weight_j(self) -> np.ndarray:
+        """Per sample, both axles' kernel over the usable samples [J]: the friction weight."""
+        return np.where(self.usable, self.kernel_j, 0.0).sum(axis=1)
+
+
+def longitudinal_work(
+    feats: StreamFeatures, vehicle: Vehicle, valid: np.ndarray, dt: float
+) -> LongitudinalWork:
+    """Longitudinal friction work per axle (module docstring), iterated with the radius ratios.
+
+    The radius ratios need Ĉ_x (the driven wheels' free-rolling slip), Ĉ_x needs the slip the
+    ratios correct: four rounds from nominal radii (NaN Ĉ_x).
+
+    Parameters
+    ----------
+    feats : StreamFeatures
+        The drive's features.
+    vehicle : Vehicle
+        The car (drive, brake-split geometry).
+    valid : ndarray of bool, shape (n,)
+        The samples that count (valid features with a finite V_x).
+    dt : float
+        Sample interval [s].
+
+    Returns
+    -------
+    LongitudinalWork
+    """
+    driven = {"front": [0], "rear": [1], "both": [0, 1]}[vehicle.driven_axle]
+    is_driven = np.zeros(2, dtype=bool)
+    is_driven[driven] = True
+    ratio_sd4 = np.asarray(feats.nuisances.radius_ratio_sd, dtype=float)
+    c_hat = float("nan")
+    fx_axle = braking_split(feats.fx_axle_n, feats.fz_axle_n, vehicle)
+    terms, sums = _work_terms(feats, fx_axle, is_driven, valid, dt), None
+    free_force = _free_rolling_force(feats, driven)
+    for _ in range(4):
+        ratios = _free_slip_ratios(feats, driven, c_hat, free_force)
+        work = _longitudinal_work(feats, ratios, ratio_sd4, vehicle.drive, terms, dt, sums)
+        c_hat, sums = work[2], work[5]
+    work_x, work_x_sd, c_hat, kernel, use, _ = work
+    ratio, ratio_sd = _front_rear_ratio(ratios, ratio_sd4)
+    return LongitudinalWork(work_x, work_x_sd, c_hat, kernel, use, ratio, ratio_sd)
