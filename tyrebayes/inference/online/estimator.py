@@ -38,11 +38,14 @@ Examples
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
+from typing import NamedTuple
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, Bool, Float, Int
 
 from ..tyre.adequacy import likelier_surface
 from ..tyre.model import SURFACES, TyrePriors, check_kind
@@ -54,7 +57,7 @@ from .block_likelihood import (
 from .change import cusum_step, predictive_shift_ratios
 from .config import OnlineConfig, default_config
 from .inflation import accrue_residuals, empty_inflation, inflation_in_use
-from .laplace_update import laplace_update
+from .laplace_update import GaussianUpdate, laplace_update
 from .parameters import (
     PER_DRIVE,
     PRIOR_CHECKED,
@@ -76,6 +79,30 @@ from .summary import (
 )
 from .swap import either, swap_step
 from .windows import STEP_S, WindowBlocks
+
+
+class _SwapTest(NamedTuple):
+    """What the swap test of a step gives (:meth:`OnlineEstimator._swap_test`).
+
+    Attributes
+    ----------
+    challenged : GaussianUpdate
+        The challenger updated by the block (the estimate's update when the test is off).
+    drive_steps : Int[Array, ""]
+        Steps since the drive start (the window's length when no tyre is carried over).
+    active : Bool[Array, ""]
+        Whether the test runs at this step.
+    log_bayes_factor : Float[Array, ""]
+        Its running log Bayes factor of a swap [nats].
+    swapped : Bool[Array, ""]
+        Whether it passed its threshold: the challenger becomes the estimate.
+    """
+
+    challenged: GaussianUpdate
+    drive_steps: Int[Array, ""]
+    active: Bool[Array, ""]
+    log_bayes_factor: Float[Array, ""]
+    swapped: Bool[Array, ""]
 
 
 class OnlineEstimator(eqx.Module):
@@ -162,7 +189,53 @@ class OnlineEstimator(eqx.Module):
         )
 
     def update(self, state: FilterState, block: WindowBlocks) -> FilterState:
-        """One step: predict, test for change, update by one block of windows (unbatched)."""
+        """One step: predict, test for change, update by one block of windows (unbatched).
+
+        The steps of the module docstring, each a method: the block's Laplace update
+        (:meth:`_block_update`), the prediction (:meth:`_moved`), the swap test
+        (:meth:`_swap_test`), the change detector (:meth:`_change_test`) and the counters
+        (:meth:`_next_state`).
+        """
+        laplace = self._block_update(state, block)
+        elapsed = jnp.maximum(block.time_s - state.time_s, 0.0)
+        start = block.drive_start
+        moved = self._moved(state.mean, state.cov, elapsed)
+        predicted = reset_to_prior(self.prior, *moved, PER_DRIVE, start)
+        # The estimate's steps are undamped: damping them moves where the update of a block the
+        # model does not explain lands, and the noise scales absorb such a block either way
+        # until they revert (README, "Why 5 of 30 swaps are missed" and after). Undamped, its
+        # first blocks from the prior can stop short of their modes; that costs the estimate
+        # those blocks' information, not a test's running sum.
+        updated = laplace(*predicted, damped=False)
+        swap = self._swap_test(state, block, predicted, updated, elapsed, laplace)
+        up, down, shifted = self._change_test(state, block, predicted, updated, swap.swapped)
+        alarm = swap.swapped | shifted
+        restarted = reset_to_prior(self.prior, *predicted, TYRE_COORDINATES + PER_DRIVE, shifted)
+        challenged = swap.challenged
+        mean, cov = either(
+            swap.swapped,
+            (challenged.mean, challenged.cov),
+            either(shifted, restarted, (updated.mean, updated.cov)),
+        )
+        challenger = either(swap.active & ~alarm, (challenged.mean, challenged.cov), (mean, cov))
+        return self._next_state(
+            state,
+            block,
+            mean=mean,
+            cov=cov,
+            challenger=challenger,
+            swap=swap,
+            cusum=(up, down),
+            alarm=alarm,
+            shifted=shifted,
+        )
+
+    def _block_update(
+        self, state: FilterState, block: WindowBlocks
+    ) -> Callable[..., GaussianUpdate]:
+        """Step 2's update, (mean, cov, damped) ↦ the Laplace update by the block's likelihood,
+        its slips weighted by 1/VIF, with its Gauss-Newton information as the curvature
+        (:attr:`OnlineConfig.gauss_newton`)."""
         cfg = self.config
         weight = 1.0 / inflation_in_use(
             state.inflation, cfg.initial_inflation, cfg.inflation_prior_blocks
@@ -174,13 +247,6 @@ class OnlineEstimator(eqx.Module):
         def gauss_newton(theta):
             return block_curvature(theta, block, weight, self.kind, self.priors)
 
-        elapsed = jnp.maximum(block.time_s - state.time_s, 0.0)
-
-        def moved(mean, cov):
-            return predict(self.prior, mean, cov, elapsed, cfg.drift_sd_per_sqrt_s, cfg.reversion_s)
-
-        start = block.drive_start
-        predicted = reset_to_prior(self.prior, *moved(state.mean, state.cov), PER_DRIVE, start)
         quadratic = jnp.asarray([n in QUADRATIC for n in self.prior.names])
 
         def laplace(mean, cov, damped):
@@ -195,18 +261,34 @@ class OnlineEstimator(eqx.Module):
                 damped=damped,
             )
 
-        # The estimate's steps are undamped: damping them moves where the update of a block the
-        # model does not explain lands, and the noise scales absorb such a block either way
-        # until they revert (README, "Why 5 of 30 swaps are missed" and after). Undamped, its
-        # first blocks from the prior can stop short of their modes; that costs the estimate
-        # those blocks' information, not a test's running sum.
-        updated = laplace(*predicted, damped=False)
+        return laplace
 
+    def _moved(
+        self, mean: Float[Array, " p"], cov: Float[Array, "p p"], elapsed: Float[Array, ""]
+    ) -> tuple[Float[Array, " p"], Float[Array, "p p"]]:
+        """Step 1's prediction over ``elapsed`` seconds: the random-walk drift and the noise
+        scales' reversion (:mod:`.process`)."""
+        cfg = self.config
+        return predict(self.prior, mean, cov, elapsed, cfg.drift_sd_per_sqrt_s, cfg.reversion_s)
+
+    def _swap_test(
+        self,
+        state: FilterState,
+        block: WindowBlocks,
+        predicted: tuple[Float[Array, " p"], Float[Array, "p p"]],
+        updated: GaussianUpdate,
+        elapsed: Float[Array, ""],
+        laplace: Callable[..., GaussianUpdate],
+    ) -> _SwapTest:
+        """Step 3: the challenger's update by the block over the first steps of a drive, and
+        the swap test's log Bayes factor of it against the estimate (:mod:`.swap`)."""
+        cfg = self.config
+        start = block.drive_start
         # The swap test's challenger: from a drive start, the tyre's coordinates anew.
         challenger = either(
             start,
             reset_to_prior(self.prior, *predicted, TYRE_COORDINATES, start),
-            moved(state.challenger_mean, state.challenger_cov),
+            self._moved(state.challenger_mean, state.challenger_cov, elapsed),
         )
         # A drive start with no slip window since the (re)start carries nothing of a tyre to
         # test against: its challenger would be the estimate itself, so the test stays off.
@@ -232,9 +314,21 @@ class OnlineEstimator(eqx.Module):
             active=active,
             threshold=cfg.swap_threshold,
         )
+        return _SwapTest(challenged, drive_steps, active, log_bayes_factor, swapped)
 
+    def _change_test(
+        self,
+        state: FilterState,
+        block: WindowBlocks,
+        predicted: tuple[Float[Array, " p"], Float[Array, "p p"]],
+        updated: GaussianUpdate,
+        swapped: Bool[Array, ""],
+    ) -> tuple[Float[Array, ""], Float[Array, ""], Bool[Array, ""]]:
+        """Step 4: the two-sided CUSUM of a C_xr step on the block's predictive likelihood
+        ratio (:mod:`.change`): its two sums and whether it raised an alarm."""
+        cfg = self.config
         c_index = self._index["log_c_xr"]
-        up, down, shifted = cusum_step(
+        return cusum_step(
             predictive_shift_ratios(predicted, updated, index=c_index, shift=cfg.change_log_shift),
             state.cusum_up,
             state.cusum_down,
@@ -245,20 +339,28 @@ class OnlineEstimator(eqx.Module):
             / (cfg.change_min_steps - 0.5)
             * jnp.maximum(block.span_s / STEP_S, 1.0),
         )
-        alarm = swapped | shifted
-        restarted = reset_to_prior(self.prior, *predicted, TYRE_COORDINATES + PER_DRIVE, shifted)
-        mean, cov = either(
-            swapped,
-            (challenged.mean, challenged.cov),
-            either(shifted, restarted, (updated.mean, updated.cov)),
-        )
-        challenger = either(active & ~alarm, (challenged.mean, challenged.cov), (mean, cov))
 
+    def _next_state(
+        self,
+        state: FilterState,
+        block: WindowBlocks,
+        *,
+        mean: Float[Array, " p"],
+        cov: Float[Array, "p p"],
+        challenger: tuple[Float[Array, " p"], Float[Array, "p p"]],
+        swap: _SwapTest,
+        cusum: tuple[Float[Array, ""], Float[Array, ""]],
+        alarm: Bool[Array, ""],
+        shifted: Bool[Array, ""],
+    ) -> FilterState:
+        """The state after the step: the new Gaussians, the windows counted since the
+        (re)start, the tests' running sums (cleared by an alarm), and step 5's residuals at the
+        new mode for the VIF estimate (:mod:`.inflation`)."""
         z = standardised_slip_residuals(mean, block, self.kind, self.priors)
         slip_window = block.mask & ~block.at_limit
         dtype = mean.dtype
         slips = jnp.sum(slip_window).astype(dtype)
-        excited = jnp.sum(slip_window & (jnp.abs(block.rho) >= cfg.excitation_force))
+        excited = jnp.sum(slip_window & (jnp.abs(block.rho) >= self.config.excitation_force))
         limits = jnp.sum(block.mask & block.at_limit).astype(dtype)
         temperature = jnp.sum(jnp.where(slip_window, block.temperature_c, 0.0))
 
@@ -267,6 +369,7 @@ class OnlineEstimator(eqx.Module):
             # took it in).
             return jnp.where(alarm, 0.0, previous) + jnp.where(shifted, 0.0, added)
 
+        up, down = cusum
         return FilterState(
             mean=mean,
             cov=cov,
@@ -280,11 +383,11 @@ class OnlineEstimator(eqx.Module):
             cusum_down=jnp.where(alarm, 0.0, down),
             challenger_mean=challenger[0],
             challenger_cov=challenger[1],
-            log_bayes_factor=jnp.where(alarm, 0.0, log_bayes_factor),
-            drive_steps=drive_steps,
+            log_bayes_factor=jnp.where(alarm, 0.0, swap.log_bayes_factor),
+            drive_steps=swap.drive_steps,
             n_alarms=state.n_alarms + alarm.astype(jnp.int32),
             alarm=alarm,
-            swap_alarm=swapped,
+            swap_alarm=swap.swapped,
             inflation=accrue_residuals(state.inflation, z, slip_window),
         )
 
