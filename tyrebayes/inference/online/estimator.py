@@ -32,7 +32,7 @@ Examples
 --------
 >>> est = OnlineEstimator.create(kind="brush")  # doctest: +SKIP
 >>> state = est.init(type_prior(kind="brush"))  # doctest: +SKIP
->>> state, trajectory = est.run(state, window_blocks(windows))  # doctest: +SKIP
+>>> run = est.run(state, window_blocks(windows))  # doctest: +SKIP
 """
 
 from __future__ import annotations
@@ -68,6 +68,7 @@ from .parameters import (
     type_prior,
 )
 from .process import predict
+from .run import OnlineRun
 from .state import FilterState
 from .summary import (
     OnlineSummary,
@@ -487,7 +488,7 @@ class OnlineEstimator(eqx.Module):
             coordinate_names=self.prior.names,
         )
 
-    def run(self, state: FilterState, blocks: WindowBlocks) -> tuple[FilterState, OnlineSummary]:
+    def run(self, state: FilterState, blocks: WindowBlocks) -> OnlineRun:
         """Scan :meth:`update` over blocks (leading axis); returns the last state and every step's
         summary (a trajectory).
 
@@ -501,7 +502,7 @@ class OnlineEstimator(eqx.Module):
             return new, self.moments(new)
 
         last, moments = jax.lax.scan(step, state, blocks)
-        return last, jax.vmap(self.summary_of)(moments)
+        return OnlineRun(state=last, trajectory=jax.vmap(self.summary_of)(moments))
 
 
 #: XLA options the estimator's compiled runs use: XLA's fast math, with NaN, infinities, IEEE
@@ -521,9 +522,7 @@ COMPILER_OPTIONS = {
 
 
 @functools.partial(eqx.filter_jit, compiler_options=COMPILER_OPTIONS)
-def run_online(
-    estimator: OnlineEstimator, state: FilterState, blocks: WindowBlocks
-) -> tuple[FilterState, OnlineSummary]:
+def run_online(estimator: OnlineEstimator, state: FilterState, blocks: WindowBlocks) -> OnlineRun:
     """:meth:`OnlineEstimator.run`, compiled with :data:`COMPILER_OPTIONS` (once per block shape
     and estimator settings)."""
     return estimator.run(state, blocks)
@@ -532,7 +531,7 @@ def run_online(
 @functools.partial(eqx.filter_jit, compiler_options=COMPILER_OPTIONS)
 def run_online_cars(
     estimator: OnlineEstimator, states: FilterState, blocks: WindowBlocks
-) -> tuple[FilterState, OnlineSummary]:
+) -> OnlineRun:
     """:meth:`OnlineEstimator.run` over many cars in one compiled call: ``states`` and ``blocks``
     carry a leading car axis (vmapped), the trajectory a car axis before its time axis."""
     return jax.vmap(estimator.run)(states, blocks)
@@ -545,26 +544,42 @@ def online_estimate(
     priors: TyrePriors | None = None,
     config: OnlineConfig | None = None,
     imu_gain_log_sd: float = 0.0,
-) -> tuple[FilterState, OnlineSummary]:
+) -> OnlineRun:
     """Run the estimator from the type prior over one stream's blocks (the command's path).
 
-    Returns the final filter state and the trajectory of summaries, one per step
-    (:func:`~.summary.summary_record` reads a step).
+    Parameters
+    ----------
+    blocks : WindowBlocks
+        The stream's steps (:func:`~.stream.stream_steps`); their surface sets μ_max's prior.
+    kind : str
+        The tyre-curve model (:data:`~tyrebayes.inference.tyre.curves.MODEL_KINDS`).
+    priors : TyrePriors, optional
+        The batch model's prior scales (default :class:`TyrePriors`).
+    config : OnlineConfig, optional
+        Drift, Newton steps, change detection, readiness (default :func:`~.config.default_config`).
+    imu_gain_log_sd : float
+        Prior sd of the IMU's log gain (0: the gain is known).
+
+    Returns
+    -------
+    OnlineRun
+        The final filter state and the trajectory of summaries, one per step; its ``to_dict()``
+        is the estimator's part of ``tyrebayes online --json``.
 
     Examples
     --------
     The shipped one-minute segment in two steps; the filter's first compilation takes longer
     than a doctest should, so that line is not run here (``tyrebayes online`` runs it):
 
-    >>> from tyrebayes import load_vehicle, summary_record
+    >>> from tyrebayes import load_vehicle
     >>> from tyrebayes._resources import data_dir
     >>> from tyrebayes.inference.online import stream_steps, stream_windows
     >>> path = data_dir() / "comma2k19_rav4_segment.csv"
     >>> blocks = stream_steps(stream_windows(path, load_vehicle("suv_rav4")))
     >>> blocks.slip.shape[0], blocks.surface
     (2, 'dry')
-    >>> state, trajectory = online_estimate(blocks)  # doctest: +SKIP
-    >>> summary_record(trajectory, -1)["enough_evidence"]  # doctest: +SKIP
+    >>> run = online_estimate(blocks)  # doctest: +SKIP
+    >>> run.to_dict()["final"]["enough_evidence"]  # doctest: +SKIP
     False
     """
     estimator = OnlineEstimator.create(
