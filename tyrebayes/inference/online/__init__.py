@@ -1,6 +1,7 @@
 """The in-car estimator: the per-tyre posterior updated online, window block by window block.
 
-:mod:`.estimator` holds :class:`OnlineEstimator` (``init``, ``update``, ``summary``, ``run``);
+:mod:`.estimator` holds :class:`OnlineEstimator` (``init``, ``update``, ``summary``, ``run``),
+:mod:`.driver` its compiled runs over streams;
 the parts are one concept per module: θ and the type prior (:mod:`.parameters`), the blocks of
 windows it reads (:mod:`.windows`), their likelihood (:mod:`.block_likelihood`), the Laplace
 update (:mod:`.laplace_update`), how θ moves between steps (:mod:`.process`), the change
@@ -16,11 +17,11 @@ and a drive's run (:mod:`.lateral_run`).
 
 from .config import OnlineConfig as OnlineConfig
 from .config import default_config as default_config
-from .estimator import COMPILER_OPTIONS as COMPILER_OPTIONS
+from .driver import COMPILER_OPTIONS as COMPILER_OPTIONS
+from .driver import online_estimate as online_estimate
+from .driver import run_online as run_online
+from .driver import run_online_cars as run_online_cars
 from .estimator import OnlineEstimator as OnlineEstimator
-from .estimator import online_estimate as online_estimate
-from .estimator import run_online as run_online
-from .estimator import run_online_cars as run_online_cars
 from .lateral import OnlineLateralEstimator as OnlineLateralEstimator
 from .lateral import online_lateral as online_lateral
 from .lateral_blocks import LateralBlocks as LateralBlocks

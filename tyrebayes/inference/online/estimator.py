@@ -37,18 +37,15 @@ Examples
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable
 from typing import NamedTuple
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
-from ..tyre.adequacy import likelier_surface
-from ..tyre.model import SURFACES, TyrePriors, check_kind
+from ..tyre.model import TyrePriors, check_kind
 from .block_likelihood import (
     block_curvature,
     block_log_likelihood,
@@ -56,11 +53,11 @@ from .block_likelihood import (
 )
 from .change import cusum_step, predictive_shift_ratios
 from .config import OnlineConfig, default_config
+from .estimate import state_moments, summary_of
 from .inflation import accrue_residuals, empty_inflation, inflation_in_use
 from .laplace_update import GaussianUpdate, laplace_update
 from .parameters import (
     PER_DRIVE,
-    PRIOR_CHECKED,
     QUADRATIC,
     TYRE_COORDINATES,
     GaussianPrior,
@@ -73,10 +70,6 @@ from .state import FilterState
 from .summary import (
     OnlineSummary,
     StateMoments,
-    c_x_direction,
-    joint_prior_sds,
-    log_normal_summary,
-    readiness,
 )
 from .swap import either, swap_step
 from .windows import STEP_S, WindowBlocks
@@ -129,7 +122,7 @@ class OnlineEstimator(eqx.Module):
     >>> state.mean.shape, float(state.time_s), float(state.n_slip_windows)
     ((11,), 0.0, 0.0)
 
-    :meth:`run` takes it through the steps of a stream (:func:`online_estimate`).
+    :meth:`run` takes it through the steps of a stream (:func:`~.driver.online_estimate`).
     """
 
     prior: GaussianPrior
@@ -397,96 +390,13 @@ class OnlineEstimator(eqx.Module):
         return self.summary_of(self.moments(state))
 
     def moments(self, state: FilterState) -> StateMoments:
-        """What :meth:`summary_of` reads of a state: the part of a summary that needs θ's
-        covariance, and the counters."""
-        idx = self._index
-        mean_temperature = jnp.where(
-            state.n_slip_windows > 0,
-            state.temperature_sum / jnp.maximum(state.n_slip_windows, 1.0),
-            20.0,
-        )
-        a = c_x_direction(state.mean.shape[0], mean_temperature, idx, state.mean.dtype)
-        return StateMoments(
-            time_s=state.time_s,
-            mean=state.mean,
-            sd=jnp.sqrt(jnp.diag(state.cov)),
-            log_c_x_mean=a @ state.mean,
-            log_c_x_sd=jnp.sqrt(a @ state.cov @ a),
-            n_slip_windows=state.n_slip_windows,
-            n_excited_windows=state.n_excited_windows,
-            n_limit_windows=state.n_limit_windows,
-            alarm=state.alarm,
-            swap_alarm=state.swap_alarm,
-            n_alarms=state.n_alarms,
-            log_bayes_factor=state.log_bayes_factor,
-            slip_inflation=inflation_in_use(
-                state.inflation, self.config.initial_inflation, self.config.inflation_prior_blocks
-            ),
-        )
+        """What :meth:`summary_of` reads of a state (:func:`~.estimate.state_moments`)."""
+        return state_moments(state, self._index, self.config)
 
     def summary_of(self, moments: StateMoments) -> OnlineSummary:
-        """The estimate from a state's :meth:`moments` (unbatched; vmap for many)."""
-        idx = self._index
-        sd = moments.sd
-        c_x = log_normal_summary(moments.log_c_x_mean, moments.log_c_x_sd)
-        gain_i, offset_i, c_i = idx["log_force_gain"], idx["slip_offset"], idx["log_c_xr"]
-        prior_sds = (moments.mean - self.prior.mean) / jnp.sqrt(jnp.diag(self.prior.cov))
-        prior_z = prior_sds[c_i]
-        checked = jnp.asarray([n in PRIOR_CHECKED for n in self.prior.names])
-        checked_sds = jnp.where(checked, prior_sds, 0.0)
-        worst = jnp.argmax(jnp.abs(checked_sds))
-        rows = np.asarray([i for i, n in enumerate(self.prior.names) if n in PRIOR_CHECKED])
-        joint = joint_prior_sds(
-            (moments.mean - self.prior.mean)[rows], self.prior.cov[np.ix_(rows, rows)]
-        )
-        conflict = (jnp.abs(checked_sds[worst]) > self.config.max_prior_z) | (
-            joint > self.config.max_prior_z
-        )
-        ready, reason = readiness(
-            c_x, moments.n_slip_windows, moments.n_excited_windows, prior_z, self.config, conflict
-        )
-        mu_i = idx["log_mu_max"]
-        mu_contraction = 1.0 - sd[mu_i] / jnp.sqrt(self.prior.cov[mu_i, mu_i])
-        mu_observed = (moments.n_limit_windows > 0) & (
-            mu_contraction >= self.config.mu_observed_contraction
-        )
-        mu_prior_z = prior_sds[mu_i]
-        likelier, label_log_bf = likelier_surface(
-            moments.mean[mu_i],
-            sd[mu_i],
-            self.prior.surface,
-            SURFACES,
-            jnp.log(self.priors.mu_median(SURFACES)),
-            self.priors.mu_log_sd(SURFACES),
-        )
-        return OnlineSummary(
-            time_s=moments.time_s,
-            c_x=c_x,
-            c_xr=log_normal_summary(moments.mean[c_i], sd[c_i]),
-            mu_max=log_normal_summary(moments.mean[mu_i], sd[mu_i]),
-            force_gain=log_normal_summary(moments.mean[gain_i], sd[gain_i]),
-            slip_offset_mean=moments.mean[offset_i],
-            slip_offset_sd=sd[offset_i],
-            ready=ready,
-            reason=reason,
-            mu_observed=mu_observed,
-            mu_prior_z=mu_prior_z,
-            mu_likelier_surface=likelier.astype(jnp.int32),
-            mu_label_log_bf=label_log_bf,
-            alarm=moments.alarm,
-            swap_alarm=moments.swap_alarm,
-            n_alarms=moments.n_alarms,
-            swap_log_bayes_factor=moments.log_bayes_factor,
-            n_slip_windows=moments.n_slip_windows,
-            n_excited_windows=moments.n_excited_windows,
-            n_limit_windows=moments.n_limit_windows,
-            slip_inflation=moments.slip_inflation,
-            prior_conflict=conflict,
-            conflict_prior_sds=checked_sds[worst],
-            conflict_joint_prior_sds=joint,
-            conflict_coordinate=worst.astype(jnp.int32),
-            coordinate_names=self.prior.names,
-        )
+        """The estimate from a state's :meth:`moments` (unbatched; vmap for many;
+        :func:`~.estimate.summary_of`)."""
+        return summary_of(moments, self.prior, self.priors, self.config)
 
     def run(self, state: FilterState, blocks: WindowBlocks) -> OnlineRun:
         """Scan :meth:`update` over blocks (leading axis); returns the last state and every step's
@@ -505,98 +415,7 @@ class OnlineEstimator(eqx.Module):
         return OnlineRun(state=last, trajectory=jax.vmap(self.summary_of)(moments))
 
 
-#: XLA options the estimator's compiled runs use: XLA's fast math, with NaN, infinities, IEEE
-#: division and the library's functions kept as they are. What it leaves on is reassociation,
-#: fused multiply-add and the sign of zero: round-off only, so the filter's finiteness checks and
-#: safeguards work as written. A Magic Formula car-hour ran 1.07x faster with them, its final
-#: mean within 3e-10 posterior sds of the default compilation's, with the same alarms and flags
-#: (``benchmarks/results/online_speed.json``, ``compiler_options``); a test compares the two on
-#: a linear-model stream.
-COMPILER_OPTIONS = {
-    "xla_cpu_enable_fast_math": True,
-    "xla_cpu_fast_math_honor_nans": True,
-    "xla_cpu_fast_math_honor_infs": True,
-    "xla_cpu_fast_math_honor_division": True,
-    "xla_cpu_fast_math_honor_functions": True,
-}
-
-
-@functools.partial(eqx.filter_jit, compiler_options=COMPILER_OPTIONS)
-def run_online(estimator: OnlineEstimator, state: FilterState, blocks: WindowBlocks) -> OnlineRun:
-    """:meth:`OnlineEstimator.run`, compiled with :data:`COMPILER_OPTIONS` (once per block shape
-    and estimator settings)."""
-    return estimator.run(state, blocks)
-
-
-@functools.partial(eqx.filter_jit, compiler_options=COMPILER_OPTIONS)
-def run_online_cars(
-    estimator: OnlineEstimator, states: FilterState, blocks: WindowBlocks
-) -> OnlineRun:
-    """:meth:`OnlineEstimator.run` over many cars in one compiled call: ``states`` and ``blocks``
-    carry a leading car axis (vmapped), the trajectory a car axis before its time axis."""
-    return jax.vmap(estimator.run)(states, blocks)
-
-
-def online_estimate(
-    blocks: WindowBlocks,
-    *,
-    kind: str = "magic",
-    priors: TyrePriors | None = None,
-    config: OnlineConfig | None = None,
-    imu_gain_log_sd: float = 0.0,
-) -> OnlineRun:
-    """Run the estimator from the type prior over one stream's blocks (the command's path).
-
-    Parameters
-    ----------
-    blocks : WindowBlocks
-        The stream's steps (:func:`~.stream.stream_steps`); their surface sets μ_max's prior.
-    kind : str
-        The tyre-curve model (:data:`~tyrebayes.inference.tyre.curves.MODEL_KINDS`).
-    priors : TyrePriors, optional
-        The batch model's prior scales (default :class:`TyrePriors`).
-    config : OnlineConfig, optional
-        Drift, Newton steps, change detection, readiness (default :func:`~.config.default_config`).
-    imu_gain_log_sd : float
-        Prior sd of the IMU's log gain (0: the gain is known).
-
-    Returns
-    -------
-    OnlineRun
-        The final filter state and the trajectory of summaries, one per step; its ``to_dict()``
-        is the estimator's part of ``tyrebayes online --json``.
-
-    Examples
-    --------
-    The shipped one-minute segment in two steps; the filter's first compilation takes longer
-    than a doctest should, so that line is not run here (``tyrebayes online`` runs it):
-
-    >>> from tyrebayes import load_vehicle
-    >>> from tyrebayes._resources import data_dir
-    >>> from tyrebayes.inference.online import stream_steps, stream_windows
-    >>> path = data_dir() / "comma2k19_rav4_segment.csv"
-    >>> blocks = stream_steps(stream_windows(path, load_vehicle("suv_rav4")))
-    >>> blocks.slip.shape[0], blocks.surface
-    (2, 'dry')
-    >>> run = online_estimate(blocks)  # doctest: +SKIP
-    >>> run.to_dict()["final"]["enough_evidence"]  # doctest: +SKIP
-    False
-    """
-    estimator = OnlineEstimator.create(
-        kind=kind,
-        surface=blocks.surface,
-        priors=priors,
-        config=config,
-        imu_gain_log_sd=imu_gain_log_sd,
-    )
-    return run_online(estimator, estimator.init(), blocks)
-
-
 __all__ = [
-    "COMPILER_OPTIONS",
     "OnlineEstimator",
-    "online_estimate",
-    "run_online",
-    "run_online_cars",
     "type_prior",
 ]
