@@ -54,7 +54,6 @@ from tyrebayes.inference.online import (  # noqa: E402
     online_estimate,
     stream_steps,
     stream_windows,
-    summary_record,
 )
 from tyrebayes.inference.tyre.adequacy import (  # noqa: E402
     EXCITATION_FORCE,
@@ -134,8 +133,8 @@ def online_case(stream: Path, vehicle: Path, surface: str) -> dict:
     """The online estimator over the drive (the command's path): its last step's μ_max."""
     windows = stream_windows(stream, vehicle, surface=surface)
     steps = stream_steps(windows, surface)
-    _, trajectory = online_estimate(steps)
-    last = summary_record(trajectory, steps.n_blocks - 1)
+    trajectory = online_estimate(steps).trajectory
+    last = trajectory.to_dict(steps.n_blocks - 1)
     row = {
         "surface": surface,
         "mu_max": last["mu_max"],

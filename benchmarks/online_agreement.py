@@ -80,7 +80,7 @@ def one_drive(name, windows, truth_at, n_steps, estimator, source, max_step_s=No
     steps = stream_steps(windows, max_step_s=max_step_s)
     n = steps.n_blocks
     t0 = time.perf_counter()
-    _, traj = run_online(estimator, estimator.init(), pad_steps(steps, n_steps))
+    traj = run_online(estimator, estimator.init(), pad_steps(steps, n_steps)).trajectory
     jax.block_until_ready(traj)
     online_wall = time.perf_counter() - t0
     ekf = linear_ekf(pad_steps(steps, n_steps))

@@ -199,7 +199,7 @@ def main() -> None:
         windows = swap_drive(i, args.before, args.after, factor)
         steps = stream_steps(windows, max_step_s=args.max_step_s)
         n = steps.n_blocks
-        _, traj = run_online(estimator, estimator.init(), pad_steps(steps, n_steps))
+        traj = run_online(estimator, estimator.init(), pad_steps(steps, n_steps)).trajectory
         times = np.asarray(traj.time_s)[:n]
         alarmed = np.asarray(traj.alarm)[:n]
         alarms = times[alarmed]
@@ -256,7 +256,8 @@ def main() -> None:
             lambda x, size=size: jnp.broadcast_to(x, (size, *x.shape)), estimator.init()
         )
         parts.append(jax.block_until_ready(run_online_cars(estimator, states, chunk)))
-    final, traj = jax.tree.map(lambda *x: jnp.concatenate(x), *parts)
+    run = jax.tree.map(lambda *x: jnp.concatenate(x), *parts)
+    final, traj = run.state, run.trajectory
     false_wall = time.perf_counter() - t0
     hours = float(np.sum(np.asarray(cars.time_s)[:, -1]) / 3600.0)
     n_false = int(np.sum(np.asarray(final.n_alarms)))

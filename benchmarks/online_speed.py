@@ -276,10 +276,10 @@ def compiler_options_gain(steps, hours: float, pairs: int, reps: int) -> dict:
         for side, fn in (("default", default), ("estimator", run_online)):
             outputs[side] = jax.block_until_ready(fn(est, est.init(), steps))
             runs[side].append(timed(lambda fn=fn: fn(est, est.init(), steps), reps)[1] / hours)
-    final = {side: outputs[side][0] for side in outputs}
+    final = {side: outputs[side].state for side in outputs}
     sd = np.sqrt(np.diag(np.asarray(final["default"].cov)))
     mean_sds = np.abs(np.asarray(final["estimator"].mean - final["default"].mean)) / sd
-    c_x = {side: np.asarray(outputs[side][1].c_x.mean) for side in outputs}
+    c_x = {side: np.asarray(outputs[side].trajectory.c_x.mean) for side in outputs}
     return {
         **_alternated(runs, "default", "estimator"),
         "options": COMPILER_OPTIONS,

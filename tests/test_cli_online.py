@@ -78,7 +78,9 @@ def test_online_lateral_object_on_a_cornering_drive(tmp_path):
     frame, truth = simulate_cornering(load_vehicle("compact_fwd"), duration_s=300.0, seed=3)
     path = tmp_path / "corners.parquet"
     write_stream(frame, path)
-    lateral, reason = _lateral(path, "compact_fwd", "dry")
+    out = _lateral(path, "compact_fwd", "dry")
+    assert list(out) == ["lateral_reason", "lateral"]
+    lateral, reason = out["lateral"], out["lateral_reason"]
     assert reason == "" and lateral["ready"] and lateral["reason"] == ""
     for key in ("c_y_front", "c_y_rear", "understeer_gradient"):
         assert set(lateral[key]) == {"mean", "sd", "hdi_90"}, key

@@ -66,12 +66,14 @@ from .inference.wear.cornering import (
 from .inference.online import OnlineConfig as OnlineConfig
 from .inference.online import OnlineEstimator as OnlineEstimator
 from .inference.online import online_estimate as online_estimate
+from .inference.online import OnlineRun as OnlineRun
+from .inference.online import OnlineSummary as OnlineSummary
 from .inference.online import stream_steps as stream_steps
 from .inference.online import stream_windows as stream_windows
-from .inference.online import summary_record as summary_record
 from .inference.online import window_blocks as window_blocks
 from .inference.online import OnlineLateral as OnlineLateral
 from .inference.online import online_lateral as online_lateral
+from .inference.online import LateralRun as LateralRun
 from .inference.online import lateral_blocks as lateral_blocks
 
 # 3. predict

@@ -140,9 +140,10 @@ def _lateral_text(lateral: dict | None, reason: str) -> list[str]:
     return lines
 
 
-def _lateral(path, vehicle_name: str, surface: str) -> tuple[dict | None, str]:
-    """The online lateral estimate of a stream: its ``"lateral"`` object and the reason it is
-    null ("" when it is not)."""
+def _lateral(path, vehicle_name: str, surface: str) -> dict:
+    """The online lateral estimate of a stream: the output's ``"lateral_reason"`` ("" when
+    there is a ``"lateral"`` object) and ``"lateral"`` (null until the understeer gradient is
+    identified)."""
     from .._domain import load_vehicle
     from ..inference.lateral import NoCornering, cornering_observations
     from ..inference.online.lateral import online_lateral
@@ -157,11 +158,8 @@ def _lateral(path, vehicle_name: str, surface: str) -> tuple[dict | None, str]:
     try:
         obs = cornering_observations(validated.data, vehicle)
     except NoCornering as err:
-        return None, str(err)
-    result, _ = online_lateral(lateral_blocks(obs), surface=surface)
-    if not result.k_identified:
-        return None, result.reason()
-    return result.to_dict(), ""
+        return {"lateral_reason": str(err), "lateral": None}
+    return online_lateral(lateral_blocks(obs), surface=surface).to_dict()
 
 
 def run(args: argparse.Namespace) -> int:
@@ -175,7 +173,6 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ..inference.online import STEP_S, online_estimate, stream_steps, stream_windows
-    from ..inference.online.summary import summary_record
     from ..inference.tyre.model import TyrePriors
 
     with stream_file(args, args.vehicle) as path:
@@ -186,12 +183,11 @@ def run(args: argparse.Namespace) -> int:
             temperature_c=args.temperature,
             ambient_c=args.ambient,
         )
-        lateral, lateral_reason = _lateral(path, args.vehicle, args.surface)
+        lateral = _lateral(path, args.vehicle, args.surface)
     steps = stream_steps(windows, args.surface, max_step_s=args.max_step_s)
     imu = float(np.max(windows.get("imu_gain_log_sd", np.zeros(1)), initial=0.0))
     priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
-    _, trajectory = online_estimate(steps, kind=args.model, priors=priors, imu_gain_log_sd=imu)
-    records = [summary_record(trajectory, i) for i in range(steps.n_blocks)]
+    estimate = online_estimate(steps, kind=args.model, priors=priors, imu_gain_log_sd=imu)
     payload = {
         "stream": args.stream,
         "vehicle": args.vehicle,
@@ -200,17 +196,13 @@ def run(args: argparse.Namespace) -> int:
         "load_sensitivity": bool(args.load_sensitivity),
         "step_s": STEP_S,
         "max_step_s": STEP_S if args.max_step_s is None else args.max_step_s,
-        "trajectory": records,
-        "final": records[-1],
-        "alarms_s": [r["time_s"] for r in records if r["alarm"]],
-        "alarm_kinds": [r["alarm_kind"] for r in records if r["alarm"]],
+        **estimate.to_dict(),  # trajectory, final, alarms_s, alarm_kinds
         "note": LOOKAHEAD_NOTE,
     }
     if args.figure is not None:
-        payload["figure"] = _figure(args, windows, steps, trajectory, records)
+        payload["figure"] = _figure(args, windows, steps, estimate.trajectory, payload["alarms_s"])
     # The lateral object comes last (the interface the checks read).
-    payload["lateral_reason"] = lateral_reason
-    payload["lateral"] = lateral
+    payload.update(lateral)  # lateral_reason, lateral
     if args.json:
         print_json(payload)
     else:
@@ -218,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _figure(args, windows, steps, trajectory, records) -> str:
+def _figure(args, windows, steps, trajectory, alarms_s: list[float]) -> str:
     import numpy as np
 
     from .._io import atomic_write_bytes
@@ -241,7 +233,7 @@ def _figure(args, windows, steps, trajectory, records) -> str:
         np.asarray(trajectory.c_x.low),
         np.asarray(trajectory.c_x.high),
         np.asarray(trajectory.ready),
-        alarms_s=np.asarray([r["time_s"] for r in records if r["alarm"]]),
+        alarms_s=np.asarray(alarms_s),
         batch=batch,
         baseline=(np.asarray(ekf.time_s), np.asarray(ekf.c_x_mean), np.asarray(ekf.c_x_sd)),
         title=f"{Path(args.stream).name}: C_x online ({args.model}) against the batch posterior",

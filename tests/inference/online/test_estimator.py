@@ -15,7 +15,6 @@ from tyrebayes.inference.online import (
     pad_steps,
     run_online,
     run_online_cars,
-    summary_record,
     window_blocks,
 )
 from tyrebayes.inference.online.process import predict
@@ -40,11 +39,11 @@ def _steps(windows):
 
 def test_empty_step_changes_only_the_process(estimator):
     steps = _steps(linear_windows(0, 600.0))  # 20 steps of windows, then empty ones
-    state, _ = run_online(estimator, estimator.init(), steps)
+    state = run_online(estimator, estimator.init(), steps).state
     # The same, with the empty steps 400 s after the last window: only the process model's
     # drift and reversion act.
     later = eqx.tree_at(lambda b: b.time_s, steps, steps.time_s.at[20:].add(400.0))
-    moved, _ = run_online(estimator, estimator.init(), later)
+    moved = run_online(estimator, estimator.init(), later).state
     cfg = estimator.config
     expected_mean, expected = predict(
         estimator.prior, state.mean, state.cov, 400.0, cfg.drift_sd_per_sqrt_s, cfg.reversion_s
@@ -65,9 +64,11 @@ def test_vmap_over_cars_equals_one_car_at_a_time(estimator):
     cars = [_steps(linear_windows(s, 300.0, c_x=30.0 + 10 * s)) for s in range(2)]
     stacked = jax.tree.map(lambda *x: jnp.stack(x), *cars)
     states = jax.tree.map(lambda x: jnp.stack([x, x]), estimator.init())
-    final, trajectory = run_online_cars(estimator, states, stacked)
+    run = run_online_cars(estimator, states, stacked)
+    final, trajectory = run.state, run.trajectory
     for i, car in enumerate(cars):
-        one, one_trajectory = run_online(estimator, estimator.init(), car)
+        one_run = run_online(estimator, estimator.init(), car)
+        one, one_trajectory = one_run.state, one_run.trajectory
         # Batched and single linear algebra round differently (seen: 3e-10 of the covariance's
         # scale, 3e-8 of a posterior sd in a mean): compare in posterior sds.
         sd = np.sqrt(np.diag(one.cov))
@@ -82,8 +83,10 @@ def test_the_compiler_options_change_round_off_only(estimator):
     # XLA's defaults must give the same trajectory to round-off, alarms and flags alike.
     steps = _steps(linear_windows(4, 600.0, c_x=45.0))
     default = eqx.filter_jit(lambda est, state, blocks: est.run(state, blocks))
-    plain, plain_trajectory = default(estimator, estimator.init(), steps)
-    fast, fast_trajectory = run_online(estimator, estimator.init(), steps)
+    plain_run = default(estimator, estimator.init(), steps)
+    plain, plain_trajectory = plain_run.state, plain_run.trajectory
+    fast_run = run_online(estimator, estimator.init(), steps)
+    fast, fast_trajectory = fast_run.state, fast_run.trajectory
     sd = np.sqrt(np.diag(plain.cov))
     np.testing.assert_allclose((fast.mean - plain.mean) / sd, 0.0, atol=1e-6)
     np.testing.assert_allclose(fast.cov / np.outer(sd, sd), plain.cov / np.outer(sd, sd), atol=1e-7)
@@ -93,8 +96,10 @@ def test_the_compiler_options_change_round_off_only(estimator):
 
 
 def test_the_estimate_settles_on_the_truth_and_is_ready(estimator):
-    _, trajectory = run_online(estimator, estimator.init(), _steps(linear_windows(3, 600.0)))
-    record = summary_record(trajectory, 19)
+    trajectory = run_online(
+        estimator, estimator.init(), _steps(linear_windows(3, 600.0))
+    ).trajectory
+    record = trajectory.to_dict(19)
     assert record["enough_evidence"] and record["reason"] is None
     lo, hi = record["c_x"]["hdi_90"]
     assert lo <= 40.0 <= hi
@@ -107,8 +112,8 @@ def test_gauss_newton_and_exact_curvature_give_the_same_posterior(estimator):
     steps = _steps(linear_windows(3, 600.0))
     exact = eqx.tree_at(lambda e: e.config, estimator, default_config("linear", gauss_newton=False))
     assert estimator.config.gauss_newton and not exact.config.gauss_newton
-    gauss_newton, _ = run_online(estimator, estimator.init(), steps)
-    hessian, _ = run_online(exact, exact.init(), steps)
+    gauss_newton = run_online(estimator, estimator.init(), steps).state
+    hessian = run_online(exact, exact.init(), steps).state
     c = estimator.prior.names.index("log_c_xr")
     sd = float(np.sqrt(hessian.cov[c, c]))
     assert abs(float(gauss_newton.mean[c] - hessian.mean[c])) < 0.1 * sd
@@ -116,10 +121,10 @@ def test_gauss_newton_and_exact_curvature_give_the_same_posterior(estimator):
 
 
 def test_change_fires_on_a_planted_step_and_not_without_one(estimator):
-    _, quiet = run_online(estimator, estimator.init(), _steps(linear_windows(5, 1200.0)))
+    quiet = run_online(estimator, estimator.init(), _steps(linear_windows(5, 1200.0))).trajectory
     assert int(quiet.n_alarms[-1]) == 0
     swapped = _steps(linear_windows(5, 1200.0, c_x_after=48.0, change_s=600.0))
-    _, loud = run_online(estimator, estimator.init(), swapped)
+    loud = run_online(estimator, estimator.init(), swapped).trajectory
     alarms = np.asarray(loud.time_s)[np.asarray(loud.alarm)]
     assert alarms.size >= 1 and 600.0 < alarms[0] <= 900.0
     # Mid-drive, so the change detector's, not the drive-start swap test's.
@@ -140,7 +145,8 @@ def test_one_block_of_outlying_slips_is_not_a_change(estimator, seed):
     windows = linear_windows(seed, 1200.0)
     burst = (windows["time_s"] > 700.0) & (windows["time_s"] < 710.0)
     windows["slip"] = windows["slip"] + np.where(burst, 20 * 2e-4 * 5, 0.0)
-    state, trajectory = run_online(estimator, estimator.init(), _steps(windows))
+    run = run_online(estimator, estimator.init(), _steps(windows))
+    state, trajectory = run.state, run.trajectory
     assert int(trajectory.n_alarms[-1]) == 0
     assert abs(float(trajectory.c_x.mean[-1]) / 40.0 - 1.0) < 0.05
     noise = np.asarray(["noise_scale" in n for n in estimator.prior.names])
@@ -162,7 +168,7 @@ def test_swap_at_a_drive_start_is_found_and_a_new_drive_alone_is_not(estimator):
     # and neither detector fires.
     same = _steps(_two_drives(11, 40.0, -0.003))
     assert bool(same.drive_start[20]) and int(np.sum(np.asarray(same.drive_start))) == 2
-    _, quiet = run_online(estimator, estimator.init(), same)
+    quiet = run_online(estimator, estimator.init(), same).trajectory
     assert int(quiet.n_alarms[-1]) == 0
     assert float(np.max(quiet.swap_log_bayes_factor)) < estimator.config.swap_threshold
     # The same, on a tyre 30 % stiffer: the swap test (alone: the mid-drive CUSUM switched off)
@@ -171,7 +177,7 @@ def test_swap_at_a_drive_start_is_found_and_a_new_drive_alone_is_not(estimator):
     swap_only = OnlineEstimator.create(
         kind="linear", config=default_config("linear", change_threshold=float("inf"))
     )
-    _, loud = run_online(swap_only, swap_only.init(), _steps(_two_drives(11, 52.0, -0.003)))
+    loud = run_online(swap_only, swap_only.init(), _steps(_two_drives(11, 52.0, -0.003))).trajectory
     alarms = np.asarray(loud.time_s)[np.asarray(loud.alarm)]
     assert alarms.size == 1 and 600.0 < alarms[0] <= 900.0
     assert np.array_equal(np.asarray(loud.swap_alarm), np.asarray(loud.alarm))
@@ -181,8 +187,8 @@ def test_swap_at_a_drive_start_is_found_and_a_new_drive_alone_is_not(estimator):
 def test_not_ready_without_excitation(estimator):
     # Forces that never leave the noise band: many windows, and no evidence of a slope.
     windows = linear_windows(7, 600.0, force_range=(0.02, 0.045))
-    _, trajectory = run_online(estimator, estimator.init(), _steps(windows))
-    record = summary_record(trajectory, 19)
+    trajectory = run_online(estimator, estimator.init(), _steps(windows)).trajectory
+    record = trajectory.to_dict(19)
     assert not record["enough_evidence"]
     assert record["c_x"] is None and record["c_xr"] is None
     assert "excitation" in record["reason"]
@@ -195,10 +201,11 @@ def test_load_sensitivity_is_tracked_where_the_priors_have_it():
     estimator = OnlineEstimator.create(kind="linear", priors=TyrePriors().with_load_sensitivity())
     assert estimator.prior.names[-1] == "load_sensitivity"
     windows = linear_windows(3, 600.0, load_sensitivity=0.8)
-    state, trajectory = run_online(estimator, estimator.init(), _steps(windows))
+    run = run_online(estimator, estimator.init(), _steps(windows))
+    state, trajectory = run.state, run.trajectory
     q, q_sd = float(state.mean[-1]), float(np.sqrt(state.cov[-1, -1]))
     assert abs(q - 0.8) < 1.645 * q_sd and q_sd < 0.15
-    lo, hi = summary_record(trajectory, 19)["c_x"]["hdi_90"]
+    lo, hi = trajectory.to_dict(19)["c_x"]["hdi_90"]
     assert lo <= 40.0 <= hi
 
 
@@ -207,7 +214,7 @@ def test_other_settings_reuse_the_compiled_filter(estimator, caplog):
     import logging
 
     steps = _steps(linear_windows(3, 300.0))
-    _, default = run_online(estimator, estimator.init(), steps)  # compiled for this shape
+    default = run_online(estimator, estimator.init(), steps).trajectory  # compiled for this shape
     lax = OnlineEstimator.create(
         kind="linear",
         config=default_config(
@@ -216,7 +223,7 @@ def test_other_settings_reuse_the_compiled_filter(estimator, caplog):
     )
     caplog.clear()
     with jax.log_compiles(True), caplog.at_level(logging.WARNING):
-        _, trajectory = run_online(lax, lax.init(), steps)
+        trajectory = run_online(lax, lax.init(), steps).trajectory
     messages = [r.getMessage() for r in caplog.records]
     assert not [m for m in messages if m.startswith("Finished XLA compilation")]
     # ... and it read them: with no evidence asked for, the first step is "ready".
@@ -243,8 +250,8 @@ def test_a_dry_road_labelled_ice_is_not_reported_as_such(estimator, surface):
         estimator = OnlineEstimator.create(kind="linear", surface=surface)
     windows = _with_abs_stop(_with_abs_stop(linear_windows(11, 600.0), 200.0, 0.9), 400.0, 0.9)
     blocks = window_blocks(windows, surface, width=WIDTH)
-    _, trajectory = run_online(estimator, estimator.init(), pad_steps(blocks, N_STEPS))
-    record = summary_record(trajectory, blocks.n_blocks - 1)  # the drive's last step
+    trajectory = run_online(estimator, estimator.init(), pad_steps(blocks, N_STEPS)).trajectory
+    record = trajectory.to_dict(blocks.n_blocks - 1)  # the drive's last step
     if surface == "dry":
         assert record["mu_max"] is not None and record["mu_max_note"] is None
         assert record["prior_conflict"] is None and record["enough_evidence"]

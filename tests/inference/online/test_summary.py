@@ -19,7 +19,6 @@ from tyrebayes.inference.online.summary import (
     joint_prior_sds,
     log_normal_summary,
     readiness,
-    summary_record,
 )
 
 CONFIG = default_config("magic")
@@ -81,23 +80,23 @@ def _summary(
 
 
 def test_an_observed_mu_max_far_from_its_surface_prior_questions_the_label():
-    far = summary_record(_summary(True, 5.0))
+    far = _summary(True, 5.0).to_dict()
     assert far["mu_max"] is not None and far["mu_max_prior_sds"] == 5.0
     assert far["mu_max_note"].startswith("+5.0 prior sds from the surface's median")
-    assert summary_record(_summary(True, -2.7))["mu_max_note"] is None
+    assert _summary(True, -2.7).to_dict()["mu_max_note"] is None
     # Not observed: the value is the prior's, and says nothing of the label.
-    assert summary_record(_summary(False, 5.0))["mu_max_note"] is None
+    assert _summary(False, 5.0).to_dict()["mu_max_note"] is None
 
 
 def test_a_tyre_coordinate_in_conflict_with_its_prior_withholds_c_x_and_mu_max():
-    record = summary_record(_summary(True, 2.7, conflict=True))
+    record = _summary(True, 2.7, conflict=True).to_dict()
     assert record["mu_max"] is None and record["mu_max_reason"].startswith("withheld: ")
     assert record["prior_conflict"] == {
         "coordinate": "abs_force_ratio",
         "prior_sds": 5.3,
         "joint_prior_sds": pytest.approx(4.9),
     }
-    assert summary_record(_summary(True, 2.7))["prior_conflict"] is None
+    assert _summary(True, 2.7).to_dict()["prior_conflict"] is None
 
 
 def _excited_prior_state():
@@ -157,15 +156,15 @@ def test_coordinates_each_inside_but_together_beyond_the_distance_are_a_conflict
     assert abs(float(summary.conflict_prior_sds)) == pytest.approx(0.85 * limit)
     assert float(summary.conflict_joint_prior_sds) > limit
     assert bool(summary.prior_conflict) and int(summary.reason) == PRIOR_CONFLICT
-    assert summary_record(summary)["prior_conflict"]["joint_prior_sds"] > limit
+    assert summary.to_dict()["prior_conflict"]["joint_prior_sds"] > limit
 
 
 def test_an_observed_mu_max_likelier_on_another_surface_questions_the_label():
-    record = summary_record(_summary(True, 2.7, label_log_bf=4.4))
+    record = _summary(True, 2.7, label_log_bf=4.4).to_dict()
     assert record["mu_max_likelier_surface"] == "dry"
     assert record["mu_max_note"] == (
         "81 times likelier under the dry prior (Bayes factor beyond 20): check the drive's "
         "surface label"
     )
-    assert summary_record(_summary(True, 2.7, label_log_bf=2.0))["mu_max_note"] is None
-    assert summary_record(_summary(False, 2.7, label_log_bf=4.4))["mu_max_note"] is None
+    assert _summary(True, 2.7, label_log_bf=2.0).to_dict()["mu_max_note"] is None
+    assert _summary(False, 2.7, label_log_bf=4.4).to_dict()["mu_max_note"] is None

@@ -49,12 +49,14 @@ slowest car needs) and scans over time.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
+from typing import NamedTuple
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-from jaxtyping import Array, Bool, Float
+from jaxtyping import Array, Bool, Float, Int
 
 # Step lengths tried when the full Newton step does not lower the objective (the best is taken;
 # 0 keeps the point).
@@ -188,6 +190,205 @@ def exact_curvature(
     return curvature
 
 
+class _Iterate(NamedTuple):
+    """The Newton iterations' state (the ``lax.while_loop``'s carry).
+
+    Attributes
+    ----------
+    i : Int[Array, ""]
+        Iterations done.
+    theta : Float[Array, "p"]
+        The current point.
+    value, gradient : Array
+        The objective and its gradient there.
+    information, absolute : Float[Array, "p p"]
+        The block's informations where the Hessian was last taken (:func:`_informations`).
+    inverse : Float[Array, "p p"]
+        The inverse of the (damped) Newton matrix from them.
+    refresh : Bool[Array, ""]
+        Whether the next iteration takes the Hessian again (the last step was long).
+    damping : Float[Array, ""]
+        The Levenberg-Marquardt λ of the next iteration.
+    damped_with : Float[Array, ""]
+        The λ of the last iteration, which ``inverse`` was taken with.
+    length : Float[Array, ""]
+        The last step's length in posterior sds.
+    """
+
+    i: Int[Array, ""]
+    theta: Float[Array, "p"]
+    value: Float[Array, ""]
+    gradient: Float[Array, "p"]
+    information: Float[Array, "p p"]
+    absolute: Float[Array, "p p"]
+    inverse: Float[Array, "p p"]
+    refresh: Bool[Array, ""]
+    damping: Float[Array, ""]
+    damped_with: Float[Array, ""]
+    length: Float[Array, ""]
+
+
+@dataclasses.dataclass(frozen=True)
+class _Newton:
+    """The Newton iterations of one update: the objective ½(θ − m)ᵀP⁻¹(θ − m) − ℓ(θ) and the
+    settings its steps read (:func:`laplace_update`'s parameters; ``precision`` is P⁻¹).
+
+    Its methods are the loop's parts: :meth:`start`, :meth:`iterate` and :meth:`more`.
+    """
+
+    mean: Float[Array, "p"]
+    precision: Float[Array, "p p"]
+    log_likelihood: Callable[[Float[Array, "p"]], Float[Array, ""]]
+    curvature: Curvature
+    # Step lengths of the line search, and the coordinates whose steps can change the curvature
+    # (a quadratic one's only moves the point).
+    lengths: Float[Array, "k"]
+    curved: Bool[Array, "p"]
+    newton_steps: int
+    tolerance: float | Float[Array, ""]
+    damped: bool | Bool[Array, ""]
+
+    def objective(self, theta: Float[Array, "p"]) -> Float[Array, ""]:
+        """The objective at θ (+∞ where it is not finite)."""
+        d = theta - self.mean
+        value = 0.5 * d @ self.precision @ d - self.log_likelihood(theta)
+        return jnp.where(jnp.isfinite(value), value, jnp.inf)
+
+    def evaluated(self, theta: Float[Array, "p"]) -> tuple[Float[Array, ""], Float[Array, "p"]]:
+        """The objective and its gradient at θ from one pass (the gradient is the next
+        iteration's if θ is taken)."""
+
+        def negative_log_likelihood(theta):
+            return -self.log_likelihood(theta)
+
+        d = theta - self.mean
+        nll, g = jax.value_and_grad(negative_log_likelihood)(theta)
+        value = 0.5 * d @ self.precision @ d + nll
+        return jnp.where(jnp.isfinite(value), value, jnp.inf), self.precision @ d + g
+
+    def start(self) -> _Iterate:
+        """The first iterate: the predicted mean, its curvature taken in the same pass as the
+        objective and gradient there, and the Newton matrix's inverse from it (undamped)."""
+        log_lik, gradient, curvature = self.curvature(self.mean)
+        value = jnp.where(jnp.isfinite(log_lik), -log_lik, jnp.inf)
+        inf = jnp.asarray(jnp.inf, self.mean.dtype)
+        i = jnp.zeros((), jnp.int32)
+        objective_gradient = -gradient
+        information, absolute = _informations(curvature)
+        return _Iterate(
+            i=i,
+            theta=self.mean,
+            value=value,
+            gradient=objective_gradient,
+            information=information,
+            absolute=absolute,
+            inverse=_spd_inverse(self.precision + absolute)[0],
+            refresh=jnp.array(False),
+            damping=jnp.zeros((), self.mean.dtype),
+            damped_with=jnp.zeros((), self.mean.dtype),
+            length=inf,
+        )
+
+    def factors(
+        self, it: _Iterate
+    ) -> tuple[Float[Array, "p p"], Float[Array, "p p"], Float[Array, "p p"]]:
+        """The informations and the damped Newton matrix's inverse for this iteration: taken
+        again only when the Hessian is (``refresh``) or the damping changed, else reused."""
+        information, absolute = jax.lax.cond(
+            it.refresh,
+            lambda: _informations(self.curvature(it.theta)[2]),
+            lambda: (it.information, it.absolute),
+        )
+        inverse = jax.lax.cond(
+            it.refresh | (it.damping != it.damped_with),
+            lambda: _spd_inverse((1.0 + it.damping) * self.precision + absolute)[0],
+            lambda: it.inverse,
+        )
+        return information, absolute, inverse
+
+    def line_search(
+        self, it: _Iterate, step: Float[Array, "p"]
+    ) -> tuple[Float[Array, ""], Float[Array, ""], Float[Array, ""], Float[Array, "p"]]:
+        """The full step's objective, and the step length taken with the objective and gradient
+        at its end: the full step if it does not raise the objective, else the best of
+        :data:`_STEP_LENGTHS`."""
+        theta = it.theta
+        full_value, full_gradient = self.evaluated(theta - step)
+
+        def shorter():
+            candidates = theta[None, :] - self.lengths[:, None] * step[None, :]
+            taken = self.lengths[jnp.argmin(jax.vmap(self.objective)(candidates))]
+            return (taken, *self.evaluated(theta - taken * step))
+
+        accepted = full_value <= it.value
+        taken, new_value, new_gradient = jax.lax.cond(
+            accepted,
+            lambda: (jnp.ones((), self.mean.dtype), full_value, full_gradient),
+            shorter,
+        )
+        return full_value, taken, new_value, new_gradient
+
+    def iterate(self, it: _Iterate) -> _Iterate:
+        """One Newton iteration: the step, its line search, the next damping, and whether the
+        step was long enough to take the Hessian again."""
+        information, absolute, inverse = self.factors(it)
+        step = inverse @ it.gradient
+        step = jnp.where(jnp.all(jnp.isfinite(step)), step, 0.0)
+        full_value, taken, new_value, new_gradient = self.line_search(it, step)
+        moved = taken * step
+        newton_matrix = self.precision + absolute
+        step_curvature = step @ newton_matrix @ step
+        new_damping = _next_damping(
+            it.damping,
+            actual=it.value - full_value,
+            predicted=step @ it.gradient - 0.5 * step_curvature,
+            settled=jnp.sqrt(jnp.abs(step_curvature)) < self.tolerance,
+        )
+        new_damping = jnp.where(self.damped, new_damping, 0.0)
+        length = jnp.sqrt(jnp.abs(moved @ newton_matrix @ moved))
+        # The step's length in the curved coordinates' conditional sds (the Newton matrix's
+        # block): never shorter than in their marginal sds.
+        bending = jnp.where(self.curved, moved, 0.0)
+        refresh = jnp.sqrt(jnp.abs(bending @ newton_matrix @ bending)) > _REFRESH_SD
+        return _Iterate(
+            i=it.i + 1,
+            theta=it.theta - moved,
+            value=new_value,
+            gradient=new_gradient,
+            information=information,
+            absolute=absolute,
+            inverse=inverse,
+            refresh=refresh,
+            damping=new_damping,
+            damped_with=it.damping,
+            length=length,
+        )
+
+    def more(self, it: _Iterate) -> Bool[Array, ""]:
+        """Whether to iterate again: fewer than ``newton_steps`` done, and the last step not
+        yet within the tolerance. A step damped short is not a converged one: the loop goes on
+        until an undamped step is within the tolerance."""
+        return (it.i < self.newton_steps) & (
+            (it.i == 0) | (it.length >= self.tolerance) | (it.damped_with > 0)
+        )
+
+
+def _gaussian_update(
+    newton: _Newton, last: _Iterate, log_det_cov: Float[Array, ""]
+) -> GaussianUpdate:
+    """The update from the last iterate: its mode, the inverse of prior precision plus the
+    information where the Hessian was last taken, and the Laplace log-evidence."""
+    post_cov, log_det_newton = _spd_inverse(newton.precision + last.information)
+    # log(|Σ|/|P|) with Σ = (P⁻¹ + information)⁻¹.
+    log_det_ratio = -(log_det_newton + log_det_cov)
+    log_evidence = -last.value + 0.5 * log_det_ratio
+    return GaussianUpdate(
+        mean=last.theta,
+        cov=post_cov,
+        log_evidence=jnp.where(jnp.isfinite(log_evidence), log_evidence, 0.0),
+    )
+
+
 def laplace_update(
     log_likelihood: Callable[[Float[Array, "p"]], Float[Array, ""]],
     mean: Float[Array, "p"],
@@ -242,124 +443,19 @@ def laplace_update(
     ([0.5, 0.5], 0.5)
     """
     precision, log_det_cov = _spd_inverse(cov)
-
-    def objective(theta):
-        d = theta - mean
-        value = 0.5 * d @ precision @ d - log_likelihood(theta)
-        return jnp.where(jnp.isfinite(value), value, jnp.inf)
-
-    def negative_log_likelihood(theta):
-        return -log_likelihood(theta)
-
-    value_and_gradient = jax.value_and_grad(negative_log_likelihood)
-    curvature = exact_curvature(log_likelihood) if curvature is None else curvature
-    lengths = jnp.asarray(_STEP_LENGTHS, dtype=mean.dtype)
-    # The coordinates whose steps can change the curvature (a quadratic one's only moves the
-    # point).
-    curved = jnp.ones(mean.shape, bool) if quadratic is None else ~jnp.asarray(quadratic)
-
-    def newton_factors(curvature):
-        # The informations of a Hessian and the inverse of the Newton matrix they give: all
-        # that changes when the Hessian is taken again, so iterations in between reuse them.
-        information, absolute = _informations(curvature)
-        return information, absolute, _spd_inverse(precision + absolute)[0]
-
-    def evaluated(theta):
-        # The objective and its gradient at θ from one pass (the gradient is the next
-        # iteration's if θ is taken).
-        d = theta - mean
-        nll, g = value_and_gradient(theta)
-        value = 0.5 * d @ precision @ d + nll
-        return jnp.where(jnp.isfinite(value), value, jnp.inf), precision @ d + g
-
-    def newton(carry):
-        i, theta, value, g, information, absolute, inverse, refresh, damping, damped_with, _ = carry
-        information, absolute = jax.lax.cond(
-            refresh,
-            lambda: _informations(curvature(theta)[2]),
-            lambda: (information, absolute),
-        )
-        inverse = jax.lax.cond(
-            refresh | (damping != damped_with),
-            lambda: _spd_inverse((1.0 + damping) * precision + absolute)[0],
-            lambda: inverse,
-        )
-        step = inverse @ g
-        step = jnp.where(jnp.all(jnp.isfinite(step)), step, 0.0)
-        full_value, full_gradient = evaluated(theta - step)
-
-        def shorter():
-            candidates = theta[None, :] - lengths[:, None] * step[None, :]
-            taken = lengths[jnp.argmin(jax.vmap(objective)(candidates))]
-            return (taken, *evaluated(theta - taken * step))
-
-        accepted = full_value <= value
-        taken, new_value, new_gradient = jax.lax.cond(
-            accepted,
-            lambda: (jnp.ones((), mean.dtype), full_value, full_gradient),
-            shorter,
-        )
-        moved = taken * step
-        newton_matrix = precision + absolute
-        step_curvature = step @ newton_matrix @ step
-        new_damping = _next_damping(
-            damping,
-            actual=value - full_value,
-            predicted=step @ g - 0.5 * step_curvature,
-            settled=jnp.sqrt(jnp.abs(step_curvature)) < tolerance,
-        )
-        new_damping = jnp.where(damped, new_damping, 0.0)
-        length = jnp.sqrt(jnp.abs(moved @ newton_matrix @ moved))
-        # The step's length in the curved coordinates' conditional sds (the Newton matrix's
-        # block): never shorter than in their marginal sds.
-        bending = jnp.where(curved, moved, 0.0)
-        refresh = jnp.sqrt(jnp.abs(bending @ newton_matrix @ bending)) > _REFRESH_SD
-        return (
-            i + 1,
-            theta - moved,
-            new_value,
-            new_gradient,
-            information,
-            absolute,
-            inverse,
-            refresh,
-            new_damping,
-            damping,
-            length,
-        )
-
-    def more(carry):
-        # A step damped short is not a converged one: the loop goes on until an undamped step
-        # is within the tolerance.
-        i, damped_with, length = carry[0], carry[-2], carry[-1]
-        return (i < newton_steps) & ((i == 0) | (length >= tolerance) | (damped_with > 0))
-
-    # The first iteration's curvature is taken at the predicted mean, in the same pass as the
-    # objective and gradient there.
-    log_lik, gradient, information = curvature(mean)
-    value = jnp.where(jnp.isfinite(log_lik), -log_lik, jnp.inf)
-    inf = jnp.asarray(jnp.inf, mean.dtype)
-    start = (
-        jnp.zeros((), jnp.int32),
-        mean,
-        value,
-        -gradient,
-        *newton_factors(information),
-        jnp.array(False),
-        jnp.zeros((), mean.dtype),
-        jnp.zeros((), mean.dtype),
-        inf,
+    newton = _Newton(
+        mean=mean,
+        precision=precision,
+        log_likelihood=log_likelihood,
+        curvature=exact_curvature(log_likelihood) if curvature is None else curvature,
+        lengths=jnp.asarray(_STEP_LENGTHS, dtype=mean.dtype),
+        curved=jnp.ones(mean.shape, bool) if quadratic is None else ~jnp.asarray(quadratic),
+        newton_steps=newton_steps,
+        tolerance=tolerance,
+        damped=damped,
     )
-    _, mode, value, _, information, *_ = jax.lax.while_loop(more, newton, start)
-    post_cov, log_det_newton = _spd_inverse(precision + information)
-    # log(|Σ|/|P|) with Σ = (P⁻¹ + information)⁻¹.
-    log_det_ratio = -(log_det_newton + log_det_cov)
-    log_evidence = -value + 0.5 * log_det_ratio
-    return GaussianUpdate(
-        mean=mode,
-        cov=post_cov,
-        log_evidence=jnp.where(jnp.isfinite(log_evidence), log_evidence, 0.0),
-    )
+    last = jax.lax.while_loop(newton.more, newton.iterate, newton.start())
+    return _gaussian_update(newton, last, log_det_cov)
 
 
 __all__ = ["Curvature", "GaussianUpdate", "exact_curvature", "laplace_update"]

@@ -120,7 +120,7 @@ class OnlineLateral(eqx.Module):
         Each axle's prior on log c_y.
     contraction : float
         The readiness rule's share of the prior sd
-        (:data:`~tyrebayes.inference.lateral.fit.K_CONTRACTION`).
+        (:data:`~tyrebayes.inference.lateral.posterior_checks.K_CONTRACTION`).
     n_samples, n_skipped_longitudinal : Float[Array, ""]
         10 Hz samples read; samples left out for |a_x| (:mod:`.lateral_blocks`).
     steering_vif, kinematic_vif : Float[Array, ""]

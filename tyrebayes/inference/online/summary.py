@@ -15,7 +15,7 @@ was seen and the posterior sd of log μ_max has shrunk by half from the prior's;
 μ_max that puts the drive's surface label in doubt, as in the batch fit's adequacy
 (:func:`~tyrebayes.inference.tyre.adequacy.label_in_doubt`: beyond 4 prior sds of the label's
 median, or 20 times likelier under a grippier surface's prior), is reported with a note. A value
-that is not ready is reported as missing, with the reason (:func:`summary_record`).
+that is not ready is reported as missing, with the reason (:meth:`OnlineSummary.to_dict`).
 
 Neither is reported while the tyre's other coordinates
 (:data:`~tyrebayes.inference.online.parameters.PRIOR_CHECKED`: the curve's shape, the ABS force
@@ -46,7 +46,7 @@ from ..tyre.adequacy import MAX_LABEL_LOG_BAYES_FACTOR, MAX_MU_PRIOR_SDS, label_
 
 _Z90 = 1.6448536269514722
 
-# Reasons a C_x value is withheld (codes in OnlineSummary.reason, texts in summary_record).
+# Reasons a C_x value is withheld (codes in OnlineSummary.reason, texts in OnlineSummary.to_dict).
 READY, TOO_LITTLE_EXCITATION, INTERVAL_TOO_WIDE, OUTSIDE_TYPE, PRIOR_CONFLICT = 0, 1, 2, 3, 4
 REASONS = {
     READY: "",
@@ -147,6 +147,21 @@ class OnlineSummary(eqx.Module):
         Its index in θ (``coordinate_names``).
     coordinate_names : tuple of str
         θ's coordinates (static).
+
+    Examples
+    --------
+    The summary of an estimator that has seen no window yet: C_x is withheld, with the reason
+    (:meth:`to_dict`, a step as plain data).
+
+    >>> import equinox as eqx
+    >>> from tyrebayes import OnlineEstimator
+    >>> estimator = OnlineEstimator.create(kind="magic")
+    >>> summary = eqx.filter_jit(estimator.summary)(estimator.init())
+    >>> record = summary.to_dict()
+    >>> record["enough_evidence"], record["c_x"], record["n_slip_windows"]
+    (False, None, 0)
+    >>> record["reason"]
+    'too little excitation: too few windows pushing the tyre'
     """
 
     time_s: Float[Array, "*t"]
@@ -175,6 +190,73 @@ class OnlineSummary(eqx.Module):
     conflict_joint_prior_sds: Float[Array, "*t"]
     conflict_coordinate: Int[Array, "*t"]
     coordinate_names: tuple[str, ...] = eqx.field(static=True, default=())
+
+    def to_dict(self, step=()) -> dict:
+        """One step as plain data: the entry of ``"trajectory"`` in ``tyrebayes online --json``;
+        withheld values are ``None`` with a reason.
+
+        ``step`` indexes the step of a trajectory (default: an unbatched summary).
+        """
+        ready = bool(np.asarray(self.ready)[step])
+        reason = REASONS[int(np.asarray(self.reason)[step])]
+        observed = bool(np.asarray(self.mu_observed)[step])
+        conflict = bool(np.asarray(self.prior_conflict)[step])
+        mu_ok = observed and not conflict
+        mu_z = float(np.asarray(self.mu_prior_z)[step])
+        label_log_bf = float(np.asarray(self.mu_label_log_bf)[step])
+        # None on the grippiest surface's label, where no surface is weighed against it.
+        likelier = SURFACES[int(np.asarray(self.mu_likelier_surface)[step])]
+        if not np.isfinite(label_log_bf):
+            label_log_bf, likelier = None, None
+        label_note = _label_note(mu_z, label_log_bf, likelier) if observed else None
+        coordinate = int(np.asarray(self.conflict_coordinate)[step])
+        conflict_record = {
+            "coordinate": (
+                self.coordinate_names[coordinate]
+                if coordinate < len(self.coordinate_names)
+                else str(coordinate)
+            ),
+            "prior_sds": float(np.asarray(self.conflict_prior_sds)[step]),
+            "joint_prior_sds": float(np.asarray(self.conflict_joint_prior_sds)[step]),
+        }
+        if not observed:
+            mu_reason = "not observed: no ABS stop, or too little contraction"
+        elif conflict:
+            mu_reason = f"withheld: {REASONS[PRIOR_CONFLICT]}"
+        else:
+            mu_reason = None
+        record = {
+            "time_s": float(np.asarray(self.time_s)[step]),
+            "enough_evidence": ready,
+            "reason": None if ready else reason,
+            "c_x": _value(self.c_x, step) if ready else None,
+            "c_xr": _value(self.c_xr, step) if ready else None,
+            "mu_max": _value(self.mu_max, step) if mu_ok else None,
+            "mu_max_reason": mu_reason,
+            "mu_max_prior_sds": mu_z,
+            "mu_max_label_log_bayes_factor": label_log_bf,
+            "mu_max_likelier_surface": likelier,
+            "mu_max_note": label_note,
+            "slip_offset": {
+                "mean": float(np.asarray(self.slip_offset_mean)[step]),
+                "sd": float(np.asarray(self.slip_offset_sd)[step]),
+                "hdi_90": [
+                    float(np.asarray(self.slip_offset_mean - _Z90 * self.slip_offset_sd)[step]),
+                    float(np.asarray(self.slip_offset_mean + _Z90 * self.slip_offset_sd)[step]),
+                ],
+            },
+            "force_gain": _value(self.force_gain, step),
+            "alarm": bool(np.asarray(self.alarm)[step]),
+            "alarm_kind": _alarm_kind(self, step),
+            "n_alarms": int(np.asarray(self.n_alarms)[step]),
+            "swap_log_bayes_factor": float(np.asarray(self.swap_log_bayes_factor)[step]),
+            "n_slip_windows": int(np.asarray(self.n_slip_windows)[step]),
+            "n_excited_windows": int(np.asarray(self.n_excited_windows)[step]),
+            "n_abs_windows": int(np.asarray(self.n_limit_windows)[step]),
+            "slip_inflation": float(np.asarray(self.slip_inflation)[step]),
+            "prior_conflict": conflict_record if conflict else None,
+        }
+        return record
 
 
 class StateMoments(eqx.Module):
@@ -269,87 +351,6 @@ def _label_note(prior_sds: float, label_log_bf: float | None, likelier: str | No
     )
 
 
-def summary_record(summary: OnlineSummary, i=()) -> dict:
-    """One step of a summary as plain data; withheld values are ``None`` with a reason.
-
-    ``i`` indexes the step of a trajectory (default: an unbatched summary).
-
-    Examples
-    --------
-    The summary of an estimator that has seen no window yet: C_x is withheld, with the reason.
-
-    >>> import equinox as eqx
-    >>> from tyrebayes import OnlineEstimator
-    >>> estimator = OnlineEstimator.create(kind="magic")
-    >>> summary = eqx.filter_jit(estimator.summary)(estimator.init())
-    >>> record = summary_record(summary)
-    >>> record["enough_evidence"], record["c_x"], record["n_slip_windows"]
-    (False, None, 0)
-    >>> record["reason"]
-    'too little excitation: too few windows pushing the tyre'
-    """
-    ready = bool(np.asarray(summary.ready)[i])
-    reason = REASONS[int(np.asarray(summary.reason)[i])]
-    observed = bool(np.asarray(summary.mu_observed)[i])
-    conflict = bool(np.asarray(summary.prior_conflict)[i])
-    mu_ok = observed and not conflict
-    mu_z = float(np.asarray(summary.mu_prior_z)[i])
-    label_log_bf = float(np.asarray(summary.mu_label_log_bf)[i])
-    # None on the grippiest surface's label, where no surface is weighed against it.
-    likelier = SURFACES[int(np.asarray(summary.mu_likelier_surface)[i])]
-    if not np.isfinite(label_log_bf):
-        label_log_bf, likelier = None, None
-    label_note = _label_note(mu_z, label_log_bf, likelier) if observed else None
-    coordinate = int(np.asarray(summary.conflict_coordinate)[i])
-    conflict_record = {
-        "coordinate": (
-            summary.coordinate_names[coordinate]
-            if coordinate < len(summary.coordinate_names)
-            else str(coordinate)
-        ),
-        "prior_sds": float(np.asarray(summary.conflict_prior_sds)[i]),
-        "joint_prior_sds": float(np.asarray(summary.conflict_joint_prior_sds)[i]),
-    }
-    if not observed:
-        mu_reason = "not observed: no ABS stop, or too little contraction"
-    elif conflict:
-        mu_reason = f"withheld: {REASONS[PRIOR_CONFLICT]}"
-    else:
-        mu_reason = None
-    record = {
-        "time_s": float(np.asarray(summary.time_s)[i]),
-        "enough_evidence": ready,
-        "reason": None if ready else reason,
-        "c_x": _value(summary.c_x, i) if ready else None,
-        "c_xr": _value(summary.c_xr, i) if ready else None,
-        "mu_max": _value(summary.mu_max, i) if mu_ok else None,
-        "mu_max_reason": mu_reason,
-        "mu_max_prior_sds": mu_z,
-        "mu_max_label_log_bayes_factor": label_log_bf,
-        "mu_max_likelier_surface": likelier,
-        "mu_max_note": label_note,
-        "slip_offset": {
-            "mean": float(np.asarray(summary.slip_offset_mean)[i]),
-            "sd": float(np.asarray(summary.slip_offset_sd)[i]),
-            "hdi_90": [
-                float(np.asarray(summary.slip_offset_mean - _Z90 * summary.slip_offset_sd)[i]),
-                float(np.asarray(summary.slip_offset_mean + _Z90 * summary.slip_offset_sd)[i]),
-            ],
-        },
-        "force_gain": _value(summary.force_gain, i),
-        "alarm": bool(np.asarray(summary.alarm)[i]),
-        "alarm_kind": _alarm_kind(summary, i),
-        "n_alarms": int(np.asarray(summary.n_alarms)[i]),
-        "swap_log_bayes_factor": float(np.asarray(summary.swap_log_bayes_factor)[i]),
-        "n_slip_windows": int(np.asarray(summary.n_slip_windows)[i]),
-        "n_excited_windows": int(np.asarray(summary.n_excited_windows)[i]),
-        "n_abs_windows": int(np.asarray(summary.n_limit_windows)[i]),
-        "slip_inflation": float(np.asarray(summary.slip_inflation)[i]),
-        "prior_conflict": conflict_record if conflict else None,
-    }
-    return record
-
-
 def _alarm_kind(summary: OnlineSummary, i) -> str:
     """The detector of the alarm at step ``i``: "swap" (the drive-start swap test), "change"
     (the mid-drive detector) or "" (no alarm)."""
@@ -367,5 +368,4 @@ __all__ = [
     "log_normal_summary",
     "joint_prior_sds",
     "readiness",
-    "summary_record",
 ]

@@ -1,0 +1,109 @@
+"""The online lateral estimator's coordinates and its Gaussian prior.
+
+The parameters are the batch lateral model's (:mod:`tyrebayes.inference.lateral.model`), on its
+unconstrained space (log for the positive sites): log c_y front and rear, log μ_y, the steering
+ratio, the steering and a_y offsets, the roll gradient, the yaw inertia's factor, the curve's
+shape, and the noise scales of the two equations and of the axle forces. Their Gaussian starts at
+the batch model's priors, independent sites (:func:`lateral_prior`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from ..lateral.model import REAL_SITES, LateralPriors, sample_sites
+
+
+def site_names(priors: LateralPriors, road_wheel: bool = False) -> tuple[str, ...]:
+    """The state's coordinates: the batch model's sites for ``priors``' effects.
+
+    The steering ratio is kept where the log gives a road-wheel angle: the likelihood does not
+    read it then, and it stays at its prior.
+
+    Examples
+    --------
+    >>> site_names(LateralPriors())[:3]
+    ('c_y_front', 'c_y_rear', 'mu_y')
+    """
+    del road_wheel
+    return sample_sites(priors)
+
+
+class LateralPrior(eqx.Module):
+    """The Gaussian over the unconstrained coordinates the estimator starts from.
+
+    Attributes
+    ----------
+    mean : Float[Array, "p"]
+    cov : Float[Array, "p p"]
+    names : tuple of str
+        The coordinates (:func:`site_names`).
+    """
+
+    mean: Float[Array, " p"]
+    cov: Float[Array, "p p"]
+    names: tuple[str, ...] = eqx.field(static=True)
+
+    def __check_init__(self):
+        p = len(self.names)
+        if self.mean.shape != (p,) or self.cov.shape != (p, p):
+            raise ValueError(
+                f"LateralPrior: expected mean ({p},) and cov ({p}, {p}), "
+                f"got {self.mean.shape} and {self.cov.shape}"
+            )
+
+
+def lateral_prior(
+    priors: LateralPriors | None = None, *, surface: str = "dry", steering_ratio: float = 15.0
+) -> LateralPrior:
+    """The batch model's priors as a Gaussian on its unconstrained space (independent sites).
+
+    Examples
+    --------
+    >>> prior = lateral_prior()
+    >>> round(float(jnp.exp(prior.mean[0])), 2), round(float(jnp.sqrt(prior.cov[0, 0])), 2)
+    (16.5, 0.5)
+    """
+    priors = LateralPriors() if priors is None else priors
+    mu, mu_log_sd = priors.mu_y_prior(surface)
+    centre_sd = {
+        "c_y_front": (math.log(priors.c_y_median), priors.c_y_log_sd),
+        "c_y_rear": (math.log(priors.c_y_median), priors.c_y_log_sd),
+        "mu_y": (math.log(mu), mu_log_sd),
+        "steering_ratio": (math.log(steering_ratio), priors.steering_ratio_log_sd),
+        "steering_offset": (0.0, priors.steering_offset_sd_rad),
+        "ay_offset": (0.0, priors.ay_offset_sd),
+        "roll_gradient": (math.log(priors.roll_gradient_median), priors.roll_gradient_log_sd),
+        "yaw_inertia_factor": (0.0, priors.yaw_inertia_log_sd),
+        "relaxation_length": (
+            math.log(priors.relaxation_length_median_m),
+            priors.relaxation_length_log_sd,
+        ),
+        "curve_shape_excess": (
+            priors.curve_shape_excess_log_mean,
+            priors.curve_shape_excess_log_sd,
+        ),
+        "curve_curvature_gap": (
+            priors.curve_curvature_gap_log_mean,
+            priors.curve_curvature_gap_log_sd,
+        ),
+        "steer_noise": (math.log(priors.steer_noise_median), 1.0),
+        "kinematic_noise": (math.log(priors.kinematic_noise_median), 1.0),
+        "force_noise": (math.log(priors.force_noise_median), 1.0),
+    }
+    names = site_names(priors)
+    mean = jnp.asarray([centre_sd[n][0] for n in names])
+    sd = jnp.asarray([centre_sd[n][1] for n in names])
+    return LateralPrior(mean=mean, cov=jnp.diag(sd**2), names=names)
+
+
+def constrained(theta: Float[Array, " p"], names: tuple[str, ...]) -> dict:
+    """The model's parameters at the unconstrained point ``theta``."""
+    return {n: theta[i] if n in REAL_SITES else jnp.exp(theta[i]) for i, n in enumerate(names)}
+
+
+__all__ = ["LateralPrior", "constrained", "lateral_prior", "site_names"]
