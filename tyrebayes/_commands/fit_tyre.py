@@ -210,13 +210,16 @@ def run(args: argparse.Namespace) -> int:
     check_ambient(args.ambient)
     import numpyro
 
-    # One JAX device per core before JAX starts: NUTS then runs its chains side by side.
-    numpyro.set_host_device_count(max(1, min(4, os.cpu_count() or 1)))
+    if args.method == "nuts":
+        # One JAX device per core before JAX starts: NUTS then runs its chains side by side.
+        # Only then: each device's runtime costs the fast path memory it does not use.
+        numpyro.set_host_device_count(max(1, min(4, os.cpu_count() or 1)))
     import jax
 
     # The slip signal is ~1e-3 and its noise ~1e-4: the MAP search and the Hessian need float64.
     jax.config.update("jax_enable_x64", True)
     enable_compilation_cache()
+    from ..batch.worker_memory import drop_compiled_programs
     from ..inference.result import provenance
     from ..inference.tyre.data import observations_from_stream
     from ..inference.tyre.fit import fit_tyre
@@ -236,6 +239,9 @@ def run(args: argparse.Namespace) -> int:
         del validated
     priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
     fit = fit_tyre(obs, priors=priors, method=args.method, kind=args.model, seed=args.seed)
+    # The longitudinal programs are not run again in this process: dropping them before the
+    # lateral fit compiles its own keeps the command's peak at the larger of the two fits.
+    drop_compiled_programs()
     lateral, lateral_reason = _lateral(cornering, args.surface, args.seed, args.stream)
     fit = dataclasses.replace(
         fit,
