@@ -127,4 +127,5 @@ from .report import ReportFiles as ReportFiles
 from .batch import RunSettings as RunSettings
 from .batch import dask_client as dask_client
 from .batch import fleet_run as fleet_run
+from .batch import FleetRunResult as FleetRunResult
 from .batch import read_manifest as read_manifest
