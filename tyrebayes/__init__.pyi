@@ -78,6 +78,7 @@ from .inference.online import lateral_blocks as lateral_blocks
 from .inference.fleet import predict_friction as predict_friction
 from .inference.fleet import lateral_ratio_draws as lateral_ratio_draws
 from .inference.summary import summarize as summarize
+from .inference.summary import PosteriorSummary as PosteriorSummary
 from .inference.vmax import VmaxInputs as VmaxInputs
 from .inference.vmax import VmaxPrediction as VmaxPrediction
 from .inference.vmax import fit_vmax_inputs as fit_vmax_inputs

@@ -179,7 +179,7 @@ def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSect
         tick(f"predicted {name} wear curves")
     ext = fits["extended"]
     kappa = {
-        t: {**summarize(ext.draws("kappa")[:, i]), "true": KAPPA_TRUE[t]}
+        t: {**summarize(ext.draws("kappa")[:, i]).to_dict(), "true": KAPPA_TRUE[t]}
         for i, t in enumerate(data.type_names)
     }
     thesis = thesis_reproduction(TYRES["soft"][1], TYRES["stiff"][1])

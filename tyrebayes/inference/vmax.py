@@ -216,9 +216,9 @@ class VmaxInputs:
             "mu_y_source": self.mu_y_source,
             "surface": self.surface,
             "note": self.note,
-            "c_y_front": summarize(self.c_y_front),
-            "c_y_rear": summarize(self.c_y_rear),
-            "mu_y": summarize(self.mu_y),
+            "c_y_front": summarize(self.c_y_front).to_dict(),
+            "c_y_rear": summarize(self.c_y_rear).to_dict(),
+            "mu_y": summarize(self.mu_y).to_dict(),
             "n_draws": self.n_draws,
         }
 
@@ -255,7 +255,7 @@ class VmaxPrediction:
 
     def summary(self) -> dict:
         """``{"mean", "sd", "hdi_90"}`` of the bracketed draws [km/h]."""
-        return summarize(self.v_max_kmh)
+        return summarize(self.v_max_kmh).to_dict()
 
     def to_dict(self) -> dict:
         """``vmax FIT --json``'s object: ``v_max_kmh`` summary, sources and the inputs."""

@@ -165,11 +165,11 @@ def tyre_section(
         curve[s] = (grid, q[0], q[1], q[2])
 
     summary = {
-        "c_x": summarize(c_x),
-        "c_xr": summarize(c_xr),
-        "mu_max": {s: summarize(mu[:, i]) for i, s in enumerate(surfaces)},
+        "c_x": summarize(c_x).to_dict(),
+        "c_xr": summarize(c_xr).to_dict(),
+        "mu_max": {s: summarize(mu[:, i]).to_dict() for i, s in enumerate(surfaces)},
         "slip_offset": (
-            summarize(_flat(idata, "slip_offset").reshape(c_x.shape[0], -1)[:, 0])
+            summarize(_flat(idata, "slip_offset").reshape(c_x.shape[0], -1)[:, 0]).to_dict()
             if s0 is not None
             else None
         ),
@@ -177,7 +177,7 @@ def tyre_section(
         "n_abs_windows": int(at_limit.sum()),
     }
     if "temp_sensitivity" in post:
-        summary["temp_sensitivity"] = summarize(_flat(idata, "temp_sensitivity"))
+        summary["temp_sensitivity"] = summarize(_flat(idata, "temp_sensitivity")).to_dict()
     diag = diagnostics_row(fit.diagnostics)
     return TyreSection(
         name=name,
@@ -321,7 +321,7 @@ def vmax_section(
                 "tyre_type": s["tyre_type"],
                 "c_xr": float(c.mean()),
                 "draws": draws,
-                "summary": summarize(draws[np.isfinite(draws)]),
+                "summary": summarize(draws[np.isfinite(draws)]).to_dict(),
                 "not_bracketed": int(np.sum(~np.isfinite(draws))),
                 "measured_lo": lo,
                 "measured_hi": lo + vm.SPEED_STEP_KMH if np.isfinite(lo) else float("nan"),
@@ -363,9 +363,9 @@ def vmax_section(
                 "elpd_loo": float(loo["elpd_loo"]),
                 "se": float(loo["se"]),
                 "pareto_k_max": float(loo["pareto_k_max"]),
-                "delta_kmh": summarize(ext.draws("delta_kmh")),
-                "adaptation": summarize(ext.draws("adaptation")),
-                "sigma_driver_kmh": summarize(ext.draws("sigma_driver_kmh")),
+                "delta_kmh": summarize(ext.draws("delta_kmh")).to_dict(),
+                "adaptation": summarize(ext.draws("adaptation")).to_dict(),
+                "sigma_driver_kmh": summarize(ext.draws("sigma_driver_kmh")).to_dict(),
                 "divergences": ext.diagnostics.divergences,
                 "diagnostics": diagnostics_row(ext.diagnostics, "V_max extended"),
             }

@@ -88,7 +88,10 @@ def wear_history_predictions(
         on = history.pair == p  # (n, 2): intervals where pair p sat on each axle
         worn[:, a] = (loss * on[None, :, :]).sum(axis=(1, 2))
     depth_now = d0[:, current] - worn
-    out: dict = {"gamma": summarize(fit.draws("gamma")), "gamma_work": summarize(gamma)}
+    out: dict = {
+        "gamma": summarize(fit.draws("gamma")).to_dict(),
+        "gamma_work": summarize(gamma).to_dict(),
+    }
     out["lateral_work"] = {
         "cornering_stiffness_source": history.lateral_source,
         "cornering_stiffness_log_sd": float(history.lateral_log_sd),
@@ -103,20 +106,23 @@ def wear_history_predictions(
     if "lateral_work_scale" in fit.posterior.data_vars:
         q = fit.draws("lateral_work_scale")
         out["lateral_work"]["scale"] = {
-            name: summarize(q[:, a]) for a, name in enumerate(("front", "rear"))
+            name: summarize(q[:, a]).to_dict() for a, name in enumerate(("front", "rear"))
         }
     if "kappa" in fit.posterior.data_vars:
-        out["kappa"] = summarize(kappa)
+        out["kappa"] = summarize(kappa).to_dict()
     out["wear_mm_per_1000km"] = {
-        name: summarize(1000.0 * per_km[:, a]) for a, name in enumerate(("front", "rear"))
+        name: summarize(1000.0 * per_km[:, a]).to_dict() for a, name in enumerate(("front", "rear"))
     }
     out["depth_now_mm"] = {
-        name: summarize(depth_now[:, a]) for a, name in enumerate(("front", "rear"))
+        name: summarize(depth_now[:, a]).to_dict() for a, name in enumerate(("front", "rear"))
     }
     for limit in LIMITS_MM:
         km = np.min((depth_now - limit) / np.maximum(per_km, 1e-12), axis=1)
         key = f"km_to_{limit:g}mm".replace(".", "_")
-        out[key] = {**summarize(np.maximum(km, 0.0)), "already_below": bool(np.mean(km < 0) > 0.5)}
+        out[key] = {
+            **summarize(np.maximum(km, 0.0)).to_dict(),
+            "already_below": bool(np.mean(km < 0) > 0.5),
+        }
     ahead = np.linspace(0.0, horizon_km, 13)
     lowest = np.min(depth_now[:, None, :] - per_km[:, None, :] * ahead[None, :, None], axis=2)
     q = np.quantile(lowest, (0.05, 0.5, 0.95), axis=0)
@@ -129,9 +135,9 @@ def wear_history_predictions(
     grams = 2.0 * 1000.0 * per_km.sum(axis=1) * geom.wear_area_mm2
     grams = grams * geom.rubber_density_g_per_cm3 / 1000.0  # car set, per 1000 km
     reference = reference_wear_g_per_1000km(tyre_type)
-    out["g_per_1000km_car_set"] = summarize(grams)
+    out["g_per_1000km_car_set"] = summarize(grams).to_dict()
     out["wear_over_reference"] = {
-        **summarize(grams / reference),
+        **summarize(grams / reference).to_dict(),
         "reference_g_per_1000km": reference,
         "tyre_type": tyre_type,
     }
