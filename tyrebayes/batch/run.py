@@ -258,6 +258,18 @@ def fleet_run(
         (:func:`~.run_folder.prepare_out`).
     tyrebayes._interrupts.Interrupted
         A signal (in the command line): the items in flight are not recorded, no table written.
+
+    Examples
+    --------
+    A run needs logs and minutes of fits, so this example is not run as a test.
+
+    >>> import tyrebayes as tb
+    >>> with tb.dask_client(workers=2) as client:  # doctest: +SKIP
+    ...     result = tb.fleet_run(tb.read_manifest("manifest.csv"), "fleet_out", client)
+    >>> result.outcome in ("ok", "failures", "nothing_usable")  # doctest: +SKIP
+    True
+    >>> sorted(result.to_dict())[:3]  # the JSON of summary.json  # doctest: +SKIP
+    ['client_peak_rss_mb', 'drive_hours', 'drives']
     """
     settings = settings or RunSettings()
     start = time.perf_counter()
