@@ -43,7 +43,7 @@ from .placement import place_sets
 from .run_folder import prepare_out, write_tables
 from .run_result import FleetRunResult
 from .settings import RunSettings
-from .tyre_set_stage import fit_tyre_set, pad_size, set_file_name
+from .tyre_set_stage import fit_tyre_set, pad_size, set_file_name, tyre_set_table
 from .worker_memory import peak_rss_mb
 
 # Tyre-set tasks' priorities are their padded shape minus this: below every drive task's 0.
@@ -279,7 +279,8 @@ def fleet_run(
     stages.run(progress)
     _interrupts.check()  # swallowed on the way (a dask callback): no tables from a cut run
     drive_records, set_records = stages.ordered_records()
-    sets, written = write_tables(out, drive_records, set_records)
+    sets = tyre_set_table(out_s, set_records)
+    written = write_tables(out, drive_records, set_records, sets)
     fleet_record = run_fleet_stage(out_s, sets, settings)
     result = FleetRunResult.from_records(
         drive_records,

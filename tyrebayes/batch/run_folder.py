@@ -17,7 +17,7 @@ from .._io import atomic_write_bytes, sweep_folder_temporaries
 from .drive_stage import DRIVES_DIR
 from .fleet_stage import FLEET_DIR
 from .records import write_parquet
-from .tyre_set_stage import TYRE_SETS_DIR, tyre_set_table
+from .tyre_set_stage import TYRE_SETS_DIR
 
 
 def prepare_out(out: str | os.PathLike) -> Path:
@@ -56,12 +56,13 @@ def sweep_run_temporaries(out: str | os.PathLike) -> list[Path]:
 
 
 def write_tables(
-    out: Path, drive_records: list[dict], set_records: list[dict]
-) -> tuple[pd.DataFrame, list[str]]:
+    out: Path, drive_records: list[dict], set_records: list[dict], sets: pd.DataFrame
+) -> list[str]:
     """Gather the run's tables into ``out``: ``drive_summaries.parquet`` (the drives done, with
-    ``drive_order``), ``tyre_sets.parquet`` (when it has rows) and ``failures.csv``.
+    ``drive_order``), ``tyre_sets.parquet`` (``sets``, from :func:`~.tyre_set_stage.tyre_set_table`,
+    when it has rows) and ``failures.csv``.
 
-    Returns the tyre-set table and the names of the tables written besides ``failures``.
+    Returns the names of the tables written besides ``failures``.
     """
     drives_dir = out / DRIVES_DIR
     # drive_order: the position in the manifest, which fit-wear reads as a car's drive order.
@@ -74,7 +75,6 @@ def write_tables(
     if summaries:
         write_parquet(pd.concat(summaries, ignore_index=True), out / "drive_summaries.parquet")
         written.append("drive_summaries")
-    sets = tyre_set_table(str(out), set_records)
     if len(sets):
         # An empty table (every set failed) would replace the last run's results with nothing.
         write_parquet(sets, out / "tyre_sets.parquet")
@@ -90,4 +90,4 @@ def write_tables(
     ]
     table = pd.DataFrame(failures, columns=["item", "id", "path", "reason"])
     atomic_write_bytes(out / "failures.csv", table.to_csv(index=False).encode())
-    return sets, written
+    return written

@@ -174,12 +174,12 @@ class RunFailure:
         return {"item": self.item, "id": self.item_id, "reason": self.reason}
 
 
-def run_failures(drives: list[dict], sets: list[dict], fleet: dict) -> tuple[RunFailure, ...]:
+def _run_failures(drives: list[dict], sets: list[dict], fleet: dict) -> tuple[RunFailure, ...]:
     """The failed items of a run, drives then tyre sets (in their order) then the fleet model.
 
     Examples
     --------
-    >>> run_failures([{"status": "failed", "drive_id": "d", "reason": "r"}], [], {})
+    >>> _run_failures([{"status": "failed", "drive_id": "d", "reason": "r"}], [], {})
     (RunFailure(item='drive', item_id='d', reason='r'),)
     """
     failed = [RunFailure("drive", r["drive_id"], r["reason"]) for r in drives if _failed(r)]
@@ -273,7 +273,7 @@ class FleetRunResult:
             drives=StageStats.from_records(drives),
             tyre_sets=StageStats.from_records(sets),
             fleet=FleetStageStats.from_record(fleet),
-            failures=run_failures(drives, sets, fleet),
+            failures=_run_failures(drives, sets, fleet),
             drive_hours=sum(float(r.get("duration_s", 0.0)) for r in processed) / 3600.0,
             wall_seconds=wall_seconds,
             workers=workers,
