@@ -77,7 +77,7 @@ TRUTH_TOL_MPS = 0.02
 
 def _covered(draws: np.ndarray, truth: float) -> dict:
     finite = draws[np.isfinite(draws)]
-    s = summarize(finite)
+    s = summarize(finite).to_dict()
     lo, hi = s["hdi_90"]
     return {**s, "covered": bool(lo <= truth <= hi), "not_bracketed": int(draws.size - finite.size)}
 
@@ -125,8 +125,8 @@ def _straight_sets(table, truth, fit, vehicle, key, rng) -> list[dict]:
             "k_true": float(truth["k_true"][i]),
             "mu_y_true": mu_true,
             "v_max_true_kmh": v_true,
-            "c_y_fleet": summarize(fleet_in.c_y_front),
-            "c_y_type": summarize(type_in.c_y_front),
+            "c_y_fleet": summarize(fleet_in.c_y_front).to_dict(),
+            "c_y_type": summarize(type_in.c_y_front).to_dict(),
         }
         if not np.isfinite(v_true):
             row["excluded"] = "true-parameter V_max not bracketed"

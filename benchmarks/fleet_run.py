@@ -197,7 +197,7 @@ def cluster_run(
     with pinned(cpus), dask_client(workers=workers) as client:
         client.wait_for_workers(workers)
         ready = time.perf_counter()
-        summary = fleet_run(items, out, client, settings, progress=False)
+        summary = fleet_run(items, out, client, settings, progress=False).to_dict()
         worker_peaks = client.run(peak_rss_mb)
         overhead = None
         if noop_tasks:
@@ -237,7 +237,7 @@ def _as_a_worker() -> None:
     """
     import sys
 
-    from tyrebayes.batch.run import _worker_env
+    from tyrebayes.batch.cluster import _worker_env
 
     worker = _worker_env()
     if any(os.environ.get(k) != v for k, v in worker.items()):

@@ -65,7 +65,7 @@ TRUTH_TOL_MPS = 0.02
 
 
 def _interval(draws_kmh: np.ndarray, truth_kmh: float) -> dict:
-    s = summarize(draws_kmh)
+    s = summarize(draws_kmh).to_dict()
     lo, hi = s["hdi_90"]
     return {
         **s,
@@ -136,13 +136,13 @@ def _drive(drive: Drive, n: int, key) -> dict:
             **_interval(post.v_max_kmh, v_true),
             "lateral_source": inputs.lateral_source,
             "mu_y_source": inputs.mu_y_source,
-            "mu_y": summarize(inputs.mu_y),
+            "mu_y": summarize(inputs.mu_y).to_dict(),
             "note": inputs.note,
         },
         "type_constant": {
             **_interval(typed.v_max_kmh, v_true),
-            "c_y": summarize(typed_inputs.c_y_front),
-            "mu_y": summarize(typed_inputs.mu_y),
+            "c_y": summarize(typed_inputs.c_y_front).to_dict(),
+            "mu_y": summarize(typed_inputs.mu_y).to_dict(),
         },
         "mu_y_at_truth": {
             "posterior": _interval(post_mu_true, v_true),

@@ -343,7 +343,7 @@ def extension_study(quick: bool, comp, thermal) -> dict:
     }
     ext = fits["extended"]
     k = ext.draws("kappa")
-    kappa = {t: summarize(k[:, i]) for i, t in enumerate(("winter", "summer"))}
+    kappa = {t: summarize(k[:, i]).to_dict() for i, t in enumerate(("winter", "summer"))}
     p_order = float(np.mean(k[:, 0] > k[:, 1]))
     # type-level wear per 1000 km (new set of the type) vs ambient, both models
     ambients = (0.0, 15.0, 30.0) if quick else (-5.0, 5.0, 15.0, 25.0, 35.0)
@@ -364,7 +364,7 @@ def extension_study(quick: bool, comp, thermal) -> dict:
             )
             for n, f in fits.items():
                 vol = predict_wear_volume(f, k, grid, type_name=t, c_xr=(c_mid, 0.05 * c_mid))
-                s = summarize(set_mass_g(vol, geom))
+                s = summarize(set_mass_g(vol, geom)).to_dict()
                 s["ambient_c"] = amb
                 s["truth"] = float(set_mass_g(truth, geom))
                 curves[n][t].append(s)
@@ -390,7 +390,7 @@ def extension_study(quick: bool, comp, thermal) -> dict:
         v_ref = predict_wear_volume(f, k_ref, grid, set_index=1)
         ratio = set_mass_g(v_hot, geom) / set_mass_g(v_ref, geom)
         hot[n] = {
-            "i_rel_32C_vs_10C": summarize(ratio),
+            "i_rel_32C_vs_10C": summarize(ratio).to_dict(),
             "p_i_rel_above_1.25": float(np.mean(ratio > 1.25)),
         }
     true_ratio = np.exp(KAPPA_TRUE["winter"] * 22.0)  # rough: tyre ~22 K warmer, kappa only

@@ -80,6 +80,7 @@ from .inference.online import lateral_blocks as lateral_blocks
 from .inference.fleet import predict_friction as predict_friction
 from .inference.fleet import lateral_ratio_draws as lateral_ratio_draws
 from .inference.summary import summarize as summarize
+from .inference.summary import PosteriorSummary as PosteriorSummary
 from .inference.vmax.inputs import VmaxInputs as VmaxInputs
 from .inference.vmax.prediction import VmaxPrediction as VmaxPrediction
 from .inference.vmax.fit_inputs import fit_vmax_inputs as fit_vmax_inputs
@@ -130,4 +131,5 @@ from .report import ReportFiles as ReportFiles
 from .batch import RunSettings as RunSettings
 from .batch import dask_client as dask_client
 from .batch import fleet_run as fleet_run
+from .batch import FleetRunResult as FleetRunResult
 from .batch import read_manifest as read_manifest

@@ -69,7 +69,7 @@ class WinterVerdict:
     mu_min : float
         Minimum acceptable mu on snow.
     mu : dict
-        Summary of the draws (:func:`~tyrebayes.inference.summary.summarize`).
+        Summary of the draws (:func:`~tyrebayes.inference.summary.summarize`, as a dict).
     interval_90 : list of float
         Central 90 % interval of the draws.
     costs : dict
@@ -318,7 +318,7 @@ def winter_verdict(
         probability=p,
         threshold=threshold,
         mu_min=float(mu_min),
-        mu=summarize(x),
+        mu=summarize(x).to_dict(),
         interval_90=[lo, hi],
         costs={"false_alarm": float(cost_false_alarm), "miss": float(cost_miss)},
         straddle_tol=float(straddle_tol),

@@ -25,7 +25,7 @@ import dask
 import pandas as pd
 import pytest
 
-from tyrebayes.batch.run import _worker_env
+from tyrebayes.batch.cluster import _worker_env
 from tyrebayes.cli import main
 from tyrebayes.simulate.drive_io import write_drive
 from tyrebayes.simulate.tyre_set import simulate_tyre_set_drives

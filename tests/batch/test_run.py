@@ -25,6 +25,7 @@ import pytest
 from distributed import get_task_stream
 
 from tyrebayes._commands.fit_wear import drive_table
+from tyrebayes._io import to_jsonable
 from tyrebayes.batch import RunSettings, dask_client, fleet_run, read_manifest
 from tyrebayes.batch.windows import WINDOW_COLUMNS
 from tyrebayes.cli import main
@@ -106,11 +107,11 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
         summary = fleet_run(items, out, client, settings, progress=False)
 
     # Drives: the ones recorded before the kill were skipped, the rest ran now.
-    drives = summary["drives"]
-    assert drives["items"] == 6
-    assert drives["skipped"] == len(finished_before)
-    assert drives["failed"] == 2
-    assert drives["done"] + drives["skipped"] + drives["failed_now"] == 6
+    drives = summary.drives
+    assert drives.items == 6
+    assert drives.skipped == len(finished_before)
+    assert drives.failed == 2
+    assert drives.done + drives.skipped + drives.failed_now == 6
     records = _records(out, "drives")
     assert set(records) == {i.drive_id for i in items}  # one record per drive, none extra
     reasons = {
@@ -172,9 +173,7 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
         r["rss_mb_at_start"] <= r["peak_rss_mb"] + 1.0 for r in ran if not r["programs_dropped"]
     )
     assert all(isinstance(r["programs_dropped"], bool) for r in ran)
-    assert summary["tyre_sets"]["programs_dropped"] == sum(
-        r["programs_dropped"] for r in set_records
-    )
+    assert summary.tyre_sets.programs_dropped == sum(r["programs_dropped"] for r in set_records)
     failures = pd.read_csv(out / "failures.csv")
     assert sorted(failures["item"]) == ["drive", "drive", "tyre_set"]
 
@@ -182,7 +181,7 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
     fleet = json.loads((out / "fleet" / "fleet.record.json").read_text())
     assert fleet["status"] in ("done", "failed") and "\n" not in fleet["reason"]
     assert (out / "fleet" / "fleet_table.csv").is_file()
-    assert json.loads((out / "summary.json").read_text())["drives"] == summary["drives"]
+    assert json.loads((out / "summary.json").read_text()) == to_jsonable(summary.to_dict())
     assert not [p for p in out.rglob(".*.tmp*")], "temporary files left behind"
 
     # A third run: nothing changed, nothing runs, nothing is rewritten.
@@ -190,9 +189,9 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
     stamps = [p.stat().st_mtime_ns for p in fits]
     with dask_client(workers=2) as client:
         again = fleet_run(items, out, client, settings, progress=False)
-    assert again["drives"]["skipped"] == 6 and again["drives"]["done"] == 0
-    assert again["tyre_sets"]["skipped"] == 3 and again["tyre_sets"]["done"] == 0
-    assert again["fleet"]["skipped"]
+    assert again.drives.skipped == 6 and again.drives.done == 0
+    assert again.tyre_sets.skipped == 3 and again.tyre_sets.done == 0
+    assert again.fleet.skipped
     assert [p.stat().st_mtime_ns for p in fits] == stamps
     assert len(pd.read_parquet(out / "drive_summaries.parquet")) == 4
 
@@ -208,7 +207,7 @@ def test_fits_wait_for_the_drive_stage_tail(manifest, tmp_path):
     settings = RunSettings(model=MODEL, jax_cache=default_cache_dir())
     with dask_client(workers=1) as client, get_task_stream(client) as stream:
         summary = fleet_run(read_manifest(reordered), tmp_path / "out", client, settings)
-    assert summary["tyre_sets"]["done"] == 2
+    assert summary.tyre_sets.done == 2
     computed = {
         t["key"]: next(s for s in t["startstops"] if s["action"] == "compute") for t in stream.data
     }
@@ -216,23 +215,6 @@ def test_fits_wait_for_the_drive_stage_tail(manifest, tmp_path):
     set_starts = [c["start"] for k, c in computed.items() if k.startswith("tyre-set-")]
     assert len(drive_ends) == 6 and len(set_starts) == 3
     assert sum(end <= min(set_starts) for end in drive_ends) >= 6 - 1
-
-
-def test_local_workers_get_one_thread_then_this_process_xla_flags(monkeypatch):
-    from tyrebayes.batch.run import _worker_env
-
-    one_thread = "--xla_cpu_multi_thread_eigen=false"
-    monkeypatch.delenv("XLA_FLAGS", raising=False)
-    assert _worker_env()["XLA_FLAGS"] == one_thread
-    own = "--xla_dump_to=/tmp/x --xla_cpu_multi_thread_eigen=true"
-    monkeypatch.setenv("XLA_FLAGS", own)
-    env = _worker_env()
-    assert env["XLA_FLAGS"] == f"{one_thread} {own}"
-    assert env["OMP_NUM_THREADS"] == "1" and env["JAX_PLATFORMS"] == "cpu"
-    # A process started with a worker's environment passes the same flags on: they are part of
-    # JAX's compilation-cache key, so a repeated flag would miss every cached program.
-    monkeypatch.setenv("XLA_FLAGS", env["XLA_FLAGS"])
-    assert _worker_env()["XLA_FLAGS"] == env["XLA_FLAGS"]
 
 
 def test_cli_bad_manifest_is_exit_2(tmp_path, capsys):

@@ -21,20 +21,9 @@ import pytest
 from tyrebayes import _interrupts
 from tyrebayes.batch import RunSettings, manifest_from_table, process_drive
 from tyrebayes.batch.records import stopping
-from tyrebayes.batch.run import run_outcome
 from tyrebayes.cli import main
 from tyrebayes.simulate.drive_io import write_drive
 from tyrebayes.simulate.tyre_set import simulate_tyre_set_drives
-
-
-def test_outcome_of_a_run():
-    done, failed = {"status": "done"}, {"status": "failed"}
-    assert run_outcome([done], [done], done) == "ok"
-    assert run_outcome([done, failed], [done], done) == "failures"
-    assert run_outcome([done], [done, failed], done) == "failures"
-    assert run_outcome([done], [done], failed) == "failures"  # no fleet model: not all done
-    assert run_outcome([failed, failed], [failed], failed) == "nothing_usable"
-    assert run_outcome([done], [failed], failed) == "nothing_usable"
 
 
 def test_a_failure_while_stopping_is_not_recorded(tmp_path, monkeypatch):

@@ -20,3 +20,18 @@ def test_load_sensitivity_refits_tyre_sets_but_keeps_the_drives():
     assert plain.drive_settings() == loaded.drive_settings()
     assert plain.tyre_set_settings() != loaded.tyre_set_settings()
     assert loaded.tyre_set_settings()["load_sensitivity"] is True
+
+
+def test_a_set_without_drives_is_a_failed_record_and_skipped_on_the_rerun(tmp_path):
+    from tyrebayes.batch import RunSettings, fit_tyre_set
+    from tyrebayes.batch.tyre_set_stage import TYRE_SETS_DIR
+
+    (tmp_path / TYRE_SETS_DIR).mkdir()
+    record = fit_tyre_set("set 1", "winter", [], str(tmp_path), RunSettings())
+    assert record["status"] == "failed" and record["outputs"] == []
+    assert record["reason"] == "no drive of this tyre set was processed"
+    assert not record["skipped"] and record["drives"] == []
+    assert isinstance(record["programs_dropped"], bool) and record["seconds"] >= 0.0
+    again = fit_tyre_set("set 1", "winter", [], str(tmp_path), RunSettings())
+    assert again["skipped"] and again["status"] == "failed"
+    assert again["input_hash"] == record["input_hash"]

@@ -110,11 +110,59 @@ def _with_indices(fit, obs) -> Fit:
 
 
 def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
-    """Run the demo; returns (Report, {name: Fit to save})."""
+    """Run the demo; returns (Report, {name: Fit to save}).
 
+    The steps, each timed by ``step_factory``'s progress: simulate and stream every tyre set,
+    fit them, the real RAV4 segment, cornering, the fleet model, the warnings, V_max, wear and
+    the criticism; then the diagnostics, timings and notes.
+    """
     sizes = SIZES[bool(quick)]
     tyres = _demo_tyres(sizes)
-    names = [f"{s} {n}" for s in ("simulate + stream", "fit") for n, _, _ in tyres] + [
+    steps = step_factory(_step_names(tyres))
+    report = _new_report(tyres, sizes, seed, quick)
+    fits: dict[str, Fit] = {}
+    vehicle = load_vehicle(SIM_VEHICLE)
+    prepared = _simulate_sets(tyres, sizes, vehicle, out_dir, seed, steps)
+    _fit_sets(prepared, seed, report, fits, steps)
+
+    steps.start("real RAV4 segment")
+    _real_segment(sizes, seed, report, fits)
+    steps.done()
+
+    steps.start("cornering")
+    _cornering(vehicle, seed, report, fits)
+    steps.done()
+
+    steps.start("fleet model")
+    table, fleet = _fleet_model(sizes, seed, report, fits)
+    steps.done()
+
+    steps.start("warnings")
+    report.warnings = warning_rows(fleet, [t for t in report.tyres if t.tyre_type], seed=seed)
+    steps.done()
+
+    steps.start("V_max")
+    report.vmax = _vmax(sizes, seed, report, fits)
+    steps.done()
+
+    steps.start("wear")
+    report.wear = wear_study(seed, quick=quick)
+    steps.done()
+
+    steps.start("criticism")
+    _criticism(table, seed, report)
+    steps.done()
+    steps.close()
+
+    _finish(report, fleet, steps, quick=quick, seed=seed)
+    return report, fits
+
+
+def _step_names(tyres: list[tuple[str, str, object]]) -> list[str]:
+    """The demo's steps in order, as its progress shows them."""
+    per_set = [f"{s} {n}" for s in ("simulate + stream", "fit") for n, _, _ in tyres]
+    return [
+        *per_set,
         "real RAV4 segment",
         "cornering",
         "fleet model",
@@ -123,8 +171,11 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
         "wear",
         "criticism",
     ]
-    steps = step_factory(names)
-    report = Report(
+
+
+def _new_report(tyres: list, sizes: DemoSizes, seed: int, quick: bool) -> Report:
+    """The report's title and the subtitle that says what the demo simulates."""
+    return Report(
         title="tyrebayes demo report" + (" (quick)" if quick else ""),
         subtitle=(
             f"{len(tyres)} simulated tyre sets ({SIM_VEHICLE}, {len(sizes.drive_surfaces)} drives "
@@ -133,10 +184,12 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
             f"seed {seed}."
         ),
     )
-    fits = {}
-    vehicle = load_vehicle(SIM_VEHICLE)
-    method = "fast"
-    # Simulate and window every set first, then pad all to one size: one compiled fit for all.
+
+
+def _simulate_sets(tyres: list, sizes: DemoSizes, vehicle, out_dir: Path, seed: int, steps):
+    """Simulate every set's drives, write them as logs under ``out_dir/logs`` and window them
+    through the streams (read, validate, features); returns (name, type, spec, windows,
+    surfaces) per set."""
     prepared = []
     for i, (name, tyre_type, spec) in enumerate(tyres):
         steps.start(f"simulate + stream {name}")
@@ -159,11 +212,17 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
             surfaces.append(truth.surface)
         prepared.append((name, tyre_type, spec, windows, surfaces))
         steps.done()
+    return prepared
+
+
+def _fit_sets(prepared: list, seed: int, report: Report, fits: dict, steps) -> None:
+    """Fit every simulated set (fast), all padded to one size: one compiled fit for all; add
+    each fit to ``fits`` and its section, with its truth, to the report."""
     pad = max(bucket_size(sum(len(w["slip"]) for w in p[3])) for p in prepared)
     for i, (name, tyre_type, spec, windows, surfaces) in enumerate(prepared):
         steps.start(f"fit {name}")
         obs = stack_drives(windows, surfaces, pad_to=pad)
-        fit = fit_tyre(obs, method=method, seed=seed + i)
+        fit = fit_tyre(obs, method="fast", seed=seed + i)
         key = f"tyre_{name.replace(' ', '_')}"
         fits[key] = _with_indices(fit, obs)
         truth = {"c_xr": spec.c_xr, **{f"mu_{s}": spec.mu_on(s) for s in sorted(set(surfaces))}}
@@ -178,7 +237,9 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
         )
         steps.done()
 
-    steps.start("real RAV4 segment")
+
+def _real_segment(sizes: DemoSizes, seed: int, report: Report, fits: dict) -> None:
+    """Fit the shipped real RAV4 segment (NUTS in the full demo) and add its section."""
     rav4 = load_vehicle(REAL_VEHICLE)
     stream = validate_stream(read_stream(data_dir() / REAL_SEGMENT), rav4)
     feats = compute_features(stream, rav4)
@@ -204,9 +265,10 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
             ),
         )
     )
-    steps.done()
 
-    steps.start("cornering")
+
+def _cornering(vehicle, seed: int, report: Report, fits: dict) -> None:
+    """Fit four minutes of simulated cornering and add its lateral section."""
     frame, corner_truth = simulate_cornering(vehicle, duration_s=240.0, seed=seed + 5)
     lateral = fit_lateral(cornering_observations(frame, vehicle), seed=seed)
     fits["lateral_cornering"] = lateral.fit
@@ -217,9 +279,11 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
             f"{corner_truth.c_y_rear:g})",
         )
     )
-    steps.done()
 
-    steps.start("fleet model")
+
+def _fleet_model(sizes: DemoSizes, seed: int, report: Report, fits: dict):
+    """Simulate the winter test fleet on snow and fit the fleet model; returns the fleet table
+    and its fit (the warnings and the criticism use them)."""
     table, _truth = simulate_fleet(seed + 7, sizes.fleet_sets, surface="snow", effects=("age",))
     fleet = fit_fleet(
         table, seed=seed, num_warmup=sizes.fleet_draws, num_samples=sizes.fleet_draws, num_chains=2
@@ -231,13 +295,12 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
         seed=seed,
         source=f"simulated winter test fleet, {sizes.fleet_sets} sets",
     )
-    steps.done()
+    return table, fleet
 
-    steps.start("warnings")
-    report.warnings = warning_rows(fleet, [t for t in report.tyres if t.tyre_type], seed=seed)
-    steps.done()
 
-    steps.start("V_max")
+def _vmax(sizes: DemoSizes, seed: int, report: Report, fits: dict):
+    """The V_max section: the thesis' Table 6.2 sets and the demo's simulated sets (their C_xr
+    draws)."""
     table62 = load_table_6_2()
     vsets = [
         {
@@ -252,16 +315,13 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
         if t.tyre_type:
             c = np.asarray(fits[f"tyre_{t.name.replace(' ', '_')}"].posterior["c_xr"]).ravel()
             vsets.append({"tyre": f"demo: {t.name}", "tyre_type": t.tyre_type, "c_xr": c})
-    report.vmax = vmax_section(
+    return vmax_section(
         "compact_fwd", vsets, n_draws=sizes.vmax_draws, seed=seed, extended=sizes.vmax_extended
     )
-    steps.done()
 
-    steps.start("wear")
-    report.wear = wear_study(seed, quick=quick)
-    steps.done()
 
-    steps.start("criticism")
+def _criticism(table, seed: int, report: Report) -> None:
+    """Criticise the fleet table and the real segment."""
     report.criticism.append(
         criticism_entry(
             "the winter test fleet (mu on snow vs 1/C_xr)", criticize_table(table, "mu", seed=seed)
@@ -273,9 +333,10 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
             criticize_stream(data_dir() / REAL_SEGMENT, REAL_VEHICLE, seed=seed),
         )
     )
-    steps.done()
-    steps.close()
 
+
+def _finish(report: Report, fleet, steps, *, quick: bool, seed: int) -> None:
+    """Every fit's diagnostics in one table, the steps' timings, and how to reproduce."""
     report.diagnostics = [{"fit": f"tyre: {t.name}", **t.diagnostics} for t in report.tyres]
     report.diagnostics.append(diagnostics_row(fleet.diagnostics, "fleet model"))
     for m, d in report.wear.diagnostics.items():
@@ -290,4 +351,3 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
         "Reproduce: tyrebayes demo" + (" --quick" if quick else "") + f" --seed {seed}; "
         "re-render from the saved fits: tyrebayes report fits/*.nc --out DIR."
     )
-    return report, fits

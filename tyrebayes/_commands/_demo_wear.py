@@ -76,12 +76,39 @@ def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSect
     ``progress`` is a callable ``progress(step_name)`` or None.
     """
     tick = progress or (lambda _name: None)
+    profile = DutyProfile(drive_duration_s=1800.0, dt_s=6.0 if quick else 4.0)
+    sets, truth_sets = _simulate_sets(seed, quick, profile, tick)
+    data = build_wear_data(sets, type_names=("winter", "summer"))
+    fits = _fit_models(data, seed, quick, tick)
+    curves = _wear_curves(fits, truth_sets, profile, seed, quick, tick)
+    ext = fits["extended"]
+    kappa = {
+        t: {**summarize(ext.draws("kappa")[:, i]).to_dict(), "true": KAPPA_TRUE[t]}
+        for i, t in enumerate(data.type_names)
+    }
+    thesis = thesis_reproduction(TYRES["soft"][1], TYRES["stiff"][1])
+    return WearSection(
+        reference_c=REFERENCE_C,
+        curves=curves,
+        kappa=kappa,
+        comparison=_loo_comparison(fits),
+        diagnostics={m: diagnostics_row(f.diagnostics) for m, f in fits.items()},
+        thesis={
+            "relative_wear_difference": thesis["relative_wear_difference"],
+            "soft_wears_relatively_more_in_heat": thesis["soft_wears_relatively_more_in_heat"],
+            "rolling_loss_w": thesis["rolling_loss_w"],
+        },
+    )
+
+
+def _simulate_sets(seed: int, quick: bool, profile: DutyProfile, tick):
+    """Drive each tyre of :data:`TYRES` through a year of seasonal weather and observe its
+    tread depth; returns the wear sets and, per set, (name, type, C_xr, true gamma)."""
     key = jax.random.PRNGKey(seed)
     n_drives = 60 if quick else 150
     # One set per type: with two, the type spread τ enters and its MAP runs off to τ = 0 (the
     # funnel of a centred hierarchy), where a Laplace approximation collapses.
     per_type = 1
-    profile = DutyProfile(drive_duration_s=1800.0, dt_s=6.0 if quick else 4.0)
     simulate = _simulator(profile, n_drives)
     sets, truth_sets = [], []
     for ti, (name, (tyre_type, c_xr)) in enumerate(TYRES.items()):
@@ -102,7 +129,11 @@ def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSect
             sets.append(WearSet.from_c_xr(work, obs, tyre_type, (c_set, 0.05 * c_set)))
             truth_sets.append((name, tyre_type, c_set, gamma))
         tick(f"simulated {name} sets")
-    data = build_wear_data(sets, type_names=("winter", "summer"))
+    return sets, truth_sets
+
+
+def _fit_models(data, seed: int, quick: bool, tick) -> dict:
+    """The baseline (κ = 0) and extended (κ per type) wear fits, MAP + Laplace."""
     fits = {}
     for model, ext in (("baseline", False), ("extended", True)):
         # more sets and drives: a longer, flatter ridge to climb
@@ -111,6 +142,12 @@ def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSect
             data, extended=ext, method="laplace", laplace_steps=steps, seed=seed + 3
         )
         tick(f"fitted {model} wear model")
+    return fits
+
+
+def _loo_comparison(fits: dict) -> dict:
+    """PSIS-LOO of each model's depth readings and the extended model's ELPD gain (with its
+    SE)."""
     loo = {m: psis_loo(f.data, var_name="depth") for m, f in fits.items()}
     diff = np.asarray(loo["extended"].elpd_i) - np.asarray(loo["baseline"].elpd_i)
     comparison = {
@@ -125,7 +162,15 @@ def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSect
         "diff": float(diff.sum()),
         "se": float(np.sqrt(diff.size) * diff.std(ddof=1)),
     }
+    return comparison
 
+
+def _wear_curves(
+    fits: dict, truth_sets: list, profile: DutyProfile, seed: int, quick: bool, tick
+) -> dict:
+    """Per model and tyre: the predicted wear rate at each of :data:`AMBIENTS_C` relative to
+    the same tyre at :data:`REFERENCE_C` (5, 50, 95 % quantiles over the draws) beside the
+    simulated world's true ratio."""
     comp = StiffnessTemperature()  # the fits' default compensation
     curves = {m: {} for m in fits}
     kern_key = jax.random.PRNGKey(seed + 8)
@@ -158,40 +203,27 @@ def wear_study(seed: int = 0, *, quick: bool = False, progress=None) -> WearSect
             c_x = np.asarray(stiffness_at_temperature(_c, jnp.asarray(grid), comp))
             return float((_g * k @ (np.exp(KAPPA_TRUE[_t] * (grid - 20.0)) / c_x)).sum())
 
+        truth = np.array([true_volume(a) for a in AMBIENTS_C]) / true_volume(REFERENCE_C)
         for m, f in fits.items():
-            k_ref, grid = kernels[REFERENCE_C]
-            ref = predict_wear_volume(f, k_ref, grid, set_index=set_index).sum(axis=1)
-            q = []
-            for amb in AMBIENTS_C:
-                k, grid = kernels[amb]
-                vol = predict_wear_volume(f, k, grid, set_index=set_index).sum(axis=1)
-                q.append(np.quantile(vol / ref, (0.05, 0.5, 0.95)))
-            q = np.array(q)
             curves[m][name] = {
-                "ambient_c": np.array(AMBIENTS_C),
-                "q05": q[:, 0],
-                "q50": q[:, 1],
-                "q95": q[:, 2],
+                **_relative_wear_quantiles(f, kernels, set_index),
                 "c_xr": c_xr,
                 "tyre_type": tyre_type,
-                "truth": np.array([true_volume(a) for a in AMBIENTS_C]) / true_volume(REFERENCE_C),
+                "truth": truth,
             }
         tick(f"predicted {name} wear curves")
-    ext = fits["extended"]
-    kappa = {
-        t: {**summarize(ext.draws("kappa")[:, i]), "true": KAPPA_TRUE[t]}
-        for i, t in enumerate(data.type_names)
-    }
-    thesis = thesis_reproduction(TYRES["soft"][1], TYRES["stiff"][1])
-    return WearSection(
-        reference_c=REFERENCE_C,
-        curves=curves,
-        kappa=kappa,
-        comparison=comparison,
-        diagnostics={m: diagnostics_row(f.diagnostics) for m, f in fits.items()},
-        thesis={
-            "relative_wear_difference": thesis["relative_wear_difference"],
-            "soft_wears_relatively_more_in_heat": thesis["soft_wears_relatively_more_in_heat"],
-            "rolling_loss_w": thesis["rolling_loss_w"],
-        },
-    )
+    return curves
+
+
+def _relative_wear_quantiles(fit, kernels: dict, set_index: int) -> dict:
+    """``ambient_c`` and the 5, 50, 95 % quantiles (``q05``, ``q50``, ``q95``) of one fit's
+    predicted wear volume at each ambient over that at :data:`REFERENCE_C`."""
+    k_ref, grid = kernels[REFERENCE_C]
+    ref = predict_wear_volume(fit, k_ref, grid, set_index=set_index).sum(axis=1)
+    q = []
+    for amb in AMBIENTS_C:
+        k, grid = kernels[amb]
+        vol = predict_wear_volume(fit, k, grid, set_index=set_index).sum(axis=1)
+        q.append(np.quantile(vol / ref, (0.05, 0.5, 0.95)))
+    q = np.array(q)
+    return {"ambient_c": np.array(AMBIENTS_C), "q05": q[:, 0], "q50": q[:, 1], "q95": q[:, 2]}

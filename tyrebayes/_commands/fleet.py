@@ -221,7 +221,7 @@ def prediction(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
         args.c_xr, *_informing_c_xr(fit, args.surface, tyre_type)
     )
     payload = {
-        "mu": summarize(draws),
+        "mu": summarize(draws).to_dict(),
         "p_below": {f"{lvl:g}": float(np.mean(draws < lvl)) for lvl in P_BELOW_LEVELS},
         "surface": args.surface,
         "tyre_type": args.tyre_type,

@@ -20,15 +20,20 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .._errors import BadInputError
 from ..internal.jax_cache import default_cache_dir
 from ._common import EXIT_FAILURES, output_folder, print_json
 
+if TYPE_CHECKING:
+    from ..batch.run_result import FleetRunResult
+
 # tyrebayes.inference.tyre.model.MODEL_KINDS (spelled out: importing it would start JAX).
 MODEL_CHOICES = ("magic", "shaped", "brush", "linear")
 
-#: Exit status by the run's outcome (:func:`tyrebayes.batch.run.run_outcome`).
+#: Exit status by the run's outcome (:func:`tyrebayes.batch.run_result.run_outcome`).
 EXIT_STATUS = {"ok": 0, "failures": EXIT_FAILURES, "nothing_usable": 2}
 
 
@@ -92,7 +97,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..batch import RunSettings, dask_client, fleet_run, read_manifest
-    from ..batch.run import prepare_out, sweep_run_temporaries
+    from ..batch.run_folder import prepare_out, sweep_run_temporaries
 
     if args.workers is not None and args.workers < 1:
         raise BadInputError(f"--workers: expected >= 1, got {args.workers}")
@@ -115,35 +120,42 @@ def run(args: argparse.Namespace) -> int:
     prepare_out(out)  # a file where a stage folder belongs: one line, before the cluster
     try:
         with dask_client(args.scheduler, args.workers, args.memory_limit) as client:
-            summary = fleet_run(items, out, client, settings)
+            result = fleet_run(items, out, client, settings)
     finally:
         if not args.scheduler:
             # The local workers are gone: what the ones killed in a write left is stale now.
             sweep_run_temporaries(out)
-    status = EXIT_STATUS[summary["outcome"]]
+    status = EXIT_STATUS[result.outcome]
     if status == 2:
-        drives, sets = summary["drives"], summary["tyre_sets"]
-        print(
-            f"tyrebayes fleet-run: nothing usable: no tyre set was fitted ({drives['failed']} of "
-            f"{drives['items']} drives and {sets['failed']} of {sets['items']} tyre sets failed; "
-            f"reasons in {out / 'failures.csv'})",
-            file=sys.stderr,
-        )
+        _print_nothing_usable(result, out)
     if args.json:
-        print_json(summary)
+        print_json(result.to_dict())
         return status
-    for stage in ("drives", "tyre_sets"):
-        s = summary[stage]
-        print(
-            f"{stage:9s} {s['items']} items: {s['done']} done, {s['skipped']} skipped, "
-            f"{s['failed']} failed ({s['seconds']:.1f} s in tasks)"
-        )
-    fleet = summary["fleet"]
-    print(
-        f"fleet     {fleet['status']}{' (skipped)' if fleet['skipped'] else ''} {fleet['reason']}"
-    )
-    for failure in summary["failures"]:
-        if failure["item"] != "fleet":  # its line is above
-            print(f"failed {failure['item']} {failure['id']}: {failure['reason']}")
-    print(f"{summary['wall_seconds']:.1f} s on {summary['workers']} workers -> {out}")
+    _print_summary(result, out)
     return status
+
+
+def _print_nothing_usable(result: FleetRunResult, out: Path) -> None:
+    """The one line on stderr of a run in which no tyre set was fitted."""
+    drives, sets = result.drives, result.tyre_sets
+    print(
+        f"tyrebayes fleet-run: nothing usable: no tyre set was fitted ({drives.failed} of "
+        f"{drives.items} drives and {sets.failed} of {sets.items} tyre sets failed; "
+        f"reasons in {out / 'failures.csv'})",
+        file=sys.stderr,
+    )
+
+
+def _print_summary(result: FleetRunResult, out: Path) -> None:
+    """The run's summary for a person: a line per stage, the failures, the time."""
+    for name, s in (("drives", result.drives), ("tyre_sets", result.tyre_sets)):
+        print(
+            f"{name:9s} {s.items} items: {s.done} done, {s.skipped} skipped, "
+            f"{s.failed} failed ({s.seconds:.1f} s in tasks)"
+        )
+    fleet = result.fleet
+    print(f"fleet     {fleet.status}{' (skipped)' if fleet.skipped else ''} {fleet.reason}")
+    for failure in result.failures:
+        if failure.item != "fleet":  # its line is above
+            print(f"failed {failure.item} {failure.item_id}: {failure.reason}")
+    print(f"{result.wall_seconds:.1f} s on {result.workers} workers -> {out}")

@@ -112,8 +112,8 @@ def run_predict(args: argparse.Namespace) -> int:
     geom = TreadGeometry()
     out = {
         "ambient_c": args.ambient,
-        "g_per_1000km_car_set": summarize(volume_to_mass_g(2 * volume.sum(axis=1), geom)),
-        "mm_per_1000km_driven_axle": summarize(volume[:, 0] / geom.wear_area_mm2),
+        "g_per_1000km_car_set": summarize(volume_to_mass_g(2 * volume.sum(axis=1), geom)).to_dict(),
+        "mm_per_1000km_driven_axle": summarize(volume[:, 0] / geom.wear_area_mm2).to_dict(),
     }
     if args.json:
         print_json(out)

@@ -7,6 +7,7 @@ from their windows tables), fleet (:func:`run_fleet_stage`). Inputs from a manif
 cluster by address).
 """
 
+from .cluster import dask_client as dask_client
 from .drive_stage import process_drive as process_drive
 from .drive_summary import drive_summary as drive_summary
 from .fleet_stage import fleet_table as fleet_table
@@ -14,8 +15,8 @@ from .fleet_stage import run_fleet_stage as run_fleet_stage
 from .manifest import DriveItem as DriveItem
 from .manifest import manifest_from_table as manifest_from_table
 from .manifest import read_manifest as read_manifest
-from .run import dask_client as dask_client
 from .run import fleet_run as fleet_run
+from .run_result import FleetRunResult as FleetRunResult
 from .settings import RunSettings as RunSettings
 from .tyre_set_stage import fit_tyre_set as fit_tyre_set
 from .windows import WINDOW_COLUMNS as WINDOW_COLUMNS

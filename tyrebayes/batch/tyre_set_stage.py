@@ -153,14 +153,7 @@ def fit_tyre_set(
     folder = Path(out_dir) / TYRE_SETS_DIR
     rec_path = record_path(folder, name)
     config = settings.tyre_set_settings()
-    input_hash = value_hash(
-        {
-            "tyre_set_id": tyre_set_id,
-            "tyre_type": tyre_type,
-            "drives": [(d["drive_id"], d["windows_hash"]) for d in drives],
-            "lateral": [d.get("lateral") for d in drives],
-        }
-    )
+    input_hash = _input_hash(tyre_set_id, tyre_type, drives)
     old = read_record(rec_path)
     if unchanged(old, input_hash, config):
         return {**old, "skipped": True, "seconds": time.perf_counter() - start}
@@ -173,41 +166,9 @@ def fit_tyre_set(
         "drives": [d["drive_id"] for d in drives],
     }
     try:
-        if not drives:
-            raise BadInputError("no drive of this tyre set was processed")
-        from ..inference.result import provenance
-        from ..inference.tyre.data import stack_drives
-        from ..inference.tyre.fit import fit_tyre
-        from ..inference.tyre.model import TyrePriors
-
-        drives_dir = Path(out_dir) / DRIVES_DIR
-        table = pd.concat(
-            [pd.read_parquet(drives_dir / f"{d['drive_id']}.windows.parquet") for d in drives],
-            ignore_index=True,
-        )
-        windows, surfaces = drives_from_windows(table)
-        n = int(len(table))
-        dropped |= WORKER.keep_one_fit_shape(pad_size(n))
-        obs = stack_drives(windows, surfaces, pad_to=pad_size(n))
-        fit = fit_tyre(
-            obs,
-            priors=TyrePriors().with_load_sensitivity() if settings.load_sensitivity else None,
-            method=settings.method,
-            kind=settings.model,
-            seed=settings.seed,
-            pointwise=settings.pointwise,
-        )
-        fit = _with_provenance(fit, provenance, tyre_set_id, drives, settings)
-        fit.save(folder / f"{name}.fit.nc")
-        lateral = combine_drive_laterals([d.get("lateral") or {} for d in drives])
-        row = tyre_set_row(tyre_set_id, tyre_type, fit, len(drives), n, lateral)
-        write_parquet(pd.DataFrame([row]), folder / f"{name}.row.parquet")
-        record |= {
-            "status": "done",
-            "reason": "",
-            "converged": row["converged"],
-            "outputs": [f"{name}.fit.nc", f"{name}.row.parquet"],
-        }
+        table = _windows_of(drives, out_dir)
+        dropped |= WORKER.keep_one_fit_shape(pad_size(len(table)))
+        record |= _fit_and_write(tyre_set_id, tyre_type, drives, table, folder, settings)
     except Exception as err:  # noqa: BLE001 -- a set that cannot be fitted is recorded
         if stopping():
             raise  # the interruption's failure, not the item's: no record, redone next run
@@ -222,6 +183,76 @@ def fit_tyre_set(
     write_record(rec_path, record)
     release_free_memory()  # the worker idles, or starts its next task, without it
     return {**record, "skipped": False}
+
+
+def _input_hash(tyre_set_id: str, tyre_type: str, drives: list[dict]) -> str:
+    """What the set's fit depends on besides the settings: its id and type, its drives'
+    windows tables (by hash) and their lateral fits."""
+    return value_hash(
+        {
+            "tyre_set_id": tyre_set_id,
+            "tyre_type": tyre_type,
+            "drives": [(d["drive_id"], d["windows_hash"]) for d in drives],
+            "lateral": [d.get("lateral") for d in drives],
+        }
+    )
+
+
+def _windows_of(drives: list[dict], out_dir: str) -> pd.DataFrame:
+    """The windows tables of a set's drives, in their order, as one table.
+
+    Raises
+    ------
+    BadInputError
+        No drive of the set was processed.
+    """
+    if not drives:
+        raise BadInputError("no drive of this tyre set was processed")
+    drives_dir = Path(out_dir) / DRIVES_DIR
+    return pd.concat(
+        [pd.read_parquet(drives_dir / f"{d['drive_id']}.windows.parquet") for d in drives],
+        ignore_index=True,
+    )
+
+
+def _fit_and_write(
+    tyre_set_id: str,
+    tyre_type: str,
+    drives: list[dict],
+    table: pd.DataFrame,
+    folder: Path,
+    settings: RunSettings,
+) -> dict:
+    """Fit the set jointly over its drives' windows ``table``; write its fit file and table
+    row into ``folder`` (``tyre_sets/``); return the fields of a done set's record."""
+    from ..inference.result import provenance
+    from ..inference.tyre.data import stack_drives
+    from ..inference.tyre.fit import fit_tyre
+    from ..inference.tyre.model import TyrePriors
+
+    windows, surfaces = drives_from_windows(table)
+    n = int(len(table))
+    obs = stack_drives(windows, surfaces, pad_to=pad_size(n))
+    fit = fit_tyre(
+        obs,
+        priors=TyrePriors().with_load_sensitivity() if settings.load_sensitivity else None,
+        method=settings.method,
+        kind=settings.model,
+        seed=settings.seed,
+        pointwise=settings.pointwise,
+    )
+    fit = _with_provenance(fit, provenance, tyre_set_id, drives, settings)
+    name = set_file_name(tyre_set_id)
+    fit.save(folder / f"{name}.fit.nc")
+    lateral = combine_drive_laterals([d.get("lateral") or {} for d in drives])
+    row = tyre_set_row(tyre_set_id, tyre_type, fit, len(drives), n, lateral)
+    write_parquet(pd.DataFrame([row]), folder / f"{name}.row.parquet")
+    return {
+        "status": "done",
+        "reason": "",
+        "converged": row["converged"],
+        "outputs": [f"{name}.fit.nc", f"{name}.row.parquet"],
+    }
 
 
 def _with_provenance(fit, provenance, tyre_set_id, drives, settings):

@@ -119,7 +119,7 @@ def _effect(
     z = np.abs(draws.mean(axis=0)) / np.maximum(draws.std(axis=0), 1e-300)
     j = int(np.argmax(z))
     level = cand.labels[j] if cand.kind == "categorical" else None
-    return summarize(draws[:, j]), level
+    return summarize(draws[:, j]).to_dict(), level
 
 
 def criticize_linear(

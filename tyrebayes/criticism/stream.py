@@ -292,8 +292,8 @@ def criticize_stream(
     header = [
         f"baseline: rho_x = C_x (sigma_x - s0) pooled over {d['n_rows']} thinned samples in "
         f"{base_loo.pointwise.shape[0]} segments of {d['window_s']:.1f} s; "
-        f"C_x = {cs['mean']:.1f} [{cs['hdi_90'][0]:.1f}, {cs['hdi_90'][1]:.1f}], "
-        f"s0 = {ss['mean']:.5f} [{ss['hdi_90'][0]:.5f}, {ss['hdi_90'][1]:.5f}] (90% HDI)",
+        f"C_x = {cs.mean:.1f} [{cs.hdi_low:.1f}, {cs.hdi_high:.1f}], "
+        f"s0 = {ss.mean:.5f} [{ss.hdi_low:.5f}, {ss.hdi_high:.5f}] (90% HDI)",
         "slip and force taken as exact in the baseline (errors in variables ignored); "
         "segments treated as independent",
     ]
@@ -324,8 +324,8 @@ def _extended_note(d: dict, found: list[str], base_loo, seed: int, n_draws: int)
     cs = summarize(c_x)
     return [
         f"extended model (baseline + {', '.join(found)}): ELPD gain {gain:.2f} (SE {se:.2f}) "
-        f"over the baseline; C_x = {cs['mean']:.1f} [{cs['hdi_90'][0]:.1f}, "
-        f"{cs['hdi_90'][1]:.1f}] (90% HDI, slip stiffness with the findings modelled)"
+        f"over the baseline; C_x = {cs.mean:.1f} [{cs.hdi_low:.1f}, "
+        f"{cs.hdi_high:.1f}] (90% HDI, slip stiffness with the findings modelled)"
     ]
 
 

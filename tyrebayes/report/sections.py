@@ -225,11 +225,11 @@ def _tyre_summary(idata, c_x, mu, surfaces, win: _TyreWindows) -> dict:
     """The section's numbers: C_x, C_xr, μ_max per surface, slip offset, window counts, κ."""
     post = idata["posterior"]
     summary = {
-        "c_x": summarize(c_x),
-        "c_xr": summarize(_flat(idata, "c_xr")),
-        "mu_max": {s: summarize(mu[:, i]) for i, s in enumerate(surfaces)},
+        "c_x": summarize(c_x).to_dict(),
+        "c_xr": summarize(_flat(idata, "c_xr")).to_dict(),
+        "mu_max": {s: summarize(mu[:, i]).to_dict() for i, s in enumerate(surfaces)},
         "slip_offset": (
-            summarize(_flat(idata, "slip_offset").reshape(c_x.shape[0], -1)[:, 0])
+            summarize(_flat(idata, "slip_offset").reshape(c_x.shape[0], -1)[:, 0]).to_dict()
             if "slip_offset" in post
             else None
         ),
@@ -237,7 +237,7 @@ def _tyre_summary(idata, c_x, mu, surfaces, win: _TyreWindows) -> dict:
         "n_abs_windows": int(win.at_limit.sum()),
     }
     if "temp_sensitivity" in post:
-        summary["temp_sensitivity"] = summarize(_flat(idata, "temp_sensitivity"))
+        summary["temp_sensitivity"] = summarize(_flat(idata, "temp_sensitivity")).to_dict()
     return summary
 
 

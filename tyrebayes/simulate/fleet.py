@@ -260,16 +260,7 @@ def simulate_fleet(
     >>> sorted(table["tyre_type"].unique())
     ['all_season', 'summer', 'winter']
     """
-    if n_sets < 1:
-        raise ValueError(f"n_sets: expected >= 1, got {n_sets}")
-    if c_xr_sd < 0:
-        raise ValueError(f"c_xr_sd: expected >= 0, got {c_xr_sd}")
-    if noise not in ("gaussian", "student_t3"):
-        raise ValueError(f"noise: expected 'gaussian' or 'student_t3', got {noise!r}")
-    surfaces = (surface,) if isinstance(surface, str) else tuple(surface)
-    bad = [s for s in surfaces if s not in SURFACES]
-    if bad or not surfaces:
-        raise ValueError(f"surface: expected names from {SURFACES}, got {list(surfaces)}")
+    surfaces = _checked_surfaces(n_sets, c_xr_sd, noise, surface)
     sizes = _effect_sizes(tuple(effects), effect_size)
     shares = dict(DEFAULT_TYPE_SHARES if type_shares is None else type_shares)
     rng = _rng(key_or_seed)
@@ -280,30 +271,13 @@ def simulate_fleet(
     types = np.array([t for t in TYRE_TYPES for _ in range(counts.get(t, 0))])
     rng.shuffle(types)
     n = len(types)
-
-    # Candidate covariates: always present, effective only when switched on.
-    age = np.minimum(0.5 + rng.gamma(2.0, 1.4, n), 15.0)
-    tread = rng.uniform(3.0, 9.0, n)
-    pressure = rng.uniform(1.9, 3.0, n)
-    load_index = rng.integers(82, 101, n).astype(float)
+    covariates = _covariates(rng, n)
     decoys = decoy_rng.normal(0.0, 1.0, (n, n_decoys))
 
     median = np.array([TYPE_STIFFNESS[t][0] for t in types])
     log_sd = np.array([TYPE_STIFFNESS[t][1] for t in types])
     c_true = median * np.exp(log_sd * rng.normal(size=n))
-    stiffening = np.zeros(n)
-    mu_shift = np.zeros(n)  # snow/ice size; scaled on dry/wet
-    if "age" in sizes:
-        years = age - AGE_REF_YEARS
-        stiffening += AGE_STIFFENING_PER_YEAR * sizes["age"] / THESIS_AGED_TYRE_EFFECT * years
-        mu_shift -= sizes["age"] * years
-    if "load" in sizes:
-        stiffening += 0.02 * (load_index - LOAD_INDEX_REF) / 10.0
-        mu_shift -= sizes["load"] * (load_index - LOAD_INDEX_REF) / 10.0
-    if "pressure" in sizes:
-        mu_shift -= sizes["pressure"] * (pressure - PRESSURE_REF_BAR)
-    if "tread" in sizes:
-        mu_shift += sizes["tread"] * (tread - TREAD_REF_MM)
+    stiffening, mu_shift = _hidden_effects(sizes, covariates)
     c_true = c_true * np.maximum(1.0 + stiffening, 0.5)
     z_true = inverse_stiffness(c_true) - inverse_stiffness(median)
 
@@ -312,41 +286,134 @@ def simulate_fleet(
 
     frames = []
     for s in surfaces:
-        a = np.array([TYPE_FRICTION[s][t][0] for t in types])
-        b = np.array([TYPE_FRICTION[s][t][1] for t in types])
-        sig = np.array([TYPE_FRICTION[s][t][2] for t in types])
-        share = 1.0 if s in ("snow", "ice") else _HIGH_FRICTION_EFFECT_SHARE
-        eps = (
-            rng.normal(size=n)
-            if noise == "gaussian"
-            else rng.standard_t(3.0, size=n) / np.sqrt(3.0)  # var of t_3 is 3
-        )
-        mu = a + b * z_true + share * mu_shift + sig * eps
-        frame = pd.DataFrame(
-            {
-                "tyre_id": [f"T{i:05d}" for i in range(n)],
-                "tyre_type": types,
-                "surface": s,
-                "c_xr": c_obs,
-                "c_xr_sd": sd_row,
-                "mu": np.clip(mu, 0.02, None),
-                "age_years": np.round(age, 2),
-                "tread_depth_mm": np.round(tread, 2),
-                "pressure_bar": np.round(pressure, 3),
-                "load_index": load_index,
-            }
-        )
-        for j in range(n_decoys):
-            frame[f"decoy_{j + 1}"] = decoys[:, j]
-        frames.append(frame)
+        mu = _friction(rng, s, types, z_true, mu_shift, noise)
+        frames.append(_surface_rows(s, types, c_obs, sd_row, mu, covariates, decoys))
     table = pd.concat(frames, ignore_index=True)
-    lateral = None
+    truth = _truth(surfaces, c_true, sizes, n_decoys, counts)
     if lateral_ratio is not None:
         lateral = _lateral_estimates(rng, types, c_true, lateral_ratio, lateral_share, c_y_log_sd)
         table["c_y"] = np.tile(lateral["c_y"], len(surfaces))
         table["c_y_sd"] = np.tile(lateral["c_y_sd"], len(surfaces))
+        truth.update(
+            lateral_ratio=dict(lateral_ratio),
+            k_true=lateral["k_true"],
+            c_y_true=lateral["k_true"] * c_true,
+            has_lateral=lateral["has"],
+        )
+    return table, truth
 
-    truth = {
+
+def _checked_surfaces(n_sets: int, c_xr_sd: float, noise: str, surface) -> tuple[str, ...]:
+    """The surfaces asked for, as a tuple, once the options are checked (ValueError naming
+    expected vs got)."""
+    if n_sets < 1:
+        raise ValueError(f"n_sets: expected >= 1, got {n_sets}")
+    if c_xr_sd < 0:
+        raise ValueError(f"c_xr_sd: expected >= 0, got {c_xr_sd}")
+    if noise not in ("gaussian", "student_t3"):
+        raise ValueError(f"noise: expected 'gaussian' or 'student_t3', got {noise!r}")
+    surfaces = (surface,) if isinstance(surface, str) else tuple(surface)
+    bad = [s for s in surfaces if s not in SURFACES]
+    if bad or not surfaces:
+        raise ValueError(f"surface: expected names from {SURFACES}, got {list(surfaces)}")
+    return surfaces
+
+
+def _covariates(rng: np.random.Generator, n: int) -> dict[str, np.ndarray]:
+    """The candidate covariates per set, by column (unrounded): always present, effective
+    only when their hidden effect is switched on."""
+    return {
+        "age_years": np.minimum(0.5 + rng.gamma(2.0, 1.4, n), 15.0),
+        "tread_depth_mm": rng.uniform(3.0, 9.0, n),
+        "pressure_bar": rng.uniform(1.9, 3.0, n),
+        "load_index": rng.integers(82, 101, n).astype(float),
+    }
+
+
+def _hidden_effects(
+    sizes: Mapping[str, float], covariates: Mapping[str, np.ndarray]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per set the relative stiffening and the mu shift (its snow and ice size) of the hidden
+    effects switched on (module docstring)."""
+    n = len(covariates["age_years"])
+    stiffening = np.zeros(n)
+    mu_shift = np.zeros(n)  # snow/ice size; scaled on dry/wet
+    if "age" in sizes:
+        years = covariates["age_years"] - AGE_REF_YEARS
+        stiffening += AGE_STIFFENING_PER_YEAR * sizes["age"] / THESIS_AGED_TYRE_EFFECT * years
+        mu_shift -= sizes["age"] * years
+    if "load" in sizes:
+        load = covariates["load_index"] - LOAD_INDEX_REF
+        stiffening += 0.02 * load / 10.0
+        mu_shift -= sizes["load"] * load / 10.0
+    if "pressure" in sizes:
+        mu_shift -= sizes["pressure"] * (covariates["pressure_bar"] - PRESSURE_REF_BAR)
+    if "tread" in sizes:
+        mu_shift += sizes["tread"] * (covariates["tread_depth_mm"] - TREAD_REF_MM)
+    return stiffening, mu_shift
+
+
+def _friction(
+    rng: np.random.Generator,
+    surface: str,
+    types: np.ndarray,
+    z_true: np.ndarray,
+    mu_shift: np.ndarray,
+    noise: str,
+) -> np.ndarray:
+    """Per set its mu on ``surface``: the type's line in the inverse stiffness, the hidden
+    effects (a quarter of their size on dry and wet) and the residual (unclipped)."""
+    a = np.array([TYPE_FRICTION[surface][t][0] for t in types])
+    b = np.array([TYPE_FRICTION[surface][t][1] for t in types])
+    sig = np.array([TYPE_FRICTION[surface][t][2] for t in types])
+    share = 1.0 if surface in ("snow", "ice") else _HIGH_FRICTION_EFFECT_SHARE
+    n = len(types)
+    eps = (
+        rng.normal(size=n)
+        if noise == "gaussian"
+        else rng.standard_t(3.0, size=n) / np.sqrt(3.0)  # var of t_3 is 3
+    )
+    return a + b * z_true + share * mu_shift + sig * eps
+
+
+def _surface_rows(
+    surface: str,
+    types: np.ndarray,
+    c_obs: np.ndarray,
+    sd_row: np.ndarray,
+    mu: np.ndarray,
+    covariates: Mapping[str, np.ndarray],
+    decoys: np.ndarray,
+) -> pd.DataFrame:
+    """The table's rows of one surface, one per set, in the contract's column order."""
+    frame = pd.DataFrame(
+        {
+            "tyre_id": [f"T{i:05d}" for i in range(len(types))],
+            "tyre_type": types,
+            "surface": surface,
+            "c_xr": c_obs,
+            "c_xr_sd": sd_row,
+            "mu": np.clip(mu, 0.02, None),
+            "age_years": np.round(covariates["age_years"], 2),
+            "tread_depth_mm": np.round(covariates["tread_depth_mm"], 2),
+            "pressure_bar": np.round(covariates["pressure_bar"], 3),
+            "load_index": covariates["load_index"],
+        }
+    )
+    for j in range(decoys.shape[1]):
+        frame[f"decoy_{j + 1}"] = decoys[:, j]
+    return frame
+
+
+def _truth(
+    surfaces: tuple[str, ...],
+    c_true: np.ndarray,
+    sizes: dict[str, float],
+    n_decoys: int,
+    counts: dict[str, int],
+) -> dict:
+    """The simulation's truth (:func:`simulate_fleet`'s ``truth``, without the lateral part)."""
+    return {
         "type_params": {
             s: {
                 t: dict(zip(("a", "b", "sigma"), TYPE_FRICTION[s][t], strict=True))
@@ -369,14 +436,6 @@ def simulate_fleet(
         "type_counts": counts,
         "age_ref_years": AGE_REF_YEARS,
     }
-    if lateral is not None:
-        truth.update(
-            lateral_ratio=dict(lateral_ratio),
-            k_true=lateral["k_true"],
-            c_y_true=lateral["k_true"] * c_true,
-            has_lateral=lateral["has"],
-        )
-    return table, truth
 
 
 def _lateral_estimates(rng, types, c_true, lateral_ratio, share, log_sd_range) -> dict:

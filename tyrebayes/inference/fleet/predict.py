@@ -239,8 +239,8 @@ def lateral_ratio_summary(fit: Fit) -> dict | None:
     out = {}
     for i, t in enumerate(TYRE_TYPES):
         out[t] = {
-            "median_ratio": summarize(np.exp(fit.draws("k_loc")[:, i])),
-            "log_spread": summarize(fit.draws("k_scale")[:, i]),
+            "median_ratio": summarize(np.exp(fit.draws("k_loc")[:, i])).to_dict(),
+            "log_spread": summarize(fit.draws("k_scale")[:, i]).to_dict(),
             "n_sets": int(counts.get(t, 0)),
             "from": "data" if counts.get(t, 0) > 0 else "prior",
         }
@@ -259,7 +259,7 @@ def fit_summary(fit: Fit) -> dict:
     params = {
         s: {
             t: {
-                v: summarize(post[v].sel(surface=s, tyre_type=t).values)
+                v: summarize(post[v].sel(surface=s, tyre_type=t).values).to_dict()
                 for v in ("a", "b", "sigma")
             }
             for t in types

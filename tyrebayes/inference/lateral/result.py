@@ -60,20 +60,22 @@ class LateralFit:
         """
         post = self.fit.posterior
         return {
-            "c_y_front": summarize(self.draws("c_y_front")),
-            "c_y_rear": summarize(self.draws("c_y_rear")),
-            "understeer_gradient": summarize(self.draws("understeer_gradient")),
+            "c_y_front": summarize(self.draws("c_y_front")).to_dict(),
+            "c_y_rear": summarize(self.draws("c_y_rear")).to_dict(),
+            "understeer_gradient": summarize(self.draws("understeer_gradient")).to_dict(),
             "steering_ratio": (
-                summarize(self.draws("steering_ratio")) if "steering_ratio" in post else None
+                summarize(self.draws("steering_ratio")).to_dict()
+                if "steering_ratio" in post
+                else None
             ),
-            "mu_y": summarize(self.draws("mu_y")) if self.mu_y_observed else None,
+            "mu_y": summarize(self.draws("mu_y")).to_dict() if self.mu_y_observed else None,
             "mu_y_observed": bool(self.mu_y_observed),
             "identified": bool(self.identified),
             "converged": bool(self.converged),
             "adequate": bool(self.adequate),
             "adequacy_reasons": list(self.fit.diagnostics.adequacy_reasons),
             **{
-                name: summarize(self.draws(name))
+                name: summarize(self.draws(name)).to_dict()
                 for name in (
                     "roll_gradient",
                     "steering_offset",

@@ -227,14 +227,16 @@ class OnlineLateral(eqx.Module):
         cov = np.asarray(self.cov)
         corr = cov[rows[0], rows[1]] / math.sqrt(cov[rows[0], rows[0]] * cov[rows[1], rows[1]])
         return {
-            "c_y_front": summarize(draws["c_y_front"]) if split_ready else None,
-            "c_y_rear": summarize(draws["c_y_rear"]) if split_ready else None,
-            "understeer_gradient": summarize(draws["understeer_gradient"]) if k_ready else None,
+            "c_y_front": summarize(draws["c_y_front"]).to_dict() if split_ready else None,
+            "c_y_rear": summarize(draws["c_y_rear"]).to_dict() if split_ready else None,
+            "understeer_gradient": summarize(draws["understeer_gradient"]).to_dict()
+            if k_ready
+            else None,
             "ready": bool(split_ready),
             "understeer_gradient_ready": bool(k_ready),
             "reason": self.reason(),
             "front_rear_correlation": float(corr),
-            "steering_ratio": summarize(draws["steering_ratio"]),
+            "steering_ratio": summarize(draws["steering_ratio"]).to_dict(),
             "time_s": float(self.time_s),
             "samples": int(self.n_samples),
             "samples_skipped_longitudinal": int(self.n_skipped_longitudinal),
@@ -247,7 +249,10 @@ class OnlineLateral(eqx.Module):
         """``c_y_front``, ``c_y_rear``, ``understeer_gradient`` summaries whether or not ready
         (for benchmarks that compare every drive)."""
         draws = self._draws(seed)
-        return {k: summarize(draws[k]) for k in ("c_y_front", "c_y_rear", "understeer_gradient")}
+        return {
+            k: summarize(draws[k]).to_dict()
+            for k in ("c_y_front", "c_y_rear", "understeer_gradient")
+        }
 
 
 __all__ = ["LateralTrajectory", "OnlineLateral", "k_moments", "prior_k_sd"]

@@ -141,14 +141,14 @@ class TyreFit:
         """
         mu = self.draws("mu_max")
         summary = {
-            "c_x": summarize(self.draws("c_x")),
-            "c_xr": summarize(self.draws("c_xr")),
-            "mu_max": summarize(mu[:, 0]),
-            "slip_offset": summarize(self.draws("slip_offset")[:, 0]),
-            "force_gain": summarize(self.draws("force_gain")[:, 0]),
+            "c_x": summarize(self.draws("c_x")).to_dict(),
+            "c_xr": summarize(self.draws("c_xr")).to_dict(),
+            "mu_max": summarize(mu[:, 0]).to_dict(),
+            "slip_offset": summarize(self.draws("slip_offset")[:, 0]).to_dict(),
+            "force_gain": summarize(self.draws("force_gain")[:, 0]).to_dict(),
             "mu_max_observed": bool(self.mu_observed[self.surfaces[0]]),
             "mu_max_by_surface": {
-                s: {**summarize(mu[:, i]), "observed": bool(self.mu_observed[s])}
+                s: {**summarize(mu[:, i]).to_dict(), "observed": bool(self.mu_observed[s])}
                 for i, s in enumerate(self.surfaces)
             },
             "converged": self.converged,
@@ -166,14 +166,14 @@ class TyreFit:
             },
             "identified": {
                 "force_range": self.force_range,
-                "secant_stiffness": summarize(self.secant_stiffness),
+                "secant_stiffness": summarize(self.secant_stiffness).to_dict(),
             },
         }
         summary["lateral"] = None if self.lateral is None else self.lateral.to_dict()
         summary["lateral_reason"] = self.lateral_reason
         # Fit files written before the model had a load sensitivity lack it.
         if "load_sensitivity" in self.idata["posterior"]:
-            summary["load_sensitivity"] = summarize(self.draws("load_sensitivity"))
+            summary["load_sensitivity"] = summarize(self.draws("load_sensitivity")).to_dict()
         return summary
 
 

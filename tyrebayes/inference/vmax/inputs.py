@@ -89,8 +89,8 @@ class VmaxInputs:
             "mu_y_source": self.mu_y_source,
             "surface": self.surface,
             "note": self.note,
-            "c_y_front": summarize(self.c_y_front),
-            "c_y_rear": summarize(self.c_y_rear),
-            "mu_y": summarize(self.mu_y),
+            "c_y_front": summarize(self.c_y_front).to_dict(),
+            "c_y_rear": summarize(self.c_y_rear).to_dict(),
+            "mu_y": summarize(self.mu_y).to_dict(),
             "n_draws": self.n_draws,
         }

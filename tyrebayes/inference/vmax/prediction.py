@@ -113,7 +113,7 @@ class VmaxPrediction:
 
     def summary(self) -> dict:
         """``{"mean", "sd", "hdi_90"}`` of the bracketed draws [km/h]."""
-        return summarize(self.v_max_kmh)
+        return summarize(self.v_max_kmh).to_dict()
 
     def to_dict(self) -> dict:
         """``vmax FIT --json``'s object: ``v_max_kmh`` summary, sources and the inputs."""

@@ -164,22 +164,23 @@ class WearHistoryPrediction:
         ``wear_over_reference``, ``tyre_changes``, ``n_drives``, ``history_km``.
         """
         out: dict = {
-            "gamma": summarize(self.gamma_mm3_per_j),
-            "gamma_work": summarize(self.gamma_work_mm3_per_j),
+            "gamma": summarize(self.gamma_mm3_per_j).to_dict(),
+            "gamma_work": summarize(self.gamma_work_mm3_per_j).to_dict(),
             "lateral_work": self._lateral_dict(),
         }
         if self.kappa_per_k is not None:
-            out["kappa"] = summarize(self.kappa_per_k)
+            out["kappa"] = summarize(self.kappa_per_k).to_dict()
         out["wear_mm_per_1000km"] = {
-            name: summarize(1000.0 * self.wear_mm_per_km[:, a]) for a, name in enumerate(AXLE_NAMES)
+            name: summarize(1000.0 * self.wear_mm_per_km[:, a]).to_dict()
+            for a, name in enumerate(AXLE_NAMES)
         }
         out["depth_now_mm"] = {
-            name: summarize(self.depth_now_mm[:, a]) for a, name in enumerate(AXLE_NAMES)
+            name: summarize(self.depth_now_mm[:, a]).to_dict() for a, name in enumerate(AXLE_NAMES)
         }
         for limit, km in zip(self.limits_mm, self.km_to_limit_km, strict=True):
             key = f"km_to_{limit:g}mm".replace(".", "_")
             out[key] = {
-                **summarize(np.maximum(km, 0.0)),
+                **summarize(np.maximum(km, 0.0)).to_dict(),
                 "already_below": bool(np.mean(km < 0) > 0.5),
             }
         q = self.depth_curve_quantiles_mm
@@ -189,9 +190,9 @@ class WearHistoryPrediction:
             "q50_mm": q[1].tolist(),
             "q95_mm": q[2].tolist(),
         }
-        out["g_per_1000km_car_set"] = summarize(self.g_per_1000km_car_set)
+        out["g_per_1000km_car_set"] = summarize(self.g_per_1000km_car_set).to_dict()
         out["wear_over_reference"] = {
-            **summarize(self.wear_over_reference),
+            **summarize(self.wear_over_reference).to_dict(),
             "reference_g_per_1000km": self.reference_g_per_1000km,
             "tyre_type": self.tyre_type,
         }
@@ -209,7 +210,7 @@ class WearHistoryPrediction:
         }
         if self.lateral_work_scale is not None:
             q = self.lateral_work_scale
-            out["scale"] = {name: summarize(q[:, a]) for a, name in enumerate(AXLE_NAMES)}
+            out["scale"] = {name: summarize(q[:, a]).to_dict() for a, name in enumerate(AXLE_NAMES)}
         return out
 
     def _changes_list(self) -> list[dict]:

@@ -65,10 +65,14 @@ def relative_wear_draws(volume_a: np.ndarray, volume_b: np.ndarray) -> dict:
     a, b = np.asarray(volume_a), np.asarray(volume_b)
     ratio = a / b
     diff = np.abs(a - b) / np.maximum(a, b)
-    return {"i_rel": summarize(ratio), "i_rel_thesis": summarize(diff), "draws": ratio}
+    return {
+        "i_rel": summarize(ratio).to_dict(),
+        "i_rel_thesis": summarize(diff).to_dict(),
+        "draws": ratio,
+    }
 
 
 def gamma_summary(fit: Fit) -> list[dict]:
     """Posterior of gamma_ref per tyre set in the ``{"mean","sd","hdi_90"}`` form [mm^3/J]."""
     gamma = fit.draws("gamma")
-    return [summarize(gamma[:, i]) for i in range(gamma.shape[1])]
+    return [summarize(gamma[:, i]).to_dict() for i in range(gamma.shape[1])]
