@@ -9,6 +9,14 @@ repeats, and of the force-density EM inside the windows step (``deconvolve_force
 largest entries of a ``cProfile`` of one more run (its own overhead makes those slower; their
 shares are what they are for).
 
+The stage's lateral fit (``tyrebayes.batch.lateral.drive_lateral``) is measured apart, on a
+simulated one-hour cornering drive (the longitudinal drive above has too little cornering), in
+another fresh process with an empty persistent compilation cache: its first call (compiled),
+the fastest of ``--repeats`` calls with its programs kept, and the fastest of ``--repeats`` calls
+each after :func:`tyrebayes.batch.worker_memory.drop_compiled_programs` (what a fleet worker
+does when its memory budget is reached: the programs are traced again and loaded from the
+cache). The process's resident memory is recorded after each.
+
 CPU time, not wall time: the machine is shared (2 cores, other runs on them; the load averages
 are recorded), which stretches wall time but changes a single-threaded process's CPU seconds far
 less. With ``--before REV`` the same is measured on the package as of git revision REV, on the
@@ -86,6 +94,41 @@ print(json.dumps({
 }))
 """
 
+_LATERAL_CHILD = r"""
+import json, sys, time
+from tyrebayes.batch.settings import configure_jax
+configure_jax(sys.argv[3])
+from tyrebayes import load_vehicle, read_stream, validate_stream
+from tyrebayes.batch.lateral import drive_lateral
+from tyrebayes.batch.worker_memory import drop_compiled_programs, rss_mb
+
+path, repeats = sys.argv[1], int(sys.argv[2])
+vehicle = load_vehicle("compact_fwd")
+frame = validate_stream(read_stream(path), vehicle).data
+
+def run():
+    c = time.process_time()
+    row = drive_lateral(frame, vehicle, "dry", source=path)
+    return time.process_time() - c, row
+
+first, row = run()
+first_rss = rss_mb()
+kept = [run()[0] for _ in range(repeats)]
+kept_rss = rss_mb()
+dropped, dropped_rss = [], []
+for _ in range(repeats):
+    drop_compiled_programs()
+    dropped.append(run()[0])
+    dropped_rss.append(rss_mb())
+print(json.dumps({
+    "duration_s": float(frame["time"].iloc[-1] - frame["time"].iloc[0]),
+    "lateral_reason": row["lateral_reason"], "c_y": row["c_y"],
+    "first_call_cpu_s": first, "rss_mb_after_first_call": first_rss,
+    "kept_cpu_s": min(kept), "rss_mb_with_programs_kept": kept_rss,
+    "after_drop_cpu_s": min(dropped), "rss_mb_after_drop_and_call": max(dropped_rss),
+}))
+"""
+
 _ENV = {
     "OMP_NUM_THREADS": "1",
     "OPENBLAS_NUM_THREADS": "1",
@@ -118,6 +161,17 @@ def _drive(folder: Path, duration_s: float) -> Path:
     return path
 
 
+def _cornering_drive(folder: Path, duration_s: float) -> Path:
+    from tyrebayes import load_vehicle
+    from tyrebayes.simulate.cornering import simulate_cornering
+    from tyrebayes.streams import write_stream
+
+    path = folder / "cornering.parquet"
+    frame, _ = simulate_cornering(load_vehicle("compact_fwd"), duration_s=duration_s, seed=21)
+    write_stream(frame, path)
+    return path
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration", type=float, default=3600.0, help="drive length [s]")
@@ -140,6 +194,16 @@ def main() -> int:
         child_args = [path, args.repeats, args.top]
         after = run_child(_CHILD, child_args, None, _ENV)
         results["after"] = after | {"per_drive_hour_cpu_s": _per_hour(after)}
+        cornering = _cornering_drive(Path(tmp), args.duration)
+        lateral = run_child(
+            _LATERAL_CHILD, [cornering, args.repeats, Path(tmp) / "jax-cache"], None, _ENV
+        )
+        hours = lateral["duration_s"] / 3600.0
+        results["lateral"] = lateral | {
+            "per_drive_hour_cpu_s": {
+                k: lateral[f"{k}_cpu_s"] / hours for k in ("first_call", "kept", "after_drop")
+            }
+        }
         if args.before:
             code = package_at(args.before, Path(tmp) / "before")
             before = run_child(_CHILD, child_args, code, _ENV)
@@ -168,6 +232,34 @@ def main() -> int:
             count=1,
             note=f"{em['steps']} EM steps over {em['windows']} windows, converged: "
             f"{em['converged']}; inside the windows step",
+        ),
+    ]
+    lateral = results["lateral"]
+    figures += [
+        figure(
+            "lateral fit CPU per drive-hour, programs kept (a worker's steady state)",
+            lateral["per_drive_hour_cpu_s"]["kept"],
+            unit="s",
+            count=1,
+            note="one simulated hour of cornering; resident "
+            f"{lateral['rss_mb_with_programs_kept']:.0f} MB; "
+            f"fit: {lateral['lateral_reason'] or 'usable'}",
+            headline=True,
+        ),
+        figure(
+            "lateral fit CPU per drive-hour after the worker dropped its compiled programs",
+            lateral["per_drive_hour_cpu_s"]["after_drop"],
+            unit="s",
+            count=1,
+            note="traced again and loaded from the persistent cache; resident "
+            f"{lateral['rss_mb_after_drop_and_call']:.0f} MB after",
+        ),
+        figure(
+            "lateral fit CPU per drive-hour, first call (compiled, empty cache)",
+            lateral["per_drive_hour_cpu_s"]["first_call"],
+            unit="s",
+            count=1,
+            note=f"resident {lateral['rss_mb_after_first_call']:.0f} MB after",
         ),
     ]
     if args.before:
