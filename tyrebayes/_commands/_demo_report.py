@@ -159,7 +159,7 @@ def run_demo(out_dir: Path, *, quick: bool, seed: int = 0, step_factory=None):
             surfaces.append(truth.surface)
         prepared.append((name, tyre_type, spec, windows, surfaces))
         steps.done()
-    pad = max(bucket_size(sum(len(w["slip"]) for w in p[3])) for p in prepared)
+    pad = max(bucket_size(sum(len(w) for w in p[3])) for p in prepared)
     for i, (name, tyre_type, spec, windows, surfaces) in enumerate(prepared):
         steps.start(f"fit {name}")
         obs = stack_drives(windows, surfaces, pad_to=pad)

@@ -19,6 +19,7 @@ from tyrebayes.inference.online import (
     window_blocks,
 )
 from tyrebayes.inference.online.process import predict
+from tyrebayes.inference.tyre.data import WindowTable
 from tyrebayes.inference.tyre.model import TyrePriors
 
 from ._synthetic import linear_windows
@@ -138,8 +139,8 @@ def test_one_block_of_outlying_slips_is_not_a_change(estimator, seed):
     # restarted C_x far from its value (benchmarks/online_outliers.py measures the same on
     # simulated drives).
     windows = linear_windows(seed, 1200.0)
-    burst = (windows["time_s"] > 700.0) & (windows["time_s"] < 710.0)
-    windows["slip"] = windows["slip"] + np.where(burst, 20 * 2e-4 * 5, 0.0)
+    burst = (windows.time_s > 700.0) & (windows.time_s < 710.0)
+    windows = windows.replace(slip=windows.slip + np.where(burst, 20 * 2e-4 * 5, 0.0))
     state, trajectory = run_online(estimator, estimator.init(), _steps(windows))
     assert int(trajectory.n_alarms[-1]) == 0
     assert abs(float(trajectory.c_x.mean[-1]) / 40.0 - 1.0) < 0.05
@@ -223,14 +224,13 @@ def test_other_settings_reuse_the_compiled_filter(estimator, caplog):
     assert not bool(default.ready[0]) and bool(trajectory.ready[0])
 
 
-def _with_abs_stop(windows: dict, at_s: float, mu: float) -> dict:
+def _with_abs_stop(windows: WindowTable, at_s: float, mu: float) -> WindowTable:
     """``windows`` with 2.5 s of ABS windows at ``at_s``: the braking force at the peak μ."""
-    inside = (windows["time_s"] >= at_s) & (windows["time_s"] < at_s + 2.5)
+    inside = (windows.time_s >= at_s) & (windows.time_s < at_s + 2.5)
     rng = np.random.default_rng(3)
-    out = {k: np.array(v, copy=True) for k, v in windows.items()}
-    out["rho"][inside] = -mu + rng.normal(0.0, 0.02 * mu, inside.sum())
-    out["at_limit"][inside] = True
-    return out
+    rho = windows.rho.copy()
+    rho[inside] = -mu + rng.normal(0.0, 0.02 * mu, inside.sum())
+    return windows.replace(rho=rho, at_limit=windows.at_limit | inside)
 
 
 @pytest.mark.parametrize("surface", ["dry", "ice"])
