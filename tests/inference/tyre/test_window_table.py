@@ -43,6 +43,10 @@ def test_bad_lengths_and_missing_columns_are_one_line_errors():
         WindowTable.from_dict(missing)
     with pytest.raises(BadInputError, match="mask expected shape"):
         _windows().select(np.ones(3, bool))
+    with pytest.raises(BadInputError, match=r"^window table: rho expected 6 windows, got 2$"):
+        _windows().replace(rho=np.zeros(2))
+    with pytest.raises(BadInputError, match=r"got \['wheel_speed'\]$"):
+        _windows().replace(wheel_speed=np.zeros(6))
 
 
 def test_dict_round_trip_is_exact():

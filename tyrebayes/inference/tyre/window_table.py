@@ -7,7 +7,6 @@ and :func:`tyrebayes.stream_windows` return, and what :func:`~.observations.stac
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -171,8 +170,15 @@ class WindowTable:
         return WindowTable.from_dict({k: v[index] for k, v in self.to_dict().items()})
 
     def replace(self, **columns) -> WindowTable:
-        """A copy with the given columns replaced (None drops an optional one)."""
-        return dataclasses.replace(self, **columns)
+        """A copy with the given columns replaced (None drops an optional one; ``extra``
+        replaces all the extra channels), checked as :meth:`from_dict` checks."""
+        known = (*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS)
+        unknown = sorted(set(columns) - {*known, "extra"})
+        if unknown:
+            raise BadInputError(f"window table: expected columns of {list(known)}, got {unknown}")
+        named = {name: columns.get(name, getattr(self, name)) for name in known}
+        extra = columns.get("extra", self.extra)
+        return WindowTable.from_dict({**{k: v for k, v in named.items() if v is not None}, **extra})
 
     @classmethod
     def concatenate(cls, tables: Sequence[WindowTable]) -> WindowTable:
