@@ -45,7 +45,6 @@ WITHOUT_ARGUMENT_SECTION = {
     "drive_history",
     "tread_readings",
     "online_estimate",
-    "stream_windows",
     "summary_record",
     "vmax_draws",
     "predict_wear_volume",

@@ -20,8 +20,32 @@ def stream_windows(
 ) -> WindowTable:
     """Read, validate and window one stream (:func:`~..tyre.data.windows_from_stream`).
 
-    Returns the windows (a :class:`~tyrebayes.WindowTable`), in time order of their steps once
-    grouped by :func:`stream_steps`; at least 10 of them, or :class:`~tyrebayes.BadInputError`.
+    Parameters
+    ----------
+    path : path-like or ValidatedStream
+        Stream file (CSV, Parquet or MDF4), or a stream already read and validated.
+    vehicle : Vehicle or str
+        Vehicle parameters, a preset name or a TOML path.
+    surface : str
+        Road surface of the drive, one of :data:`tyrebayes.SURFACES`.
+    temperature_c : float, optional
+        A fixed tyre temperature [°C]; default the driven tyres' temperature estimated sample by
+        sample.
+    ambient_c : float, optional
+        Ambient temperature [°C] for that estimate; default the stream's, else 20 °C.
+    channel_map : dict of str to str, optional
+        Source column name to contract name (:func:`tyrebayes.read_stream`); unused for a
+        validated stream.
+
+    Returns
+    -------
+    WindowTable
+        The windows, in time order of their steps once grouped by :func:`stream_steps`.
+
+    Raises
+    ------
+    BadInputError
+        As :func:`~..tyre.data.windows_from_stream`, or fewer than 10 windows.
 
     Examples
     --------
