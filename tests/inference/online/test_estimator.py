@@ -154,8 +154,9 @@ def _two_drives(seed, c_x_after, offset_after):
     offset (the car stood between them)."""
     first = linear_windows(seed, 600.0)
     second = linear_windows(seed + 1, 600.0, c_x=c_x_after, slip_offset=offset_after, start_s=600.0)
-    first["drive"], second["drive"] = np.zeros(first["slip"].size), np.ones(second["slip"].size)
-    return {k: np.concatenate([first[k], second[k]]) for k in first}
+    first = first.replace(drive=np.zeros(len(first), dtype=np.int64))
+    second = second.replace(drive=np.ones(len(second), dtype=np.int64))
+    return WindowTable.concatenate([first, second])
 
 
 def test_swap_at_a_drive_start_is_found_and_a_new_drive_alone_is_not(estimator):
