@@ -258,9 +258,7 @@ def test_search_starts_each_drive_at_its_own_slip_offset():
     offsets = np.asarray(start["slip_offset"])
     # Both drives have the true offset 0.002 (+0.003 on the second) up to the attenuated slope.
     assert abs(offsets[1] - offsets[0] - 0.003) < 5e-4
-    assert np.allclose(
-        np.asarray(start["force_level"]), [first.rho.mean(), second.rho.mean()]
-    )
+    assert np.allclose(np.asarray(start["force_level"]), [first.rho.mean(), second.rho.mean()])
 
 
 def test_the_warm_up_reveals_the_stiffness_temperature_sensitivity():
