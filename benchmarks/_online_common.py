@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from tyrebayes._domain import load_vehicle
-from tyrebayes.inference.tyre.data import observations_from_features
+from tyrebayes.inference.tyre.data import WindowTable, observations_from_features
 from tyrebayes.simulate.drive import simulate_drive
 from tyrebayes.simulate.profiles import ProfileOptions
 from tyrebayes.simulate.tyre_spec import TyreSpec, draw_database_curve
@@ -89,7 +89,7 @@ def external_entries(folder: Path = EXTERNAL) -> list[dict]:
     return json.loads((folder / "truth.json").read_text())["drives"]
 
 
-def external_windows(entry: dict, folder: Path = EXTERNAL) -> dict:
+def external_windows(entry: dict, folder: Path = EXTERNAL) -> WindowTable:
     """An external drive through the stream pipeline as a new user's fit-tyre would read it."""
     vehicle_path = folder / "drives" / entry["vehicle"]
     vehicle = load_vehicle(vehicle_path)

@@ -157,16 +157,16 @@ def one_drive(drive: Drive, priors: TyrePriors | None = None) -> dict:
         fits[kind] = fit_tyre(obs, priors=priors, method="fast", seed=0, kind=kind)
 
     truth = pd.read_parquet(drive.truth_samples_path())
-    slip_windows = ~windows["at_limit"]
-    true_slip, true_rho = window_truth(truth, windows["time_s"][slip_windows], 0.125, axle)
-    slip, rho = windows["slip"][slip_windows], windows["rho"][slip_windows]
+    slip_windows = windows.select(~windows.at_limit)
+    true_slip, true_rho = window_truth(truth, slip_windows.time_s, 0.125, axle)
+    slip, rho = slip_windows.slip, slip_windows.rho
     post = fits["default"]
     lam_rho = float(post.draws("rho_noise_scale").mean())
     lam_slip = float(post.draws("slip_noise_scale").mean())
-    block = np.floor(windows["time_s"][slip_windows] / BLOCK_S)
+    block = np.floor(slip_windows.time_s / BLOCK_S)
     noise = {
-        "force": noise_ratio(rho, true_rho, windows["rho_sd"][slip_windows], block),
-        "slip": noise_ratio(slip, true_slip, windows["slip_sd"][slip_windows], block),
+        "force": noise_ratio(rho, true_rho, slip_windows.rho_sd, block),
+        "slip": noise_ratio(slip, true_slip, slip_windows.slip_sd, block),
     }
     noise["force"]["stated_fit_ratio"] = noise["force"]["ratio"] * lam_rho
     noise["slip"]["stated_fit_ratio"] = noise["slip"]["ratio"] * lam_slip

@@ -92,7 +92,7 @@ def one_drive(name, windows, truth_at, n_steps, estimator, source, max_step_s=No
     truth = truth_at(times)
 
     at = int(np.searchsorted(times, AGREEMENT_S + 1e-9) - 1)
-    first10 = {k: v[windows["time_s"] <= AGREEMENT_S] for k, v in windows.items()}
+    first10 = windows.select(windows.time_s <= AGREEMENT_S)
     batch = fit_tyre(stack_drives([first10], ["dry"]), method="fast", seed=0)
     b = batch.draws("c_x")
     b_mean, b_sd = float(b.mean()), float(b.std())
@@ -119,8 +119,8 @@ def one_drive(name, windows, truth_at, n_steps, estimator, source, max_step_s=No
     return {
         "name": name,
         "source": source,
-        "n_windows": int(len(windows["slip"])),
-        "n_abs_windows": int(np.sum(windows["at_limit"])),
+        "n_windows": len(windows),
+        "n_abs_windows": int(np.sum(windows.at_limit)),
         "n_steps": int(n),
         "online_wall_s": online_wall,
         "c_x_true_at_10min": float(truth[at]),

@@ -55,7 +55,7 @@ from tyrebayes.inference.online import (  # noqa: E402
     run_online_cars,
     stream_steps,
 )
-from tyrebayes.inference.tyre.data import BLOCK_S, stack_drives  # noqa: E402
+from tyrebayes.inference.tyre.data import BLOCK_S, WindowTable, stack_drives  # noqa: E402
 from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
 from tyrebayes.inference.tyre.force_density import deconvolve_forces  # noqa: E402
 from tyrebayes.inference.tyre.model import TyrePriors, curve_slip  # noqa: E402
@@ -87,7 +87,7 @@ def _first_after(row: dict, before_s: float) -> str:
     return after[0] if after else ""
 
 
-def swap_drive(i: int, before_s: float, after_s: float, factor: float) -> dict:
+def swap_drive(i: int, before_s: float, after_s: float, factor: float) -> WindowTable:
     """Pair ``i``: a drive on one tyre, then one on a tyre with C_xr × ``factor``."""
     rng = np.random.default_rng([i, 11])
     kind = TYRES[i % len(TYRES)]
@@ -96,22 +96,22 @@ def swap_drive(i: int, before_s: float, after_s: float, factor: float) -> dict:
     a, _, _ = simulated_windows(1000 + i, before_s, tyre=first)
     b, _, _ = simulated_windows(2000 + i, after_s, tyre=second)
     # Two drives: the car stops for the swap, and the estimator sees the second drive start.
-    a = {**a, "drive": np.zeros(len(a["slip"]), dtype=int)}
-    b = {**b, "time_s": b["time_s"] + before_s, "drive": np.ones(len(b["slip"]), dtype=int)}
-    return {k: np.concatenate([a[k], b[k]]) for k in a}
+    a = a.replace(drive=np.zeros(len(a), dtype=int))
+    b = b.replace(time_s=b.time_s + before_s, drive=np.ones(len(b), dtype=int))
+    return WindowTable.concatenate([a, b])
 
 
-def batch_separation(windows: dict, before_s: float) -> dict:
+def batch_separation(windows: WindowTable, before_s: float) -> dict:
     """The batch fast fits of the drive before the swap and of the first DETECT_WITHIN_S after
     it, each alone: their C_x and how many combined sds apart their log C_x are."""
-    t = windows["time_s"]
+    t = windows.time_s
     parts = {
         "before": t <= before_s,
         "after_5min": (t > before_s) & (t <= before_s + DETECT_WITHIN_S),
     }
     fits = {}
     for name, use in parts.items():
-        part = {k: v[use] for k, v in windows.items() if k != "drive"}
+        part = windows.select(use).replace(drive=None)
         draws = np.log(fit_tyre(stack_drives([part], ["dry"]), method="fast", seed=0).draws("c_x"))
         fits[name] = (float(np.mean(draws)), float(np.std(draws)))
     (m0, s0), (m1, s1) = fits["before"], fits["after_5min"]
@@ -135,7 +135,7 @@ def exact_force_scores(rho_obs, noise_sd, mixture) -> tuple[np.ndarray, np.ndarr
     return score, second - score**2
 
 
-def model_windows(template: dict, seed: int) -> dict:
+def model_windows(template: WindowTable, seed: int) -> WindowTable:
     """Slips and forces drawn from the per-tyre model at TRUE, at the template's times, noise sds
     and temperatures.
 
@@ -146,13 +146,12 @@ def model_windows(template: dict, seed: int) -> dict:
     drive's estimated force density smooths: C_x came out 25 % high on such windows.)
     """
     rng = np.random.default_rng(seed)
-    use = ~template["at_limit"]
-    t = template["time_s"][use]
-    rho_sd, slip_sd = template["rho_sd"][use], template["slip_sd"][use]
-    mixture = deconvolve_forces(template["rho"][use], rho_sd)
+    used = template.select(~template.at_limit)
+    t, rho_sd, slip_sd = used.time_s, used.rho_sd, used.slip_sd
+    mixture = deconvolve_forces(used.rho, rho_sd)
     component = rng.choice(mixture.weights.size, size=t.size, p=mixture.weights)
     rho_true = rng.normal(mixture.means[component], np.sqrt(mixture.variances[component]))
-    temperature = template["temperature_c"][use]
+    temperature = used.temperature_c
     c_x = np.asarray(stiffness_with_sensitivity(TRUE["c_xr"], temperature, TRUE["kappa"]))
     params = {"curve_shape_c": TRUE["shape_c"], "curve_curvature_e": TRUE["curvature_e"]}
     slip_true = np.asarray(curve_slip("magic", rho_true, c_x, TRUE["mu"], params))
@@ -166,18 +165,18 @@ def model_windows(template: dict, seed: int) -> dict:
     # Force gain 1: the measured force is the true one plus its noise.
     rho = rho_true + rng.normal(0.0, rho_sd)
     score, slope = exact_force_scores(rho, rho_sd, mixture)
-    return {
-        "time_s": t,
-        "drive": drive,
-        "slip": slip,
-        "rho": rho,
-        "slip_sd": slip_sd,
-        "rho_sd": rho_sd,
-        "temperature_c": temperature,
-        "at_limit": np.zeros(len(t), dtype=bool),
-        "rho_score": score,
-        "rho_score_slope": slope,
-    }
+    return WindowTable(
+        slip=slip,
+        rho=rho,
+        slip_sd=slip_sd,
+        rho_sd=rho_sd,
+        temperature_c=temperature,
+        time_s=t,
+        at_limit=np.zeros(len(t), dtype=bool),
+        rho_score=score,
+        rho_score_slope=slope,
+        drive=drive,
+    )
 
 
 def main() -> None:

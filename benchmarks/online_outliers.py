@@ -50,6 +50,7 @@ from tyrebayes.inference.online import (  # noqa: E402
     stream_steps,
 )
 from tyrebayes.inference.online.config import REVERSION_S  # noqa: E402
+from tyrebayes.inference.tyre.data import WindowTable  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "online_outliers.json"
 DURATION_S = 1200.0
@@ -58,15 +59,15 @@ BURST_WINDOWS = 40  # 10 s of 0.25 s windows where the car pushes throughout
 BURST_SDS = 20.0
 
 
-def with_burst(windows: dict) -> tuple[dict, float]:
+def with_burst(windows: WindowTable) -> tuple[WindowTable, float]:
     """The windows with the first BURST_WINDOWS slip windows from BURST_FROM_S on moved by
     BURST_SDS of their own slip sds, and the time of the first."""
-    t = windows["time_s"]
-    slip_windows = np.flatnonzero((t >= BURST_FROM_S) & ~windows["at_limit"])
+    t = windows.time_s
+    slip_windows = np.flatnonzero((t >= BURST_FROM_S) & ~windows.at_limit)
     slip_windows = slip_windows[np.argsort(t[slip_windows], kind="stable")][:BURST_WINDOWS]
-    moved = windows["slip"].copy()
-    moved[slip_windows] += BURST_SDS * windows["slip_sd"][slip_windows]
-    return {**windows, "slip": moved}, float(t[slip_windows[0]])
+    moved = windows.slip.copy()
+    moved[slip_windows] += BURST_SDS * windows.slip_sd[slip_windows]
+    return windows.replace(slip=moved), float(t[slip_windows[0]])
 
 
 @functools.partial(eqx.filter_jit, compiler_options=COMPILER_OPTIONS)

@@ -39,9 +39,9 @@ import json, sys, time
 import numpy as np
 from tyrebayes.batch.settings import configure_jax
 configure_jax(sys.argv[1])
-from tyrebayes.inference.tyre.data import stack_drives
+from tyrebayes.inference.tyre.data import WindowTable, stack_drives
 from tyrebayes.inference.tyre.fit import fit_tyre
-windows = dict(np.load(sys.argv[2]))
+windows = WindowTable.from_dict(dict(np.load(sys.argv[2])))
 obs = stack_drives([windows], ["dry"], pad_to=int(sys.argv[3]))
 times = []
 for _ in range(2):
@@ -67,8 +67,8 @@ def _windows(path: Path) -> int:
     vehicle = load_vehicle("compact_fwd")
     df, _ = simulate_drive(3, vehicle, "all_season", duration_s=3600.0)
     windows = observations_from_features(compute_features(validate_stream(df, vehicle), vehicle))
-    np.savez(path, **{k: np.asarray(v) for k, v in windows.items() if not k.startswith("_")})
-    return pad_size(len(windows["slip"]))
+    np.savez(path, **windows.to_dict())
+    return pad_size(len(windows))
 
 
 def _run(cache: Path, windows: Path, pad: int) -> dict:

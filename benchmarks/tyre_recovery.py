@@ -212,8 +212,8 @@ def one_drive(seed: int, setting: dict, duration_s: float, vehicle, pad_to: int)
     brush = fit_tyre(obs, priors=priors, method="fast", seed=seed, kind="brush")
     c_x_draws, mu_draws = fit.draws("c_x"), fit.draws("mu_max")[:, 0]
     c_x_brush, mu_brush = brush.draws("c_x"), brush.draws("mu_max")[:, 0]
-    slip_w = ~windows["at_limit"]
-    x, y = windows["slip"][slip_w], windows["rho"][slip_w]
+    slip_windows = windows.select(~windows.at_limit)
+    x, y = slip_windows.slip, slip_windows.rho
     c_x_true = float(np.mean(truth.c_x))
     load_draws = np.asarray(fit.draws("load_sensitivity")) if priors is not None else None
 
@@ -234,7 +234,7 @@ def one_drive(seed: int, setting: dict, duration_s: float, vehicle, pad_to: int)
         "c_x_post": float(np.mean(c_x_draws)),
         "mu_post": float(np.mean(mu_draws)),
         "c_x_ols": ols_slope(x, y),
-        "c_x_tls": tls_slope(x, y, windows["slip_sd"][slip_w], windows["rho_sd"][slip_w]),
+        "c_x_tls": tls_slope(x, y, slip_windows.slip_sd, slip_windows.rho_sd),
         "c_x_cover50": covers(c_x_draws, c_x_true, 0.5),
         "c_x_cover90": covers(c_x_draws, c_x_true, 0.9),
         "mu_cover50": covers(mu_draws, truth.mu_max, 0.5),

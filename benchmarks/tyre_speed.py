@@ -50,6 +50,7 @@ import numpy as np  # noqa: E402
 from tyrebayes._domain import load_vehicle  # noqa: E402
 from tyrebayes.inference.tyre import fit as tyre_fit  # noqa: E402
 from tyrebayes.inference.tyre.data import (  # noqa: E402
+    WindowTable,
     bucket_size,
     observations_from_features,
     stack_drives,
@@ -81,8 +82,9 @@ def peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def windows_of(seed: int, vehicle) -> tuple[dict, float, float]:
-    """Simulate and window one one-hour drive; returns windows, sim seconds, windowing seconds."""
+def windows_of(seed: int, vehicle) -> tuple[WindowTable, float, float, float]:
+    """Simulate and window one one-hour drive; returns its windows, its mean true C_x, the
+    simulation's seconds and the windowing's seconds."""
     t0 = time.perf_counter()
     df, truth = simulate_drive(
         seed,
@@ -96,12 +98,7 @@ def windows_of(seed: int, vehicle) -> tuple[dict, float, float]:
     features = compute_features(validate_stream(df, vehicle), vehicle)
     windows = observations_from_features(features, temperature_c=15.0)
     t2 = time.perf_counter()
-    windows["_c_x_true"] = float(np.mean(truth.c_x))
-    return windows, t1 - t0, t2 - t1
-
-
-def _strip(w: dict) -> dict:
-    return {k: v for k, v in w.items() if not k.startswith("_")}
+    return windows, float(np.mean(truth.c_x)), t1 - t0, t2 - t1
 
 
 def timed_fit(obs, **kwargs):
@@ -155,15 +152,15 @@ def main() -> None:
         save()
 
     # 1. two one-hour drives
-    wa, sim_a, win_a = windows_of(0, vehicle)
-    wb, sim_b, win_b = windows_of(1, vehicle)
+    wa, c_x_true_a, sim_a, win_a = windows_of(0, vehicle)
+    wb, c_x_true_b, sim_b, win_b = windows_of(1, vehicle)
     res["simulate_one_hour_s"] = [sim_a, sim_b]
     res["features_and_windows_one_hour_s"] = [win_a, win_b]
     # One bucket for both drives (default buckets: 8 sizes per octave), so B reuses A's compile.
-    pad = bucket_size(max(len(wa["slip"]), len(wb["slip"])))
-    obs_a = stack_drives([_strip(wa)], ["dry"], pad_to=pad)
-    obs_b = stack_drives([_strip(wb)], ["dry"], pad_to=pad)
-    res["c_x_true"] = [wa["_c_x_true"], wb["_c_x_true"]]
+    pad = bucket_size(max(len(wa), len(wb)))
+    obs_a = stack_drives([wa], ["dry"], pad_to=pad)
+    obs_b = stack_drives([wb], ["dry"], pad_to=pad)
+    res["c_x_true"] = [c_x_true_a, c_x_true_b]
     res["peak_rss_mb_after_stage"]["simulate"] = peak_mb()
 
     # 2. fast path: with compilation, then new data of the same shape
@@ -246,10 +243,10 @@ def main() -> None:
     save()
 
     # 4. ten hours: ten one-hour drives stacked
-    drives, sims = [_strip(wa), _strip(wb)], [sim_a, sim_b]
+    drives, sims = [wa, wb], [sim_a, sim_b]
     for seed in range(2, 10):
-        w, sim_s, _ = windows_of(seed, vehicle)
-        drives.append(_strip(w))
+        w, _, sim_s, _ = windows_of(seed, vehicle)
+        drives.append(w)
         sims.append(sim_s)
     obs10 = stack_drives(drives, ["dry"] * 10)
     res["peak_rss_mb_after_stage"]["simulate_ten"] = peak_mb()

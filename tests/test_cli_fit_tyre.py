@@ -91,7 +91,7 @@ def test_fit_tyre_exits_3_when_the_fit_did_not_converge(tmp_path, capsys, monkey
 
     # A fit that did not converge (non-finite forces), of the shape the inference tests compile.
     windows = linear_region_windows(3)
-    windows["rho"][:10] = np.inf
+    windows = windows.replace(rho=np.where(np.arange(len(windows)) < 10, np.inf, windows.rho))
     failed = tyre_fit.fit_tyre(stack_drives([windows], ["dry"], pad_to=PAD), method="fast")
     assert not failed.converged
     monkeypatch.setattr(tyre_fit, "fit_tyre", lambda *args, **kwargs: failed)

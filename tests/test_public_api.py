@@ -44,7 +44,6 @@ WITHOUT_ARGUMENT_SECTION = {
     "build_wear_data",
     "drive_history",
     "tread_readings",
-    "stream_windows",
     "vmax_draws",
     "predict_wear_volume",
     "critical_speed",

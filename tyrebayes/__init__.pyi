@@ -40,6 +40,7 @@ from .inference.result import Provenance as Provenance
 from .inference.result import diagnose as diagnose
 from .inference.result import load_fit as load_fit
 from .inference.tyre.data import TyreObservations as TyreObservations
+from .inference.tyre.data import WindowTable as WindowTable
 from .inference.tyre.data import observations_from_features as observations_from_features
 from .inference.tyre.data import observations_from_stream as observations_from_stream
 from .inference.tyre.data import stack_drives as stack_drives

@@ -53,8 +53,9 @@ def test_windows_table_is_the_pipelines_windows(drive_file, tmp_path):
     expected = observations_from_features(feats, temperature_c=temperature)
     (drive,), surfaces = drives_from_windows(table)
     assert surfaces == ["snow"]
-    for key, values in drive.items():
-        np.testing.assert_array_equal(values, expected[key], err_msg=key)
+    assert drive.to_dict().keys() == expected.to_dict().keys()
+    for key, values in drive.to_dict().items():
+        np.testing.assert_array_equal(values, expected.to_dict()[key], err_msg=key)
     row = pd.read_parquet(tmp_path / "drives" / f"{item.drive_id}.summary.parquet")
     assert len(row) == 1
     row = row.iloc[0]

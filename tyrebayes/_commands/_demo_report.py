@@ -218,7 +218,7 @@ def _simulate_sets(tyres: list, sizes: DemoSizes, vehicle, out_dir: Path, seed: 
 def _fit_sets(prepared: list, seed: int, report: Report, fits: dict, steps) -> None:
     """Fit every simulated set (fast), all padded to one size: one compiled fit for all; add
     each fit to ``fits`` and its section, with its truth, to the report."""
-    pad = max(bucket_size(sum(len(w["slip"]) for w in p[3])) for p in prepared)
+    pad = max(bucket_size(sum(len(w) for w in p[3])) for p in prepared)
     for i, (name, tyre_type, spec, windows, surfaces) in enumerate(prepared):
         steps.start(f"fit {name}")
         obs = stack_drives(windows, surfaces, pad_to=pad)

@@ -185,7 +185,8 @@ def run(args: argparse.Namespace) -> int:
         )
         lateral = _lateral(path, args.vehicle, args.surface)
     steps = stream_steps(windows, args.surface, max_step_s=args.max_step_s)
-    imu = float(np.max(windows.get("imu_gain_log_sd", np.zeros(1)), initial=0.0))
+    imu_sd = windows.imu_gain_log_sd
+    imu = 0.0 if imu_sd is None else float(np.max(imu_sd, initial=0.0))
     priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
     estimate = online_estimate(steps, kind=args.model, priors=priors, imu_gain_log_sd=imu)
     payload = {

@@ -123,7 +123,7 @@ def _windows_and_summary(
     windows = observations_from_features(
         features, temperature_c=temperature, window_s=settings.window_s
     )
-    if len(windows["slip"]) == 0:
+    if len(windows) == 0:
         raise BadInputError("no usable windows (too short, too slow, or no traction)")
     table = windows_table(
         windows, drive_id=item.drive_id, tyre_set_id=item.tyre_set_id, surface=item.surface

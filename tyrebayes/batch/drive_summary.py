@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from ..inference.tyre.window_table import WindowTable
 from ..physics.vehicle import Vehicle
 from ..streams.segments import SEGMENT_KINDS
 from ..streams.wear_evidence import drive_wear_evidence
@@ -19,7 +20,7 @@ from .manifest import DriveItem
 
 
 def drive_summary(
-    item: DriveItem, stream, features, windows: dict[str, np.ndarray], vehicle: Vehicle
+    item: DriveItem, stream, features, windows: WindowTable, vehicle: Vehicle
 ) -> dict:
     """The summary row of one processed drive (flat: str, float, int and bool values).
 
@@ -31,7 +32,7 @@ def drive_summary(
         The validated log (:func:`tyrebayes.streams.validate_stream`).
     features : StreamFeatures
         Its features (:func:`tyrebayes.streams.compute_features`).
-    windows : dict
+    windows : WindowTable
         Its windowed observations (:func:`tyrebayes.inference.observations_from_features`).
     vehicle : Vehicle
         The car (for the wear evidence's axle loads and radii).
@@ -75,8 +76,8 @@ def drive_summary(
         "ax_gain": float(nuis.ax_gain.applied),
         "speed_scale": float(nuis.speed_scale),
         "friction_work_driven_j": float(np.nansum(power) * dt),
-        "windows": int(len(windows["slip"])),
-        "abs_windows": int(np.sum(windows["at_limit"])),
+        "windows": len(windows),
+        "abs_windows": int(np.sum(windows.at_limit)),
         "flags": " | ".join(stream.flags),
     }
     wear = drive_wear_evidence(stream, vehicle, features=features).row()

@@ -14,12 +14,12 @@ centre], ``slip``, ``slip_sd``, ``rho``, ``rho_sd`` [-], ``temperature_c`` [°C]
 Examples
 --------
 >>> import numpy as np
->>> w = {k: np.zeros(3) for k in WINDOW_VALUES}
->>> w["at_limit"] = np.zeros(3, bool)
+>>> from tyrebayes import WindowTable
+>>> w = WindowTable.from_dict({k: np.zeros(3) for k in WINDOW_VALUES})
 >>> table = windows_table(w, drive_id="d1", tyre_set_id="s1", surface="snow")
 >>> drives, surfaces = drives_from_windows(table)
->>> surfaces, len(drives[0]["slip"])
-(['snow'], 3)
+>>> surfaces, len(drives[0]), drives[0].at_limit.dtype
+(['snow'], 3, dtype('bool'))
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from .._errors import BadInputError
+from ..inference.tyre.window_table import WindowTable
 
 #: Per-window values of the table, as :func:`observations_from_features` names them.
 WINDOW_VALUES = (
@@ -49,13 +50,14 @@ WINDOW_COLUMNS = (*KEY_COLUMNS, *WINDOW_VALUES)
 
 
 def windows_table(
-    windows: dict[str, np.ndarray], *, drive_id: str, tyre_set_id: str, surface: str
+    windows: WindowTable, *, drive_id: str, tyre_set_id: str, surface: str
 ) -> pd.DataFrame:
     """One drive's windows as rows of the windows table (columns :data:`WINDOW_COLUMNS`)."""
-    missing = [k for k in WINDOW_VALUES if k not in windows]
+    columns = windows.to_dict()
+    missing = [k for k in WINDOW_VALUES if k not in columns]
     if missing:
-        raise ValueError(f"windows_table: expected windows with {missing}, got {sorted(windows)}")
-    n = len(windows["slip"])
+        raise ValueError(f"windows_table: expected windows with {missing}, got {sorted(columns)}")
+    n = len(windows)
     table = pd.DataFrame(
         {
             "drive_id": pd.Series([drive_id] * n, dtype="string"),
@@ -64,12 +66,12 @@ def windows_table(
         }
     )
     for k in WINDOW_VALUES:
-        table[k] = np.asarray(windows[k], dtype=bool if k == "at_limit" else float)
+        table[k] = np.asarray(columns[k], dtype=bool if k == "at_limit" else float)
     return table
 
 
-def drives_from_windows(table: pd.DataFrame) -> tuple[list[dict[str, np.ndarray]], list[str]]:
-    """Split a windows table (one or many drives) into per-drive window dicts and surfaces.
+def drives_from_windows(table: pd.DataFrame) -> tuple[list[WindowTable], list[str]]:
+    """Split a windows table (one or many drives) into per-drive windows and surfaces.
 
     Drives come in order of first appearance, windows in table order (time order within a
     drive, which the slip-weight estimate needs).
@@ -87,7 +89,12 @@ def drives_from_windows(table: pd.DataFrame) -> tuple[list[dict[str, np.ndarray]
                 f"windows table: expected one surface per drive, got {sorted(map(str, surface))}"
             )
         drives.append(
-            {k: part[k].to_numpy(dtype=bool if k == "at_limit" else float) for k in WINDOW_VALUES}
+            WindowTable.from_dict(
+                {
+                    k: part[k].to_numpy(dtype=bool if k == "at_limit" else float)
+                    for k in WINDOW_VALUES
+                }
+            )
         )
         surfaces.append(str(surface[0]))
     return drives, surfaces

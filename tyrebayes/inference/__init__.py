@@ -13,6 +13,7 @@ from .result import Provenance as Provenance
 from .result import diagnose as diagnose
 from .result import load_fit as load_fit
 from .tyre.data import TyreObservations as TyreObservations
+from .tyre.data import WindowTable as WindowTable
 from .tyre.data import observations_from_features as observations_from_features
 from .tyre.data import observations_from_stream as observations_from_stream
 from .tyre.data import stack_drives as stack_drives

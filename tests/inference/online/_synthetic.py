@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tyrebayes.inference.tyre.data import WindowTable
+
 
 def linear_windows(
     seed: int,
@@ -18,7 +20,7 @@ def linear_windows(
     rho_sd: float = 0.005,
     start_s: float = 0.0,
     load_sensitivity: float = 0.0,
-) -> dict:
+) -> WindowTable:
     """Windows every 0.25 s: slip = ρ/C_x + offset + noise, force uniform in ``force_range``.
 
     The driven axle unloads as it pushes, ΔF_z/F_z = −0.5 ρ, and C_x follows it through
@@ -33,13 +35,13 @@ def linear_windows(
     load_change = -0.5 * rho_true
     stiffness = stiffness * np.exp(load_sensitivity * load_change)
     n = t.size
-    return {
-        "time_s": t,
-        "slip": rho_true / stiffness + slip_offset + rng.normal(0.0, slip_sd, n),
-        "rho": rho_true + rng.normal(0.0, rho_sd, n),
-        "slip_sd": np.full(n, slip_sd),
-        "rho_sd": np.full(n, rho_sd),
-        "temperature_c": np.full(n, 20.0),
-        "load_change": load_change,
-        "at_limit": np.zeros(n, dtype=bool),
-    }
+    return WindowTable(
+        slip=rho_true / stiffness + slip_offset + rng.normal(0.0, slip_sd, n),
+        rho=rho_true + rng.normal(0.0, rho_sd, n),
+        slip_sd=np.full(n, slip_sd),
+        rho_sd=np.full(n, rho_sd),
+        temperature_c=np.full(n, 20.0),
+        time_s=t,
+        load_change=load_change,
+        at_limit=np.zeros(n, dtype=bool),
+    )

@@ -26,7 +26,7 @@ WEIGHT = jnp.asarray(0.7)
 def _block(seconds: float = 30.0, seed: int = 0):
     windows = linear_windows(seed, seconds, c_x=35.0)
     # One step holding all of the windows: 5 s blocks, so the offsets' correction is in it.
-    blocks = window_blocks(windows, "dry", width=windows["time_s"].size, step_s=seconds)
+    blocks = window_blocks(windows, "dry", width=len(windows), step_s=seconds)
     return jax.tree.map(lambda x: x[0], blocks)
 
 

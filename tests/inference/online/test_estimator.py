@@ -18,6 +18,7 @@ from tyrebayes.inference.online import (
     window_blocks,
 )
 from tyrebayes.inference.online.process import predict
+from tyrebayes.inference.tyre.data import WindowTable
 from tyrebayes.inference.tyre.model import TyrePriors
 
 from ._synthetic import linear_windows
@@ -143,8 +144,8 @@ def test_one_block_of_outlying_slips_is_not_a_change(estimator, seed):
     # restarted C_x far from its value (benchmarks/online_outliers.py measures the same on
     # simulated drives).
     windows = linear_windows(seed, 1200.0)
-    burst = (windows["time_s"] > 700.0) & (windows["time_s"] < 710.0)
-    windows["slip"] = windows["slip"] + np.where(burst, 20 * 2e-4 * 5, 0.0)
+    burst = (windows.time_s > 700.0) & (windows.time_s < 710.0)
+    windows = windows.replace(slip=windows.slip + np.where(burst, 20 * 2e-4 * 5, 0.0))
     run = run_online(estimator, estimator.init(), _steps(windows))
     state, trajectory = run.state, run.trajectory
     assert int(trajectory.n_alarms[-1]) == 0
@@ -159,8 +160,9 @@ def _two_drives(seed, c_x_after, offset_after):
     offset (the car stood between them)."""
     first = linear_windows(seed, 600.0)
     second = linear_windows(seed + 1, 600.0, c_x=c_x_after, slip_offset=offset_after, start_s=600.0)
-    first["drive"], second["drive"] = np.zeros(first["slip"].size), np.ones(second["slip"].size)
-    return {k: np.concatenate([first[k], second[k]]) for k in first}
+    first = first.replace(drive=np.zeros(len(first), dtype=np.int64))
+    second = second.replace(drive=np.ones(len(second), dtype=np.int64))
+    return WindowTable.concatenate([first, second])
 
 
 def test_swap_at_a_drive_start_is_found_and_a_new_drive_alone_is_not(estimator):
@@ -230,14 +232,13 @@ def test_other_settings_reuse_the_compiled_filter(estimator, caplog):
     assert not bool(default.ready[0]) and bool(trajectory.ready[0])
 
 
-def _with_abs_stop(windows: dict, at_s: float, mu: float) -> dict:
+def _with_abs_stop(windows: WindowTable, at_s: float, mu: float) -> WindowTable:
     """``windows`` with 2.5 s of ABS windows at ``at_s``: the braking force at the peak μ."""
-    inside = (windows["time_s"] >= at_s) & (windows["time_s"] < at_s + 2.5)
+    inside = (windows.time_s >= at_s) & (windows.time_s < at_s + 2.5)
     rng = np.random.default_rng(3)
-    out = {k: np.array(v, copy=True) for k, v in windows.items()}
-    out["rho"][inside] = -mu + rng.normal(0.0, 0.02 * mu, inside.sum())
-    out["at_limit"][inside] = True
-    return out
+    rho = windows.rho.copy()
+    rho[inside] = -mu + rng.normal(0.0, 0.02 * mu, inside.sum())
+    return windows.replace(rho=rho, at_limit=windows.at_limit | inside)
 
 
 @pytest.mark.parametrize("surface", ["dry", "ice"])

@@ -11,14 +11,14 @@ from ._synthetic import linear_windows
 
 def test_steps_hold_whole_blocks_in_time_order():
     w = linear_windows(0, 95.0)
-    order = np.random.default_rng(0).permutation(w["time_s"].size)
-    shuffled = {k: v[order] for k, v in w.items()}
+    order = np.random.default_rng(0).permutation(len(w))
+    shuffled = w.select(order)
     blocks = window_blocks(shuffled, "dry", width=121)
     assert blocks.n_blocks == 4  # 0-30, 30-60, 60-90, 90-95 s
     np.testing.assert_allclose(np.asarray(blocks.time_s), [30.0, 60.0, 90.0, 120.0])
     np.testing.assert_allclose(np.asarray(blocks.span_s), 30.0)
     first = np.asarray(blocks.slip[0])[np.asarray(blocks.mask[0])]
-    np.testing.assert_allclose(first, w["slip"][:120])
+    np.testing.assert_allclose(first, w.slip[:120])
     assert set(np.asarray(blocks.block_index[0])[np.asarray(blocks.mask[0])]) == set(range(6))
     padded = pad_steps(blocks, 6)
     assert padded.n_blocks == 6 and not bool(padded.mask[4:].any())
@@ -29,8 +29,7 @@ def test_steps_hold_whole_blocks_in_time_order():
 def test_sparse_blocks_pack_into_steps_up_to_their_width_and_span():
     # One 5 s block of windows (20) every 15 s: a clock-cut 30 s step would hold 40.
     w = linear_windows(0, 300.0)
-    keep = (w["time_s"] // 5.0) % 3 == 0
-    w = {k: v[keep] for k, v in w.items()}
+    w = w.select((w.time_s // 5.0) % 3 == 0)
     clock = window_blocks(w, "dry", width=60)
     packed = window_blocks(w, "dry", width=60, max_step_s=60.0)
     assert clock.n_blocks == 10 and packed.n_blocks == 7
@@ -49,13 +48,13 @@ def test_sparse_blocks_pack_into_steps_up_to_their_width_and_span():
         assert sorted(set(index)) == list(range(len(set(index))))
     # Same windows, same order, nothing lost or duplicated.
     np.testing.assert_allclose(
-        np.sort(np.asarray(packed.slip)[np.asarray(packed.mask)]), np.sort(w["slip"])
+        np.sort(np.asarray(packed.slip)[np.asarray(packed.mask)]), np.sort(w.slip)
     )
     # A wider width packs more, up to the span: 0-60 s holds 4 blocks.
     wide = window_blocks(w, "dry", width=200, max_step_s=60.0)
     assert int(np.asarray(wide.mask).sum(axis=1)[0]) == 80
     # A step never spans two drives.
-    w2 = dict(w, drive=(w["time_s"] > 100.0).astype(int))
+    w2 = w.replace(drive=(w.time_s > 100.0).astype(int))
     split = window_blocks(w2, "dry", width=60, max_step_s=60.0)
     assert int(np.asarray(split.drive_start).sum()) == 2
 

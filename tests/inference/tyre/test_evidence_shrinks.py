@@ -23,7 +23,7 @@ def drive():
 def _c_x_sd(vehicle, df, keep_every: int = 1) -> float:
     features = compute_features(validate_stream(df, vehicle), vehicle)
     windows = observations_from_features(features)
-    windows = {k: v[::keep_every] for k, v in windows.items()}
+    windows = windows.select(slice(None, None, keep_every))
     fit = fit_tyre(stack_drives([windows], ["dry"], pad_to=PAD), method="fast", seed=0)
     assert fit.diagnostics.converged, fit.diagnostics.reason
     return float(np.std(fit.draws("c_x")))

@@ -22,7 +22,7 @@ DRIVE_PAD = 16384
 def test_non_finite_data_is_not_converged():
     # The shape of test_model.py's fixture and of the CLI tests: compiled once per run.
     windows = linear_region_windows(3)
-    windows["rho"][:10] = np.inf
+    windows = windows.replace(rho=np.where(np.arange(len(windows)) < 10, np.inf, windows.rho))
     obs = stack_drives([windows], ["dry"], pad_to=PAD)
     fit = fit_tyre(obs, method="fast", seed=1)
     assert fit.diagnostics.converged is False
@@ -195,9 +195,8 @@ def test_predictive_core_matches_the_model_log_likelihood():
     from tyrebayes.inference.tyre.predictive import _predictive_core
 
     windows = linear_region_windows(5, n=200)
-    windows["at_limit"] = np.zeros(200, dtype=bool)
-    windows["at_limit"][[50, 51, 52]] = True
-    windows["rho"][[50, 51, 52]] = -0.95
+    abs_stop = np.isin(np.arange(200), [50, 51, 52])
+    windows = windows.replace(at_limit=abs_stop, rho=np.where(abs_stop, -0.95, windows.rho))
     obs = stack_drives([windows], ["dry"], pad_to=256)
     prior = Predictive(tyre_model, num_samples=6)(jax.random.PRNGKey(3), obs)
     draws = {k: v for k, v in prior.items() if k not in ("slip_obs", "rho_obs", "force_below_peak")}
@@ -251,7 +250,7 @@ def test_search_starts_each_drive_at_its_own_slip_offset():
     from tyrebayes.inference.tyre.predictive import _priors_key
 
     first, second = linear_region_windows(6), linear_region_windows(7)
-    second["slip"] = second["slip"] + 0.003
+    second = second.replace(slip=second.slip + 0.003)
     obs = stack_drives([first, second], ["dry", "dry"], pad_to=2048)
     _, _, params = _model_layout(_priors_key(TyrePriors()), "brush", (2048, 2, ("dry",)))
     flat, unravel = ravel_pytree(params)
@@ -259,9 +258,7 @@ def test_search_starts_each_drive_at_its_own_slip_offset():
     offsets = np.asarray(start["slip_offset"])
     # Both drives have the true offset 0.002 (+0.003 on the second) up to the attenuated slope.
     assert abs(offsets[1] - offsets[0] - 0.003) < 5e-4
-    assert np.allclose(
-        np.asarray(start["force_level"]), [first["rho"].mean(), second["rho"].mean()]
-    )
+    assert np.allclose(np.asarray(start["force_level"]), [first.rho.mean(), second.rho.mean()])
 
 
 def test_the_warm_up_reveals_the_stiffness_temperature_sensitivity():

@@ -10,7 +10,7 @@ import pytest
 from numpyro import handlers
 
 from tyrebayes.inference.result import load_fit
-from tyrebayes.inference.tyre.data import stack_drives
+from tyrebayes.inference.tyre.data import WindowTable, stack_drives
 from tyrebayes.inference.tyre.fit import TyreFit, fit_tyre
 from tyrebayes.inference.tyre.model import TyrePriors, tyre_model
 from tyrebayes.physics.tyre import brush_longitudinal, brush_longitudinal_inverse
@@ -23,7 +23,7 @@ SLIP_OFFSET_TRUE = 0.002
 PAD = 1024
 
 
-def linear_region_windows(seed: int, n: int = 900, slip_noise: float = 0.0012) -> dict:
+def linear_region_windows(seed: int, n: int = 900, slip_noise: float = 0.0012) -> WindowTable:
     """Slowly varying true slip (a driver's pedal), noisy slip and force, no ABS.
 
     True slip spread 0.0015, slip noise 0.0012: the reliability ratio is 0.61, so OLS of force
@@ -38,14 +38,15 @@ def linear_region_windows(seed: int, n: int = 900, slip_noise: float = 0.0012) -
     neighbour = np.full(n, np.nan)
     neighbour[1:-1] = 0.5 * (slip[:-2] + slip[2:])
     neighbour[0], neighbour[-1] = slip[1], slip[-2]
-    return {
-        "slip": slip,
-        "rho": rho_obs,
-        "slip_sd": np.full(n, slip_noise),
-        "rho_sd": np.full(n, 0.004),
-        "temperature_c": np.full(n, 20.0),
-        "neighbour_slip": neighbour,
-    }
+    return WindowTable(
+        slip=slip,
+        rho=rho_obs,
+        slip_sd=np.full(n, slip_noise),
+        rho_sd=np.full(n, 0.004),
+        temperature_c=np.full(n, 20.0),
+        time_s=0.25 * np.arange(n),
+        neighbour_slip=neighbour,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +58,7 @@ def linear_fit():
 
 def test_ols_is_attenuated_and_the_model_is_not(linear_fit):
     windows, _, fit = linear_fit
-    ols_slope = np.polyfit(windows["slip"], windows["rho"], 1)[0]
+    ols_slope = np.polyfit(windows.slip, windows.rho, 1)[0]
     # Reliability 0.0015² / (0.0015² + 0.0012²) = 0.61: OLS is visibly biased low.
     assert ols_slope < 0.75 * C_X_TRUE
     c_x = fit.summary()["c_x"]
@@ -103,7 +104,7 @@ def test_imu_gain_uncertainty_widens_only_its_drives_force_gain_prior():
     """A drive whose forces were divided by an estimated IMU gain (log-sd 0.06) gets a force-gain
     prior of log-sd √(0.025² + 0.06²); the other drive keeps the car's own 0.025."""
     plain = linear_region_windows(3, n=50)
-    dashcam = {**linear_region_windows(4, n=50), "imu_gain_log_sd": np.full(50, 0.06)}
+    dashcam = linear_region_windows(4, n=50).replace(imu_gain_log_sd=np.full(50, 0.06))
     obs = stack_drives([plain, dashcam], ["dry", "dry"])
     np.testing.assert_allclose(np.asarray(obs.imu_gain_log_sd[:100]), [0.0] * 50 + [0.06] * 50)
     with jax.numpy_rank_promotion("allow"):
@@ -118,7 +119,7 @@ def test_stack_drives_checks_surfaces_and_counts():
         stack_drives([w], ["gravel"])
     with pytest.raises(ValueError, match="one surface per drive"):
         stack_drives([w, w], ["dry"])
-    short = {k: v[:5] for k, v in w.items()}
+    short = w.select(np.arange(5))
     with pytest.raises(ValueError, match="at least 10 usable windows"):
         stack_drives([short], ["dry"])
 
@@ -129,7 +130,7 @@ def test_abs_runs_drop_short_runs_and_ends():
     np.testing.assert_array_equal(_inner_runs(flags, 4), expected)
 
 
-def skewed_force_windows(seed: int, n: int = 1000) -> dict:
+def skewed_force_windows(seed: int, n: int = 1000) -> WindowTable:
     """A drive's forces as they are: a dense cruising cluster and a long tail of accelerations.
 
     Slips follow the brush curve (C_x 40, μ 1.0) with little noise; the force has Gaussian noise
@@ -144,19 +145,22 @@ def skewed_force_windows(seed: int, n: int = 1000) -> dict:
     return noisy_windows(rng, slip_true, rho_true, slip_sd=2e-4, rho_sd=0.012)
 
 
-def noisy_windows(rng, slip_true, rho_true, *, slip_sd: float, rho_sd: float, **also) -> dict:
-    """Windows at 20 °C observing true slips and forces through Gaussian noise of the given sd
-    (the neighbouring wheels' slip is the true one: no rolling-radius nuisance)."""
+def noisy_windows(
+    rng, slip_true, rho_true, *, slip_sd: float, rho_sd: float, **also
+) -> WindowTable:
+    """Windows at 20 °C, every 0.25 s, observing true slips and forces through Gaussian noise of
+    the given sd (the neighbouring wheels' slip is the true one: no rolling-radius nuisance)."""
     n = len(slip_true)
-    return {
-        "slip": slip_true + rng.normal(0.0, slip_sd, n),
-        "rho": rho_true + rng.normal(0.0, rho_sd, n),
-        "slip_sd": np.full(n, slip_sd),
-        "rho_sd": np.full(n, rho_sd),
-        "temperature_c": np.full(n, 20.0),
-        "neighbour_slip": slip_true,
+    return WindowTable(
+        slip=slip_true + rng.normal(0.0, slip_sd, n),
+        rho=rho_true + rng.normal(0.0, rho_sd, n),
+        slip_sd=np.full(n, slip_sd),
+        rho_sd=np.full(n, rho_sd),
+        temperature_c=np.full(n, 20.0),
+        time_s=0.25 * np.arange(n),
+        neighbour_slip=slip_true,
         **also,
-    }
+    )
 
 
 def test_skewed_force_distribution_does_not_read_as_curvature():
@@ -167,7 +171,7 @@ def test_skewed_force_distribution_does_not_read_as_curvature():
     assert summary["mu_max"]["mean"] > 0.8
 
 
-def load_transfer_windows(seed: int, load_sensitivity: float, n: int = 900) -> dict:
+def load_transfer_windows(seed: int, load_sensitivity: float, n: int = 900) -> WindowTable:
     """A front-driven axle that unloads as it pushes: ΔF_z/F_z = −0.5 ρ, as for a compact car
     (h/l_r ≈ 0.5). Slips follow a straight line whose slope C_x exp(q ΔF_z/F_z) falls with the
     force for q > 0 (no curvature of its own: the linear model's fit sees only the load's)."""

@@ -21,8 +21,7 @@ def two_drive_fits(tmp_path_factory):
     all False), the compact one saved and read back. The shape of test_model's shared fit: no
     new compilation."""
     windows = linear_region_windows(4)
-    windows["at_limit"] = np.zeros(len(windows["slip"]), dtype=bool)
-    windows["at_limit"][7] = True
+    windows = windows.replace(at_limit=np.arange(len(windows)) == 7)
     obs = stack_drives([windows], ["dry"], pad_to=PAD)
     full = fit_tyre(obs, method="fast", seed=2).fit
     compact = fit_tyre(obs, method="fast", seed=2, pointwise=False)

@@ -38,7 +38,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
 from ..._errors import BadInputError
-from ..tyre.data import BLOCK_S, SURFACES, TyreObservations
+from ..tyre.data import BLOCK_S, SURFACES, TyreObservations, WindowTable
 
 #: Length of a filter step on the clock [s], and the least time between two steps' starts:
 #: whole blocks of BLOCK_S.
@@ -183,7 +183,7 @@ def _pack_steps(
 
 
 def window_blocks(
-    windows: dict[str, np.ndarray],
+    windows: WindowTable,
     surface: str = "dry",
     *,
     width: int | None = None,
@@ -195,12 +195,12 @@ def window_blocks(
 
     Parameters
     ----------
-    windows : dict of ndarray
+    windows : WindowTable
         :func:`~tyrebayes.inference.tyre.data.observations_from_features` output (``time_s``,
-        ``slip``, ``rho``, the noise sds, ``temperature_c``, ``at_limit``; ``rho_score`` and
-        ``rho_score_slope`` if present, else 0: no force-noise correction; ``load_change`` if
-        present, else 0 (the static load); ``drive`` if
-        present, an integer per window that changes where a new drive begins, else one drive).
+        ``slip``, ``rho``, the noise sds, ``temperature_c``; ``at_limit`` if given, else no
+        ABS window; ``rho_score`` and ``rho_score_slope`` if given, else 0: no force-noise
+        correction; ``load_change`` if given, else 0 (the static load); ``drive`` if given,
+        a label per window that changes where a new drive begins, else one drive).
         Steps never straddle two drives.
     surface : str
         Road surface.
@@ -229,10 +229,37 @@ def window_blocks(
     >>> path = data_dir() / "comma2k19_rav4_segment.csv"
     >>> windows = stream_windows(path, load_vehicle("suv_rav4"))
     >>> blocks = window_blocks(windows)
-    >>> blocks.slip.shape[0], int(blocks.mask.sum()) == windows["slip"].size
+    >>> blocks.slip.shape[0], int(blocks.mask.sum()) == windows.n_windows
     (2, True)
     """
     max_step_s = step_s if max_step_s is None else max_step_s
+    blocks_per_step, max_blocks = _blocks_per_step(step_s, max_step_s)
+    if surface not in SURFACES:
+        raise BadInputError(f"surface: expected one of {SURFACES}, got {surface!r}")
+    order = _finite_in_time_order(windows, time_offset_s)
+    time = windows.time_s[order] + time_offset_s
+    drive = np.zeros(order.size, np.int64) if windows.drive is None else windows.drive[order]
+    steps = _StepLayout.of(time, drive, width, blocks_per_step, max_blocks)
+    arrays = {}
+    for name, fill in _WINDOW_FIELDS.items():
+        values = getattr(windows, name)
+        values = np.zeros(order.size) if values is None else values[order]
+        arrays[name] = jnp.asarray(steps.grid(values, fill))
+    limit = np.zeros(order.size, bool) if windows.at_limit is None else windows.at_limit[order]
+    return WindowBlocks(
+        **arrays,
+        at_limit=jnp.asarray(steps.grid(limit, False)),
+        block_index=jnp.asarray(steps.grid(steps.block_in_step, 0).astype(np.int32)),
+        mask=jnp.asarray(steps.grid(np.ones(order.size, bool), False)),
+        time_s=jnp.asarray(steps.end_block * BLOCK_S, dtype=float),
+        span_s=jnp.asarray((steps.end_block - steps.start_block) * BLOCK_S, dtype=float),
+        drive_start=jnp.asarray(np.concatenate([[True], np.diff(steps.step_drive) != 0])),
+        surface=surface,
+    )
+
+
+def _blocks_per_step(step_s: float, max_step_s: float) -> tuple[float, float]:
+    """BLOCK_S blocks in a clock step and in the longest step, each checked to be whole."""
     blocks_per_step = step_s / BLOCK_S
     max_blocks = max_step_s / BLOCK_S
     if not (blocks_per_step >= 1 and float(blocks_per_step).is_integer()):
@@ -242,84 +269,102 @@ def window_blocks(
             f"max_step_s: expected a whole multiple of {BLOCK_S} s ≥ step_s = {step_s}, "
             f"got {max_step_s}"
         )
-    if surface not in SURFACES:
-        raise BadInputError(f"surface: expected one of {SURFACES}, got {surface!r}")
-    time = np.asarray(windows["time_s"], dtype=float) + time_offset_s
-    if time.size == 0 or "slip" not in windows:
+    return blocks_per_step, max_blocks
+
+
+def _finite_in_time_order(windows: WindowTable, time_offset_s: float) -> Int[np.ndarray, "k"]:
+    """Positions of the windows whose numbers are all finite (the others carry nothing the
+    likelihood can read), in time order (stable)."""
+    time = windows.time_s + time_offset_s
+    if time.size == 0:
         raise BadInputError("online estimator: expected at least one window, got none")
-    # Windows whose numbers are not finite carry nothing the likelihood can read.
     finite = np.isfinite(time)
-    for name in ("slip", "rho", "slip_sd", "rho_sd", "temperature_c"):
-        finite &= np.isfinite(np.asarray(windows[name], dtype=float))
+    for values in (
+        windows.slip,
+        windows.rho,
+        windows.slip_sd,
+        windows.rho_sd,
+        windows.temperature_c,
+    ):
+        finite &= np.isfinite(values)
     if not finite.any():
         raise BadInputError("online estimator: expected at least one finite window, got none")
-    order = np.flatnonzero(finite)[np.argsort(time[finite], kind="stable")]
-    time = time[order]
-    drive = np.asarray(windows.get("drive", np.zeros(len(finite))), dtype=np.int64)[order]
-    block = np.floor(time / BLOCK_S).astype(np.int64)
-    # One key per (drive, block), in time order: a drive boundary inside a block splits it.
-    # Drives are spaced apart in the keys by more than a step's span.
-    new_drive = np.concatenate([[True], drive[1:] != drive[:-1]])
-    drive_number = np.cumsum(new_drive) - 1
-    keys = drive_number * (int(block.max()) + 1 + int(max_blocks)) + block
-    block_keys, first, window_key, block_counts = np.unique(
-        keys, return_index=True, return_inverse=True, return_counts=True
-    )
-    if width is None:
-        # The most windows that any step_s of the stream holds (the step's forced span).
-        total = np.concatenate([[0], np.cumsum(block_counts)])
-        ends = np.searchsorted(block_keys, block_keys + int(blocks_per_step))
-        width = int(np.max(total[ends] - total[:-1]))
-    width = int(width)
-    step_of_block, start_block = _pack_steps(
-        drive_number[first],
-        block[first],
-        block_counts,
-        width,
-        int(blocks_per_step),
-        int(max_blocks),
-    )
-    inverse = step_of_block[window_key]
-    counts = np.bincount(inverse)
-    if counts.max() > width:
-        raise BadInputError(
-            f"online estimator: expected at most {width} windows per step, got {counts.max()}"
+    return np.flatnonzero(finite)[np.argsort(time[finite], kind="stable")]
+
+
+class _StepLayout(eqx.Module):
+    """Where each of a stream's windows (time order) goes: its step and slot in the step, its
+    block numbered within the step, and each step's start and end block and drive."""
+
+    step: Int[np.ndarray, "k"]
+    slot: Int[np.ndarray, "k"]
+    block_in_step: Int[np.ndarray, "k"]
+    start_block: Int[np.ndarray, "s"]
+    end_block: Int[np.ndarray, "s"]
+    step_drive: Int[np.ndarray, "s"]
+    width: int = eqx.field(static=True)
+
+    @classmethod
+    def of(
+        cls,
+        time: Float[np.ndarray, "k"],
+        drive: Int[np.ndarray, "k"],
+        width: int | None,
+        blocks_per_step: float,
+        max_blocks: float,
+    ) -> _StepLayout:
+        """The layout of windows at ``time`` [s, sorted] of ``drive`` into steps of ``width``
+        windows (default the most any ``blocks_per_step`` of the stream holds)."""
+        block = np.floor(time / BLOCK_S).astype(np.int64)
+        # One key per (drive, block), in time order: a drive boundary inside a block splits it.
+        # Drives are spaced apart in the keys by more than a step's span.
+        new_drive = np.concatenate([[True], drive[1:] != drive[:-1]])
+        drive_number = np.cumsum(new_drive) - 1
+        keys = drive_number * (int(block.max()) + 1 + int(max_blocks)) + block
+        block_keys, first, window_key, block_counts = np.unique(
+            keys, return_index=True, return_inverse=True, return_counts=True
         )
-    step_start = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    slot = np.arange(time.size) - step_start[inverse]
-    # Each window's block, numbered within its step over the blocks that hold windows.
-    first_block_of_step = np.searchsorted(step_of_block, np.arange(counts.size))
-    block_in_step = np.arange(block_counts.size) - first_block_of_step[step_of_block]
-    last_block = block[first][np.r_[first_block_of_step[1:], block_counts.size] - 1]
-    # A step ends STEP_S after its start or with its last block, whichever is later.
-    end_block = np.maximum(last_block + 1, start_block + int(blocks_per_step))
-    step_drive = drive_number[first][first_block_of_step]
-    n = counts.size
-    arrays = {}
-    for name, fill in _WINDOW_FIELDS.items():
-        values = windows.get(name)
-        values = np.zeros(time.size) if values is None else np.asarray(values, float)[order]
-        grid = np.full((n, width), fill, dtype=float)
-        grid[inverse, slot] = values
-        arrays[name] = jnp.asarray(grid)
-    at_limit = np.zeros((n, width), dtype=bool)
-    limit = windows.get("at_limit")
-    if limit is not None:
-        at_limit[inverse, slot] = np.asarray(limit, dtype=bool)[order]
-    mask = np.zeros((n, width), dtype=bool)
-    mask[inverse, slot] = True
-    block_index = np.zeros((n, width), dtype=np.int32)
-    block_index[inverse, slot] = block_in_step[window_key]
-    return WindowBlocks(
-        **arrays,
-        at_limit=jnp.asarray(at_limit),
-        block_index=jnp.asarray(block_index),
-        mask=jnp.asarray(mask),
-        time_s=jnp.asarray(end_block * BLOCK_S, dtype=float),
-        span_s=jnp.asarray((end_block - start_block) * BLOCK_S, dtype=float),
-        drive_start=jnp.asarray(np.concatenate([[True], np.diff(step_drive) != 0])),
-        surface=surface,
-    )
+        if width is None:
+            # The most windows that any step_s of the stream holds (the step's forced span).
+            total = np.concatenate([[0], np.cumsum(block_counts)])
+            ends = np.searchsorted(block_keys, block_keys + int(blocks_per_step))
+            width = int(np.max(total[ends] - total[:-1]))
+        width = int(width)
+        step_of_block, start_block = _pack_steps(
+            drive_number[first],
+            block[first],
+            block_counts,
+            width,
+            int(blocks_per_step),
+            int(max_blocks),
+        )
+        step = step_of_block[window_key]
+        counts = np.bincount(step)
+        if counts.max() > width:
+            raise BadInputError(
+                f"online estimator: expected at most {width} windows per step, got {counts.max()}"
+            )
+        step_start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        # Each window's block, numbered within its step over the blocks that hold windows.
+        first_block_of_step = np.searchsorted(step_of_block, np.arange(counts.size))
+        block_in_step = np.arange(block_counts.size) - first_block_of_step[step_of_block]
+        last_block = block[first][np.r_[first_block_of_step[1:], block_counts.size] - 1]
+        return cls(
+            step=step,
+            slot=np.arange(time.size) - step_start[step],
+            block_in_step=block_in_step[window_key],
+            start_block=start_block,
+            # A step ends STEP_S after its start or with its last block, whichever is later.
+            end_block=np.maximum(last_block + 1, start_block + int(blocks_per_step)),
+            step_drive=drive_number[first][first_block_of_step],
+            width=width,
+        )
+
+    def grid(self, values: np.ndarray, fill) -> np.ndarray:
+        """Per-window ``values`` (time order) on the (step, slot) grid, ``fill`` elsewhere."""
+        out = np.full((self.start_block.size, self.width), fill, dtype=values.dtype)
+        out[self.step, self.slot] = values
+        return out
 
 
 def pad_steps(blocks: WindowBlocks, n_steps: int) -> WindowBlocks:

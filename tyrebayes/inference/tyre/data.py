@@ -9,7 +9,8 @@ handled by the errors-in-variables likelihood of :mod:`tyrebayes.inference.tyre.
 The names live one concept per module and are re-exported here, where callers import them:
 
 * :mod:`~tyrebayes.inference.tyre.windows`: one drive's windows
-  (:func:`windowed_observations`, :func:`observations_from_features`);
+  (:func:`windowed_observations`, :func:`observations_from_features`), a
+  :class:`WindowTable` (:mod:`~tyrebayes.inference.tyre.window_table`);
 * :mod:`~tyrebayes.inference.tyre.observations`: several drives stacked and padded to a
   fixed bucket size with a mask, so that new data of the same bucket reuse the compiled model
   (:class:`TyreObservations`, :func:`stack_drives`, :func:`bucket_size`);
@@ -26,6 +27,7 @@ from .observations import BLOCK_S as BLOCK_S
 from .observations import TyreObservations as TyreObservations
 from .observations import bucket_size as bucket_size
 from .observations import stack_drives as stack_drives
+from .window_table import WindowTable as WindowTable
 from .windows import PUSHING_MARGIN as PUSHING_MARGIN
 from .windows import observations_from_features as observations_from_features
 from .windows import window_centres as window_centres

@@ -6,11 +6,10 @@ The stream pipeline of ``fit-tyre`` and of the online estimator. Re-exported by
 
 from __future__ import annotations
 
-import numpy as np
-
 from ..._domain import SURFACES
 from ..._errors import BadInputError
 from .observations import TyreObservations, stack_drives
+from .window_table import WindowTable
 from .windows import observations_from_features
 
 
@@ -23,7 +22,7 @@ def windows_from_stream(
     ambient_c: float | None = None,
     window_s: float = 0.25,
     channel_map: dict[str, str] | None = None,
-) -> dict[str, np.ndarray]:
+) -> WindowTable:
     """Read, validate and window one stream file: the windows of one drive, in time order.
 
     The stream pipeline of ``fit-tyre`` (:func:`observations_from_stream` stacks its result) and
@@ -47,6 +46,11 @@ def windows_from_stream(
         column, else 20 °C.
     window_s : float
         Window length [s].
+
+    Returns
+    -------
+    WindowTable
+        The drive's windows (:func:`~.windows.observations_from_features`).
 
     Raises
     ------

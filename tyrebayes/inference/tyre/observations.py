@@ -15,6 +15,7 @@ from jaxtyping import Array, Bool, Float, Int
 
 from ..._domain import SURFACES
 from ..._errors import BadInputError
+from .window_table import WindowTable
 from .windows import _slip_window_scores
 
 # Length of the blocks whose slips share an offset in the model [s]: slow slip and force errors
@@ -136,7 +137,7 @@ def bucket_size(n: int, per_octave: int = 8) -> int:
 
 
 def stack_drives(
-    drives: Sequence[dict[str, np.ndarray]],
+    drives: Sequence[WindowTable],
     surfaces: Sequence[str],
     *,
     pad_to: int | None = None,
@@ -145,11 +146,13 @@ def stack_drives(
 
     Parameters
     ----------
-    drives : sequence of dict
+    drives : sequence of WindowTable
         Outputs of :func:`windowed_observations` or :func:`observations_from_features`, one per
-        drive. Their ``rho_score`` and ``rho_score_slope`` are used if present, else computed
-        from the drive's slip windows (:func:`force_density_score`). Windows are kept in the
-        order given (time order: the slip-weight estimate reads neighbours in the array).
+        drive, with ``neighbour_slip``. Their ``rho_score`` and ``rho_score_slope`` are used if
+        present, else computed from the drive's slip windows (:func:`force_density_score`);
+        ``at_limit``, ``load_change`` and ``imu_gain_log_sd`` default to no ABS window, the
+        static load and 0. Windows are kept in the order given (time order: the slip-weight
+        estimate reads neighbours in the array).
     surfaces : sequence of str
         Surface of each drive, from ``SURFACES``.
     pad_to : int, optional
@@ -217,53 +220,54 @@ def stack_drives(
     )
 
 
-#: The per-window arrays :func:`stack_drives` takes from each drive (scores aside).
-_WINDOW_KEYS = (
-    "slip",
-    "rho",
-    "slip_sd",
-    "rho_sd",
-    "temperature_c",
-    "load_change",
-    "neighbour_slip",
-    "at_limit",
-)
-
-
 def _drive_parts(drives, surfaces, used_surfaces):
     """Each drive's window arrays (filled in where a hand-made drive leaves them out), and its
     windows' drive, surface and block indices: ``(parts, drive_idx, surface_idx, block_idx)``,
     lists with one entry per drive."""
-    keys = _WINDOW_KEYS
-    parts = {k: [] for k in (*keys, "rho_score", "rho_score_slope", "imu_gain_log_sd")}
+    parts = {k: [] for k in _COLUMN_FILLS}
     drive_idx, surface_idx, block_idx = [], [], []
     n_blocks = 0
     for d, (drive, surface) in enumerate(zip(drives, surfaces, strict=True)):
-        m = len(drive["slip"])
-        # Windows without times (hand-made drives) count BLOCK_S / 0.25 s windows to a block.
-        times = np.asarray(drive.get("time_s", 0.25 * np.arange(m)), dtype=float)
-        blocks = np.unique(np.floor(times / BLOCK_S).astype(np.int64), return_inverse=True)[1]
+        if not isinstance(drive, WindowTable):
+            raise BadInputError(
+                f"tyre observations: drive {d} expected a WindowTable "
+                f"(WindowTable.from_dict converts a dict), got {type(drive).__name__}"
+            )
+        if drive.neighbour_slip is None:
+            raise BadInputError(
+                f"tyre observations: drive {d} expected a neighbour_slip column, got None"
+            )
+        m = len(drive)
+        blocks = np.unique(np.floor(drive.time_s / BLOCK_S).astype(np.int64), return_inverse=True)[
+            1
+        ]
         block_idx.append(n_blocks + blocks.reshape(-1))
         n_blocks += int(blocks.max()) + 1 if m else 0
-        # Hand-made drives may leave out what the stream pipeline measures: no ABS windows, no
-        # IMU rescaling, the static load.
-        drive = {
-            "at_limit": np.zeros(m, dtype=bool),
-            "imu_gain_log_sd": np.zeros(m),
-            "load_change": np.zeros(m),
-            **drive,
-        }
-        parts["imu_gain_log_sd"].append(np.asarray(drive["imu_gain_log_sd"], dtype=float))
-        for k in keys:
-            parts[k].append(np.asarray(drive[k], dtype=bool if k == "at_limit" else float))
-        if "rho_score" in drive:
-            score, score_slope = drive["rho_score"], drive["rho_score_slope"]
-        else:
-            score, score_slope = _slip_window_scores(
-                parts["rho"][-1], parts["rho_sd"][-1], parts["at_limit"][-1]
+        for k, fill in _COLUMN_FILLS.items():
+            values = getattr(drive, k)
+            parts[k].append(np.full(m, fill) if values is None else values)
+        if drive.rho_score is None:
+            parts["rho_score"][-1], parts["rho_score_slope"][-1] = _slip_window_scores(
+                drive.rho, drive.rho_sd, parts["at_limit"][-1]
             )
-        parts["rho_score"].append(np.asarray(score, dtype=float))
-        parts["rho_score_slope"].append(np.asarray(score_slope, dtype=float))
         drive_idx.append(np.full(m, d))
         surface_idx.append(np.full(m, used_surfaces.index(surface)))
     return parts, drive_idx, surface_idx, block_idx
+
+
+#: The per-window arrays :func:`stack_drives` takes from each drive, with what fills those that
+#: hand-made drives may leave out: no ABS windows, no IMU rescaling, the static load (the
+#: force-density scores are computed from the drive's slip windows instead).
+_COLUMN_FILLS = {
+    "slip": None,
+    "rho": None,
+    "slip_sd": None,
+    "rho_sd": None,
+    "temperature_c": None,
+    "load_change": 0.0,
+    "neighbour_slip": None,
+    "at_limit": False,
+    "imu_gain_log_sd": 0.0,
+    "rho_score": 0.0,
+    "rho_score_slope": 0.0,
+}

@@ -17,6 +17,7 @@ from ...streams.abs_detection import (
 )
 from ...streams.order_stats import median, nanmedian
 from .force_density import force_density_score
+from .window_table import WindowTable
 
 
 def window_centres(time_s: np.ndarray, window: int, n_blocks: int) -> np.ndarray:
@@ -49,7 +50,7 @@ def windowed_observations(
     min_fraction_valid: float = 0.8,
     correlation_samples: float = 1.0,
     also: dict[str, np.ndarray] | None = None,
-) -> dict[str, np.ndarray]:
+) -> WindowTable:
     """Average per-sample slip and force over short windows (one drive).
 
     Parameters
@@ -72,13 +73,14 @@ def windowed_observations(
         Number of consecutive samples over which the noise is correlated (the smoothing window of
         the features); a mean of k samples then has noise sd·√(c/k) rather than sd/√k.
     also : dict of str to ndarray, optional
-        Further per-sample channels to average over the same samples (returned by name).
+        Further per-sample channels to average over the same samples: those named as a column
+        of :class:`WindowTable` (``load_change``) fill it, the others its ``extra``.
 
     Returns
     -------
-    dict
+    WindowTable
         ``slip``, ``rho``, ``slip_sd``, ``rho_sd``, ``temperature_c``, ``time_s`` (the time of
-        the window's centre) arrays, one entry per kept window, and ``neighbour_slip`` (and the
+        the window's centre), one entry per kept window, and ``neighbour_slip`` (and the
         ``also`` channels). The noise sd of a window mean of k samples is sd/√k.
 
     Examples
@@ -89,7 +91,7 @@ def windowed_observations(
     >>> rho = 0.1 + 0.05 * np.sin(t)
     >>> slip = rho / 30.0 + np.random.default_rng(0).normal(0.0, 1e-3, t.size)
     >>> windows = windowed_observations(t, slip, rho, slip_sd=1e-3, rho_sd=0.01)
-    >>> len(windows["slip"]), float(windows["slip_sd"][0])
+    >>> len(windows), float(windows.slip_sd[0])
     (240, 0.0002)
     """
     time_s = np.asarray(time_s, dtype=float)
@@ -124,7 +126,7 @@ def windowed_observations(
     out = {k: v[keep] for k, v in out.items()}
     out["slip_sd"] = out["slip_sd"] * factor[keep]
     out["rho_sd"] = out["rho_sd"] * factor[keep]
-    return out
+    return WindowTable.from_dict(out)
 
 
 # Slip windows need a total force of at least this [-]. Below zero the friction brakes act on
@@ -146,7 +148,7 @@ def observations_from_features(
     abs_oscillation_factor: float = 5.0,
     abs_min_decel: float = 0.05,
     abs_min_windows: int = 4,
-) -> dict[str, np.ndarray]:
+) -> WindowTable:
     """Windowed observations of one drive from :class:`tyrebayes.streams.StreamFeatures`.
 
     Two kinds of window enter the fit:
@@ -183,10 +185,11 @@ def observations_from_features(
 
     Returns
     -------
-    dict
+    WindowTable
         As :func:`windowed_observations`, plus ``load_change`` (the driven axle's
-        ΔF_z/F_z,static), ``at_limit`` (bool per window) and ``rho_score``,
-        ``rho_score_slope`` (:func:`force_density_score` over all the drive's windows, 0 for ABS).
+        ΔF_z/F_z,static), ``at_limit`` (bool per window), ``rho_score``,
+        ``rho_score_slope`` (:func:`force_density_score` over all the drive's windows, 0 for ABS)
+        and ``imu_gain_log_sd``: the slip windows in time order, then the ABS windows.
 
     Examples
     --------
@@ -196,9 +199,33 @@ def observations_from_features(
     >>> df = read_stream(data_dir() / "comma2k19_rav4_segment.csv")
     >>> features = compute_features(validate_stream(df, vehicle), vehicle)
     >>> windows = observations_from_features(features, temperature_c=15.0)
-    >>> len(windows["slip"]), int(windows["at_limit"].sum())
+    >>> len(windows), int(windows.at_limit.sum())
     (123, 0)
     """
+    correlation = max(1.0, features.smoothing_s * features.sample_rate_hz)
+    slip_windows = _slip_windows(features, temperature_c, window_s, correlation)
+    limit_windows = _abs_windows(
+        features,
+        temperature_c,
+        window_s,
+        correlation,
+        oscillation_factor=abs_oscillation_factor,
+        min_decel=abs_min_decel,
+        min_windows=abs_min_windows,
+    )
+    windows = WindowTable.concatenate([slip_windows, limit_windows])
+    # One value for the drive: the uncertainty of the IMU scale factor its forces were divided by.
+    return windows.replace(
+        imu_gain_log_sd=np.full(len(windows), features.nuisances.ax_gain.applied_log_sd)
+    )
+
+
+def _slip_windows(
+    features, temperature_c: float | np.ndarray, window_s: float, correlation: float
+) -> WindowTable:
+    """The slip windows of :func:`observations_from_features`: free rolling, traction and
+    braking samples averaged over windows, kept where the total force is at least
+    :data:`PUSHING_MARGIN`, with their force-density scores (``imu_gain_log_sd`` left out)."""
     from ...streams.segments import BRAKING, FREE_ROLLING, TRACTION
 
     # Samples are not selected on their own force: a sample whose noise takes the total force
@@ -211,7 +238,6 @@ def observations_from_features(
     usable = (
         features.valid & ~features.spin & np.isin(features.label, (FREE_ROLLING, TRACTION, BRAKING))
     )
-    correlation = max(1.0, features.smoothing_s * features.sample_rate_hz)
     windows = windowed_observations(
         features.time_s,
         features.slip_driven,
@@ -229,20 +255,34 @@ def observations_from_features(
     )
     # The density of the measured forces (for E[ρ_true | ρ_obs], tyre_model) is that of every
     # window: estimated on the kept ones only, it would fall off artificially at the cut.
-    window_rho_total = windows.pop("rho_total")
     score, score_slope = _slip_window_scores(
-        windows["rho"], windows["rho_sd"], np.zeros(len(windows["rho"]), bool)
+        windows.rho, windows.rho_sd, np.zeros(len(windows), bool)
     )
     # Only windows where the axles push (total force >= 0): a negative total may be engine drag on
     # the driven axle or friction brakes on all four wheels, and the split between the axles is
     # not observable without a brake signal. Guessing it puts a kink into ρ_x(σ_x) at zero force,
     # which the model could only read as curvature (a spuriously low μ_max and a high C_x).
-    pushing = window_rho_total >= PUSHING_MARGIN
-    slip_windows = {k: v[pushing] for k, v in windows.items()}
-    slip_windows["rho_score"] = score[pushing]
-    slip_windows["rho_score_slope"] = score_slope[pushing]
-    slip_windows["at_limit"] = np.zeros(len(slip_windows["slip"]), dtype=bool)
+    pushing = windows.extra["rho_total"] >= PUSHING_MARGIN
+    return windows.replace(
+        rho_score=score,
+        rho_score_slope=score_slope,
+        at_limit=np.zeros(len(windows), bool),
+        extra={},
+    ).select(pushing)
 
+
+def _abs_windows(
+    features,
+    temperature_c: float | np.ndarray,
+    window_s: float,
+    correlation: float,
+    *,
+    oscillation_factor: float,
+    min_decel: float,
+    min_windows: int,
+) -> WindowTable:
+    """The ABS windows of :func:`observations_from_features` (``at_limit``): their total force,
+    its noise, temperature, load and time; slip 0 with sd 1 (not used), scores 0."""
     dt = 1.0 / features.sample_rate_hz
     window = max(1, int(round(window_s / dt)))
     fx, fz = features.fx_axle_n, features.fz_axle_n
@@ -250,42 +290,64 @@ def observations_from_features(
     valid = (
         features.valid & np.isfinite(rho_total) & np.all(np.isfinite(features.wheel_vx_mps), axis=1)
     )
-    oscillation = wheel_oscillation(features.wheel_vx_mps, valid, window, features.sample_rate_hz)
     rho_mean, counts = window_means(rho_total, valid, window)
+    at_limit = _abs_detections(
+        features,
+        valid,
+        window,
+        rho_mean,
+        counts,
+        oscillation_factor=oscillation_factor,
+        min_decel=min_decel,
+        min_windows=min_windows,
+    )
     sd_ok = valid & np.isfinite(features.rho_driven_sd)
     rho_sd, _ = window_means(features.rho_driven_sd, sd_ok, window)
     sample_temperature = np.broadcast_to(np.asarray(temperature_c, dtype=float), valid.shape)
     limit_temperature, _ = window_means(sample_temperature, np.ones_like(valid), window)
     limit_time = window_centres(features.time_s, window, len(rho_mean))
     limit_load, _ = window_means(np.nan_to_num(features.load_change_driven), valid, window, counts)
+    m = int(at_limit.sum())
+    factor = np.sqrt(min(1.0, correlation / window))
+    return WindowTable(
+        slip=np.zeros(m),
+        rho=rho_mean[at_limit],
+        slip_sd=np.ones(m),
+        rho_sd=np.nan_to_num(rho_sd[at_limit], nan=0.01) * factor,
+        temperature_c=limit_temperature[at_limit],
+        time_s=limit_time[at_limit],
+        neighbour_slip=np.zeros(m),
+        load_change=limit_load[at_limit],
+        at_limit=np.ones(m, dtype=bool),
+        rho_score=np.zeros(m),
+        rho_score_slope=np.zeros(m),
+    )
+
+
+def _abs_detections(
+    features,
+    valid: np.ndarray,
+    window: int,
+    rho_mean: np.ndarray,
+    counts: np.ndarray,
+    *,
+    oscillation_factor: float,
+    min_decel: float,
+    min_windows: int,
+) -> np.ndarray:
+    """Which windows (of ``window`` samples) are ABS windows: braking harder than ``min_decel``
+    with the wheels oscillating above ``oscillation_factor`` times the drive's median, inside a
+    run of at least ``min_windows`` such windows, below the run's peak force."""
+    oscillation = wheel_oscillation(features.wheel_vx_mps, valid, window, features.sample_rate_hz)
     enough = counts >= 0.8 * window
     baseline = nanmedian(np.where(enough, oscillation, np.nan)) if enough.any() else np.nan
     candidate = (
         enough
         & np.isfinite(oscillation)
-        & (oscillation > abs_oscillation_factor * baseline)
-        & (rho_mean < -abs_min_decel)
+        & (oscillation > oscillation_factor * baseline)
+        & (rho_mean < -min_decel)
     )
-    at_limit = _below_run_peak(_inner_runs(candidate, min_run=abs_min_windows), rho_mean)
-    m = int(at_limit.sum())
-    factor = np.sqrt(min(1.0, correlation / window))
-    limit_windows = {
-        "slip": np.zeros(m),
-        "rho": rho_mean[at_limit],
-        "slip_sd": np.ones(m),
-        "rho_sd": np.nan_to_num(rho_sd[at_limit], nan=0.01) * factor,
-        "temperature_c": limit_temperature[at_limit],
-        "load_change": limit_load[at_limit],
-        "time_s": limit_time[at_limit],
-        "neighbour_slip": np.zeros(m),
-        "rho_score": np.zeros(m),
-        "rho_score_slope": np.zeros(m),
-        "at_limit": np.ones(m, dtype=bool),
-    }
-    out = {k: np.concatenate([slip_windows[k], limit_windows[k]]) for k in limit_windows}
-    # One value for the drive: the uncertainty of the IMU scale factor its forces were divided by.
-    out["imu_gain_log_sd"] = np.full(len(out["slip"]), features.nuisances.ax_gain.applied_log_sd)
-    return out
+    return _below_run_peak(_inner_runs(candidate, min_run=min_windows), rho_mean)
 
 
 def _slip_window_scores(
