@@ -15,12 +15,19 @@ Measured from the source, not claimed:
    measured from its ``def`` line (decorators excluded) to its last line, less its docstring: a
    numpydoc docstring with its Examples (what issue 58 asks for) is not code to split. Target: at
    most 5. The count with docstrings is reported beside it, without a target.
-5. **Import circles**: the strongly connected components of more than one module in the package's
+5. **String-keyed ``windows[...]`` lookups**: subscripts ``windows["name"]`` (a name or attribute
+   called ``windows`` indexed by a string constant) in the package and the benchmarks, which a
+   typed window table replaces. Target: 0.
+6. **Import circles**: the strongly connected components of more than one module in the package's
    import graph (grimp, every import in a module, those inside functions included), and the
    circles between sibling modules or packages that import-linter's ``acyclic_siblings`` contract
    forbids. Target: 0 for both.
 
-Usage: ``python benchmarks/api_surface.py [--out PATH]`` (a few seconds; it imports the package).
+With ``--before REV`` the same counts are taken on the package and benchmarks as of git revision
+REV (extracted with ``git archive``, counted in a child process) and saved beside them.
+
+Usage: ``python benchmarks/api_surface.py [--out PATH] [--before REV]`` (seconds; it imports the
+package).
 """
 
 from __future__ import annotations
@@ -265,9 +272,75 @@ def circles() -> dict:
     return {"module_cycles": module_cycles, "sibling_cycles": sibling_cycles}
 
 
+def windows_lookups() -> list[str]:
+    """``path:line`` of every ``windows["..."]`` subscript in the package and the benchmarks."""
+    found = []
+    for folder in (PACKAGE, ROOT / "benchmarks"):
+        for path in sorted(folder.rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if not isinstance(node, ast.Subscript):
+                    continue
+                target = node.value
+                name = target.id if isinstance(target, ast.Name) else getattr(target, "attr", "")
+                key = node.slice
+                if (
+                    name == "windows"
+                    and isinstance(key, ast.Constant)
+                    and isinstance(key.value, str)
+                ):
+                    found.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    return found
+
+
+_BEFORE_CHILD = r"""
+import json, sys
+from pathlib import Path
+folder, here = Path(sys.argv[1]), sys.argv[2]
+sys.path[:0] = [str(folder), here]
+import api_surface as a
+a.ROOT, a.PACKAGE = folder, folder / "tyrebayes"
+ex, bare, size, circ = a.examples(), a.bare_results(), a.sizes(), a.circles()
+print(json.dumps({
+    "public callables with an Examples section": [len(ex["with_examples"]), ex["total"]],
+    "public functions returning a bare dict or tuple": len(bare["in_all"]),
+    "modules over 500 lines": len(size["long_modules"]),
+    "functions over 80 lines (docstring excluded)": len(size["long_functions"]),
+    "string-keyed windows lookups": len(a.windows_lookups()),
+    "import circles between modules": len(circ["module_cycles"]),
+}))
+"""
+
+
+def counts_at(revision: str) -> dict:
+    """The headline counts on the package and benchmarks as of git ``revision``."""
+    import json
+    import os
+    import subprocess
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        archive = subprocess.run(
+            ["git", "archive", revision, "tyrebayes", "models", "benchmarks"],
+            cwd=ROOT,
+            capture_output=True,
+            check=True,
+        ).stdout
+        subprocess.run(["tar", "-x", "-C", tmp], input=archive, check=True)
+        child = subprocess.run(
+            [sys.executable, "-c", _BEFORE_CHILD, tmp, str(Path(__file__).resolve().parent)],
+            capture_output=True,
+            text=True,
+            env={**os.environ, "PYTHONPATH": tmp},
+            cwd=tmp,
+            check=True,
+        )
+    return {"revision": revision, **json.loads(child.stdout.strip().splitlines()[-1])}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--out", type=Path, default=None)
+    parser.add_argument("--before", help="git revision to count as the before")
     args = parser.parse_args(argv)
     sys.path.insert(0, str(ROOT))
 
@@ -275,6 +348,7 @@ def main(argv: list[str] | None = None) -> int:
     bare = bare_results()
     size = sizes()
     circ = circles()
+    lookups = windows_lookups()
     share = 100.0 * len(ex["with_examples"]) / ex["total"]
     figures = [
         figure(
@@ -314,6 +388,12 @@ def main(argv: list[str] | None = None) -> int:
             len(size["long_functions_with_docstrings"]),
         ),
         figure(
+            'string-keyed windows["..."] lookups',
+            len(lookups),
+            target=("==", 0),
+            note="in tyrebayes/ and benchmarks/",
+        ),
+        figure(
             "import circles between modules",
             len(circ["module_cycles"]),
             target=("==", 0),
@@ -326,7 +406,16 @@ def main(argv: list[str] | None = None) -> int:
             note="what import-linter's acyclic_siblings contract forbids",
         ),
     ]
-    payload = {"examples": ex, "bare_results": bare, "sizes": size, "circles": circ}
+    payload = {
+        "examples": ex,
+        "bare_results": bare,
+        "sizes": size,
+        "circles": circ,
+        "windows_lookups": lookups,
+    }
+    if args.before:
+        payload["before"] = counts_at(args.before)
+        print(f"before ({args.before}): {payload['before']}")
     write_result("api_surface", payload, figures=figures, path=args.out)
     for f in figures:
         met = "" if f["met"] is None else (" met" if f["met"] else " MISSED")
