@@ -1,9 +1,10 @@
 """Where a fleet run's per-drive stage spends its CPU: one simulated one-hour drive, profiled.
 
 The stage's work for one drive (``tyrebayes.batch.drive_stage._windows_and_summary``: read →
-validate → features → windows and summary) runs in a fresh single-threaded process (OMP, BLAS
-and XLA's kernels one thread, as a fleet worker), once to warm up (JAX compiles the force-density
-EM and the temperature scan: reported apart, ``first_call_cpu_s``), then ``--repeats`` times.
+validate → features → lateral fit → windows and summary) runs in a fresh single-threaded process
+(OMP, BLAS and XLA's kernels one thread, as a fleet worker), once to warm up (JAX compiles the
+lateral fit, the force-density EM and the temperature scan: reported apart,
+``first_call_cpu_s``), then ``--repeats`` times.
 Reported per drive-hour: the CPU seconds (``time.process_time``) of each step, fastest of the
 repeats, and of the force-density EM inside the windows step (``deconvolve_forces``); and the
 largest entries of a ``cProfile`` of one more run (its own overhead makes those slower; their
@@ -39,7 +40,7 @@ from _results import figure, write_result
 sys.path.insert(0, str(Path(__file__).parent))
 from _revisions import package_at, run_child  # noqa: E402
 
-STEPS = ("read", "validate", "features", "windows_and_summary")
+STEPS = ("read", "validate", "features", "lateral", "windows_and_summary")
 
 _CHILD = r"""
 import cProfile, io, json, pstats, sys, time
@@ -218,7 +219,8 @@ def main() -> int:
             per_hour["total"],
             unit="s",
             count=1,
-            note="read + validate + features + windows and summary, one simulated hour",
+            note="read + validate + features + lateral fit + windows and summary, one simulated "
+            "hour (its lateral fit with the programs kept)",
             headline=True,
         ),
         *(
