@@ -12,11 +12,16 @@ benchmarks and the tests do):
 ``real/lateral/``
     real cornering logs with a measured lateral velocity (their README gives the sources).
 
+Beside them, the data the package ships in ``tyrebayes/data/`` (read through
+:func:`package_data_path`): the real RAV4 log (:func:`rav4_segment_path`, :func:`rav4_segment`)
+and the ADAC wear
+table (:func:`wear_by_tyre_type`). No benchmark reads a data file by any other path.
+
 Each drive is a :class:`Drive`: its name, stream file, vehicle file and the generator's truth.
 Scripts select drives by name (``--drives e00,e01``) with the ``names`` argument.
 
-Example
--------
+Examples
+--------
 >>> from benchmarks._data import external_lateral_drives
 >>> drive = external_lateral_drives(names="l00")[0]  # doctest: +SKIP
 >>> drive.name, drive.truth["kind"]  # doctest: +SKIP
@@ -25,6 +30,7 @@ Example
 
 from __future__ import annotations
 
+import importlib.resources
 import json
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -76,6 +82,14 @@ class Drive:
     def truth_samples_path(self) -> Path:
         """The per-sample truth beside the stream (``NAME_truth.parquet``)."""
         return self.path.with_name(f"{self.name}_truth.parquet")
+
+    def truth_samples(self) -> pd.DataFrame:
+        """The per-sample truth beside the stream, as the generator wrote it."""
+        return pd.read_parquet(self.truth_samples_path())
+
+    def frame(self) -> pd.DataFrame:
+        """The stream file as it is (not validated): for a baseline that reads raw columns."""
+        return pd.read_parquet(self.path)
 
 
 def _wanted(names: str | Iterable[str]) -> set[str] | None:
@@ -135,6 +149,26 @@ def external_lateral_drives(
         for file, entry in sorted(entries.items())
     ]
     return _select(drives, names)
+
+
+def package_data_path(name: str) -> Path:
+    """A data file the package ships in ``tyrebayes/data/`` (``name``: its file name)."""
+    return Path(str(importlib.resources.files("tyrebayes").joinpath("data", name)))
+
+
+def rav4_segment_path() -> Path:
+    """The shipped real log: a 60 s comma2k19 RAV4 highway segment (the stream schema, CSV)."""
+    return package_data_path("comma2k19_rav4_segment.csv")
+
+
+def rav4_segment() -> pd.DataFrame:
+    """The shipped real log as it is (not validated): :func:`rav4_segment_path`'s CSV."""
+    return pd.read_csv(rav4_segment_path())
+
+
+def wear_by_tyre_type() -> pd.DataFrame:
+    """ADAC's measured tread wear by tyre type (``wear_by_tyre_type.csv``, shipped)."""
+    return pd.read_csv(package_data_path("wear_by_tyre_type.csv"))
 
 
 def stanford_lateral_log() -> pd.DataFrame:

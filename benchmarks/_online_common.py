@@ -3,30 +3,29 @@
 from __future__ import annotations
 
 import os
-import tomllib
-from pathlib import Path
 
 import numpy as np
+from _data import external_drives
 
-from tyrebayes._domain import load_vehicle
-from tyrebayes.inference.tyre.data import WindowTable, observations_from_features
-from tyrebayes.simulate.drive import simulate_drive
-from tyrebayes.simulate.profiles import ProfileOptions
-from tyrebayes.simulate.tyre_spec import TyreSpec, draw_database_curve
-from tyrebayes.simulate.vehicle_truth import (
-    ThermalSpread,
-    VehicleSpread,
-    draw_true_thermal,
-    draw_true_vehicle,
-)
-from tyrebayes.streams import (
+from tyrebayes import (
+    WindowTable,
     compute_features,
     features_tyre_temperature,
-    read_stream,
+    load_vehicle,
+    observations_from_features,
     validate_stream,
 )
+from tyrebayes.simulate import (
+    ProfileOptions,
+    ThermalSpread,
+    TyreSpec,
+    VehicleSpread,
+    draw_database_curve,
+    draw_true_thermal,
+    draw_true_vehicle,
+    simulate_drive,
+)
 
-EXTERNAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "external"
 TYRES = ("winter", "all_season", "summer")
 
 
@@ -83,18 +82,16 @@ def true_c_x_so_far(truth, times_s: np.ndarray) -> np.ndarray:
     return cumulative[idx]
 
 
-def external_entries(folder: Path = EXTERNAL) -> list[dict]:
-    import json
+def external_entries() -> list[dict]:
+    """The external drives' truth entries (``_data.external_drives``), in name order."""
+    return [drive.truth for drive in external_drives()]
 
-    return json.loads((folder / "truth.json").read_text())["drives"]
 
-
-def external_windows(entry: dict, folder: Path = EXTERNAL) -> WindowTable:
+def external_windows(entry: dict) -> WindowTable:
     """An external drive through the stream pipeline as a new user's fit-tyre would read it."""
-    vehicle_path = folder / "drives" / entry["vehicle"]
-    vehicle = load_vehicle(vehicle_path)
-    tomllib.loads(vehicle_path.read_text())
-    stream = validate_stream(read_stream(folder / "drives" / f"{entry['name']}.parquet"), vehicle)
+    (drive,) = external_drives(names=entry["name"])
+    vehicle = drive.vehicle()
+    stream = drive.validated(vehicle)
     features = compute_features(stream, vehicle)
     temperature = features_tyre_temperature(features, ambient_c=20.0)
     return observations_from_features(features, temperature_c=temperature)

@@ -260,26 +260,47 @@ def result_path(name: str, *, quick: bool = False) -> Path:
     return (QUICK_RESULTS if quick else RESULTS) / f"{name}.json"
 
 
-def _jsonable(value: Any) -> Any:
-    """Arrays as lists, NumPy scalars as numbers, NaN and inf as ``None``, paths as text."""
+def to_jsonable(value: Any) -> Any:
+    """Arrays as lists, NumPy scalars as numbers, NaN and inf as ``None``, paths as text.
+
+    What :func:`write_result` does to a payload; a script that prints part of one uses it too.
+    """
     if hasattr(value, "as_dict"):
-        return _jsonable(value.as_dict())
+        return to_jsonable(value.as_dict())
     if isinstance(value, Mapping):
-        return {str(k): _jsonable(v) for k, v in value.items()}
+        return {str(k): to_jsonable(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
+        return [to_jsonable(v) for v in value]
     if isinstance(value, Path):
         return str(value)
     if hasattr(value, "__array__") and not isinstance(value, str | bytes):
         import numpy as np
 
         arr = np.asarray(value)
-        return _jsonable(arr.item() if arr.ndim == 0 else arr.tolist())
+        return to_jsonable(arr.item() if arr.ndim == 0 else arr.tolist())
     if hasattr(value, "item") and callable(value.item):  # NumPy scalar
-        return _jsonable(value.item())
+        return to_jsonable(value.item())
     if isinstance(value, float):
         return value if math.isfinite(value) else None
     return value
+
+
+def save_figure(fig: Any, path: str | os.PathLike, **savefig: Any) -> Path:
+    """Save a matplotlib figure at ``path`` atomically (a temporary file renamed into place).
+
+    ``savefig`` goes to ``fig.savefig`` (``dpi``, ``format``); the temporary file keeps the
+    suffix, so the format still follows the name. Returns the path.
+    """
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp{target.suffix}")
+    try:
+        fig.savefig(tmp, **savefig)
+        os.replace(tmp, target)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return target
 
 
 def build_result(
@@ -297,7 +318,7 @@ def build_result(
     if clash:
         raise ValueError(f"payload of {name!r} uses the writer's keys {clash}; rename them")
     body = {k: v for k, v in payload.items() if k != "benchmark"}
-    return _jsonable(
+    return to_jsonable(
         {
             "benchmark": name,
             "run": run_record(quick=quick, started=started),

@@ -17,11 +17,17 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def package_at(revision: str, folder: Path) -> Path:
-    """``tyrebayes`` and ``models`` as of git ``revision``, extracted into ``folder``."""
+def package_at(
+    revision: str, folder: Path, paths: tuple[str, ...] = ("tyrebayes", "models")
+) -> Path:
+    """``tyrebayes`` and ``models`` (or ``paths``) as of git ``revision``, extracted in ``folder``.
+
+    A child that also imports the benchmarks' helpers (``_online_common``) takes them from the
+    same revision (``paths`` with ``"benchmarks"``): they import the package as it was then.
+    """
     folder.mkdir(parents=True, exist_ok=True)
     archive = subprocess.run(
-        ["git", "archive", revision, "tyrebayes", "models"],
+        ["git", "archive", revision, *paths],
         cwd=ROOT,
         capture_output=True,
         check=True,

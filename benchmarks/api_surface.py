@@ -292,6 +292,150 @@ def windows_lookups() -> list[str]:
     return found
 
 
+def _public_namespace(module: str) -> set[str] | None:
+    """The public names of package ``module``, or ``None`` when it is not a public namespace.
+
+    ``tyrebayes``: its ``__all__``. A subpackage without a ``_``-prefixed part (and not
+    ``tyrebayes.internal``): its ``__all__`` where it defines one, else the names its
+    ``__init__.py`` re-exports as ``from .module import name as name`` (PEP 484's re-export form),
+    and its own public subpackages. A module file is no namespace.
+    """
+    import importlib
+
+    parts = module.split(".")
+    init = PACKAGE.joinpath(*parts[1:], "__init__.py")
+    if parts[0] != "tyrebayes" or not init.exists():
+        return None
+    if any(p.startswith("_") for p in parts) or module == "tyrebayes.internal":
+        return None
+    names = getattr(importlib.import_module(module), "__all__", None)
+    if names is None:
+        names = [
+            alias.name
+            for node in ast.parse(init.read_text()).body
+            if isinstance(node, ast.ImportFrom) and node.level >= 1
+            for alias in node.names
+            if alias.asname == alias.name
+        ]
+    packages = {
+        child.parent.name
+        for child in init.parent.glob("*/__init__.py")
+        if not child.parent.name.startswith("_") and child.parent.name != "internal"
+    }
+    return {n for n in names if not n.startswith("_")} | packages
+
+
+def _entry_points() -> set[tuple[str, str]]:
+    """(module, name) of the console scripts pyproject.toml declares (``tyrebayes.cli:main``)."""
+    import tomllib
+
+    pyproject = ROOT / "pyproject.toml"
+    if not pyproject.exists():
+        return set()
+    scripts = tomllib.loads(pyproject.read_text()).get("project", {}).get("scripts", {})
+    return {tuple(target.split(":", 1)) for target in scripts.values()}
+
+
+def _imports(tree: ast.AST) -> list[tuple[int, str, str | None]]:
+    """(line, module, name) of each import of tyrebayes in ``tree``; name ``None``: the module."""
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, a.name, None) for a in node.names if a.name[:9] == "tyrebayes"]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            if node.module.split(".")[0] == "tyrebayes":
+                found += [(node.lineno, node.module, a.name) for a in node.names]
+    return found
+
+
+def _child_sources(tree: ast.Module) -> dict[str, ast.AST]:
+    """The module-level strings that are Python importing tyrebayes (a child process's source)."""
+    sources = {}
+    for node in tree.body:
+        if not (isinstance(node, ast.Assign) and isinstance(node.value, ast.Constant)):
+            continue
+        text = node.value.value
+        if not isinstance(text, str) or "tyrebayes" not in text:
+            continue
+        try:
+            child = ast.parse(text)
+        except SyntaxError:
+            continue
+        if _imports(child):
+            for target in node.targets:
+                if isinstance(target, ast.Name):
+                    sources[target.id] = child
+    return sources
+
+
+def _internal_tables() -> dict[str, dict]:
+    """``benchmarks/_internal.py``'s tables, read from its source (nothing is imported)."""
+    path = ROOT / "benchmarks" / "_internal.py"
+    tables: dict[str, dict] = {"INTERNAL": {}, "INTERNAL_MODULES": {}, "REVISION_CHILDREN": {}}
+    if not path.exists():
+        return tables
+    for node in ast.parse(path.read_text()).body:
+        if isinstance(node, ast.AnnAssign | ast.Assign):
+            target = node.target if isinstance(node, ast.AnnAssign) else node.targets[0]
+            if isinstance(target, ast.Name) and target.id in tables and node.value is not None:
+                tables[target.id] = ast.literal_eval(node.value)
+    return tables
+
+
+def benchmark_imports() -> dict:
+    """The benchmarks' imports of tyrebayes that are not its public API.
+
+    Public: a name of a public namespace (:func:`_public_namespace`), such a namespace itself, or
+    a console script's entry point (``tyrebayes.cli.main``, what the ``tyrebayes`` command runs);
+    everything else (a module path below a subpackage, a ``_``-prefixed name or module) is
+    internal. Every ``benchmarks/*.py`` but ``_internal.py`` is read, with the sources of the
+    child processes its strings hold; the children ``_internal.REVISION_CHILDREN`` names run on
+    another git revision's package and are listed apart.
+    """
+    tables = _internal_tables()
+    namespaces: dict[str, set[str] | None] = {}
+    entry_points = _entry_points()
+
+    def public(module: str, name: str | None) -> bool:
+        if (module, name) in entry_points:
+            return True
+        if name is None:
+            return module == "tyrebayes" or bool(_public_namespace(module) is not None)
+        if name.startswith("_"):
+            return False
+        if module not in namespaces:
+            namespaces[module] = _public_namespace(module)
+        return namespaces[module] is not None and name in namespaces[module]
+
+    internal, excluded, scripts = [], {}, 0
+    for path in sorted((ROOT / "benchmarks").glob("*.py")):
+        if path.name == "_internal.py":
+            continue
+        tree = ast.parse(path.read_text())
+        sources = {"": tree, **_child_sources(tree)}
+        found_here = False
+        for label, source in sources.items():
+            where = f"{path.stem}.{label}" if label else path.stem
+            bad = [
+                f"benchmarks/{path.name}{'::' + label if label else ''}:{line}: "
+                f"{module}{'.' + name if name else ''}"
+                for line, module, name in _imports(source)
+                if not public(module, name)
+            ]
+            if bad and where in tables["REVISION_CHILDREN"]:
+                excluded[where] = f"{len(bad)} imports: {tables['REVISION_CHILDREN'][where]}"
+            elif bad:
+                internal += bad
+                found_here = True
+        scripts += found_here
+    return {
+        "internal": internal,
+        "scripts_with_internal": scripts,
+        "excluded": excluded,
+        "internal_names": sorted(tables["INTERNAL"]) + sorted(tables["INTERNAL_MODULES"]),
+    }
+
+
 _BEFORE_CHILD = r"""
 import json, sys
 from pathlib import Path

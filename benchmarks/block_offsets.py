@@ -23,9 +23,7 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 from tyre_recovery import SETTINGS, simulated_observations  # noqa: E402
 
-from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
-from tyrebayes.inference.tyre.model import TyrePriors  # noqa: E402
+from tyrebayes import TyrePriors, fit_tyre, load_vehicle  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "block_offsets.json"
 

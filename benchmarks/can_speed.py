@@ -40,10 +40,9 @@ from pathlib import Path
 import numpy as np
 from _results import write_result  # noqa: E402
 
-from tyrebayes._domain import load_vehicle
-from tyrebayes.simulate.can_log import stream_messages
-from tyrebayes.streams.can import load_dbc, load_profile
-from tyrebayes.streams.synthetic import synthetic_stream
+from tyrebayes import load_profile, load_vehicle
+from tyrebayes.simulate import stream_messages, synthetic_stream
+from tyrebayes.streams.can import load_dbc
 
 RESULTS = Path(__file__).resolve().parent / "results" / "can_speed.json"
 TARGET_S_PER_HOUR = 20.0
@@ -60,9 +59,7 @@ REPEATS = 3  # candump and per-frame runs: the fastest of three; BLF and ASC: on
 
 _CHILD = r"""
 import json, os, resource, sys, time
-from tyrebayes._domain import load_vehicle
-from tyrebayes.streams import validate_stream
-from tyrebayes.streams.can import read_can_log
+from tyrebayes import load_vehicle, read_can_log, validate_stream
 
 def rss_mb(key="VmRSS:"):
     for line in open("/proc/self/status"):

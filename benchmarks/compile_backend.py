@@ -47,8 +47,7 @@ seconds = collections.Counter()
 monitoring.register_event_duration_secs_listener(
     lambda name, duration, **_: seconds.update({name: duration}))
 jax.config.update("jax_enable_x64", True)
-from tyrebayes.inference.tyre.data import WindowTable, stack_drives
-from tyrebayes.inference.tyre.fit import fit_tyre
+from tyrebayes import WindowTable, fit_tyre, stack_drives
 windows = WindowTable.from_dict(dict(np.load(sys.argv[1])))
 obs = stack_drives([windows], ["dry"], pad_to=int(sys.argv[2]))
 times, compile_s = [], []

@@ -44,7 +44,7 @@ import numpy as np
 from _results import RESERVED, write_result  # noqa: E402
 
 from tyrebayes.criticism import criticize_table
-from tyrebayes.simulate.fleet import THESIS_AGED_TYRE_EFFECT, simulate_fleet
+from tyrebayes.simulate import THESIS_AGED_TYRE_EFFECT, simulate_fleet
 
 RESULTS = Path(__file__).resolve().parent / "results" / "discovery.json"
 MORE_NULL = RESULTS.with_name("discovery_more_null.json")
@@ -174,12 +174,11 @@ def _decisions(res) -> dict:
 
 def real_log() -> dict:
     """The real RAV4 segment: stream criticism, and the per-tyre fit criticised from its file."""
-    from tyrebayes._resources import data_dir
-    from tyrebayes.criticism import criticize_stream, criticize_tyre_fit
-    from tyrebayes.inference import fit_tyre
-    from tyrebayes.inference.tyre.data import observations_from_stream
+    from _data import rav4_segment_path
 
-    path = data_dir() / "comma2k19_rav4_segment.csv"
+    from tyrebayes import criticize_stream, criticize_tyre_fit, fit_tyre, observations_from_stream
+
+    path = rav4_segment_path()
     out = {}
     for window in (None, 2.0, 5.0):
         res = criticize_stream(path, "suv_rav4", window_s=window)
@@ -207,8 +206,7 @@ def real_log() -> dict:
 
 def fleet_fits(n_fits: int) -> dict:
     """Hierarchical fleet fits (NUTS) criticised from their fit files: age effect and null."""
-    from tyrebayes.criticism import criticize_fleet_fit
-    from tyrebayes.inference.fleet import fit_fleet
+    from tyrebayes import criticize_fleet_fit, fit_fleet
 
     rows = []
     for i in range(n_fits):

@@ -19,7 +19,7 @@ from pathlib import Path
 from _results import write_result  # noqa: E402
 
 from tyrebayes.criticism import criticize_table
-from tyrebayes.simulate.fleet import simulate_fleet
+from tyrebayes.simulate import simulate_fleet
 
 RESULTS = Path(__file__).resolve().parent / "results"
 

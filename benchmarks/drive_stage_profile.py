@@ -97,11 +97,10 @@ print(json.dumps({
 
 _LATERAL_CHILD = r"""
 import json, sys, time
-from tyrebayes.batch.settings import configure_jax
+from benchmarks._internal import configure_jax
 configure_jax(sys.argv[3])
 from tyrebayes import load_vehicle, read_stream, validate_stream
-from tyrebayes.batch.lateral import drive_lateral
-from tyrebayes.batch.worker_memory import drop_compiled_programs, rss_mb
+from benchmarks._internal import drive_lateral, drop_compiled_programs, rss_mb
 
 path, repeats = sys.argv[1], int(sys.argv[2])
 vehicle = load_vehicle("compact_fwd")
@@ -153,8 +152,8 @@ def _per_hour(result: dict) -> dict:
 
 
 def _drive(folder: Path, duration_s: float) -> Path:
-    from tyrebayes.simulate.drive import simulate_drive
-    from tyrebayes.streams import write_stream
+    from tyrebayes import write_stream
+    from tyrebayes.simulate import simulate_drive
 
     path = folder / "drive.parquet"
     df, _ = simulate_drive(1, "compact_fwd", "summer", duration_s=duration_s, surface="dry")
@@ -163,9 +162,8 @@ def _drive(folder: Path, duration_s: float) -> Path:
 
 
 def _cornering_drive(folder: Path, duration_s: float) -> Path:
-    from tyrebayes import load_vehicle
-    from tyrebayes.simulate.cornering import simulate_cornering
-    from tyrebayes.streams import write_stream
+    from tyrebayes import load_vehicle, write_stream
+    from tyrebayes.simulate import simulate_cornering
 
     path = folder / "cornering.parquet"
     frame, _ = simulate_cornering(load_vehicle("compact_fwd"), duration_s=duration_s, seed=21)

@@ -48,6 +48,7 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+from _internal import BLOCK_S  # noqa: E402
 
 from tyrebayes import (  # noqa: E402
     TyrePriors,
@@ -57,7 +58,6 @@ from tyrebayes import (  # noqa: E402
     observations_from_features,
     stack_drives,
 )
-from tyrebayes.inference.tyre.data import BLOCK_S  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "external_drives.json"
 RESULTS_LOAD = RESULTS.with_name("external_drives_load_sensitivity.json")
@@ -156,7 +156,7 @@ def one_drive(drive: Drive, priors: TyrePriors | None = None) -> dict:
     for kind in SIDE_MODELS:
         fits[kind] = fit_tyre(obs, priors=priors, method="fast", seed=0, kind=kind)
 
-    truth = pd.read_parquet(drive.truth_samples_path())
+    truth = drive.truth_samples()
     slip_windows = windows.select(~windows.at_limit)
     true_slip, true_rho = window_truth(truth, slip_windows.time_s, 0.125, axle)
     slip, rho = slip_windows.slip, slip_windows.rho

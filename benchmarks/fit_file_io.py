@@ -33,12 +33,15 @@ ENGINES = ("netcdf4", "h5netcdf")
 
 
 def one_hour_fit():
-    from tyrebayes._domain import load_vehicle
-    from tyrebayes.inference.tyre.data import observations_from_features, stack_drives
-    from tyrebayes.inference.tyre.fit import fit_tyre
-    from tyrebayes.simulate.drive import simulate_drive
-    from tyrebayes.simulate.profiles import ProfileOptions
-    from tyrebayes.streams import compute_features, validate_stream
+    from tyrebayes import (
+        compute_features,
+        fit_tyre,
+        load_vehicle,
+        observations_from_features,
+        stack_drives,
+        validate_stream,
+    )
+    from tyrebayes.simulate import ProfileOptions, simulate_drive
 
     vehicle = load_vehicle("compact_fwd")
     df, truth = simulate_drive(
@@ -68,8 +71,9 @@ def main() -> int:
 
     jax.config.update("jax_enable_x64", True)
     import xarray as xr
+    from _internal import NETCDF_ENGINE
 
-    from tyrebayes.inference.result import NETCDF_ENGINE, load_fit
+    from tyrebayes import load_fit
 
     fit = one_hour_fit()
     folder = Path(tempfile.mkdtemp(prefix="fit_file_io_"))

@@ -34,9 +34,8 @@ def write_drive(path: Path, seed: int) -> float:
     """Simulate a one-hour 100 Hz drive with two ABS stops, write it; returns the true mean C_x."""
     import numpy as np
 
-    from tyrebayes._domain import load_vehicle
-    from tyrebayes.simulate.drive import simulate_drive
-    from tyrebayes.simulate.profiles import ProfileOptions
+    from tyrebayes import load_vehicle
+    from tyrebayes.simulate import ProfileOptions, simulate_drive
 
     df, truth = simulate_drive(
         seed,

@@ -46,11 +46,9 @@ import jax  # noqa: E402
 jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
+from _internal import drive_lateral  # noqa: E402
 
-from tyrebayes._domain import TYRE_TYPES, load_vehicle  # noqa: E402
-from tyrebayes.batch.lateral import drive_lateral  # noqa: E402
-from tyrebayes.inference.fleet import fit_fleet  # noqa: E402
-from tyrebayes.inference.summary import summarize  # noqa: E402
+from tyrebayes import TYRE_TYPES, fit_fleet, load_vehicle, summarize  # noqa: E402
 from tyrebayes.inference.vmax import (  # noqa: E402
     MU_TYPE,
     MU_Y_RATIO,
@@ -59,8 +57,7 @@ from tyrebayes.inference.vmax import (  # noqa: E402
     type_vmax_inputs,
     vmax_draws,
 )
-from tyrebayes.simulate.cornering import simulate_cornering  # noqa: E402
-from tyrebayes.simulate.fleet import simulate_fleet  # noqa: E402
+from tyrebayes.simulate import simulate_cornering, simulate_fleet  # noqa: E402
 
 #: Per type: (median c_y / C_xr, within-type log-sd) of the simulated fleets.
 TRUE_RATIO = {"winter": (0.52, 0.10), "all_season": (0.38, 0.10), "summer": (0.30, 0.10)}

@@ -27,10 +27,10 @@ numpyro.set_host_device_count(2)
 
 import jax  # noqa: E402
 import numpy as np  # noqa: E402
+from _internal import enable_compilation_cache  # noqa: E402
 
-from tyrebayes.inference.fleet import fit_fleet  # noqa: E402
-from tyrebayes.internal.jax_cache import enable_compilation_cache  # noqa: E402
-from tyrebayes.simulate.fleet import simulate_fleet  # noqa: E402
+from tyrebayes import fit_fleet  # noqa: E402
+from tyrebayes.simulate import simulate_fleet  # noqa: E402
 
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
 SHARES = {"winter": 0.4, "all_season": 0.3, "summer": 0.3}

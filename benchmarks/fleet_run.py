@@ -47,7 +47,9 @@ import numpy as np
 import pandas as pd
 from _results import figure, write_result  # noqa: E402
 
-from tyrebayes.batch.worker_memory import peak_rss_mb, rss_mb
+# isort: split
+# After the writer: its CPU and wall clocks start at its import, before the package's.
+from _internal import peak_rss_mb, rss_mb
 
 RESULTS = Path(__file__).resolve().parent / "results" / "fleet_run.json"
 TARGET_DRIVE_HOURS_PER_CORE_HOUR = 5000.0
@@ -59,9 +61,7 @@ VEHICLES_PER_DAY = 100_000
 
 
 def make_drives(folder: Path, n_drives: int, n_sets: int, seed: int) -> tuple[Path, float]:
-    from tyrebayes.simulate.drive_io import write_drive
-    from tyrebayes.simulate.profiles import ProfileOptions
-    from tyrebayes.simulate.tyre_set import simulate_tyre_set_drives
+    from tyrebayes.simulate import ProfileOptions, simulate_tyre_set_drives, write_drive
 
     rng = np.random.default_rng(seed)
     per_set = np.full(n_sets, n_drives // n_sets)
@@ -110,9 +110,9 @@ def plain_loop(items, out: Path, settings, traced_drives: bool = False) -> dict:
     program of the process (``ProgramBudget.keep_one_fit_shape``), and a long-lived worker
     traces each drive shape once, not once per drive.
     """
-    from tyrebayes.batch.drive_stage import process_drive
-    from tyrebayes.batch.fleet_stage import run_fleet_stage
-    from tyrebayes.batch.tyre_set_stage import fit_tyre_set, pad_size, tyre_set_table
+    from _internal import pad_size, tyre_set_table
+
+    from tyrebayes.batch import fit_tyre_set, process_drive, run_fleet_stage
 
     if traced_drives:
         for i in items:
@@ -237,7 +237,7 @@ def _as_a_worker() -> None:
     """
     import sys
 
-    from tyrebayes.batch.cluster import _worker_env
+    from _internal import _worker_env
 
     worker = _worker_env()
     if any(os.environ.get(k) != v for k, v in worker.items()):
@@ -246,7 +246,7 @@ def _as_a_worker() -> None:
 
 def _compiled_programs_mb() -> float:
     """Resident memory [MB] this process frees when JAX drops its compiled programs."""
-    from tyrebayes.batch.worker_memory import drop_compiled_programs, release_free_memory
+    from _internal import drop_compiled_programs, release_free_memory
 
     release_free_memory()
     before = rss_mb()

@@ -30,9 +30,11 @@ import matplotlib  # noqa: E402
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from _internal import loo as psis_loo  # noqa: E402
+from _internal import ols_interval, ols_logpdf, ols_loo_logpdf  # noqa: E402
+from _results import save_figure  # noqa: E402
 
-from tyrebayes._domain import SURFACES, TYRE_TYPES  # noqa: E402
-from tyrebayes._io import atomic_path  # noqa: E402
+from tyrebayes import SURFACES, TYRE_TYPES, fit_ols  # noqa: E402
 from tyrebayes.inference.fleet import (  # noqa: E402
     fit_fleet,
     load_tyre_type_priors,
@@ -41,9 +43,7 @@ from tyrebayes.inference.fleet import (  # noqa: E402
     predictive_draws,
     predictive_logpdf,
 )
-from tyrebayes.inference.ols import fit_ols, ols_interval, ols_logpdf, ols_loo_logpdf  # noqa: E402
-from tyrebayes.inference.result import loo as psis_loo  # noqa: E402
-from tyrebayes.simulate.fleet import simulate_fleet  # noqa: E402
+from tyrebayes.simulate import simulate_fleet  # noqa: E402
 
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
 N_TEST = 500
@@ -219,10 +219,8 @@ def _plot_braking(pred: dict, rows: list[dict]) -> None:
         ax.legend(uniq.values(), uniq.keys(), fontsize=7, loc="best")
     fig.suptitle("Fleet model predictive friction by type vs measured braking decelerations")
     fig.tight_layout()
-    tmp, final = atomic_path(os.path.join(RESULTS, "fleet_vs_ols_braking.png"))
-    fig.savefig(tmp, dpi=110)
+    save_figure(fig, os.path.join(RESULTS, "fleet_vs_ols_braking.png"), dpi=110)
     plt.close(fig)
-    os.replace(tmp, final)
 
 
 def main(argv=None) -> int:

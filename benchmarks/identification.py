@@ -48,22 +48,22 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-
-from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes.inference.online import (  # noqa: E402
-    online_estimate,
-    stream_steps,
-    stream_windows,
-)
-from tyrebayes.inference.tyre.adequacy import (  # noqa: E402
+from _internal import (  # noqa: E402
     EXCITATION_FORCE,
     MAX_C_XR_PRIOR_SDS,
     MAX_LABEL_LOG_BAYES_FACTOR,
     MAX_MU_PRIOR_SDS,
     MIN_EXCITED_WINDOWS,
 )
-from tyrebayes.inference.tyre.data import observations_from_stream  # noqa: E402
-from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
+
+from tyrebayes import (  # noqa: E402
+    fit_tyre,
+    load_vehicle,
+    observations_from_stream,
+    online_estimate,
+    stream_steps,
+    stream_windows,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results" / "identification.json"
@@ -164,7 +164,7 @@ def main() -> None:
     args = parser.parse_args()
     (e00,) = external_drives(args.folder, "e00")
     entry, source, vehicle = e00.truth, e00.path, e00.vehicle_path
-    drive = pd.read_parquet(source)
+    drive = e00.frame()
     vehicle_text = vehicle.read_text()
     radius = load_vehicle(vehicle).wheel_radius_m
     t0 = time.perf_counter()

@@ -24,11 +24,10 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 from _data import external_lateral_drives, niki_lateral_log, stanford_lateral_log  # noqa: E402
+from _internal import LATERAL_EFFECTS, criticize_lateral_effects  # noqa: E402
 from lateral_real import HERE  # noqa: E402
 
 from tyrebayes import cornering_observations, load_vehicle  # noqa: E402
-from tyrebayes.criticism.lateral import criticize_lateral_effects  # noqa: E402
-from tyrebayes.inference.lateral.model import LATERAL_EFFECTS  # noqa: E402
 
 KEYS = ("c_y_front", "c_y_rear", "understeer_gradient")
 

@@ -30,7 +30,8 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from _data import niki_lateral_log, stanford_lateral_log  # noqa: E402
+from _data import niki_lateral_log, rav4_segment_path, stanford_lateral_log  # noqa: E402
+from _internal import G  # noqa: E402
 from scipy.signal import butter, sosfiltfilt  # noqa: E402
 
 from tyrebayes import load_vehicle  # noqa: E402
@@ -39,12 +40,9 @@ from tyrebayes.inference.lateral import (  # noqa: E402
     cornering_observations,
     fit_lateral,
 )
-from tyrebayes.inference.lateral.data import G  # noqa: E402
 from tyrebayes.streams import read_stream, validate_stream  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
-RAV4 = ROOT / "tyrebayes" / "data" / "comma2k19_rav4_segment.csv"
 
 
 def _lowpass(x: np.ndarray, rate: float) -> np.ndarray:
@@ -127,7 +125,7 @@ def main() -> None:
         rows[name] = {"fit": fit, "reference": ref, "comparison": _compare(fit, ref)}
         print(name, fit.get("status"), rows[name]["comparison"], flush=True)
     rav4 = load_vehicle("suv_rav4")
-    validated = validate_stream(read_stream(RAV4), rav4)
+    validated = validate_stream(read_stream(rav4_segment_path()), rav4)
     rows["comma2k19_rav4_highway"] = {"fit": _fit(validated.data, rav4), "reference": None}
     print("rav4", rows["comma2k19_rav4_highway"]["fit"].get("status"))
     compared = [c for r in rows.values() for c in (r.get("comparison") or {}).values()]

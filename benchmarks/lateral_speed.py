@@ -41,10 +41,8 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
-from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes.inference.lateral import cornering_observations, fit_lateral  # noqa: E402
-from tyrebayes.simulate.cornering import simulate_cornering  # noqa: E402
-from tyrebayes.streams import write_stream  # noqa: E402
+from tyrebayes import cornering_observations, fit_lateral, load_vehicle, write_stream  # noqa: E402
+from tyrebayes.simulate import simulate_cornering  # noqa: E402
 
 
 def main() -> None:

@@ -49,6 +49,7 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
+from _internal import MAX_LABEL_LOG_BAYES_FACTOR, MAX_MU_PRIOR_SDS  # noqa: E402
 from _online_common import (  # noqa: E402
     external_entries,
     external_windows,
@@ -57,6 +58,7 @@ from _online_common import (  # noqa: E402
     true_c_x_so_far,
 )
 
+from tyrebayes import fit_tyre, stack_drives  # noqa: E402
 from tyrebayes.inference.online import (  # noqa: E402
     OnlineEstimator,
     linear_ekf,
@@ -64,12 +66,6 @@ from tyrebayes.inference.online import (  # noqa: E402
     run_online,
     stream_steps,
 )
-from tyrebayes.inference.tyre.adequacy import (  # noqa: E402
-    MAX_LABEL_LOG_BAYES_FACTOR,
-    MAX_MU_PRIOR_SDS,
-)
-from tyrebayes.inference.tyre.data import stack_drives  # noqa: E402
-from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "online_agreement.json"
 AGREEMENT_S = 600.0

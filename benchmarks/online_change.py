@@ -46,8 +46,10 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
+from _internal import BLOCK_S, curve_slip, deconvolve_forces  # noqa: E402
 from _online_common import TYRES, machine, simulated_windows  # noqa: E402
 
+from tyrebayes import TyrePriors, WindowTable, fit_tyre, stack_drives  # noqa: E402
 from tyrebayes.inference.online import (  # noqa: E402
     OnlineEstimator,
     pad_steps,
@@ -55,12 +57,8 @@ from tyrebayes.inference.online import (  # noqa: E402
     run_online_cars,
     stream_steps,
 )
-from tyrebayes.inference.tyre.data import BLOCK_S, WindowTable, stack_drives  # noqa: E402
-from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
-from tyrebayes.inference.tyre.force_density import deconvolve_forces  # noqa: E402
-from tyrebayes.inference.tyre.model import TyrePriors, curve_slip  # noqa: E402
-from tyrebayes.physics.thermal import stiffness_with_sensitivity  # noqa: E402
-from tyrebayes.simulate.tyre_spec import TyreSpec, draw_database_curve  # noqa: E402
+from tyrebayes.physics import stiffness_with_sensitivity  # noqa: E402
+from tyrebayes.simulate import TyreSpec, draw_database_curve  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "online_change.json"
 STEP = 1.2

@@ -46,15 +46,11 @@ jax.config.update("jax_enable_x64", True)
 
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
+from _internal import block_curvature, block_log_likelihood, model_sites  # noqa: E402
 from _online_common import machine, simulated_windows  # noqa: E402
 
-from tyrebayes.inference.online import OnlineEstimator, stream_steps  # noqa: E402
-from tyrebayes.inference.online.block_likelihood import (  # noqa: E402
-    block_curvature,
-    block_log_likelihood,
-)
-from tyrebayes.inference.online.parameters import model_sites  # noqa: E402
-from tyrebayes.inference.tyre.model import window_quantities  # noqa: E402
+from tyrebayes import OnlineEstimator, stream_steps  # noqa: E402
+from tyrebayes.inference import window_quantities  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results" / "online_curvature_cost.json"
 KINDS = ("magic", "brush", "linear")

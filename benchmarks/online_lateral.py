@@ -47,15 +47,11 @@ import jax  # noqa: E402
 jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
+from _internal import prior_k_sd, run_online_lateral  # noqa: E402
 from paramsd_ekf import run_paramsd  # noqa: E402
 
-from tyrebayes import cornering_observations, fit_lateral  # noqa: E402
-from tyrebayes.inference.online.lateral import (  # noqa: E402
-    OnlineLateralEstimator,
-    run_online_lateral,
-)
-from tyrebayes.inference.online.lateral_blocks import lateral_blocks  # noqa: E402
-from tyrebayes.inference.online.lateral_summary import prior_k_sd  # noqa: E402
+from tyrebayes import cornering_observations, fit_lateral, lateral_blocks  # noqa: E402
+from tyrebayes.inference.online import OnlineLateralEstimator  # noqa: E402
 
 KEYS = ("c_y_front", "c_y_rear", "understeer_gradient")
 #: Braking in a corner: a_x below minus this [m/s²] (the drives brake gently in corners: a_x

@@ -40,8 +40,10 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
+from _internal import REVERSION_S  # noqa: E402
 from _online_common import machine, simulated_windows, true_c_x_so_far  # noqa: E402
 
+from tyrebayes import WindowTable  # noqa: E402
 from tyrebayes.inference.online import (  # noqa: E402
     COMPILER_OPTIONS,
     OnlineEstimator,
@@ -49,8 +51,6 @@ from tyrebayes.inference.online import (  # noqa: E402
     pad_steps,
     stream_steps,
 )
-from tyrebayes.inference.online.config import REVERSION_S  # noqa: E402
-from tyrebayes.inference.tyre.data import WindowTable  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "online_outliers.json"
 DURATION_S = 1200.0

@@ -30,7 +30,8 @@ single car's.
 
 With ``--before REV``, the Magic Formula car-hour (30 s steps) of the package as of git
 revision REV beside this checkout's: each in a fresh child process pinned to the same core, on
-the same simulated hour, alternating ``--before-pairs`` times, so that both see the machine as
+the same simulated hour (each side simulates it with its own revision's package and benchmark
+helpers), alternating ``--before-pairs`` times, so that both see the machine as
 it was then (a shared machine's speed drifts by more than a change's gain between runs).
 
 Timings include whatever else ran on the machine (the load average is recorded in the JSON).
@@ -69,10 +70,11 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
+from _internal import block_curvature, block_log_likelihood  # noqa: E402
+from _internal import laplace_update as laplace_module  # noqa: E402
 from _online_common import machine, simulated_windows  # noqa: E402
 from _revisions import package_at, run_child  # noqa: E402
 
-import tyrebayes.inference.online.laplace_update as laplace_module  # noqa: E402
 from tyrebayes.inference.online import (  # noqa: E402
     COMPILER_OPTIONS,
     PACKED_STEP_S,
@@ -81,10 +83,6 @@ from tyrebayes.inference.online import (  # noqa: E402
     run_online,
     run_online_cars,
     stream_steps,
-)
-from tyrebayes.inference.online.block_likelihood import (  # noqa: E402
-    block_curvature,
-    block_log_likelihood,
 )
 
 RESULTS = Path(__file__).parent / "results" / "online_speed.json"
@@ -298,13 +296,15 @@ def compiler_options_gain(steps, hours: float, pairs: int, reps: int) -> dict:
 def before_and_after(revision: str, pairs: int, reps: int) -> dict:
     """The Magic Formula car-hour at ``revision`` and on this checkout, alternated ``pairs``
     times in fresh children on this core (module docstring)."""
-    here = str(Path(__file__).parent)
     with tempfile.TemporaryDirectory() as tmp:
-        code = package_at(revision, Path(tmp) / "before")
+        # The before side's drives come from that revision's helpers, which import the package
+        # as it was then.
+        code = package_at(revision, Path(tmp) / "before", ("tyrebayes", "models", "benchmarks"))
+        helpers = {"before": code / "benchmarks", "after": Path(__file__).parent}
         runs = {"before": [], "after": []}
         for _ in range(pairs):
             for side, where in (("before", code), ("after", None)):
-                child = run_child(_CAR_HOUR_CHILD, [CORE, here, reps], where, {})
+                child = run_child(_CAR_HOUR_CHILD, [CORE, helpers[side], reps], where, {})
                 runs[side].append(child["car_hour_s"])
     return {
         **_alternated(runs, "before", "after"),

@@ -61,9 +61,12 @@ import math
 import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from _data import Drive
 
 GRAVITY_MPS2 = 9.80665
 
@@ -605,8 +608,6 @@ def run_paramsd(
 
 # --- the external cornering drives -------------------------------------------------------------
 
-_DEFAULT_DIR = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "external_lateral"
-
 # Configurations run by ``main``: openpilot's numbers as they are, and the same filter with a
 # stiffness factor that starts as unknown as paramsd's own pseudo-observation says (sd 0.5) instead
 # of openpilot's P_initial = Q (sd 0.0005, i.e. a car whose factor was already learned).
@@ -630,14 +631,11 @@ def _covers(bounds: list[float], truth: float) -> bool:
     return bool(bounds[0] <= truth <= bounds[1])
 
 
-def evaluate_drive(path: Path, truth: dict, config: ParamsdConfig) -> dict:
-    """Run the filter on one external drive and compare with its truth."""
-    import pandas as pd
-
-    from tyrebayes import load_vehicle
-
-    vehicle = load_vehicle(path.parent / truth["vehicle"])
-    stream = pd.read_parquet(path)
+def evaluate_drive(drive: Drive, config: ParamsdConfig) -> dict:
+    """Run the filter on one external drive (``benchmarks._data.Drive``) against its truth."""
+    truth = drive.truth
+    vehicle = drive.vehicle()
+    stream = drive.frame()
     started = _time.perf_counter()
     res = run_paramsd(
         stream["time"].to_numpy(np.float64),
@@ -650,7 +648,11 @@ def evaluate_drive(path: Path, truth: dict, config: ParamsdConfig) -> dict:
     )
     wall = _time.perf_counter() - started
     summary = res.to_dict()
-    row: dict[str, Any] = {"drive": path.name, "kind": truth["kind"], "vehicle": truth["vehicle"]}
+    row: dict[str, Any] = {
+        "drive": drive.path.name,
+        "kind": truth["kind"],
+        "vehicle": truth["vehicle"],
+    }
     for key, truth_key in (
         ("c_y_front", "c_y_front"),
         ("c_y_rear", "c_y_rear"),
@@ -700,19 +702,17 @@ def main(argv: list[str] | None = None) -> dict:
     import argparse
     import json
 
+    from _data import EXTERNAL_LATERAL, external_lateral_drives
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("dir", nargs="?", default=str(_DEFAULT_DIR))
+    parser.add_argument("dir", nargs="?", default=str(EXTERNAL_LATERAL))
     parser.add_argument("--out", default=None)
     parser.add_argument("--drives", default=None, help="comma-separated, e.g. l00,l01")
     parser.add_argument("--use-ay", action="store_true", help="also run each config with a_y")
     args = parser.parse_args(argv)
 
     root = Path(args.dir)
-    truth_all = json.loads((root / "truth.json").read_text())
-    names = sorted(truth_all)
-    if args.drives:
-        wanted = {f"{d}.parquet" for d in args.drives.split(",")}
-        names = [n for n in names if n in wanted]
+    drives = external_lateral_drives(root, args.drives or "")
     configs = dict(CONFIGS)
     if args.use_ay:
         configs.update(
@@ -720,7 +720,7 @@ def main(argv: list[str] | None = None) -> dict:
         )
     results: dict[str, Any] = {"configs": {}, "source": str(root)}
     for cname, cfg in configs.items():
-        rows = [evaluate_drive(root / "drives" / n, truth_all[n], cfg) for n in names]
+        rows = [evaluate_drive(drive, cfg) for drive in drives]
         results["configs"][cname] = {"config": dict(cfg.__dict__), "drives": rows}
         print(f"\n{cname}")
         print(

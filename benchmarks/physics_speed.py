@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
         jax.config.update("jax_enable_x64", True)
     import jax.numpy as jnp
 
-    from tyrebayes.physics.tyre import brush_longitudinal
+    from tyrebayes.physics import brush_longitudinal
 
     c_x, mu, ratio = 30.0, 0.9, 0.8
     dtype = jnp.float64 if args.x64 else jnp.float32

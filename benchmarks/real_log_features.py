@@ -21,7 +21,6 @@ Usage: python benchmarks/real_log_features.py [--quick]   (the log is small; --q
 from __future__ import annotations
 
 import argparse
-import os
 import time
 from pathlib import Path
 
@@ -31,10 +30,10 @@ from _results import write_result  # noqa: E402
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from _data import rav4_segment_path  # noqa: E402
+from _results import save_figure  # noqa: E402
 
-from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes._io import atomic_path  # noqa: E402
-from tyrebayes._resources import data_dir  # noqa: E402
+from tyrebayes import load_vehicle  # noqa: E402
 from tyrebayes.streams import (  # noqa: E402
     SEGMENT_KINDS,
     compute_features,
@@ -93,10 +92,8 @@ def _plot(feats, ref, fit, path: Path) -> None:
     axes[0].set_title("comma2k19 RAV4 segment: tyrebayes.streams features")
     for a in axes[:4]:
         a.set_xlabel("time [s]")
-    tmp, final = atomic_path(path)
-    fig.savefig(tmp, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
-    os.replace(tmp, final)
 
 
 def main() -> int:
@@ -105,7 +102,7 @@ def main() -> int:
     args = parser.parse_args()
     vehicle = load_vehicle("suv_rav4")
     t0 = time.perf_counter()
-    stream = validate_stream(read_stream(data_dir() / "comma2k19_rav4_segment.csv"), vehicle)
+    stream = validate_stream(read_stream(rav4_segment_path()), vehicle)
     feats = compute_features(stream, vehicle)
     seconds = time.perf_counter() - t0
     ref = stream.data["speed_reference"].to_numpy(dtype=float)
@@ -175,9 +172,7 @@ def main() -> int:
             "slip_driven_p05_p50_p95": np.quantile(slip, [0.05, 0.5, 0.95]).tolist(),
             "stated_slip_sd_median": float(np.median(feats.slip_driven_sd[ok])),
             "stated_rho_sd_median": float(np.median(feats.rho_driven_sd[ok])),
-            "timestamp_jitter_s": float(
-                np.std(np.diff(read_stream(data_dir() / "comma2k19_rav4_segment.csv")["time"]))
-            ),
+            "timestamp_jitter_s": float(np.std(np.diff(read_stream(rav4_segment_path())["time"]))),
         },
         "checks": checks,
         "all_checks_pass": all(checks.values()),

@@ -44,12 +44,17 @@ import matplotlib  # noqa: E402
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from _data import rav4_segment_path  # noqa: E402
 
-from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes._resources import data_dir  # noqa: E402
-from tyrebayes.inference.tyre.data import observations_from_features, stack_drives  # noqa: E402
-from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
-from tyrebayes.streams import compute_features, read_stream, validate_stream  # noqa: E402
+from tyrebayes import (  # noqa: E402
+    compute_features,
+    fit_tyre,
+    load_vehicle,
+    observations_from_features,
+    read_stream,
+    stack_drives,
+    validate_stream,
+)
 
 RESULTS = Path(__file__).parent / "results"
 # The bulleted list under "Assumptions" in the module docstring, one entry per bullet.
@@ -60,7 +65,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--method", choices=("fast", "nuts"), default="nuts")
     args = parser.parse_args()
-    stream = data_dir() / "comma2k19_rav4_segment.csv"
+    stream = rav4_segment_path()
     vehicle = load_vehicle("suv_rav4")
     features = compute_features(validate_stream(read_stream(stream), vehicle), vehicle)
     imu_gain = features.nuisances.ax_gain
@@ -145,7 +150,7 @@ def main() -> None:
             "rho_range": [float(rho[ok].min()), float(rho[ok].max())],
         },
     }
-    from tyrebayes._io import to_jsonable as _to_jsonable
+    from _results import to_jsonable as _to_jsonable
 
     write_result("real_log_fit", _to_jsonable(payload))
     print(json.dumps(_to_jsonable(payload["summary"]["c_x"])), payload["posterior_predictive"])

@@ -32,13 +32,12 @@ from scipy.signal import savgol_filter, welch
 
 jax.config.update("jax_enable_x64", True)
 
-from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes._resources import data_dir  # noqa: E402
-from tyrebayes.physics.vehicle import GRAVITY_MPS2  # noqa: E402
-from tyrebayes.simulate.drive import simulate_drive  # noqa: E402
-from tyrebayes.simulate.profiles import profile_from_trace  # noqa: E402
-from tyrebayes.simulate.sensors import SensorModel  # noqa: E402
-from tyrebayes.streams.noise import quantisation_step, white_noise_sd  # noqa: E402
+from _data import rav4_segment  # noqa: E402
+
+from tyrebayes import load_vehicle  # noqa: E402
+from tyrebayes.physics import GRAVITY_MPS2  # noqa: E402
+from tyrebayes.simulate import SensorModel, profile_from_trace, simulate_drive  # noqa: E402
+from tyrebayes.streams import quantisation_step, white_noise_sd  # noqa: E402
 
 WHEELS = ["wheel_speed_fl", "wheel_speed_fr", "wheel_speed_rl", "wheel_speed_rr"]
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -214,7 +213,7 @@ def main(argv: list[str] | None = None) -> int:
 
     vehicle = load_vehicle("suv_rav4")
     radius = vehicle.wheel_radius_m
-    real_df = pd.read_csv(data_dir() / "comma2k19_rav4_segment.csv")
+    real_df = rav4_segment()
     real = stream_metrics(real_df, radius)
     rate = round(real["sample_rate_hz"])
     # Replay the real speeds and lateral accelerations; grade unknown (0).

@@ -22,8 +22,7 @@ from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
-from tyrebayes.simulate.drive import simulate_drive  # noqa: E402
-from tyrebayes.simulate.profiles import ProfileOptions  # noqa: E402
+from tyrebayes.simulate import ProfileOptions, simulate_drive  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 

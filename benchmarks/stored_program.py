@@ -37,10 +37,9 @@ RESULTS = ROOT / "benchmarks" / "results" / "stored_program.json"
 _CHILD = r"""
 import json, sys, time
 import numpy as np
-from tyrebayes.batch.settings import configure_jax
+from benchmarks._internal import configure_jax
 configure_jax(sys.argv[1])
-from tyrebayes.inference.tyre.data import WindowTable, stack_drives
-from tyrebayes.inference.tyre.fit import fit_tyre
+from tyrebayes import WindowTable, fit_tyre, stack_drives
 windows = WindowTable.from_dict(dict(np.load(sys.argv[2])))
 obs = stack_drives([windows], ["dry"], pad_to=int(sys.argv[3]))
 times = []
@@ -57,12 +56,15 @@ print(json.dumps({"first_fit_s": times[0], "second_fit_s": times[1],
 def _windows(path: Path) -> int:
     """A simulated one-hour drive's windows saved at ``path``; returns the padded length."""
     import numpy as np
+    from _internal import pad_size
 
-    from tyrebayes._domain import load_vehicle
-    from tyrebayes.batch.tyre_set_stage import pad_size
-    from tyrebayes.inference.tyre.data import observations_from_features
-    from tyrebayes.simulate.drive import simulate_drive
-    from tyrebayes.streams import compute_features, validate_stream
+    from tyrebayes import (
+        compute_features,
+        load_vehicle,
+        observations_from_features,
+        validate_stream,
+    )
+    from tyrebayes.simulate import simulate_drive
 
     vehicle = load_vehicle("compact_fwd")
     df, _ = simulate_drive(3, vehicle, "all_season", duration_s=3600.0)
@@ -82,6 +84,7 @@ def _run(cache: Path, windows: Path, pad: int) -> dict:
         capture_output=True,
         text=True,
         env=env,
+        cwd=Path(__file__).resolve().parents[1],  # the child imports benchmarks._internal
         check=True,
     )
     return {**json.loads(out.stdout.strip().splitlines()[-1]), "load_average": os.getloadavg()}

@@ -81,10 +81,8 @@ def _measure(path: Path, code: Path | None, repeats: int) -> dict:
 
 
 def _drives(folder: Path) -> dict[str, Path]:
-    from tyrebayes._domain import load_vehicle
-    from tyrebayes.simulate.drive import simulate_drive
-    from tyrebayes.streams import write_stream
-    from tyrebayes.streams.synthetic import synthetic_stream
+    from tyrebayes import load_vehicle, write_stream
+    from tyrebayes.simulate import simulate_drive, synthetic_stream
 
     paths = {
         "simulated_hour": folder / "simulated.parquet",

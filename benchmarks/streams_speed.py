@@ -26,9 +26,8 @@ import numpy as np
 import pandas as pd
 from _results import write_result  # noqa: E402
 
-from tyrebayes._domain import load_vehicle
-from tyrebayes.streams import write_stream
-from tyrebayes.streams.synthetic import synthetic_stream
+from tyrebayes import load_vehicle, write_stream
+from tyrebayes.simulate import synthetic_stream
 
 RESULTS = Path(__file__).resolve().parent / "results" / "streams_speed.json"
 TARGET_S_PER_HOUR = 2.0
@@ -36,8 +35,7 @@ TARGET_MB_PER_HOUR = 1024.0
 
 _CHILD = r"""
 import json, sys, time
-from tyrebayes._domain import load_vehicle
-from tyrebayes.streams import compute_features, read_stream, validate_stream
+from tyrebayes import compute_features, load_vehicle, read_stream, validate_stream
 
 def rss_mb(key):
     for line in open("/proc/self/status"):

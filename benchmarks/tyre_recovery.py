@@ -73,26 +73,29 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
-from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes._errors import BadInputError  # noqa: E402
-from tyrebayes.inference.tyre.data import observations_from_features, stack_drives  # noqa: E402
-from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
-from tyrebayes.inference.tyre.model import TyrePriors  # noqa: E402
-from tyrebayes.simulate.drive import drawn_curve, simulate_drive  # noqa: E402
-from tyrebayes.simulate.profiles import ProfileOptions  # noqa: E402
-from tyrebayes.simulate.sensors import SensorModel, scale_noise  # noqa: E402
-from tyrebayes.simulate.tyre_spec import TyreSpec  # noqa: E402
-from tyrebayes.simulate.vehicle_truth import (  # noqa: E402
+from tyrebayes import (  # noqa: E402
+    BadInputError,
+    TyrePriors,
+    compute_features,
+    features_tyre_temperature,
+    fit_tyre,
+    load_vehicle,
+    observations_from_features,
+    stack_drives,
+    validate_stream,
+)
+from tyrebayes.simulate import (  # noqa: E402
+    ProfileOptions,
+    SensorModel,
     ThermalSpread,
+    TyreSpec,
     VehicleSpread,
     draw_true_thermal,
     draw_true_vehicle,
+    drawn_curve,
     force_gain,
-)
-from tyrebayes.streams import (  # noqa: E402
-    compute_features,
-    features_tyre_temperature,
-    validate_stream,
+    scale_noise,
+    simulate_drive,
 )
 
 RESULTS = Path(__file__).parent / "results" / "tyre_recovery.json"

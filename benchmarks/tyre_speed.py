@@ -46,19 +46,18 @@ import jax  # noqa: E402
 jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
+from _internal import bucket_size, tyre_fit  # noqa: E402
 
-from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes.inference.tyre import fit as tyre_fit  # noqa: E402
-from tyrebayes.inference.tyre.data import (  # noqa: E402
+from tyrebayes import (  # noqa: E402
     WindowTable,
-    bucket_size,
+    compute_features,
+    fit_tyre,
+    load_vehicle,
     observations_from_features,
     stack_drives,
+    validate_stream,
 )
-from tyrebayes.inference.tyre.fit import fit_tyre  # noqa: E402
-from tyrebayes.simulate.drive import simulate_drive  # noqa: E402
-from tyrebayes.simulate.profiles import ProfileOptions  # noqa: E402
-from tyrebayes.streams import compute_features, validate_stream  # noqa: E402
+from tyrebayes.simulate import ProfileOptions, simulate_drive  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "tyre_speed.json"
 HOUR_S = 3600.0
@@ -183,7 +182,9 @@ def main() -> None:
     # Breakdown: the compiled programs alone (MAP search, slip weights, refit, Hessian and
     # Laplace draws); the rest of fit_tyre is the per-window log-likelihood / posterior
     # predictive and the InferenceData assembly.
-    from tyrebayes.inference.tyre.model import DEFAULT_KIND, TyrePriors
+    from _internal import DEFAULT_KIND
+
+    from tyrebayes import TyrePriors
 
     # The same cache entry as the fits above (default model, draws and steps).
     core = tyre_fit._laplace_core(

@@ -22,10 +22,11 @@ from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
-from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes._io import atomic_path  # noqa: E402
+from _results import save_figure  # noqa: E402
+
+from tyrebayes import load_vehicle  # noqa: E402
 from tyrebayes.inference import vmax as vm  # noqa: E402
-from tyrebayes.physics.lanechange import (  # noqa: E402
+from tyrebayes.physics import (  # noqa: E402
     Driver,
     Tyres,
     critical_speed,
@@ -199,10 +200,8 @@ def _plot(df, sets) -> None:
     ax.set_ylabel("V_max [km/h]")
     ax.legend(fontsize=8)
     ax.set_title("ISO 3888-2 critical speed, compact_fwd")
-    tmp, final = atomic_path(os.path.join(OUT, "vmax.png"))
-    fig.savefig(tmp, dpi=120)
+    save_figure(fig, os.path.join(OUT, "vmax.png"), dpi=120)
     plt.close(fig)
-    os.replace(tmp, final)
 
 
 if __name__ == "__main__":

@@ -55,7 +55,7 @@ from tyrebayes import (  # noqa: E402
     type_vmax_inputs,
     vmax_draws,
 )
-from tyrebayes.physics.lanechange import AxleTyres  # noqa: E402
+from tyrebayes.physics import AxleTyres  # noqa: E402
 
 #: The type-constant comparison's tyre: the per-tyre model's C_xr prior median (TyrePriors).
 TYPE_C_XR = 35.0

@@ -37,22 +37,24 @@ import tempfile
 import time
 
 import jax
-from _results import figure, write_result  # noqa: E402
+from _results import figure, to_jsonable, write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
+from _internal import WORK_SCALE_LOG_SD, hdi  # noqa: E402
 
-from tyrebayes._domain import load_vehicle  # noqa: E402
-from tyrebayes._io import to_jsonable  # noqa: E402
-from tyrebayes.inference.result import hdi  # noqa: E402
-from tyrebayes.inference.wear.history import drive_history, tread_readings  # noqa: E402
-from tyrebayes.inference.wear.history_fit import WORK_SCALE_LOG_SD, fit_wear_history  # noqa: E402
-from tyrebayes.inference.wear.history_predict import wear_history_predictions  # noqa: E402
-from tyrebayes.physics.wear import TreadGeometry  # noqa: E402
-from tyrebayes.simulate.wear_history import simulate_wear_year  # noqa: E402
-from tyrebayes.streams.cornering_stiffness import CorneringStiffness  # noqa: E402
-from tyrebayes.streams.wear_evidence_table import wear_evidence_table  # noqa: E402
+from tyrebayes import (  # noqa: E402
+    CorneringStiffness,
+    drive_history,
+    fit_wear_history,
+    load_vehicle,
+    tread_readings,
+    wear_evidence_table,
+    wear_history_predictions,
+)
+from tyrebayes.physics import TreadGeometry  # noqa: E402
+from tyrebayes.simulate import simulate_wear_year  # noqa: E402
 
 GAMMA = 0.022
 KAPPA = 0.02

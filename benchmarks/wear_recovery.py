@@ -22,21 +22,18 @@ import time
 from pathlib import Path
 
 import jax
+from _results import to_jsonable as _to_jsonable  # noqa: E402
 from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
+from _internal import hdi  # noqa: E402
 
-from tyrebayes._io import to_jsonable as _to_jsonable  # noqa: E402
-from tyrebayes.inference.result import hdi  # noqa: E402
 from tyrebayes.inference.wear import WearSet, build_wear_data, fit_wear  # noqa: E402
-from tyrebayes.physics.wear import (  # noqa: E402
-    Abrasability,  # noqa: E402
-    DriveWork,
-)
-from tyrebayes.simulate.wear import (  # noqa: E402
+from tyrebayes.physics import Abrasability, DriveWork  # noqa: E402
+from tyrebayes.simulate import (  # noqa: E402
     DutyProfile,
     observe_wear,
     seasonal_ambient,

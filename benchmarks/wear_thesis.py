@@ -21,13 +21,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 import warnings
 from pathlib import Path
 
 import jax
+from _results import to_jsonable as _to_jsonable  # noqa: E402
 from _results import write_result  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
@@ -39,14 +39,12 @@ import matplotlib  # noqa: E402
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+from _data import wear_by_tyre_type  # noqa: E402
+from _internal import loo as psis_loo  # noqa: E402
+from _results import save_figure  # noqa: E402
 from numpyro.infer import log_likelihood  # noqa: E402
 
-from tyrebayes._io import atomic_path  # noqa: E402
-from tyrebayes._io import to_jsonable as _to_jsonable  # noqa: E402
-from tyrebayes._resources import data_dir  # noqa: E402
-from tyrebayes.inference.result import loo as psis_loo  # noqa: E402
-from tyrebayes.inference.summary import summarize  # noqa: E402
+from tyrebayes import summarize  # noqa: E402
 from tyrebayes.inference.wear import (  # noqa: E402
     WearData,
     WearSet,
@@ -55,21 +53,19 @@ from tyrebayes.inference.wear import (  # noqa: E402
     predict_wear_volume,
     wear_model,
 )
-from tyrebayes.physics.thermal import (  # noqa: E402
+from tyrebayes.physics import (  # noqa: E402
+    Abrasability,
     StiffnessTemperature,
     ThermalParams,
-    convective_conductance,
-    rolling_loss_power,
-)
-from tyrebayes.physics.wear import (  # noqa: E402  # noqa: E402
-    Abrasability,
     TreadGeometry,
+    convective_conductance,
     relative_wear_difference,
+    rolling_loss_power,
     simulate_constant_traction,
     steady_constant_traction,
     volume_to_mass_g,
 )
-from tyrebayes.simulate.wear import (  # noqa: E402
+from tyrebayes.simulate import (  # noqa: E402
     DutyProfile,
     observe_wear,
     profile_kernel,
@@ -159,7 +155,7 @@ def diagnose(thermal, comp, cases) -> dict:
 
 
 def adac_table() -> dict:
-    df = pd.read_csv(data_dir() / "wear_by_tyre_type.csv")
+    df = wear_by_tyre_type()
     out = {}
     for t in ("winter", "summer"):
         row = df[df["tyre_type"] == t].iloc[0]
@@ -191,7 +187,7 @@ def calibrate_gamma(profile, geom, adac, comp) -> tuple[dict, dict]:
 
 
 def comp_stiffness(c_xr, grid, comp):
-    from tyrebayes.physics.thermal import stiffness_at_temperature
+    from tyrebayes import stiffness_at_temperature
 
     return stiffness_at_temperature(c_xr, jnp.asarray(grid), comp)
 
@@ -502,10 +498,8 @@ def plot_extension(ext, path) -> None:
 
 
 def _save(fig, path: Path) -> None:
-    tmp, final = atomic_path(path)
-    fig.savefig(tmp, dpi=110, format="png")
+    save_figure(fig, path, dpi=110, format="png")
     plt.close(fig)
-    os.replace(tmp, final)
 
 
 def main(argv=None) -> int:

@@ -136,8 +136,7 @@ def _measure(
 def _make_drives(folder: Path, n_drives: int, seed: int) -> Path:
     import pandas as pd
 
-    from tyrebayes.simulate.drive_io import write_drive
-    from tyrebayes.simulate.tyre_set import simulate_tyre_set_drives
+    from tyrebayes.simulate import simulate_tyre_set_drives, write_drive
 
     rows = []
     for k in range(n_drives):

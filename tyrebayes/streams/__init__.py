@@ -8,6 +8,8 @@ from .features import compute_features as compute_features
 from .features import speed_error as speed_error
 from .io import read_stream as read_stream
 from .io import write_stream as write_stream
+from .noise import quantisation_step as quantisation_step
+from .noise import white_noise_sd as white_noise_sd
 from .nuisances import ImuGainCorrection as ImuGainCorrection
 from .nuisances import StreamNuisances as StreamNuisances
 from .nuisances import estimate_ax_gain as estimate_ax_gain
