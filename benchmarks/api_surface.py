@@ -22,6 +22,12 @@ Measured from the source, not claimed:
    import graph (grimp, every import in a module, those inside functions included), and the
    circles between sibling modules or packages that import-linter's ``acyclic_siblings`` contract
    forbids. Target: 0 for both.
+7. **Benchmark imports of internal paths**: the imports of tyrebayes in ``benchmarks/*.py`` (and
+   in the child-process sources their strings hold) that are not its public API (module
+   :mod:`benchmarks` says what is), outside ``benchmarks/_internal.py``, the one module that
+   holds the internal names benchmarks use on purpose. Target: 0; children run on another
+   revision's package (``_internal.REVISION_CHILDREN``) are listed as exclusions. The number of
+   internal names ``_internal.py`` holds is reported beside it, without a target.
 
 With ``--before REV`` the same counts are taken on the package and benchmarks as of git revision
 REV (extracted with ``git archive``, counted in a child process) and saved beside them.
@@ -451,6 +457,7 @@ print(json.dumps({
     "functions over 80 lines (docstring excluded)": len(size["long_functions"]),
     "string-keyed windows lookups": len(a.windows_lookups()),
     "import circles between modules": len(circ["module_cycles"]),
+    "benchmark imports of internal tyrebayes paths": len(a.benchmark_imports()["internal"]),
 }))
 """
 
@@ -464,7 +471,7 @@ def counts_at(revision: str) -> dict:
 
     with tempfile.TemporaryDirectory() as tmp:
         archive = subprocess.run(
-            ["git", "archive", revision, "tyrebayes", "models", "benchmarks"],
+            ["git", "archive", revision, "tyrebayes", "models", "benchmarks", "pyproject.toml"],
             cwd=ROOT,
             capture_output=True,
             check=True,
@@ -493,6 +500,7 @@ def main(argv: list[str] | None = None) -> int:
     size = sizes()
     circ = circles()
     lookups = windows_lookups()
+    bench = benchmark_imports()
     share = 100.0 * len(ex["with_examples"]) / ex["total"]
     figures = [
         figure(
@@ -549,6 +557,19 @@ def main(argv: list[str] | None = None) -> int:
             target=("==", 0),
             note="what import-linter's acyclic_siblings contract forbids",
         ),
+        figure(
+            "benchmark imports of internal tyrebayes paths outside benchmarks/_internal.py",
+            len(bench["internal"]),
+            target=("==", 0),
+            count=bench["scripts_with_internal"],
+            exclusions=bench["excluded"],
+            note="count: scripts with such an import; benchmarks/*.py and their child sources",
+        ),
+        figure(
+            "internal names held by benchmarks/_internal.py",
+            len(bench["internal_names"]),
+            note="the internal steps, constants and modules benchmarks use on purpose",
+        ),
     ]
     payload = {
         "examples": ex,
@@ -556,6 +577,7 @@ def main(argv: list[str] | None = None) -> int:
         "sizes": size,
         "circles": circ,
         "windows_lookups": lookups,
+        "benchmark_imports": bench,
     }
     if args.before:
         payload["before"] = counts_at(args.before)
