@@ -8,7 +8,10 @@ from benchmarks._data import (
     external_drives,
     external_lateral_drives,
     niki_lateral_log,
+    rav4_segment,
+    rav4_segment_path,
     stanford_lateral_log,
+    wear_by_tyre_type,
 )
 
 
@@ -36,3 +39,17 @@ def test_real_lateral_logs_have_the_reference_columns():
         assert columns | {"wheel_angle_front"} <= set(frame.columns)
         assert frame["time"].is_monotonic_increasing
         assert not frame["wheel_angle_front"].isna().any()
+
+
+def test_a_drive_reads_its_stream_and_truth_samples_as_written():
+    (drive,) = external_drives(names="e00")
+    frame, truth = drive.frame(), drive.truth_samples()
+    assert {"time", "wheel_speed_fl"} <= set(frame.columns)
+    assert len(truth) > 0
+
+
+def test_the_shipped_data_are_found_in_the_package():
+    assert rav4_segment_path().parent.name == "data"
+    assert rav4_segment_path().parent.parent.name == "tyrebayes"
+    assert len(rav4_segment()) > 0
+    assert {"winter", "summer"} <= set(wear_by_tyre_type()["tyre_type"])
