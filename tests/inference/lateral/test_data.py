@@ -83,3 +83,14 @@ def test_turning_at_walking_pace_is_not_identified():
     slow["ay"] = frame["ay"] * 0.25**2 * 8  # tight turns: a_y above 1 m/s² below 8 m/s
     with pytest.raises(NoCornering, match="not identified"):
         cornering_observations(slow, VEHICLE)
+
+
+def test_samples_next_to_a_gap_are_left_out():
+    """A NaN in the yaw rate spoils its neighbours' yaw acceleration: no NaN reaches the masks."""
+    frame, _ = simulate_cornering(VEHICLE, duration_s=120.0, seed=3)
+    frame.loc[frame.index[::997], "yaw_rate"] = np.nan
+    obs = cornering_observations(frame, VEHICLE)
+    mask = np.asarray(obs.mask)
+    for name in ("speed", "yaw_rate", "yaw_acceleration", "ay", "steering"):
+        assert np.all(np.isfinite(np.asarray(getattr(obs, name)))), name
+    assert mask.sum() < mask.size

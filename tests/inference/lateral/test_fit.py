@@ -94,13 +94,13 @@ def test_a_lateral_fit_round_trips_through_the_tyre_fit_file(mixed, tmp_path):
 
 
 def test_a_search_on_stretches_of_the_drive_refines_to_the_mode_of_all_samples(mixed, monkeypatch):
-    """A drive searched on every n-th stretch and refined on all samples: the same posterior."""
+    """A drive searched on evenly spaced stretches, refined on all samples: the same posterior."""
     from tyrebayes.inference.lateral import search
 
     frame, _ = simulate_cornering(VEHICLE, kind="mixed", duration_s=DURATION_S, seed=11)
     obs = cornering_observations(frame, VEHICLE)
     monkeypatch.setattr(search, "SEARCH_SAMPLES", 800)
-    assert search._search_stride(search.padded_length(obs.speed.shape[0])) == 3
+    assert search._search_blocks(search.padded_length(obs.speed.shape[0])) == 16
     searched = fit_lateral(obs, seed=1).to_dict()
     whole = mixed[0].to_dict()
     assert searched["converged"]

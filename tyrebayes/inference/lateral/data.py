@@ -230,7 +230,9 @@ def cornering_observations(frame: pd.DataFrame, vehicle: Vehicle) -> CorneringOb
     speed, steering, yaw_rate, ay, yaw_acceleration = (
         x[keep] for x in (speed, steering, yaw_rate, ay, yaw_acceleration)
     )
+    # The yaw acceleration's central differences reach one sample past a gap in the yaw rate.
     finite = np.isfinite(speed) & np.isfinite(steering) & np.isfinite(yaw_rate) & np.isfinite(ay)
+    finite &= np.isfinite(yaw_acceleration)
     mask = finite & (np.nan_to_num(speed) > MIN_SPEED_MPS)
     # The kinematic equation differentiates with a five-point stencil: both neighbours on
     # each side must be valid.

@@ -19,7 +19,7 @@ from numpyro.infer.util import potential_energy
 from .data import CorneringObservations, G
 from .inflation import residual_inflation
 from .model import REAL_SITES, LateralPriors, lateral_model, residuals, sample_sites
-from .search import INFLATION_SEARCH_SAMPLES, _search_stride, _search_subset
+from .search import INFLATION_SEARCH_SAMPLES, _search_blocks, _search_subset
 
 
 def _site_names(road_wheel: bool, priors: LateralPriors) -> tuple[str, ...]:
@@ -112,6 +112,10 @@ def _minimum(x0, obs, weights, scale, priors, surface, max_steps, hess0=None, es
     """
     args = (obs, weights, scale, priors, surface)
     hess = np.asarray(_hessian(x0, *args)) if hess0 is None else hess0
+    if not np.all(np.isfinite(hess)):
+        # a potential that is not finite at the start (data the masks let through): BFGS
+        # would take all its steps on NaN
+        return x0, False, hess
     mode, ok, _ = _bfgs(x0, jnp.asarray(_whitening(hess)), *args, max_steps=max_steps)
     hess = np.asarray(_hessian(mode, *args))
     for _ in range(escapes):
@@ -154,16 +158,17 @@ def _residuals_at(point: dict, obs):
     return residuals(obs, point)
 
 
-def _levels(obs, x, strides, weights, priors, surface, max_steps):
-    """The mode found on every ``strides[0]``-th stretch, refined on every ``strides[1]``-th...
+def _levels(obs, x, subsets, weights, priors, surface, max_steps):
+    """The mode found on ``subsets[0]`` stretches of the drive, refined on ``subsets[1]``...
 
-    Each level starts at the last one's mode, whitened by its Hessian (the subsets' data are
-    scaled to the whole drive's weight, so every level's Hessian has about the whole's
+    Each entry is a number of stretches (:func:`~.search._search_subset`) or ``None`` for all
+    samples. Each level starts at the last one's mode, whitened by its Hessian (the subsets'
+    data are scaled to the whole drive's weight, so every level's Hessian has about the whole's
     curvature). Returns ``(mode, converged, hessian)`` of the last level.
     """
     hess = None
-    for stride in dict.fromkeys(strides):
-        subset, scale = _search_subset(obs, stride)
+    for count in dict.fromkeys(subsets):
+        subset, scale = (obs, 1.0) if count is None else _search_subset(obs, count)
         scale = jnp.asarray(scale, dtype=obs.ay.dtype)
         x, ok, hess = _minimum(x, subset, weights, scale, priors, surface, max_steps, hess)
     return x, ok, hess
@@ -184,11 +189,11 @@ def _weighted_mode(obs, priors, surface, max_steps):
     """
     dtype = obs.ay.dtype
     n = obs.speed.shape[0]
-    stride = _search_stride(n)
+    search = _search_blocks(n)
     unit = jnp.ones(2, dtype=dtype)
-    strides = (_search_stride(n, INFLATION_SEARCH_SAMPLES), stride) if stride > 1 else (1,)
+    first = (_search_blocks(n, INFLATION_SEARCH_SAMPLES), search) if search else (None,)
     start = _start(obs, priors, surface)
-    mode, _, _ = _levels(obs, start, strides, unit, priors, surface, max_steps)
+    mode, _, _ = _levels(obs, start, first, unit, priors, surface, max_steps)
     point = {k: v[0] for k, v in _constrain(mode[None], obs, unit, priors, surface).items()}
     steer, kin = (np.asarray(x) for x in _residuals_at(point, obs))
     vif = (
@@ -196,5 +201,5 @@ def _weighted_mode(obs, priors, surface, max_steps):
         residual_inflation(kin, np.asarray(obs.mask_kinematic)),
     )
     weights = jnp.asarray([1.0 / vif[0], 1.0 / vif[1]], dtype=dtype)
-    mode, ok, hess = _levels(obs, mode, (stride, 1), weights, priors, surface, max_steps)
+    mode, ok, hess = _levels(obs, mode, (search, None), weights, priors, surface, max_steps)
     return mode, ok, hess, weights, vif

@@ -1,8 +1,9 @@
 """Where the lateral fit's mode search reads a drive: padded lengths and subsets of stretches.
 
 Observations are padded to a few lengths (drives of any length share a few compiled programs);
-a long drive's mode is searched on every n-th 5 s stretch, its data scaled to the whole drive's
-weight, and refined on all samples (:func:`~tyrebayes.inference.lateral.mode._weighted_mode`).
+a long drive's mode is searched on a fixed number of evenly spaced 5 s stretches, its data
+scaled to the whole drive's weight, and refined on all samples
+(:func:`~tyrebayes.inference.lateral.mode._weighted_mode`).
 """
 
 from __future__ import annotations
@@ -22,10 +23,11 @@ _PADDED_BLOCKS = (4, 5, 6, 7)
 #: equation differentiates V_x α_r along time, so the search reads whole 5 s stretches (their
 #: two samples at each end left out of the equations) rather than every n-th sample.
 SEARCH_BLOCK = 50
-#: Samples the search for the weighted mode reads, about: a drive of more than 1.5 times as many
-#: is searched on every n-th stretch, and the search's optimum refined on all samples.
+#: Samples the search for the weighted mode reads: a drive of more than 1.5 times as many is
+#: searched on this many samples' worth of evenly spaced stretches, and the search's optimum
+#: refined on all samples.
 SEARCH_SAMPLES = 6000
-#: Samples the first search for the unweighted mode reads, about (:func:`_weighted_mode`): from
+#: Samples the first search for the unweighted mode reads (:func:`_weighted_mode`): from
 #: the priors' medians it takes the most BFGS steps of the fit, here each a quarter as dear.
 INFLATION_SEARCH_SAMPLES = 1500
 
@@ -67,27 +69,39 @@ def _padded(obs: CorneringObservations) -> CorneringObservations:
     return dataclasses.replace(obs, **series)
 
 
-def _search_stride(n: int, samples: int | None = None) -> int:
-    """Every how many stretches a search of about ``samples`` (default :data:`SEARCH_SAMPLES`)
-    reads of ``n`` padded samples."""
-    return max(1, round(n / (SEARCH_SAMPLES if samples is None else samples)))
+def _search_blocks(n: int, samples: int | None = None) -> int | None:
+    """How many stretches a search of about ``samples`` (default :data:`SEARCH_SAMPLES`) reads
+    of ``n`` padded samples; ``None``: all of them (``n`` is under 1.5 times ``samples``).
+
+    The count depends on ``samples`` only, not on the drive's length: every drive long enough to
+    be searched on a subset is searched on subsets of the same shape, whose compiled programs a
+    fleet worker reuses from drive to drive.
+
+    Examples
+    --------
+    >>> _search_blocks(38400), _search_blocks(38400, 1500), _search_blocks(6400)
+    (120, 30, None)
+    """
+    count = (SEARCH_SAMPLES if samples is None else samples) // SEARCH_BLOCK
+    return count if n >= 1.5 * count * SEARCH_BLOCK else None
 
 
-def _search_subset(obs: CorneringObservations, stride: int) -> tuple[CorneringObservations, float]:
-    """Every ``stride``-th stretch of ``obs`` and the data scale that gives it the whole's weight.
+def _search_subset(obs: CorneringObservations, count: int) -> tuple[CorneringObservations, float]:
+    """``count`` stretches of ``obs``, evenly spaced, and the data scale that gives them the
+    whole's weight.
 
     The scale is the whole drive's used samples over the subset's, so that the subset's
     potential has the whole's curvature (its Hessian whitens the refinement on all samples).
     """
-    if stride == 1:
-        return obs, 1.0
     blocks = obs.speed.shape[0] // SEARCH_BLOCK
+    # the middle stretch of each of ``count`` equal parts of the drive
+    chosen = ((np.arange(count) + 0.5) * blocks / count).astype(int)
     inner = np.ones(SEARCH_BLOCK, bool)
     inner[:2] = inner[-2:] = False
-    inner = jnp.asarray(np.tile(inner, -(-blocks // stride)))
+    inner = jnp.asarray(np.tile(inner, count))
 
     def take(x):
-        return x.reshape(blocks, SEARCH_BLOCK)[::stride].reshape(-1)
+        return x.reshape(blocks, SEARCH_BLOCK)[chosen].reshape(-1)
 
     series = {name: take(getattr(obs, name)) for name in _SERIES}
     # Each stretch's ends: the five-point derivatives there would reach into the next stretch.
