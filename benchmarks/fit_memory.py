@@ -1,12 +1,12 @@
 """Peak memory of ``tyrebayes fit-tyre`` as a user runs it: one process per fit, one-hour drive.
 
-``tyre_speed.py`` measures the fits inside one benchmark process that also simulated the drives,
-so its peak includes the simulator's arrays and every earlier compilation. Here the drive is
-written to Parquet first and each method runs in a fresh ``tyrebayes fit-tyre`` process; its peak
-resident set size (its own ``ru_maxrss`` at exit) is what a user's machine needs. Each method runs
+``tyre_speed.py`` measures the fits inside one benchmark process that also simulated the drives, so
+its peak includes the simulator's arrays and every earlier compilation. Here the drive is written to
+Parquet first and each method runs in a fresh ``tyrebayes fit-tyre`` process; its peak resident set
+size (its own ``VmHWM`` at exit, :mod:`_cli_child`) is what a user's machine needs. Each method runs
 twice on an empty JAX compilation cache: ``cold`` compiles the model (XLA's compiler works in the
-same process), ``warm`` loads the compiled program from the cache, as every later fit of
-that data shape on the machine does. Target: ≤ 2 GB per one-hour fit (as in ``tyre_speed.py``).
+same process), ``warm`` loads the compiled program from the cache, as every later fit of that data
+shape on the machine does. Target: ≤ 2 GB per one-hour fit (as in ``tyre_speed.py``).
 
 Usage: ``python benchmarks/fit_memory.py [--out FILE] [--methods fast,nuts]``.
 """
@@ -22,6 +22,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from _cli_child import cli_command, peak_mb  # noqa: E402
 from _results import write_result  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "fit_memory.json"
@@ -49,30 +50,19 @@ def write_drive(path: Path, seed: int) -> float:
     return float(np.mean(truth.c_x))
 
 
-# The command run as ``tyrebayes`` runs it, reporting its own peak resident set size at exit.
-_WRAPPER = (
-    "import resource, sys\n"
-    "from tyrebayes.cli import main\n"
-    "code = main(sys.argv[1:])\n"
-    "sys.stderr.write('PEAK_RSS_KB %d\\n' % resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n"
-    "sys.exit(code)\n"
-)
-
-
 def run_fit(stream: Path, method: str, out: Path, cache: Path) -> dict:
     """One ``fit-tyre`` process: wall time, exit status, peak RSS [MB] and its C_x summary."""
-    cmd = [
-        sys.executable, "-c", _WRAPPER, "fit-tyre", str(stream),
+    cmd = cli_command([
+        "fit-tyre", str(stream),
         "--vehicle", VEHICLE, "--method", method, "--ambient", "15",
         "--out", str(out), "--json",
-    ]  # fmt: skip
+    ])  # fmt: skip
     t0 = time.perf_counter()
     env = {**os.environ, "TYREBAYES_JAX_CACHE": str(cache)}
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
     record = {"method": method, "exit_status": proc.returncode, "wall_s": wall}
-    peak = [ln for ln in proc.stderr.splitlines() if ln.startswith("PEAK_RSS_KB ")]
-    record["peak_rss_mb"] = float(peak[-1].split()[1]) / 1024.0 if peak else float("nan")
+    record["peak_rss_mb"] = peak_mb(proc.stderr)
     record["target_met"] = bool(record["peak_rss_mb"] <= TARGET_PEAK_MB)
     if proc.returncode in (0, 3):
         summary = json.loads(proc.stdout)
