@@ -18,7 +18,7 @@ CURVE_MODELS = ("magic", "shaped", "brush", "linear")
 
 # The Magic Formula curve with its shape and curvature drawn from the measured tyres'
 # (tyre_curve_prior.py): no single shape, and none that bends as early as the brush
-# (benchmarks/results/external_drives.json compares the kinds on drives the package did not make).
+# (benchmarks/results/external_drives.json compares the models on drives the package did not make).
 DEFAULT_MODEL = "magic"
 
 
