@@ -67,8 +67,9 @@ PRIOR_CHECKED = tuple(c for c in TYRE_COORDINATES if c not in ("log_c_xr", "log_
 
 @renamed_keyword("kind", "model", what="the tyre-curve model")
 def parameter_names(model: str, load_sensitive: bool = False) -> tuple[str, ...]:
-    """Names of θ's coordinates for a tyre-curve ``model`` (:data:`~..tyre_model.CURVE_MODELS`),
-    with the load sensitivity q last where the priors have it (:attr:`TyrePriors.load_sensitive`).
+    """Names of θ's coordinates for a tyre-curve ``model``
+    (:data:`~tyrebayes.inference.tyre.curves.CURVE_MODELS`), with the load sensitivity q last
+    where the priors have it (:attr:`TyrePriors.load_sensitive`).
     """
     check_model(model)
     return (
