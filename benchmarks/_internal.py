@@ -40,7 +40,7 @@ INTERNAL: dict[str, tuple[str, str]] = {
     "_worker_env": ("tyrebayes.batch.cluster", "the environment the cluster gives its workers"),
     "enable_compilation_cache": ("tyrebayes.internal.jax_cache", "the JAX cache the CLI sets up"),
     # tyre fit: its compiled core and passes timed apart, constants reported with the figures
-    "DEFAULT_KIND": ("tyrebayes.inference.tyre.model", "the curve the timed passes use"),
+    "DEFAULT_MODEL": ("tyrebayes.inference.tyre.model", "the curve the timed passes use"),
     "curve_slip": ("tyrebayes.inference.tyre.model", "the truth's slip, to score a change"),
     "BLOCK_S": ("tyrebayes.inference.tyre.data", "the window block length, to align truth"),
     "bucket_size": ("tyrebayes.inference.tyre.data", "the padded size whose programs are timed"),

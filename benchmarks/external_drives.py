@@ -9,7 +9,7 @@ validation, not tuning: nothing in the package is fitted to them.
 Each drive is fitted as a new user would (``fit-tyre --method fast``: the stream pipeline with
 the tyre temperature estimated from the drive, the default model), and beside it
 
-* the plain brush curve (``kind="brush"``, the thesis' model) and the linear model, same fit;
+* the plain brush curve (``model="brush"``, the thesis' model) and the linear model, same fit;
 * ordinary least squares of force on measured slip over the same slip windows (the thesis' kind).
 
 Reported per drive and pooled: C_x error and whether the 50 % / 90 % intervals cover the truth;
@@ -153,8 +153,8 @@ def one_drive(drive: Drive, priors: TyrePriors | None = None) -> dict:
     t0 = time.perf_counter()
     fits = {"default": fit_tyre(obs, priors=priors, method="fast", seed=0)}
     wall = time.perf_counter() - t0
-    for kind in SIDE_MODELS:
-        fits[kind] = fit_tyre(obs, priors=priors, method="fast", seed=0, kind=kind)
+    for model in SIDE_MODELS:
+        fits[model] = fit_tyre(obs, priors=priors, method="fast", seed=0, model=model)
 
     truth = drive.truth_samples()
     slip_windows = windows.select(~windows.at_limit)

@@ -197,7 +197,7 @@ def _end_to_end(seed: int, vehicle) -> dict:
             c = float(truth["c_y_true"][i])
             frame, _ = simulate_cornering(
                 vehicle,
-                kind="mixed",
+                manoeuvre="mixed",
                 duration_s=E2E_DURATION_S,
                 seed=seed * 100 + i,
                 c_y_front=0.9 * c,

@@ -169,12 +169,12 @@ def braking_comparison(quick: bool) -> tuple[list[dict], dict]:
                 "surface": r.surface,
                 "tyre_type": r.tyre_type,
                 "measured_deceleration_g": float(r.deceleration_g),
-                "bound": r.kind,
+                "bound": r.bound,
                 "predicted_median": float(med),
                 "predicted_90": [float(lo), float(hi)],
                 "p_mu_consistent_with_bound": float(
                     np.mean(d >= r.deceleration_g)
-                    if r.kind == "lower"
+                    if r.bound == "lower"
                     else np.mean(d <= r.deceleration_g / 0.7)
                 ),
             }

@@ -281,7 +281,7 @@ def main() -> None:
             _print_row(rows[-1])
     result = {
         "benchmark": "online_agreement",
-        "model": estimator.kind,
+        "model": estimator.model,
         "step_s": 30.0,
         "max_step_s": args.max_step_s or 30.0,
         "simulated_duration_s": args.duration,

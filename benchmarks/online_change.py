@@ -275,7 +275,7 @@ def main() -> None:
     pre_hours = args.swaps * args.before / 3600.0
     result = {
         "benchmark": "online_change",
-        "model": estimator.kind,
+        "model": estimator.model,
         "threshold_nats": float(estimator.config.change_threshold),
         "swap_threshold_nats": float(estimator.config.swap_threshold),
         "shift_log": float(estimator.config.change_log_shift),

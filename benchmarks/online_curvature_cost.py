@@ -53,7 +53,7 @@ from tyrebayes import OnlineEstimator, stream_steps  # noqa: E402
 from tyrebayes.inference import window_quantities  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results" / "online_curvature_cost.json"
-KINDS = ("magic", "brush", "linear")
+MODELS = ("magic", "brush", "linear")
 
 
 def one_step(seed: int = 0):
@@ -65,17 +65,17 @@ def one_step(seed: int = 0):
     return step, int(np.asarray(step.mask).sum())
 
 
-def programs(kind: str, block) -> tuple[dict, jax.Array, int]:
-    estimator = OnlineEstimator.create(kind=kind)
+def programs(model: str, block) -> tuple[dict, jax.Array, int]:
+    estimator = OnlineEstimator.create(model=model)
     theta = estimator.init().mean
     priors, weight = estimator.priors, jnp.ones((), theta.dtype)
     basis = jnp.eye(theta.shape[0], dtype=theta.dtype)
 
     def nll(t):
-        return -block_log_likelihood(t, block, weight, kind, priors)
+        return -block_log_likelihood(t, block, weight, model, priors)
 
     def quantities(t):
-        return window_quantities(model_sites(t, kind, priors), block.observations(weight), kind)
+        return window_quantities(model_sites(t, model, priors), block.observations(weight), model)
 
     value_and_gradient = jax.value_and_grad(nll)
     fns = {
@@ -90,7 +90,7 @@ def programs(kind: str, block) -> tuple[dict, jax.Array, int]:
         "jacobian_of_window_quantities": lambda t: jax.vmap(
             lambda e: jax.jvp(quantities, (t,), (e,)), out_axes=(None, 0)
         )(basis),
-        "gauss_newton": lambda t: block_curvature(t, block, weight, kind, priors),
+        "gauss_newton": lambda t: block_curvature(t, block, weight, model, priors),
     }
     compiled = {name: jax.jit(f).lower(theta).compile() for name, f in fns.items()}
     hlo = compiled["hessian_fwd_over_rev"].as_text()
@@ -106,13 +106,13 @@ def main() -> None:
     args = parser.parse_args()
     block, n_windows = one_step()
     compiled, thetas, swell = {}, {}, {}
-    for kind in KINDS:
-        fns, theta, multiplies = programs(kind, block)
+    for model in MODELS:
+        fns, theta, multiplies = programs(model, block)
         for name, f in fns.items():
-            compiled[kind, name] = f
-            thetas[kind, name] = theta
+            compiled[model, name] = f
+            thetas[model, name] = theta
             jax.block_until_ready(f(theta))
-        swell[kind] = multiplies
+        swell[model] = multiplies
     times = {key: [] for key in compiled}
     for _ in range(args.repeats):
         for key, f in compiled.items():
@@ -120,25 +120,25 @@ def main() -> None:
             jax.block_until_ready(f(thetas[key]))
             times[key].append(time.perf_counter() - t0)
     fastest_us = {
-        kind: {name: 1e6 * min(times[kind, name]) for (k, name) in compiled if k == kind}
-        for kind in KINDS
+        model: {name: 1e6 * min(times[model, name]) for (k, name) in compiled if k == model}
+        for model in MODELS
     }
     result = {
         "benchmark": "online_curvature_cost",
         "step": {"padded_width": int(block.mask.shape[0]), "windows": n_windows},
-        "parameters": {kind: int(thetas[kind, "value"].shape[0]) for kind in KINDS},
+        "parameters": {model: int(thetas[model, "value"].shape[0]) for model in MODELS},
         "repeats": args.repeats,
         "fastest_us": fastest_us,
         "hessian_over_gradient": {
-            k: fastest_us[k]["hessian_fwd_over_rev"] / fastest_us[k]["gradient"] for k in KINDS
+            k: fastest_us[k]["hessian_fwd_over_rev"] / fastest_us[k]["gradient"] for k in MODELS
         },
         "hessian_over_jacobian": {
             k: fastest_us[k]["hessian_fwd_over_rev"]
             / fastest_us[k]["jacobian_of_window_quantities"]
-            for k in KINDS
+            for k in MODELS
         },
         "hessian_over_gauss_newton": {
-            k: fastest_us[k]["hessian_fwd_over_rev"] / fastest_us[k]["gauss_newton"] for k in KINDS
+            k: fastest_us[k]["hessian_fwd_over_rev"] / fastest_us[k]["gauss_newton"] for k in MODELS
         },
         "hessian_multiplies_on_directions_by_windows": swell,
         "threads": "one core (sched_setaffinity before JAX started), XLA single-threaded",

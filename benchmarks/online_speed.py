@@ -6,7 +6,7 @@ gives the windows (steps of 30 s, padded to 121 windows). Timed after compilatio
 (``os.sched_setaffinity``), so XLA's CPU client sizes its thread pool to it. XLA_FLAGS alone do
 not do that: with them two threads still share the work.
 
-* one car-hour per model kind (target ≤ 40 ms, i.e. ≥ 10^5× real time), in the default 30 s
+* one car-hour per tyre-curve model (target ≤ 40 ms, i.e. ≥ 10^5× real time), in the default 30 s
   clock steps and with sparse driving packed into steps of up to ``PACKED_STEP_S``
   (``window_blocks``' ``max_step_s``: fewer, fuller steps; ``online_change.py --max-step-s``
   measures what it costs the alarms);
@@ -103,7 +103,7 @@ from _online_common import simulated_windows
 from tyrebayes.inference.online import OnlineEstimator, run_online, stream_steps
 windows, _, _ = simulated_windows(0, 3600.0)
 steps = stream_steps(windows)
-est = OnlineEstimator.create(kind="magic")
+est = OnlineEstimator.create(model="magic")
 jax.block_until_ready(run_online(est, est.init(), steps))
 walls = []
 for _ in range(int(sys.argv[3])):
@@ -131,7 +131,7 @@ def timed(fn, reps):
 def where_the_time_goes(steps, reps) -> dict:
     """The Magic Formula block log-likelihood's passes, each scanned over the hour's steps at the
     type prior's mean (per step, ms), and the curvatures one car-hour takes."""
-    est = OnlineEstimator.create(kind="magic")
+    est = OnlineEstimator.create(model="magic")
     theta = est.prior.mean
     weight = jnp.asarray(0.5)
 
@@ -171,7 +171,7 @@ def where_the_time_goes(steps, reps) -> dict:
 
     laplace_module._informations = counting
     try:
-        probe = OnlineEstimator.create(kind="magic", config=est.config)
+        probe = OnlineEstimator.create(model="magic", config=est.config)
         jax.block_until_ready(jax.jit(lambda s, b: probe.run(s, b))(probe.init(), steps))
     finally:
         laplace_module._informations = informations
@@ -189,7 +189,7 @@ def where_the_time_goes(steps, reps) -> dict:
 
 def fleet_call(args, steps) -> dict:
     """``--fleet-cars`` cars × the first ``--fleet-steps`` steps in one call (chunks vmapped)."""
-    est = OnlineEstimator.create(kind="magic")
+    est = OnlineEstimator.create(model="magic")
     head = jax.tree.map(lambda x: x[: args.fleet_steps], steps)
     fleet_hours = float(head.time_s[-1]) / 3600.0
     cars = jax.tree.map(lambda x: jnp.array(np.broadcast_to(x, (args.fleet_cars, *x.shape))), head)
@@ -266,7 +266,7 @@ def compiler_options_gain(steps, hours: float, pairs: int, reps: int) -> dict:
     """The Magic Formula car-hour (30 s steps) compiled with XLA's default options and with the
     estimator's :data:`~tyrebayes.inference.online.COMPILER_OPTIONS`, alternated ``pairs`` times
     in this process, and how far their results differ."""
-    est = OnlineEstimator.create(kind="magic")
+    est = OnlineEstimator.create(model="magic")
     default = eqx.filter_jit(lambda est, state, blocks: est.run(state, blocks))
     runs = {"default": [], "estimator": []}
     outputs = {}
@@ -339,7 +339,7 @@ def main() -> None:
     rows = []
     packed = stream_steps(windows, max_step_s=PACKED_STEP_S)
     for kind in KINDS:
-        est = OnlineEstimator.create(kind=kind)
+        est = OnlineEstimator.create(model=kind)
         for max_step_s, these in ((STEP_S, steps), (PACKED_STEP_S, packed)):
             first, wall, fastest = timed(
                 lambda est=est, these=these: run_online(est, est.init(), these), args.reps
@@ -375,7 +375,7 @@ def main() -> None:
         ("magic", PACKED_STEP_S, packed),
         ("linear", STEP_S, steps),
     ):
-        est = OnlineEstimator.create(kind=kind)
+        est = OnlineEstimator.create(model=kind)
         cars = jax.tree.map(lambda x: jnp.broadcast_to(x, (args.cars, *x.shape)), these)
         states = jax.tree.map(lambda x: jnp.broadcast_to(x, (args.cars, *x.shape)), est.init())
         first, wall, _ = timed(

@@ -46,7 +46,7 @@ FIXED_SHAPES = (1.0, 1.5, 2.04, 2.5)
 
 
 def variants() -> dict[str, tuple[str, TyrePriors]]:
-    """Name -> (model kind, priors) of every fit made on each drive."""
+    """Name -> (tyre-curve model, priors) of every fit made on each drive."""
     out = {
         name: ("shaped", TyrePriors(curve_shape_min=lo, curve_bend_median=m, curve_bend_log_sd=s))
         for name, (lo, m, s) in FREE_PRIORS.items()
@@ -90,13 +90,13 @@ def main() -> None:
         for seed in range(1000, 1000 + args.reps):
             obs, _, truth, _ = simulated_observations(seed, setting, 3600.0, vehicle, pad_to)
             c_x_true = float(np.mean(truth.c_x))
-            for name, (kind, priors) in fits.items():
-                fit = fit_tyre(obs, method="fast", seed=seed, kind=kind, priors=priors)
+            for name, (model, priors) in fits.items():
+                fit = fit_tyre(obs, method="fast", seed=seed, model=model, priors=priors)
                 if not fit.diagnostics.converged:
                     continue
                 draws = fit.draws("c_x")
                 q05, q25, q75, q95 = np.quantile(draws, [0.05, 0.25, 0.75, 0.95])
-                shape = fit.draws("curve_shape").mean() if kind == "shaped" else 1.0
+                shape = fit.draws("curve_shape").mean() if model == "shaped" else 1.0
                 rows[name].append(
                     {
                         "error": float(draws.mean() / c_x_true - 1.0),

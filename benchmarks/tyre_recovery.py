@@ -18,7 +18,7 @@ temperature rise and how much the true C_x varied along the drive (``c_x_true_ti
 * this package's errors-in-variables posterior (fast path: MAP + Laplace; NUTS for all reps is
   too slow on the 2-core machine — see ``tyre_speed.json``) with its default mean model
   (``"magic"``: the Magic Formula curve with its shape drawn from the measured tyres' spread),
-* the same posterior with the plain brush curve (``kind="brush"``, the thesis' model; columns
+* the same posterior with the plain brush curve (``model="brush"``, the thesis' model; columns
   ``*_brush``), to measure what the curve family does,
 * ordinary least squares of force on measured slip over the same windows (the thesis' kind of
   fit, slope only — the thesis had no μ_max estimate from driving data),
@@ -212,7 +212,7 @@ def one_drive(seed: int, setting: dict, duration_s: float, vehicle, pad_to: int)
     tyre_temperature = extras["tyre_temperature"]
     priors = TyrePriors().with_load_sensitivity() if setting.get("load_sensitive") else None
     fit = fit_tyre(obs, priors=priors, method="fast", seed=seed)
-    brush = fit_tyre(obs, priors=priors, method="fast", seed=seed, kind="brush")
+    brush = fit_tyre(obs, priors=priors, method="fast", seed=seed, model="brush")
     c_x_draws, mu_draws = fit.draws("c_x"), fit.draws("mu_max")[:, 0]
     c_x_brush, mu_brush = brush.draws("c_x"), brush.draws("mu_max")[:, 0]
     slip_windows = windows.select(~windows.at_limit)

@@ -182,20 +182,20 @@ def main() -> None:
     # Breakdown: the compiled programs alone (MAP search, slip weights, refit, Hessian and
     # Laplace draws); the rest of fit_tyre is the per-window log-likelihood / posterior
     # predictive and the InferenceData assembly.
-    from _internal import DEFAULT_KIND
+    from _internal import DEFAULT_MODEL
 
     from tyrebayes import TyrePriors
 
     # The same cache entry as the fits above (default model, draws and steps).
     core = tyre_fit._laplace_core(
         tyre_fit._priors_key(TyrePriors()),
-        DEFAULT_KIND,
+        DEFAULT_MODEL,
         tyre_fit._obs_key(obs_b),
         tyre_fit.LAPLACE_DRAWS,
         2000,
     )
     t0 = time.perf_counter()
-    first_pass, weighted, _ = tyre_fit._first_pass(core, obs_b, DEFAULT_KIND)
+    first_pass, weighted, _ = tyre_fit._first_pass(core, obs_b, DEFAULT_MODEL)
     mode, _ = tyre_fit._second_pass(core, first_pass, obs_b, weighted)
     jax.block_until_ready(core.laplace(mode, weighted, jax.random.PRNGKey(1)))
     t_core = time.perf_counter() - t0

@@ -123,9 +123,9 @@ def run_year(seed: int, n_drives: int, drive_s: float, nuts: dict) -> dict:
         t2 = time.time()
     table = tables["type_prior"]
     history = drive_history(table)
-    found = dict(zip(history.changes.index.tolist(), history.changes.kind, strict=True))
+    found = dict(zip(history.changes.index.tolist(), history.changes.change_type, strict=True))
     detection = {}
-    for k, kind in zip(truth.change_drive_index, truth.change_kind, strict=True):
+    for k, kind in zip(truth.change_drive_index, truth.change_type, strict=True):
         hit = [i for i in found if abs(i - k) <= 1]
         detection[kind] = {"found": bool(hit), "classified_as": found[hit[0]] if hit else None}
     false_changes = [i for i in found if all(abs(i - k) > 1 for k in truth.change_drive_index)]

@@ -99,7 +99,7 @@ if not em_steps:
         table = pd.read_parquet(f"{out}/{drive['drive_id']}.windows.parquet")
         windows, surfaces = drives_from_windows(table)
         obs = stack_drives(windows, surfaces, pad_to=pad_size(len(table)))
-        summary = fit_tyre(obs, method="fast", kind=settings.model, seed=settings.seed).summary()
+        summary = fit_tyre(obs, method="fast", model=settings.model, seed=settings.seed).summary()
         drive["c_xr"] = float(summary["c_xr"]["mean"])
         drive["c_xr_sd"] = float(summary["c_xr"]["sd"])
 print(json.dumps({"drives": drives, "package": tyrebayes.__file__}))

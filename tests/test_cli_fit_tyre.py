@@ -75,9 +75,9 @@ def test_fast_fit_of_a_simulated_drive(tmp_path, capsys):
 
 def test_model_choices_are_the_model_kinds():
     from tyrebayes._commands.fit_tyre import MODEL_CHOICES
-    from tyrebayes.inference.tyre.model import DEFAULT_KIND, MODEL_KINDS
+    from tyrebayes.inference.tyre.model import CURVE_MODELS, DEFAULT_MODEL
 
-    assert set(MODEL_CHOICES) == set(MODEL_KINDS) and MODEL_CHOICES[0] == DEFAULT_KIND
+    assert set(MODEL_CHOICES) == set(CURVE_MODELS) and MODEL_CHOICES[0] == DEFAULT_MODEL
 
 
 def test_fit_tyre_exits_3_when_the_fit_did_not_converge(tmp_path, capsys, monkeypatch):

@@ -85,7 +85,7 @@ def test_lateral_fits_are_part_of_the_drive_settings():
 def test_cornering_drive_gives_its_geometric_mean_c_y():
     from tyrebayes.simulate.cornering import simulate_cornering
 
-    frame, truth = simulate_cornering(VEHICLE, kind="mixed", duration_s=180.0, seed=0,
+    frame, truth = simulate_cornering(VEHICLE, manoeuvre="mixed", duration_s=180.0, seed=0,
                                       c_y_front=12.0, c_y_rear=15.0)  # fmt: skip
     out = drive_lateral(frame, VEHICLE, "dry", seed=0)
     assert out["lateral_reason"] == "", out

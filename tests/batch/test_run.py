@@ -229,9 +229,9 @@ def test_cli_bad_manifest_is_exit_2(tmp_path, capsys):
 
 def test_cli_options(tmp_path, capsys):
     from tyrebayes._commands.fleet_run import MODEL_CHOICES
-    from tyrebayes.inference.tyre.model import DEFAULT_KIND, MODEL_KINDS
+    from tyrebayes.inference.tyre.model import CURVE_MODELS, DEFAULT_MODEL
 
-    assert set(MODEL_CHOICES) == set(MODEL_KINDS) and MODEL_CHOICES[0] == DEFAULT_KIND
+    assert set(MODEL_CHOICES) == set(CURVE_MODELS) and MODEL_CHOICES[0] == DEFAULT_MODEL
     manifest = tmp_path / "m.csv"
     pd.DataFrame([{"path": "a.parquet", "vehicle": "compact_fwd", "tyre_set_id": "s"}]).to_csv(
         manifest, index=False

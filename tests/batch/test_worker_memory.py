@@ -65,11 +65,11 @@ def test_a_drop_comes_only_when_the_next_task_would_pass_the_budget(rss, need, f
     assert must_drop(rss, need, floor, 1536.0) is expected
 
 
-def _task(budget, kind, budget_mb, mb):
+def _task(budget, stage, budget_mb, mb):
     """One task that holds ``mb`` MB of its own (written, so resident) at its peak."""
-    start, dropped = budget.start(kind, budget_mb)
+    start, dropped = budget.start(stage, budget_mb)
     blocks = [bytes(range(256)) * 4096 for _ in range(mb)]
-    peak = budget.finish(kind, start, dropped)
+    peak = budget.finish(stage, start, dropped)
     del blocks
     return start, dropped, peak
 
@@ -81,7 +81,7 @@ def test_a_worker_learns_each_task_kinds_need_and_drops_its_programs_before_it_r
     cleared = []
     monkeypatch.setattr(jax, "clear_caches", lambda: cleared.append(True))
     budget = ProgramBudget()
-    # The first task of a kind loads its programs: its rise is not what keeping them adds to.
+    # The first task of a stage loads its programs: its rise is not what keeping them adds to.
     start, dropped, peak = _task(budget, "drive", 1e9, 200)
     assert not dropped and peak >= start + 150.0 and "drive" not in budget.need_mb
     start, dropped, _ = _task(budget, "drive", 1e9, 200)

@@ -50,7 +50,7 @@ def test_prior_predictive_consistent_with_every_measured_braking_row():
     assert bad.empty, bad.to_string()
     # The summer-on-snow row is an upper bound (What Car?: > twice the winter distance).
     summer_snow = check[(check.tyre_type == "summer") & (check.surface == "snow")]
-    assert (summer_snow["kind"] == "upper").all()
+    assert (summer_snow["bound"] == "upper").all()
 
 
 # --- bad tables ---------------------------------------------------------------------------------

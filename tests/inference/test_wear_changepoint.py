@@ -52,7 +52,7 @@ def test_rotation_and_replacement_are_told_apart():
     y += 0.01 * rng.standard_normal(n)
     changes = detect_tyre_changes(y, x, radius_spread_mm=0.1)
     assert changes.index.tolist() == [20, 32]
-    assert changes.kind == ("rotation", "replacement")
+    assert changes.change_type == ("rotation", "replacement")
 
 
 def test_threshold_is_the_bonferroni_bound():

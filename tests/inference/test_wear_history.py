@@ -53,7 +53,7 @@ def test_history_finds_the_rotation_and_lays_out_the_pairs():
     table, _ = synthetic_table()
     h = drive_history(table)
     assert h.changes.index.tolist() == [14]
-    assert h.changes.kind == ("rotation",)
+    assert h.changes.change_type == ("rotation",)
     assert h.pair[13].tolist() == [0, 1] and h.pair[14].tolist() == [1, 0]
     assert h.n_pairs == 2
     assert h.scale == pytest.approx(h.interval_km / 10.0)
@@ -142,7 +142,7 @@ def test_gamma_is_recovered_from_radius_drift():
     assert np.quantile(g, 0.95) - np.quantile(g, 0.05) > hi - lo
     pred = wear_history_predictions(fit, h)
     out, ratio = pred.to_dict(), pred.wear_over_reference
-    assert out["tyre_changes"][0]["kind"] == "rotation"
+    assert out["tyre_changes"][0]["change_type"] == "rotation"
     assert out["km_to_1_6mm"]["mean"] > out["km_to_3mm"]["mean"]
     assert ratio.shape == gw.shape
 

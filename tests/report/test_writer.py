@@ -99,7 +99,7 @@ def _report() -> Report:
         },
     )
     warning = {
-        "kind": "winter suitability",
+        "decision": "winter suitability",
         "subject": "set A",
         "tyre_type": "winter",
         "quantity": "mu on snow",

@@ -54,8 +54,8 @@ def test_profile_events_and_labels(hour):
         assert p.speed_mps[ev.start] > 15.0
         assert ev.recovery_stop > ev.stop
     counts = np.bincount(p.long_label, minlength=len(LONG_LABELS))
-    for kind in ("cruise", "accelerate", "decelerate", "hard_brake", "stop"):
-        assert counts[LONG_LABELS.index(kind)] > 0, kind
+    for label in ("cruise", "accelerate", "decelerate", "hard_brake", "stop"):
+        assert counts[LONG_LABELS.index(label)] > 0, label
     lat = np.bincount(p.lat_label, minlength=len(LAT_LABELS))
     assert lat[LAT_LABELS.index("corner")] > 0 and lat[LAT_LABELS.index("lane_change")] > 0
 

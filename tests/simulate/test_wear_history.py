@@ -35,7 +35,7 @@ def test_files_carry_an_odometer_that_grows(year):
 
 def test_tread_wears_and_the_rotation_swaps_axles(year):
     d = year.depth_mm
-    assert year.change_drive_index == (3,) and year.change_kind == ("rotation",)
+    assert year.change_drive_index == (3,) and year.change_type == ("rotation",)
     # before the rotation the driven front tyres lose more than the rear ones
     assert (d[0, :2] - d[2, :2]).min() > (d[0, 2:] - d[2, 2:]).max()
     # at the rotation the front tyres go to the rear (same side)

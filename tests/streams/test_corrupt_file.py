@@ -54,28 +54,28 @@ def _lines(data: bytes) -> list[bytes]:
 
 
 def _corrupt(data: bytes, how: tuple) -> bytes:
-    kind = how[0]
+    damage = how[0]
     lines = _lines(data)
     body = len(lines) - 2  # header first, empty string after the final newline
-    if kind == "truncate":  # a write cut short
+    if damage == "truncate":  # a write cut short
         return data[: int(how[1] * len(data))]
-    if kind == "flip":  # one byte replaced by a character that cannot be part of a number
+    if damage == "flip":  # one byte replaced by a character that cannot be part of a number
         pos = int(how[1] * (len(data) - 1))
         return data[:pos] + _NOT_NUMERIC[how[2] % len(_NOT_NUMERIC)] + data[pos + 1 :]
     if body < 3:
         return data  # already cut to (almost) nothing by an earlier truncation
     row = 1 + int(how[1] * (body - 1))
-    if kind == "drop_line":
+    if damage == "drop_line":
         del lines[row]
-    elif kind == "repeat_line":
+    elif damage == "repeat_line":
         lines.insert(row, lines[row])
-    elif kind == "swap_lines":
+    elif damage == "swap_lines":
         lines[row], lines[row + 1] = lines[row + 1], lines[row]
-    elif kind == "cell":  # one cell replaced by text, an empty cell, or another number
+    elif damage == "cell":  # one cell replaced by text, an empty cell, or another number
         cells = lines[row].split(b",")
         cells[how[2] % len(cells)] = how[3]
         lines[row] = b",".join(cells)
-    elif kind == "digit":  # one digit of one time stamp changed
+    elif damage == "digit":  # one digit of one time stamp changed
         cells = lines[row].split(b",")
         col = 0
         digits = [i for i, ch in enumerate(cells[col]) if chr(ch).isdigit()]
@@ -83,7 +83,7 @@ def _corrupt(data: bytes, how: tuple) -> bytes:
             i = digits[how[3] % len(digits)]
             cells[col] = cells[col][:i] + str(how[4]).encode() + cells[col][i + 1 :]
         lines[row] = b",".join(cells)
-    elif kind == "header":  # a column name damaged
+    elif damage == "header":  # a column name damaged
         names = lines[0].split(b",")
         names[how[2] % len(names)] = b"x" + names[how[2] % len(names)]
         lines[0] = b",".join(names)

@@ -268,3 +268,10 @@ def test_steered_wheels_read_with_the_turns_sideslip():
     assert np.max(np.abs(got / vx[:, None] - 1.0)) < 1e-4
     beta_zero = (u[:, 0] - yaw * lf * np.sin(steer)) / np.cos(steer) + yaw * half
     assert np.all(np.abs(beta_zero[:2] / vx[:2] - 1.0) > 0.01)
+
+
+def test_mask_refuses_the_old_keyword_naming_regime(synthetic):
+    feats, _ = synthetic
+    assert np.array_equal(feats.mask(regime="braking"), feats.mask("braking"))
+    with pytest.raises(TypeError, match="mask: keyword 'kind' is now 'regime'"):
+        feats.mask(kind="braking")

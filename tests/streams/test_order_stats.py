@@ -30,9 +30,9 @@ def _arrays(rng):
     }
 
 
-@pytest.mark.parametrize("kind", sorted(_arrays(np.random.default_rng(0))))
-def test_equal_to_numpy(kind):
-    x = _arrays(np.random.default_rng(0))[kind]
+@pytest.mark.parametrize("case", sorted(_arrays(np.random.default_rng(0))))
+def test_equal_to_numpy(case):
+    x = _arrays(np.random.default_rng(0))[case]
     before = x.copy()
     assert median(x) == float(np.median(x))
     for q in (0.0, 0.25, 0.5, 0.95, 0.99, 1.0, 0.3141):

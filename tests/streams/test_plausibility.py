@@ -183,23 +183,23 @@ _FUZZ_BASE = _synthetic(duration_s=40.0)
 def _fuzz(df: pd.DataFrame, how: tuple) -> tuple[pd.DataFrame, str]:
     """Apply one corruption; return the table and what must catch it: 'error' or 'flag'."""
     df = df.copy()
-    kind = how[0]
-    if kind == "sign":
+    damage = how[0]
+    if damage == "sign":
         df[list(how[1])] = -df[list(how[1])]
         return df, "error"
-    if kind == "time_scale":
+    if damage == "time_scale":
         df["time"] = df["time"] * how[1]
         return df, "error"
-    if kind == "steer_deg":
+    if damage == "steer_deg":
         # Gentle or straight drives keep degrees inside the rad range: the hard case.
         df[["ay", "yaw_rate", "steering_wheel_angle"]] *= how[1]
         df["steering_wheel_angle"] = np.degrees(df["steering_wheel_angle"])
         return df, "error"
-    if kind == "gap":
+    if damage == "gap":
         start, length = how[1], how[2]
         df.loc[df["time"] >= start, "time"] += length
         return df, "flag" if length >= 10.0 else "none"
-    if kind == "nan_rows":
+    if damage == "nan_rows":
         rows = np.random.default_rng(how[2]).random(len(df)) < how[1]
         df.loc[rows, df.columns[1:]] = np.nan
         return df, "flag" if how[1] >= 0.35 else "none"

@@ -29,7 +29,7 @@ from ._common import (
     stream_file,
 )
 
-# tyrebayes.inference.tyre.model.MODEL_KINDS, default first; spelled out here because importing
+# tyrebayes.inference.tyre.model.CURVE_MODELS, default first; spelled out here because importing
 # the model would start JAX before run() gives it one device per core (a test checks they agree).
 MODEL_CHOICES = ("magic", "shaped", "brush", "linear")
 
@@ -238,7 +238,7 @@ def run(args: argparse.Namespace) -> int:
         )
         del validated
     priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
-    fit = fit_tyre(obs, priors=priors, method=args.method, kind=args.model, seed=args.seed)
+    fit = fit_tyre(obs, priors=priors, method=args.method, model=args.model, seed=args.seed)
     # The longitudinal programs are not run again in this process: dropping them before the
     # lateral fit compiles its own keeps the command's peak at the larger of the two fits.
     drop_compiled_programs()

@@ -197,7 +197,7 @@ def _text(out: dict, diagnostics) -> str:
     for change in out["tyre_changes"]:
         lines.append(
             f"tyre change at drive {change['drive_index']} ({change['odometer_km']:.0f} km): "
-            f"{change['kind']} (p = {change['probability']:.2f})"
+            f"{change['change_type']} (p = {change['probability']:.2f})"
         )
     lines.append(out["high_wear"]["message"])
     return "\n".join([*lines, diagnostics_text(diagnostics)])

@@ -198,12 +198,12 @@ def _informing_c_xr(fit, surface: str, tyre_type: str | None) -> tuple[np.ndarra
     where = f" on {surface}" if sets.size else ""
     if not sets.size:
         sets = np.arange(c_xr.size)
-    kind = ""
+    of_type = ""
     if tyre_type is not None:
         same = sets[tyre_types[sets] == TYRE_TYPES.index(tyre_type)]
         if same.size >= 2:
-            sets, kind = same, f"{tyre_type} "
-    return c_xr[sets], f"the fleet's {kind}sets{where}"
+            sets, of_type = same, f"{tyre_type} "
+    return c_xr[sets], f"the fleet's {of_type}sets{where}"
 
 
 def prediction(args: argparse.Namespace) -> tuple[np.ndarray, dict]:

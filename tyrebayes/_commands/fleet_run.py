@@ -30,7 +30,7 @@ from ._common import EXIT_FAILURES, output_folder, print_json
 if TYPE_CHECKING:
     from ..batch.run_result import FleetRunResult
 
-# tyrebayes.inference.tyre.model.MODEL_KINDS (spelled out: importing it would start JAX).
+# tyrebayes.inference.tyre.model.CURVE_MODELS (spelled out: importing it would start JAX).
 MODEL_CHOICES = ("magic", "shaped", "brush", "linear")
 
 #: Exit status by the run's outcome (:func:`tyrebayes.batch.run_result.run_outcome`).

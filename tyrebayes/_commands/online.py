@@ -113,7 +113,7 @@ def _text(payload: dict[str, Any]) -> str:
             "and the vehicle file); C_x and mu_max withheld"
         )
     alarms = zip(payload["alarms_s"], payload["alarm_kinds"], strict=True)
-    at = ", ".join(f"{t:.0f} s ({kind})" for t, kind in alarms)
+    at = ", ".join(f"{t:.0f} s ({alarm})" for t, alarm in alarms)
     lines.append(f"alarms (swap or change) at: {at or 'none'}")
     lines.append(f"note: {LOOKAHEAD_NOTE}")
     lines.extend(_lateral_text(payload["lateral"], payload["lateral_reason"]))
@@ -188,7 +188,7 @@ def run(args: argparse.Namespace) -> int:
     imu_sd = windows.imu_gain_log_sd
     imu = 0.0 if imu_sd is None else float(np.max(imu_sd, initial=0.0))
     priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
-    estimate = online_estimate(steps, kind=args.model, priors=priors, imu_gain_log_sd=imu)
+    estimate = online_estimate(steps, model=args.model, priors=priors, imu_gain_log_sd=imu)
     payload = {
         "stream": args.stream,
         "vehicle": args.vehicle,
@@ -223,7 +223,7 @@ def _figure(args, windows, steps, trajectory, alarms_s: list[float]) -> str:
 
     priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
     obs = stack_drives([windows], [args.surface])
-    fit = fit_tyre(obs, priors=priors, method="fast", kind=args.model)
+    fit = fit_tyre(obs, priors=priors, method="fast", model=args.model)
     if not fit.diagnostics.converged:
         raise BadInputError(f"--figure: the batch fit did not converge ({fit.diagnostics.reason})")
     batch = fit.summary()["c_x"]

@@ -125,10 +125,10 @@ class _StageRun:
             self.futures[future] = ("drive", item)
         self.completed = as_completed(list(self.futures))
         for future in self.completed:
-            kind, item = self.futures.pop(future)
-            record = _task_record(future, kind, item)
+            stage, item = self.futures.pop(future)
+            record = _task_record(future, stage, item)
             future.release()
-            if kind == "drive":
+            if stage == "drive":
                 self.drive_finished(item, record)
                 bar.update(item.drive_id)
             else:
@@ -204,7 +204,7 @@ class _StageRun:
         return drives, [self.set_records[s] for s in self.by_set]
 
 
-def _task_record(future, kind: str, item) -> dict:
+def _task_record(future, stage: str, item) -> dict:
     """A finished task's record, or a failed one when the task raised (a lost worker, a bug):
     recorded, and the run goes on."""
     try:
@@ -214,7 +214,7 @@ def _task_record(future, kind: str, item) -> dict:
         # the interruption's, and an item left without a record runs again next time.
         _interrupts.check()
         record = {"status": "failed", "reason": f"task failed: {one_line(err)}"}
-        if kind == "drive":
+        if stage == "drive":
             return record | {"drive_id": item.drive_id, "path": item.path}
         return record | {"tyre_set_id": item}
 

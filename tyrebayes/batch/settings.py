@@ -19,7 +19,7 @@ class RunSettings:
     method : str
         Tyre-set fit: ``"fast"`` (MAP + Laplace) or ``"nuts"``.
     model : str
-        Tyre-curve model of the tyre-set fit (:data:`tyrebayes.inference.tyre.model.MODEL_KINDS`).
+        Tyre-curve model of the tyre-set fit (:data:`tyrebayes.inference.tyre.model.CURVE_MODELS`).
     load_sensitivity : bool
         Fit the tyre sets with the load sensitivity of the slip stiffness
         (:meth:`tyrebayes.inference.tyre.model.TyrePriors.with_load_sensitivity`).

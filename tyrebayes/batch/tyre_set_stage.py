@@ -117,7 +117,7 @@ def tyre_set_row(
         "divergences": int(diag.divergences),
         "optimiser_result": str(diag.optimiser_result),
         "method": str(diag.method),
-        "model": str(fit.kind),
+        "model": str(fit.model),
         "n_drives": int(n_drives),
         "n_windows": int(n_windows),
         "n_abs_windows": int(summary["n_abs_windows"]),
@@ -237,7 +237,7 @@ def _fit_and_write(
         obs,
         priors=TyrePriors().with_load_sensitivity() if settings.load_sensitivity else None,
         method=settings.method,
-        kind=settings.model,
+        model=settings.model,
         seed=settings.seed,
         pointwise=settings.pointwise,
     )

@@ -145,7 +145,7 @@ def drop_compiled_programs() -> None:
 def must_drop(rss: float, need: float, floor: float | None, budget: float) -> bool:
     """Whether to drop the compiled programs before a task (all in MB).
 
-    Drop when the memory held now (``rss``) plus the most a task of this kind has needed above
+    Drop when the memory held now (``rss``) plus the most a task of this stage has needed above
     its start (``need``) would pass ``budget``, unless the process holds less than
     :data:`MIN_DROP_MB` above its ``floor`` (what it held right after its last drop; None: no
     drop yet): then a drop would cost reloads and free little, and the task runs over budget,
@@ -170,10 +170,10 @@ class ProgramBudget:
     Attributes
     ----------
     need_mb : dict
-        Per task kind (``"drive"``, ``"tyre_set"``), the largest rise of a task's peak above the
+        Per stage (``"drive"``, ``"tyre_set"``), the largest rise of a task's peak above the
         memory it started with [MB], over this process's tasks that found the programs of
         earlier ones kept: the rise that keeping them adds to. A task that started by dropping
-        them, or the first of its kind in the process, reloads its programs and rises more;
+        them, or the first of its stage in the process, reloads its programs and rises more;
         counting those would make every later task drop, and reload, again.
     floor_mb : float or None
         Resident memory right after this process's last drop [MB].
@@ -181,22 +181,22 @@ class ProgramBudget:
         Padded number of windows of the last tyre-set fit.
     dirty : bool
         Whether a task ran since the last drop (there are programs to drop).
-    seen_kinds : set of str
-        The task kinds this process has run.
+    seen_stages : set of str
+        The stages this process has run a task of.
     """
 
     need_mb: dict[str, float] = dataclasses.field(default_factory=dict)
     floor_mb: float | None = None
     last_fit_shape: int | None = None
     dirty: bool = False
-    seen_kinds: set[str] = dataclasses.field(default_factory=set)
+    seen_stages: set[str] = dataclasses.field(default_factory=set)
 
-    def start(self, kind: str, budget_mb: float) -> tuple[float, bool]:
+    def start(self, stage: str, budget_mb: float) -> tuple[float, bool]:
         """Before a task: release free heap, drop the programs if :func:`must_drop` says so,
         and start the task's peak count. Returns the resident memory the task starts with [MB]
         and whether the programs were dropped."""
         release_free_memory()
-        need = self.need_mb.get(kind, 0.0)
+        need = self.need_mb.get(stage, 0.0)
         dropped = self.dirty and must_drop(rss_mb(), need, self.floor_mb, budget_mb)
         if dropped:
             self._drop()
@@ -205,13 +205,13 @@ class ProgramBudget:
         reset_peak_rss()
         return rss_mb(), dropped
 
-    def finish(self, kind: str, start_mb: float, dropped: bool) -> float:
-        """After a task: its peak [MB], which also updates what a task of its kind needs
+    def finish(self, stage: str, start_mb: float, dropped: bool) -> float:
+        """After a task: its peak [MB], which also updates what a task of its stage needs
         (``dropped``: whether the task started by dropping the programs, or dropped them)."""
         peak = peak_rss_mb()
-        if not dropped and kind in self.seen_kinds:
-            self.need_mb[kind] = max(self.need_mb.get(kind, 0.0), peak - start_mb)
-        self.seen_kinds.add(kind)
+        if not dropped and stage in self.seen_stages:
+            self.need_mb[stage] = max(self.need_mb.get(stage, 0.0), peak - start_mb)
+        self.seen_stages.add(stage)
         self.dirty = True
         return peak
 

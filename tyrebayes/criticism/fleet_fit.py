@@ -189,7 +189,7 @@ def _fit_ppc(y, y_rep, mean, data, candidates, table: pd.DataFrame) -> dict:
                 "p_value": float(np.mean(t_rep >= t_obs)),
             }
     for cand in candidates:
-        if cand.kind != "numeric" or not np.all(np.isfinite(cand.columns)):
+        if cand.covariate_type != "numeric" or not np.all(np.isfinite(cand.columns)):
             continue
         x = cand.columns[:, 0]
         r_obs = residual_correlation(y[None, :] - mean, x)

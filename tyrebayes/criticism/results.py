@@ -21,8 +21,8 @@ class Candidate(eqx.Module):
     ----------
     name : str
         Column name in the user's data.
-    kind : str
-        ``"numeric"`` or ``"categorical"``.
+    covariate_type : str
+        ``"numeric"`` or ``"categorical"``: how the covariate is encoded in ``columns``.
     columns : ndarray (n, q)
         Standardised columns (NaN marks a missing value; such rows are left out of this
         candidate's comparison, and of its baseline).
@@ -34,7 +34,7 @@ class Candidate(eqx.Module):
     """
 
     name: str
-    kind: str
+    covariate_type: str
     columns: np.ndarray
     natural_scale: np.ndarray
     labels: tuple[str, ...]
@@ -45,7 +45,7 @@ class CandidateResult(eqx.Module):
 
     Attributes
     ----------
-    covariate, kind : str
+    covariate, covariate_type : str
         Column name; ``"numeric"`` or ``"categorical"``.
     level : str or None
         For categorical candidates the level contrast whose effect is reported (the strongest).
@@ -89,7 +89,7 @@ class CandidateResult(eqx.Module):
     """
 
     covariate: str
-    kind: str
+    covariate_type: str
     level: str | None
     effect: dict
     p_value: float

@@ -118,7 +118,7 @@ def _effect(
     draws = coef * y_scale / cand.natural_scale[None, :]
     z = np.abs(draws.mean(axis=0)) / np.maximum(draws.std(axis=0), 1e-300)
     j = int(np.argmax(z))
-    level = cand.labels[j] if cand.kind == "categorical" else None
+    level = cand.labels[j] if cand.covariate_type == "categorical" else None
     return summarize(draws[:, j]).to_dict(), level
 
 
@@ -289,7 +289,7 @@ class _LinearScan:
         groups = self.groups
         x1 = np.column_stack([x, np.nan_to_num(cand.columns)])
         prior1 = np.concatenate([prior, np.full(cand.columns.shape[1], CANDIDATE_PRIOR_VAR)])
-        if groups is not None and cand.kind == "numeric" and groups.shape[1] > 1:
+        if groups is not None and cand.covariate_type == "numeric" and groups.shape[1] > 1:
             x1 = np.column_stack([x1, groups * np.nan_to_num(cand.columns)])
             prior1 = np.concatenate(
                 [prior1, np.full(groups.shape[1], CANDIDATE_DEVIATION_PRIOR_VAR)]
@@ -445,7 +445,7 @@ def _candidate_results(
         results.append(
             CandidateResult(
                 covariate=cand.name,
-                kind=cand.kind,
+                covariate_type=cand.covariate_type,
                 level=level,
                 effect=effect,
                 p_value=float(p),

@@ -115,7 +115,7 @@ def _fleet_ppc(y, x0, base_fit, candidates, seed: int) -> dict:
     y_rep = mu + base_fit.sigma[:, None] * rng.standard_normal(mu.shape)
     ppc = posterior_predictive_check(y, y_rep).to_dict()
     for cand in candidates:
-        if cand.kind != "numeric" or not np.all(np.isfinite(cand.columns)):
+        if cand.covariate_type != "numeric" or not np.all(np.isfinite(cand.columns)):
             continue
         xc = cand.columns[:, 0]
         r_obs = residual_correlation(y[None, :] - mu, xc)

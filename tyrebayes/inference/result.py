@@ -8,7 +8,7 @@ Every fitter of the package (per-tyre, fleet, wear, V_max's extended model) retu
   ``sample_stats``); what a kind needs to predict from a loaded fit lives there too;
 * ``diagnostics`` — a :class:`Diagnostics` computed by :func:`diagnose`, the only place where
   R-hat and effective sample sizes are computed, under the one :data:`POLICY`;
-* ``kind`` — ``"tyre"``, ``"fleet"``, ``"wear"`` or ``"vmax"``;
+* ``kind`` — the kind of fit, one of :data:`FIT_KINDS` (``"tyre"``, ``"fleet"``, ``"wear"``, ...);
 * ``provenance`` — the method, the model variant, the inputs and the package version.
 
 A fit that did not converge, or whose model does not describe its data, says so in its

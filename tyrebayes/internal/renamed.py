@@ -10,15 +10,16 @@ P = ParamSpec("P")
 R = TypeVar("R")
 
 
-def renamed_keyword(old: str, new: str) -> Callable[[Callable[P, R]], Callable[P, R]]:
+def renamed_keyword(old: str, new: str, *, what: str) -> Callable[[Callable[P, R]], Callable[P, R]]:
     """Refuse keyword ``old`` of the decorated function with a TypeError naming ``new``.
 
     The package speaks one vocabulary (``seed: int`` wherever randomness enters); a call in
-    an older word fails loudly instead of being accepted silently beside the new one.
+    an older word fails loudly instead of being accepted silently beside the new one. ``what``
+    says what the new keyword takes, for the message.
 
     Examples
     --------
-    >>> @renamed_keyword("key", "seed")
+    >>> @renamed_keyword("key", "seed", what="an int")
     ... def draw(seed: int = 0) -> int:
     ...     return seed
     >>> draw(seed=3)
@@ -27,6 +28,13 @@ def renamed_keyword(old: str, new: str) -> Callable[[Callable[P, R]], Callable[P
     Traceback (most recent call last):
     ...
     TypeError: draw: keyword 'key' is now 'seed' (an int), got key=3
+    >>> @renamed_keyword("kind", "model", what="the tyre-curve model")
+    ... def curve(model: str = "magic") -> str:
+    ...     return model
+    >>> curve(kind="brush")
+    Traceback (most recent call last):
+    ...
+    TypeError: curve: keyword 'kind' is now 'model' (the tyre-curve model), got kind='brush'
     """
 
     def decorate(function: Callable[P, R]) -> Callable[P, R]:
@@ -34,7 +42,7 @@ def renamed_keyword(old: str, new: str) -> Callable[[Callable[P, R]], Callable[P
         def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
             if old in kwargs:
                 raise TypeError(
-                    f"{function.__name__}: keyword {old!r} is now {new!r} (an int), "
+                    f"{function.__name__}: keyword {old!r} is now {new!r} ({what}), "
                     f"got {old}={kwargs[old]!r}"
                 )
             return function(*args, **kwargs)

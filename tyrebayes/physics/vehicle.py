@@ -34,7 +34,7 @@ _REQUIRED_KEYS = (
     "steering_ratio",
 )
 
-# What a road vehicle of the kind the package models (cars, SUVs, vans) can have; a vehicle file
+# What a road vehicle of the classes the package models (cars, SUVs, vans) can have; a vehicle file
 # outside these is a unit or typing mistake (1.7e6 kg, a radius in mm), not an unusual car. Mass:
 # a quadricycle with driver ~400 kg to a loaded 3.5 t van's 10 t upper bound of light trucks;
 # wheel radius: 13" city-car tyres (0.26 m) to light-truck tyres (0.45 m), with margin.

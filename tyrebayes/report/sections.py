@@ -331,7 +331,7 @@ def warning_rows(fleet: Fit, tyres: list[TyreSection], *, seed: int = 0) -> list
         v = decisions.winter_verdict(draws)
         out.append(
             {
-                "kind": "winter suitability",
+                "decision": "winter suitability",
                 "subject": t.name,
                 "tyre_type": t.tyre_type or "unknown",
                 "c_xr": c,

@@ -9,8 +9,9 @@ rolls with the body (gain 1 + g k_φ) and has an offset, a gyro, and a steering-
 a ratio and an offset. It shares the lateral model's assumptions: a test of the code, not of the
 method (the external drives are that).
 
-``kind``: ``"mixed"`` (town corners, bends and lane changes at 8-30 m/s), ``"steady"`` (long
-highway curves at one speed: no yaw transients) or ``"straight"`` (no cornering).
+The planned manoeuvre (``manoeuvre``): ``"mixed"`` (town corners, bends and lane changes at
+8-30 m/s), ``"steady"`` (long highway curves at one speed: no yaw transients) or ``"straight"``
+(no cornering).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import numpy as np
 import pandas as pd
 from scipy.interpolate import CubicSpline
 
+from ..internal.renamed import renamed_keyword
 from ..physics.vehicle import SingleTrackState, Vehicle, single_track_derivatives
 
 G = 9.80665
@@ -41,7 +43,7 @@ class CorneringTruth:
     steering_offset_rad: float
     roll_gradient: float
     ay_offset: float
-    kind: str
+    manoeuvre: str
 
     @property
     def understeer_gradient(self) -> float:
@@ -70,31 +72,32 @@ def _smooth(rng: np.random.Generator, n: int, dt: float, corner_hz: float) -> np
     return x / (np.std(x) + 1e-12)
 
 
-def _plan(kind: str, rng, n: int, dt: float, vehicle: Vehicle, k_guess: float):
+def _plan(manoeuvre: str, rng, n: int, dt: float, vehicle: Vehicle, k_guess: float):
     """Speed [m/s] and road-wheel angle [rad] that aim at a planned a_y."""
     wheelbase = float(vehicle.wheelbase_m)
-    if kind == "steady":
+    if manoeuvre == "steady":
         speed = 27.0 + 1.0 * _smooth(rng, n, dt, 0.005)
         ay = 2.0 * _smooth(rng, n, dt, 0.01)
-    elif kind == "mixed":
+    elif manoeuvre == "mixed":
         speed = np.clip(18.0 + 7.0 * _smooth(rng, n, dt, 0.01), 8.0, 32.0)
         ay = 2.0 * _smooth(rng, n, dt, 0.08) + 1.5 * _smooth(rng, n, dt, 0.4)
         ay = np.clip(ay, -5.0, 5.0)
-    elif kind == "straight":
+    elif manoeuvre == "straight":
         speed = 20.0 + 3.0 * _smooth(rng, n, dt, 0.01)
         ay = 0.05 * _smooth(rng, n, dt, 0.1)
     else:
-        raise ValueError(f"kind: expected 'mixed', 'steady' or 'straight', got {kind!r}")
+        raise ValueError(f"manoeuvre: expected 'mixed', 'steady' or 'straight', got {manoeuvre!r}")
     # Start from straight running: the car starts at rest in yaw (v_y = r = 0).
     ay = ay * np.clip(np.arange(n) * dt / 3.0, 0.0, 1.0)
     delta = (wheelbase / speed**2 + k_guess) * ay
     return speed, delta
 
 
+@renamed_keyword("kind", "manoeuvre", what="'mixed', 'steady' or 'straight'")
 def simulate_cornering(
     vehicle: Vehicle,
     *,
-    kind: str = "mixed",
+    manoeuvre: str = "mixed",
     duration_s: float = 300.0,
     seed: int = 0,
     c_y_front: float = 14.0,
@@ -132,10 +135,10 @@ def simulate_cornering(
         steering_offset_rad=steering_offset_rad,
         roll_gradient=roll_gradient,
         ay_offset=ay_offset,
-        kind=kind,
+        manoeuvre=manoeuvre,
     )
     fine = np.arange(n * substeps) * (dt / substeps)
-    speed, delta = _planned_inputs(kind, rng, vehicle, truth, duration_s, fine)
+    speed, delta = _planned_inputs(manoeuvre, rng, vehicle, truth, duration_s, fine)
     vy, r, ay_true = _integrate(vehicle, truth, speed, delta, dt / substeps)
     vy, r, ay_true = (np.asarray(x, float)[::substeps] for x in (vy, r, ay_true))
     speed, delta = speed[::substeps], delta[::substeps]
@@ -144,7 +147,7 @@ def simulate_cornering(
 
 
 def _planned_inputs(
-    kind: str,
+    manoeuvre: str,
     rng: np.random.Generator,
     vehicle: Vehicle,
     truth: CorneringTruth,
@@ -157,7 +160,9 @@ def _planned_inputs(
     # continuous would put a sample-rate yaw transient into every step.
     plan_dt = 0.1
     n_plan = int(np.ceil(duration_s / plan_dt)) + 2
-    speed_plan, delta_plan = _plan(kind, rng, n_plan, plan_dt, vehicle, truth.understeer_gradient)
+    speed_plan, delta_plan = _plan(
+        manoeuvre, rng, n_plan, plan_dt, vehicle, truth.understeer_gradient
+    )
     plan_time = np.arange(n_plan) * plan_dt
     speed = CubicSpline(plan_time, speed_plan)(fine)
     delta = CubicSpline(plan_time, delta_plan)(fine)

@@ -183,13 +183,13 @@ def _lateral(
     duration = n * dt
     ay = np.zeros(n)
     label = np.zeros(n, dtype=np.int8)
-    for kind, rate in (
+    for event, rate in (
         ("corner", opts.corners_per_hour),
         ("lane_change", opts.lane_changes_per_hour),
     ):
         for t0 in _event_times(rng, rate, duration):
             i0 = int(t0 / dt)
-            if kind == "corner":
+            if event == "corner":
                 ramp, hold = rng.uniform(1.5, 3.0), rng.uniform(2.0, 10.0)
                 total = 2 * ramp + hold
                 s = np.arange(int(total / dt)) * dt
@@ -207,7 +207,7 @@ def _lateral(
                 continue
             sign = rng.choice([-1.0, 1.0])
             ay[i0:i1] = sign * min(amp, ay_max) * shape[: i1 - i0]
-            label[i0:i1] = _Y[kind]
+            label[i0:i1] = _Y[event]
     # Gentle road curvature everywhere (motorway bends), a_y sd 0.1 m/s².
     ay += smooth_noise(rng, n, dt, 3.0, 0.1)
     # Lateral acceleration needs speed; fade it out below 5 m/s (parking speeds, stops), and keep

@@ -87,7 +87,7 @@ def lateral_sliding_power(truth: DriveTruth, vehicle: Vehicle) -> np.ndarray:
 class WearYearTruth(eqx.Module):
     """What :func:`simulate_wear_year` made: files, the true parameters and tyre changes.
 
-    ``change_drive_index`` / ``change_kind``: the drive at which each change took effect and
+    ``change_drive_index`` / ``change_type``: the drive at which each change took effect and
     ``"rotation"`` or ``"replacement"``. ``depth_mm[k, i]``: true depth of the tyre on wheel i
     (fl, fr, rl, rr) at the start of drive k. ``drive_work_j[k, a]``: true longitudinal friction
     work of axle a (front, rear) in logged drive k [J]; ``drive_work_y_j[k, a]`` its lateral
@@ -100,7 +100,7 @@ class WearYearTruth(eqx.Module):
     gamma_mm3_per_j: float
     kappa_per_k: float
     change_drive_index: tuple[int, ...] = eqx.field(static=True)
-    change_kind: tuple[str, ...] = eqx.field(static=True)
+    change_type: tuple[str, ...] = eqx.field(static=True)
     total_km: float
     depth_mm: np.ndarray
     drive_work_j: np.ndarray
@@ -192,7 +192,7 @@ def simulate_wear_year(
         gamma_mm3_per_j=gamma_mm3_per_j,
         kappa_per_k=kappa_per_k,
         change_drive_index=tuple(sorted(changes)),
-        change_kind=tuple(changes[k] for k in sorted(changes)),
+        change_type=tuple(changes[k] for k in sorted(changes)),
         total_km=odometer_m / 1000.0,
         depth_mm=np.asarray(depth_rows),
         drive_work_j=np.asarray([d.work_j for d in drives]),
@@ -268,7 +268,7 @@ def _ambient_c(rng: np.random.Generator, n_drives: int) -> np.ndarray:
 
 
 def _change_tyres(
-    kind: str,
+    change_type: str,
     on_wheel: np.ndarray,
     eps: np.ndarray,
     loss: np.ndarray,
@@ -280,7 +280,7 @@ def _change_tyres(
     A rotation swaps the axles' tyres; a replacement mounts four new ones, each with its own
     manufacturing radius error and no wear.
     """
-    if kind == "rotation":
+    if change_type == "rotation":
         return on_wheel[_ROTATED], eps, loss
     return np.arange(4), radius_spread * rng.standard_normal(4), np.zeros(4)
 

@@ -43,6 +43,7 @@ import equinox as eqx
 import numpy as np
 from jaxtyping import Bool, Float, Int
 
+from ..internal.renamed import renamed_keyword
 from ..physics.vehicle import GRAVITY_MPS2, Vehicle
 from .axle_forces import _Forces, _forces
 from .filters import PrefixSums
@@ -166,11 +167,12 @@ class StreamFeatures(eqx.Module):
         """Count and seconds per regime (see :func:`summarize_segments`)."""
         return summarize_segments(self.time_s, self.label, min_segment_s)
 
-    def mask(self, kind: str) -> Bool[np.ndarray, "n"]:
-        """Samples labelled ``kind`` (one of :data:`SEGMENT_KINDS`)."""
-        if kind not in SEGMENT_KINDS:
-            raise ValueError(f"mask: expected one of {SEGMENT_KINDS}, got {kind!r}")
-        return self.label == SEGMENT_KINDS.index(kind)
+    @renamed_keyword("kind", "regime", what="a segment label of SEGMENT_KINDS")
+    def mask(self, regime: str) -> Bool[np.ndarray, "n"]:
+        """Samples labelled with the driving regime ``regime`` (one of :data:`SEGMENT_KINDS`)."""
+        if regime not in SEGMENT_KINDS:
+            raise ValueError(f"mask: expected one of {SEGMENT_KINDS}, got {regime!r}")
+        return self.label == SEGMENT_KINDS.index(regime)
 
 
 def compute_features(

@@ -126,7 +126,7 @@ def summarize_segments(
     Returns
     -------
     dict
-        ``{kind: {"count": runs >= min_segment_s, "seconds": total time with that label}}``.
+        ``{regime: {"count": runs >= min_segment_s, "seconds": total time with that label}}``.
     """
     # np.median's, by one selection (order_stats).
     dt = median(np.diff(time_s), overwrite_input=True) if time_s.size > 1 else 0.0
@@ -136,9 +136,9 @@ def summarize_segments(
     run_label = label[starts]
     run_seconds = (ends - starts) * dt
     out: dict[str, dict[str, float | int]] = {}
-    for code, kind in enumerate(SEGMENT_KINDS):
+    for code, regime in enumerate(SEGMENT_KINDS):
         mine = run_label == code
-        out[kind] = {
+        out[regime] = {
             "count": int(np.sum(run_seconds[mine] >= min_segment_s)),
             "seconds": float(np.sum(run_seconds[mine])),
         }

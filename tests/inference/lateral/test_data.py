@@ -35,7 +35,7 @@ def test_slow_samples_are_left_out():
 
 
 def test_a_straight_drive_has_no_cornering():
-    frame, _ = simulate_cornering(VEHICLE, kind="straight", duration_s=120.0, seed=3)
+    frame, _ = simulate_cornering(VEHICLE, manoeuvre="straight", duration_s=120.0, seed=3)
     with pytest.raises(NoCornering, match="no usable cornering: 0.0 s"):
         cornering_observations(frame, VEHICLE)
 

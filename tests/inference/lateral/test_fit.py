@@ -22,13 +22,13 @@ DURATION_S = 240.0
 
 @pytest.fixture(scope="module")
 def mixed():
-    frame, truth = simulate_cornering(VEHICLE, kind="mixed", duration_s=DURATION_S, seed=11)
+    frame, truth = simulate_cornering(VEHICLE, manoeuvre="mixed", duration_s=DURATION_S, seed=11)
     return fit_lateral(cornering_observations(frame, VEHICLE), seed=1), truth
 
 
 @pytest.fixture(scope="module")
 def steady():
-    frame, truth = simulate_cornering(VEHICLE, kind="steady", duration_s=DURATION_S, seed=12)
+    frame, truth = simulate_cornering(VEHICLE, manoeuvre="steady", duration_s=DURATION_S, seed=12)
     return fit_lateral(cornering_observations(frame, VEHICLE), seed=1), truth
 
 
@@ -97,7 +97,7 @@ def test_a_search_on_stretches_of_the_drive_refines_to_the_mode_of_all_samples(m
     """A drive searched on evenly spaced stretches, refined on all samples: the same posterior."""
     from tyrebayes.inference.lateral import search
 
-    frame, _ = simulate_cornering(VEHICLE, kind="mixed", duration_s=DURATION_S, seed=11)
+    frame, _ = simulate_cornering(VEHICLE, manoeuvre="mixed", duration_s=DURATION_S, seed=11)
     obs = cornering_observations(frame, VEHICLE)
     monkeypatch.setattr(search, "SEARCH_SAMPLES", 800)
     assert search._search_blocks(search.padded_length(obs.speed.shape[0])) == 16
@@ -114,7 +114,7 @@ def test_a_search_on_stretches_of_the_drive_refines_to_the_mode_of_all_samples(m
 @pytest.mark.slow
 def test_nuts_agrees_with_the_laplace_fit(mixed):
     """NUTS from the Laplace mode: the same posterior centre, its own diagnostics."""
-    frame, _ = simulate_cornering(VEHICLE, kind="mixed", duration_s=DURATION_S, seed=11)
+    frame, _ = simulate_cornering(VEHICLE, manoeuvre="mixed", duration_s=DURATION_S, seed=11)
     obs = cornering_observations(frame, VEHICLE)
     nuts = fit_lateral(obs, "nuts", seed=1, num_chains=2, num_warmup=150, num_samples=150)
     assert nuts.fit.diagnostics.method == "nuts" and nuts.fit.diagnostics.n_chains == 2

@@ -13,7 +13,7 @@ DURATION_S = 240.0
 
 
 def test_observations_are_padded_outside_both_masks():
-    frame, _ = simulate_cornering(VEHICLE, kind="mixed", duration_s=DURATION_S, seed=11)
+    frame, _ = simulate_cornering(VEHICLE, manoeuvre="mixed", duration_s=DURATION_S, seed=11)
     whole = cornering_observations(frame, VEHICLE)
     obs = dataclasses.replace(
         whole, **{name: getattr(whole, name)[:2390] for name in search._SERIES}
@@ -27,7 +27,7 @@ def test_observations_are_padded_outside_both_masks():
 
 def test_every_long_drive_is_searched_on_subsets_of_one_shape():
     """Drives of any length above the search's size give subsets of one length (one program)."""
-    frame, _ = simulate_cornering(VEHICLE, kind="mixed", duration_s=DURATION_S, seed=11)
+    frame, _ = simulate_cornering(VEHICLE, manoeuvre="mixed", duration_s=DURATION_S, seed=11)
     obs = search._padded(cornering_observations(frame, VEHICLE))
     count = 8
     subset, scale = search._search_subset(obs, count)

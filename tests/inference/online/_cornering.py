@@ -8,8 +8,10 @@ from tyrebayes.streams import validate_stream
 DURATION_S = 300.0
 
 
-def observations(kind: str, seed: int, duration_s: float = DURATION_S):
+def observations(manoeuvre: str, seed: int, duration_s: float = DURATION_S):
     """A simulated drive's cornering observations and its true parameters."""
     vehicle = load_vehicle("compact_fwd")
-    frame, truth = simulate_cornering(vehicle, kind=kind, duration_s=duration_s, seed=seed)
+    frame, truth = simulate_cornering(
+        vehicle, manoeuvre=manoeuvre, duration_s=duration_s, seed=seed
+    )
     return cornering_observations(validate_stream(frame, vehicle).data, vehicle), truth

@@ -18,7 +18,7 @@ from tyrebayes.inference.tyre.model import TyrePriors, window_quantities
 
 from ._synthetic import linear_windows
 
-KIND = "magic"
+MODEL = "magic"
 PRIORS = TyrePriors()
 WEIGHT = jnp.asarray(0.7)
 
@@ -36,15 +36,15 @@ def block():
 
 
 def _log_likelihood(block):
-    return lambda t: block_log_likelihood(t, block, WEIGHT, KIND, PRIORS)
+    return lambda t: block_log_likelihood(t, block, WEIGHT, MODEL, PRIORS)
 
 
 def test_value_and_gradient_are_the_log_likelihoods(block):
-    prior = type_prior(PRIORS, kind=KIND)
+    prior = type_prior(PRIORS, model=MODEL)
     rng = np.random.default_rng(1)
     for theta in (prior.mean, prior.mean + 0.3 * rng.normal(size=prior.mean.shape)):
         theta = jnp.asarray(theta)
-        value, gradient, _ = block_curvature(theta, block, WEIGHT, KIND, PRIORS)
+        value, gradient, _ = block_curvature(theta, block, WEIGHT, MODEL, PRIORS)
         expected_value, expected_gradient = jax.value_and_grad(_log_likelihood(block))(theta)
         np.testing.assert_allclose(value, expected_value, rtol=1e-12)
         np.testing.assert_allclose(gradient, expected_gradient, rtol=1e-9, atol=1e-9)
@@ -53,11 +53,11 @@ def test_value_and_gradient_are_the_log_likelihoods(block):
 def test_information_is_the_hessian_less_the_quantities_curvature(block):
     # ∇²ℓ = Jᵀ∇²F J + Σ ∂F/∂q ∇²q: the second term is the Hessian of θ ↦ ∇F(q₀)·q(θ) with ∇F
     # held at θ₀. The Gauss-Newton information must be −(∇²ℓ − that), to round-off.
-    theta = type_prior(PRIORS, kind=KIND).mean
+    theta = type_prior(PRIORS, model=MODEL).mean
     obs = block.observations(WEIGHT)
 
     def quantities(t):
-        return window_quantities(model_sites(t, KIND, PRIORS), obs, KIND)
+        return window_quantities(model_sites(t, MODEL, PRIORS), obs, MODEL)
 
     q0 = quantities(theta)
     gradient_q = jax.grad(lambda q: _log_likelihood_of(q, block, obs))(q0)
@@ -71,7 +71,7 @@ def test_information_is_the_hessian_less_the_quantities_curvature(block):
 
     hessian = jax.hessian(_log_likelihood(block))(theta)
     quantities_curvature = jax.hessian(linear_in_q)(theta)
-    _, _, information = block_curvature(theta, block, WEIGHT, KIND, PRIORS)
+    _, _, information = block_curvature(theta, block, WEIGHT, MODEL, PRIORS)
     scale = np.sqrt(np.outer(np.abs(np.diag(hessian)), np.abs(np.diag(hessian)))) + 1e-12
     np.testing.assert_allclose(
         (information + (hessian - quantities_curvature)) / scale, 0.0, atol=1e-8
@@ -83,9 +83,9 @@ def test_information_is_the_hessian_less_the_quantities_curvature(block):
 def test_near_the_mode_the_information_on_c_xr_is_the_hessians():
     # Two minutes of windows: the dropped term's weights are residuals, which average out.
     block = _block(120.0, seed=2)
-    prior = type_prior(PRIORS, kind=KIND)
+    prior = type_prior(PRIORS, model=MODEL)
     mode = laplace_update(_log_likelihood(block), prior.mean, prior.cov, 30).mean
     exact = -jax.hessian(_log_likelihood(block))(mode)
-    _, _, information = block_curvature(mode, block, WEIGHT, KIND, PRIORS)
+    _, _, information = block_curvature(mode, block, WEIGHT, MODEL, PRIORS)
     c = prior.names.index("log_c_xr")
     assert float(information[c, c]) == pytest.approx(float(exact[c, c]), rel=0.05)

@@ -31,7 +31,7 @@ N_STEPS = 41  # 20 minutes of 30 s steps, and one more
 
 @pytest.fixture(scope="module")
 def estimator():
-    return OnlineEstimator.create(kind="linear")
+    return OnlineEstimator.create(model="linear")
 
 
 def _steps(windows):
@@ -177,7 +177,7 @@ def test_swap_at_a_drive_start_is_found_and_a_new_drive_alone_is_not(estimator):
     # fires within 5 minutes of the new drive, and the estimate is the challenger's, which
     # learned the new tyre from the drive start.
     swap_only = OnlineEstimator.create(
-        kind="linear", config=default_config("linear", change_threshold=float("inf"))
+        model="linear", config=default_config("linear", change_threshold=float("inf"))
     )
     loud = run_online(swap_only, swap_only.init(), _steps(_two_drives(11, 52.0, -0.003))).trajectory
     alarms = np.asarray(loud.time_s)[np.asarray(loud.alarm)]
@@ -200,7 +200,7 @@ def test_not_ready_without_excitation(estimator):
 def test_load_sensitivity_is_tracked_where_the_priors_have_it():
     """With the measured tyres' prior on q the filter carries it as θ's last coordinate and
     reads a load sensitivity of 0.8 hidden in the windows; C_x is the static load's."""
-    estimator = OnlineEstimator.create(kind="linear", priors=TyrePriors().with_load_sensitivity())
+    estimator = OnlineEstimator.create(model="linear", priors=TyrePriors().with_load_sensitivity())
     assert estimator.prior.names[-1] == "load_sensitivity"
     windows = linear_windows(3, 600.0, load_sensitivity=0.8)
     run = run_online(estimator, estimator.init(), _steps(windows))
@@ -218,7 +218,7 @@ def test_other_settings_reuse_the_compiled_filter(estimator, caplog):
     steps = _steps(linear_windows(3, 300.0))
     default = run_online(estimator, estimator.init(), steps).trajectory  # compiled for this shape
     lax = OnlineEstimator.create(
-        kind="linear",
+        model="linear",
         config=default_config(
             "linear", ready_half_width=100.0, min_slip_windows=0, min_excited_windows=0
         ),
@@ -248,7 +248,7 @@ def test_a_dry_road_labelled_ice_is_not_reported_as_such(estimator, surface):
     # μ_max from a tyre its type prior does not allow; labelled dry, it reports both. (Each
     # label compiles its own filter; the snow label's note is test_summary.py's.)
     if surface != "dry":  # labelled dry, the module's filter (compiled once) serves
-        estimator = OnlineEstimator.create(kind="linear", surface=surface)
+        estimator = OnlineEstimator.create(model="linear", surface=surface)
     windows = _with_abs_stop(_with_abs_stop(linear_windows(11, 600.0), 200.0, 0.9), 400.0, 0.9)
     blocks = window_blocks(windows, surface, width=WIDTH)
     trajectory = run_online(estimator, estimator.init(), pad_steps(blocks, N_STEPS)).trajectory
@@ -261,3 +261,8 @@ def test_a_dry_road_labelled_ice_is_not_reported_as_such(estimator, surface):
         assert record["mu_max_note"] is not None or (
             record["mu_max"] is None and record["prior_conflict"] is not None
         ), record
+
+
+def test_create_refuses_the_old_curve_keyword_naming_model():
+    with pytest.raises(TypeError, match="create: keyword 'kind' is now 'model'"):
+        OnlineEstimator.create(kind="linear")

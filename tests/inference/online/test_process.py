@@ -8,7 +8,7 @@ from tyrebayes.inference.online import default_config
 from tyrebayes.inference.online.parameters import type_prior
 from tyrebayes.inference.online.process import predict
 
-PRIOR = type_prior(kind="linear")
+PRIOR = type_prior(model="linear")
 CONFIG = default_config("linear")
 NOISE = np.asarray(["noise_scale" in n for n in PRIOR.names])
 

@@ -12,7 +12,7 @@ from tyrebayes.inference.online.run import OnlineRun
 @pytest.fixture(scope="module")
 def run():
     """Three steps of the prior's summary, an alarm (a swap) at the second."""
-    estimator = OnlineEstimator.create(kind="linear")
+    estimator = OnlineEstimator.create(model="linear")
     state = estimator.init()
     first = eqx.filter_jit(estimator.summary)(state)
     trajectory = jax.tree.map(lambda x: jnp.stack([x, x, x]), first)

@@ -101,7 +101,7 @@ def test_a_tyre_coordinate_in_conflict_with_its_prior_withholds_c_x_and_mu_max()
 
 def _excited_prior_state():
     """A Magic Formula estimator and its prior state with windows enough to be ready."""
-    estimator = OnlineEstimator.create(kind="magic")
+    estimator = OnlineEstimator.create(model="magic")
     many = jnp.asarray(1000.0)
     state = eqx.tree_at(
         lambda s: (s.n_slip_windows, s.n_excited_windows), estimator.init(), (many, many)

@@ -191,7 +191,7 @@ def test_predictive_core_matches_the_model_log_likelihood():
     import jax
     from numpyro.infer import Predictive, log_likelihood
 
-    from tyrebayes.inference.tyre.model import DEFAULT_KIND, tyre_model, window_likelihood
+    from tyrebayes.inference.tyre.model import DEFAULT_MODEL, tyre_model, window_likelihood
     from tyrebayes.inference.tyre.predictive import _predictive_core
 
     windows = linear_region_windows(5, n=200)
@@ -203,11 +203,11 @@ def test_predictive_core_matches_the_model_log_likelihood():
     expected = log_likelihood(tyre_model, draws, obs)
     # The stored slip terms condition on each window's block offset (its conditional mean given
     # the block's residuals), which the model's slip site leaves to the marginal factor.
-    offsets = jax.vmap(lambda p: window_likelihood(p, obs, DEFAULT_KIND).block_offset)(draws)
-    slip_loc = jax.vmap(lambda p: window_likelihood(p, obs, DEFAULT_KIND).slip_loc)(draws)
-    slip_scale = jax.vmap(lambda p: window_likelihood(p, obs, DEFAULT_KIND).slip_scale)(draws)
+    offsets = jax.vmap(lambda p: window_likelihood(p, obs, DEFAULT_MODEL).block_offset)(draws)
+    slip_loc = jax.vmap(lambda p: window_likelihood(p, obs, DEFAULT_MODEL).slip_loc)(draws)
+    slip_scale = jax.vmap(lambda p: window_likelihood(p, obs, DEFAULT_MODEL).slip_scale)(draws)
     conditional = dist.Normal(slip_loc + offsets, slip_scale).log_prob(obs.slip[None, :])
-    core = _predictive_core(DEFAULT_KIND, (256, 1, ("dry",)), 6)
+    core = _predictive_core(DEFAULT_MODEL, (256, 1, ("dry",)), 6)
     loglik, ppc = core(draws, obs, jax.random.PRNGKey(4))
     mask, at_limit = np.asarray(obs.mask), np.asarray(obs.at_limit)
     np.testing.assert_allclose(
@@ -313,3 +313,12 @@ def test_second_pass_keeps_the_first_result_when_the_weights_did_not_change():
     assert _second_pass(core, first, obs, weighted) == ("refitted", "code")
     # From the first mode, in the first pass's whitened coordinates, without a search.
     assert calls == [("mode", weighted, "whitening", False)]
+
+
+@pytest.mark.parametrize("fitter", ["fit_tyre", "fit_tyre_fast", "fit_tyre_nuts"])
+def test_the_old_curve_keyword_is_refused_naming_model(fitter):
+    from tyrebayes.inference.tyre import fit as tyre_fit
+
+    obs = stack_drives([linear_region_windows(1, n=50)], ["dry"])
+    with pytest.raises(TypeError, match="keyword 'kind' is now 'model'"):
+        getattr(tyre_fit, fitter)(obs, kind="brush")

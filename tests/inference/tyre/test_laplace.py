@@ -42,7 +42,7 @@ def test_site_plates_name_the_drive_plate_of_per_drive_sites():
     from tyrebayes.inference.tyre.block_hessian import _site_plates
     from tyrebayes.inference.tyre.model import tyre_model
 
-    model = partial(tyre_model, priors=TyrePriors(), kind="brush")
+    model = partial(tyre_model, priors=TyrePriors(), model="brush")
     plates = _site_plates(model, _template_observations(LAYOUT_WINDOWS, 3, ("dry",)))
     assert plates["c_xr"] == ()
     assert "drive" in plates["slip_offset"] and "drive" in plates["force_gain"]
@@ -59,7 +59,7 @@ def test_a_refit_from_the_first_mode_reaches_the_weighted_posteriors_searched_mo
     from tyrebayes.inference.tyre.data import stack_drives
     from tyrebayes.inference.tyre.fit import LAPLACE_DRAWS
     from tyrebayes.inference.tyre.laplace import _laplace_core, optimiser_outcome
-    from tyrebayes.inference.tyre.model import DEFAULT_KIND
+    from tyrebayes.inference.tyre.model import DEFAULT_MODEL
     from tyrebayes.inference.tyre.predictive import _obs_key
 
     from .test_model import PAD, linear_region_windows
@@ -67,7 +67,7 @@ def test_a_refit_from_the_first_mode_reaches_the_weighted_posteriors_searched_mo
     obs = stack_drives([linear_region_windows(3)], ["dry"], pad_to=PAD)
     # Same shape and settings as the fits of test_fit.py: no new compilation.
     core = _laplace_core(
-        _priors_key(TyrePriors()), DEFAULT_KIND, _obs_key(obs), LAPLACE_DRAWS, 2000
+        _priors_key(TyrePriors()), DEFAULT_MODEL, _obs_key(obs), LAPLACE_DRAWS, 2000
     )
     key, eye = jax.random.PRNGKey(0), jnp.eye(core.flat0.shape[0])
     first_mode, _, whiten, _ = core.mode(core.flat0, obs, eye, True)

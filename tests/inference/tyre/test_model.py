@@ -89,15 +89,15 @@ def test_saved_tyre_fit_loads_back_with_its_tyre_fields(linear_fit, tmp_path):
     assert fit.fit.kind == "tyre" and fit.fit.provenance.method == "fast"
     loaded = load_fit(fit.save(tmp_path / "tyre.nc"), kind="tyre")
     again = TyreFit.from_fit(loaded)
-    assert again.kind == fit.kind and again.surfaces == fit.surfaces
+    assert again.model == fit.model and again.surfaces == fit.surfaces
     assert again.mu_observed == fit.mu_observed and again.n_samples_used == fit.n_samples_used
     np.testing.assert_equal(again.summary(), fit.summary())
 
 
-def test_bad_kind_is_a_value_error():
+def test_bad_model_is_a_value_error():
     obs = stack_drives([linear_region_windows(1, n=50)], ["dry"])
     with pytest.raises(ValueError, match="expected one of .*'brush'.*, got 'fiala'"):
-        tyre_model(obs, TyrePriors(), kind="fiala")
+        tyre_model(obs, TyrePriors(), model="fiala")
 
 
 def test_imu_gain_uncertainty_widens_only_its_drives_force_gain_prior():
@@ -204,7 +204,7 @@ def test_load_sensitivity_is_found_and_c_x_is_at_the_static_load(truth):
     load, is recovered either way."""
     obs = stack_drives([load_transfer_windows(5, truth)], ["dry"], pad_to=PAD)
     priors = TyrePriors().with_load_sensitivity()
-    fit = fit_tyre(obs, priors=priors, method="fast", kind="linear", seed=5)
+    fit = fit_tyre(obs, priors=priors, method="fast", model="linear", seed=5)
     assert fit.diagnostics.converged, fit.diagnostics.reason
     summary = fit.summary()
     q = np.asarray(fit.draws("load_sensitivity"))
@@ -248,3 +248,9 @@ def test_a_one_drive_site_is_broadcast_with_the_gathers_values_and_derivatives()
     assert "gather" not in str(jax.make_jaxpr(jax.hessian(loss(broadcast)))(site))
     two = jnp.asarray([0.3, 0.5])
     np.testing.assert_array_equal(_per_window(two, index.at[3].set(1), 2), two[index.at[3].set(1)])
+
+
+def test_the_old_curve_keyword_is_refused_naming_model():
+    obs = stack_drives([linear_region_windows(1, n=50)], ["dry"])
+    with pytest.raises(TypeError, match="keyword 'kind' is now 'model'"):
+        tyre_model(obs, TyrePriors(), kind="brush")

@@ -83,7 +83,7 @@ def _tyre_fit(lateral, *, mu_max: float = 1.0, mu_observed: bool = False) -> Tyr
         mu_observed={"dry": mu_observed},
         surfaces=("dry",),
         n_samples_used=100,
-        kind="magic",
+        model="magic",
         slip_variance_inflation=(1.0,),
         adequacy=Adequacy(True, (), 1.0, 0.1, 0.0, 0.0),
         force_range=0.2,

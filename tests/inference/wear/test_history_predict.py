@@ -65,7 +65,7 @@ def test_to_dict_is_the_commands_object():
     assert out["lateral_work"]["share_of_work"] == {"front": 0.3, "rear": 0.8}
     assert set(out["lateral_work"]["scale"]) == {"front", "rear"}
     assert out["tyre_changes"] == [
-        {"drive_index": 3, "odometer_km": 4200.0, "kind": "rotation", "probability": 0.9}
+        {"drive_index": 3, "odometer_km": 4200.0, "change_type": "rotation", "probability": 0.9}
     ]
     np.testing.assert_array_equal(pred.wear_over_reference, pred.g_per_1000km_car_set / 100.0)
     assert out["wear_over_reference"]["reference_g_per_1000km"] == 100.0

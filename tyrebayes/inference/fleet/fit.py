@@ -135,7 +135,7 @@ def _run_svi(data, priors, key, num_steps, num_draws, learning_rate):
     return samples, info
 
 
-@renamed_keyword("key", "seed")
+@renamed_keyword("key", "seed", what="an int")
 def fit_fleet(
     table: pd.DataFrame,
     outcome: str = "mu",

@@ -159,7 +159,7 @@ def measured_braking_bounds() -> pd.DataFrame:
 
     A stop's mean deceleration [g] is a lower bound on mu_max; the summer-on-snow row of What
     Car? gives only "more than twice the winter distance", i.e. an upper bound on its mean
-    deceleration (``kind = "upper"``).
+    deceleration (``bound = "upper"``).
     """
     raw = load_braking_data()
     rows = []
@@ -173,7 +173,7 @@ def measured_braking_bounds() -> pd.DataFrame:
             ]["distance_m"].iloc[0]
             decel = float(mean_deceleration_g(r["speed_from_kmh"], 2 * winter))
             rows.append((r["source"], r["tyre_type"], r["surface"], decel, "upper"))
-    return pd.DataFrame(rows, columns=["source", "tyre_type", "surface", "deceleration_g", "kind"])
+    return pd.DataFrame(rows, columns=["source", "tyre_type", "surface", "deceleration_g", "bound"])
 
 
 def prior_predictive_check(
@@ -196,7 +196,7 @@ def prior_predictive_check(
         sig = priors.sigma[s] * np.exp(priors.sigma_log_sd[s] * rng.standard_normal(n_draws))
         mu = a + sig * rng.standard_normal(n_draws)
         q05, q50, q95 = np.quantile(mu, [0.05, 0.5, 0.95])
-        lo = r.deceleration_g / ABS_EFFICIENCY_RANGE[1] if r.kind == "lower" else 0.0
+        lo = r.deceleration_g / ABS_EFFICIENCY_RANGE[1] if r.bound == "lower" else 0.0
         hi = r.deceleration_g / ABS_EFFICIENCY_RANGE[0]
         consistent = bool(q05 <= hi and q95 >= lo and 0.8 * lo <= q50 <= 1.25 * hi)
         out.append(

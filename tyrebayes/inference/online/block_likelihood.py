@@ -62,12 +62,12 @@ def block_log_likelihood(
     theta: Float[Array, "p"],
     block: WindowBlocks,
     slip_weight: Float[Array, ""],
-    kind: str,
+    model: str,
     priors: TyrePriors,
 ) -> Float[Array, ""]:
     """log p(block | θ) [nats] (0 for a block of padding only)."""
     obs = block.observations(slip_weight)
-    q = window_quantities(model_sites(theta, kind, priors), obs, kind)
+    q = window_quantities(model_sites(theta, model, priors), obs, model)
     return _log_likelihood_of(q, block, obs)
 
 
@@ -75,7 +75,7 @@ def block_curvature(
     theta: Float[Array, "p"],
     block: WindowBlocks,
     slip_weight: Float[Array, ""],
-    kind: str,
+    model: str,
     priors: TyrePriors,
 ) -> tuple[Float[Array, ""], Float[Array, "p"], Float[Array, "p p"]]:
     """ℓ(θ), ∇ℓ(θ) and the Gauss-Newton information −Jᵀ∇²F J of the block (module docstring).
@@ -87,7 +87,7 @@ def block_curvature(
     obs = block.observations(slip_weight)
 
     def quantities(t):
-        return window_quantities(model_sites(t, kind, priors), obs, kind)
+        return window_quantities(model_sites(t, model, priors), obs, model)
 
     def log_likelihood_of(q):
         return _log_likelihood_of(q, block, obs)
@@ -109,14 +109,14 @@ def block_curvature(
 
 
 def standardised_slip_residuals(
-    theta: Float[Array, "p"], block: WindowBlocks, kind: str, priors: TyrePriors
+    theta: Float[Array, "p"], block: WindowBlocks, model: str, priors: TyrePriors
 ) -> Float[Array, "w"]:
     """(σ_obs − loc − block offset)/scale of each slip window at θ (0 elsewhere).
 
     What the batch fit's slip weights read (:func:`~tyrebayes.inference.tyre.fit`).
     """
     obs = block.observations(jnp.ones((), dtype=block.slip.dtype))
-    lik = window_likelihood(model_sites(theta, kind, priors), obs, kind)
+    lik = window_likelihood(model_sites(theta, model, priors), obs, model)
     z = (block.slip - lik.slip_loc - lik.block_offset) / lik.slip_scale
     return jnp.where(block.mask & ~block.at_limit, z, 0.0)
 

@@ -11,6 +11,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float, Int
 
+from ...internal.renamed import renamed_keyword
 from ...internal.validation import check_nonnegative, check_positive_or_inf
 from ..tyre.adequacy import EXCITATION_FORCE, MAX_C_XR_PRIOR_SDS
 from .parameters import parameter_names
@@ -196,10 +197,11 @@ class OnlineConfig(eqx.Module):
             )
 
 
-def default_config(kind: str = "magic", load_sensitive: bool = False, **changes) -> OnlineConfig:
-    """:class:`OnlineConfig` with the stated drifts and reversions for ``kind``'s θ (and any
+@renamed_keyword("kind", "model", what="the tyre-curve model")
+def default_config(model: str = "magic", load_sensitive: bool = False, **changes) -> OnlineConfig:
+    """:class:`OnlineConfig` with the stated drifts and reversions for ``model``'s θ (and any
     field changed)."""
-    names = parameter_names(kind, load_sensitive)
+    names = parameter_names(model, load_sensitive)
     drift = jnp.asarray([DRIFT_PER_SQRT_S.get(n, 0.0) for n in names], dtype=float)
     reversion = jnp.asarray([REVERSION_S.get(n, jnp.inf) for n in names], dtype=float)
     return OnlineConfig(

@@ -13,6 +13,7 @@ import functools
 import equinox as eqx
 import jax
 
+from ...internal.renamed import renamed_keyword
 from ..tyre.model import TyrePriors
 from .config import OnlineConfig
 from .estimator import OnlineEstimator
@@ -52,10 +53,11 @@ def run_online_cars(
     return jax.vmap(estimator.run)(states, blocks)
 
 
+@renamed_keyword("kind", "model", what="the tyre-curve model")
 def online_estimate(
     blocks: WindowBlocks,
     *,
-    kind: str = "magic",
+    model: str = "magic",
     priors: TyrePriors | None = None,
     config: OnlineConfig | None = None,
     imu_gain_log_sd: float = 0.0,
@@ -66,8 +68,8 @@ def online_estimate(
     ----------
     blocks : WindowBlocks
         The stream's steps (:func:`~.stream.stream_steps`); their surface sets μ_max's prior.
-    kind : str
-        The tyre-curve model (:data:`~tyrebayes.inference.tyre.curves.MODEL_KINDS`).
+    model : str
+        The tyre-curve model (:data:`~tyrebayes.inference.tyre.curves.CURVE_MODELS`).
     priors : TyrePriors, optional
         The batch model's prior scales (default :class:`TyrePriors`).
     config : OnlineConfig, optional
@@ -98,7 +100,7 @@ def online_estimate(
     False
     """
     estimator = OnlineEstimator.create(
-        kind=kind,
+        model=model,
         surface=blocks.surface,
         priors=priors,
         config=config,

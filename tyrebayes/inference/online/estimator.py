@@ -30,8 +30,8 @@ One step (Särkkä 2013, ch. 5-6; module docstrings of the parts):
 
 Examples
 --------
->>> est = OnlineEstimator.create(kind="brush")  # doctest: +SKIP
->>> state = est.init(type_prior(kind="brush"))  # doctest: +SKIP
+>>> est = OnlineEstimator.create(model="brush")  # doctest: +SKIP
+>>> state = est.init(type_prior(model="brush"))  # doctest: +SKIP
 >>> run = est.run(state, window_blocks(windows))  # doctest: +SKIP
 """
 
@@ -45,7 +45,8 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float, Int
 
-from ..tyre.model import TyrePriors, check_kind
+from ...internal.renamed import renamed_keyword
+from ..tyre.model import TyrePriors, check_model
 from .block_likelihood import (
     block_curvature,
     block_log_likelihood,
@@ -115,8 +116,8 @@ class OnlineEstimator(eqx.Module):
     --------
     An estimator for the Magic Formula on dry roads, and its state before any window:
 
-    >>> estimator = OnlineEstimator.create(kind="magic", surface="dry")
-    >>> estimator.kind, estimator.prior.names[:3]
+    >>> estimator = OnlineEstimator.create(model="magic", surface="dry")
+    >>> estimator.model, estimator.prior.names[:3]
     ('magic', ('log_c_xr', 'temp_sensitivity', 'log_mu_max'))
     >>> state = estimator.init()
     >>> state.mean.shape, float(state.time_s), float(state.n_slip_windows)
@@ -130,25 +131,26 @@ class OnlineEstimator(eqx.Module):
     priors: TyrePriors
 
     @classmethod
+    @renamed_keyword("kind", "model", what="the tyre-curve model")
     def create(
         cls,
         *,
-        kind: str = "magic",
+        model: str = "magic",
         surface: str = "dry",
         priors: TyrePriors | None = None,
         config: OnlineConfig | None = None,
         imu_gain_log_sd: float = 0.0,
     ) -> OnlineEstimator:
         """An estimator with the type prior of ``priors`` and the stated default settings."""
-        check_kind(kind)
+        check_model(model)
         priors = TyrePriors() if priors is None else priors
-        prior = type_prior(priors, kind=kind, surface=surface, imu_gain_log_sd=imu_gain_log_sd)
-        config = config or default_config(kind, priors.load_sensitive)
+        prior = type_prior(priors, model=model, surface=surface, imu_gain_log_sd=imu_gain_log_sd)
+        config = config or default_config(model, priors.load_sensitive)
         return cls(prior=prior, config=config, priors=priors)
 
     @property
-    def kind(self) -> str:
-        return self.prior.kind
+    def model(self) -> str:
+        return self.prior.model
 
     @property
     def _index(self) -> dict:
@@ -157,8 +159,8 @@ class OnlineEstimator(eqx.Module):
     def init(self, prior: GaussianPrior | None = None, time_s=0.0) -> FilterState:
         """The state before any window: the type prior (default this estimator's)."""
         prior = self.prior if prior is None else prior
-        if prior.kind != self.kind:
-            raise ValueError(f"prior: expected kind {self.kind!r}, got {prior.kind!r}")
+        if prior.model != self.model:
+            raise ValueError(f"prior: expected model {self.model!r}, got {prior.model!r}")
         dtype = prior.mean.dtype
         zero = jnp.zeros((), dtype=dtype)
         return FilterState(
@@ -236,10 +238,10 @@ class OnlineEstimator(eqx.Module):
         )
 
         def log_likelihood(theta):
-            return block_log_likelihood(theta, block, weight, self.kind, self.priors)
+            return block_log_likelihood(theta, block, weight, self.model, self.priors)
 
         def gauss_newton(theta):
-            return block_curvature(theta, block, weight, self.kind, self.priors)
+            return block_curvature(theta, block, weight, self.model, self.priors)
 
         quadratic = jnp.asarray([n in QUADRATIC for n in self.prior.names])
 
@@ -350,7 +352,7 @@ class OnlineEstimator(eqx.Module):
         """The state after the step: the new Gaussians, the windows counted since the
         (re)start, the tests' running sums (cleared by an alarm), and step 5's residuals at the
         new mode for the VIF estimate (:mod:`.inflation`)."""
-        z = standardised_slip_residuals(mean, block, self.kind, self.priors)
+        z = standardised_slip_residuals(mean, block, self.model, self.priors)
         slip_window = block.mask & ~block.at_limit
         dtype = mean.dtype
         slips = jnp.sum(slip_window).astype(dtype)

@@ -19,7 +19,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
-from ..tyre.model import TyrePriors, check_kind
+from ...internal.renamed import renamed_keyword
+from ..tyre.model import TyrePriors, check_model
 
 # Site names in θ order. "log_" sites are positive in the model (θ = log of the site).
 _COMMON_HEAD = ("log_c_xr", "temp_sensitivity", "log_mu_max", "abs_force_ratio")
@@ -64,14 +65,16 @@ TYRE_COORDINATES = (
 PRIOR_CHECKED = tuple(c for c in TYRE_COORDINATES if c not in ("log_c_xr", "log_mu_max"))
 
 
-def parameter_names(kind: str, load_sensitive: bool = False) -> tuple[str, ...]:
-    """Names of θ's coordinates for a tyre-curve ``kind`` (:data:`~..tyre_model.MODEL_KINDS`),
-    with the load sensitivity q last where the priors have it (:attr:`TyrePriors.load_sensitive`).
+@renamed_keyword("kind", "model", what="the tyre-curve model")
+def parameter_names(model: str, load_sensitive: bool = False) -> tuple[str, ...]:
+    """Names of θ's coordinates for a tyre-curve ``model``
+    (:data:`~tyrebayes.inference.tyre.curves.CURVE_MODELS`), with the load sensitivity q last
+    where the priors have it (:attr:`TyrePriors.load_sensitive`).
     """
-    check_kind(kind)
+    check_model(model)
     return (
         *_COMMON_HEAD,
-        *_SHAPE[kind],
+        *_SHAPE[model],
         *_COMMON_TAIL,
         *(("load_sensitivity",) if load_sensitive else ()),
     )
@@ -86,7 +89,7 @@ class GaussianPrior(eqx.Module):
         Prior mean of θ (unconstrained coordinates, :func:`parameter_names`).
     cov : Float[Array, "p p"]
         Prior covariance of θ.
-    kind : str
+    model : str
         Tyre-curve model (static).
     surface : str
         Road surface whose μ_max prior it holds (static).
@@ -96,28 +99,29 @@ class GaussianPrior(eqx.Module):
 
     mean: Float[Array, "p"]
     cov: Float[Array, "p p"]
-    kind: str = eqx.field(static=True)
+    model: str = eqx.field(static=True)
     surface: str = eqx.field(static=True)
     load_sensitive: bool = eqx.field(static=True, default=False)
 
     @property
     def names(self) -> tuple[str, ...]:
         """θ's coordinates (:func:`parameter_names`)."""
-        return parameter_names(self.kind, self.load_sensitive)
+        return parameter_names(self.model, self.load_sensitive)
 
     def __check_init__(self):
         p = len(self.names)
         if self.mean.shape[-1] != p or self.cov.shape[-2:] != (p, p):
             raise ValueError(
-                f"GaussianPrior: expected mean (…, {p}) and cov (…, {p}, {p}) for kind "
-                f"{self.kind!r}, got {self.mean.shape} and {self.cov.shape}"
+                f"GaussianPrior: expected mean (…, {p}) and cov (…, {p}, {p}) for model "
+                f"{self.model!r}, got {self.mean.shape} and {self.cov.shape}"
             )
 
 
+@renamed_keyword("kind", "model", what="the tyre-curve model")
 def type_prior(
     priors: TyrePriors | None = None,
     *,
-    kind: str = "magic",
+    model: str = "magic",
     surface: str = "dry",
     imu_gain_log_sd: float = 0.0,
 ) -> GaussianPrior:
@@ -128,7 +132,7 @@ def type_prior(
     priors : TyrePriors, optional
         Prior scales (default :class:`TyrePriors`); ``slip_drift_median`` must be > 0 (the
         online update integrates each block's slip offset out, like the batch model).
-    kind : str
+    model : str
         Tyre-curve model, as for :func:`~tyrebayes.inference.tyre.fit.fit_tyre`.
     surface : str
         Road surface (sets μ_max's prior).
@@ -138,12 +142,12 @@ def type_prior(
 
     Examples
     --------
-    >>> prior = type_prior(kind="brush")
+    >>> prior = type_prior(model="brush")
     >>> prior.mean.shape
     (9,)
     """
     priors = TyrePriors() if priors is None else priors
-    check_kind(kind)
+    check_model(model)
     if not priors.slip_drift_median > 0:
         raise ValueError(
             f"online estimator: expected slip_drift_median > 0, got {priors.slip_drift_median}"
@@ -172,26 +176,26 @@ def type_prior(
         "log_slip_noise_scale": (0.0, priors.slip_noise_log_sd),
         "log_slip_drift_sd": (np.log(priors.slip_drift_median), priors.slip_drift_log_sd),
     }
-    names = parameter_names(kind, priors.load_sensitive)
+    names = parameter_names(model, priors.load_sensitive)
     mean = jnp.asarray([moments[n][0] for n in names], dtype=float)
     sd = jnp.asarray([moments[n][1] for n in names], dtype=float)
     return GaussianPrior(
         mean=mean,
         cov=jnp.diag(sd**2),
-        kind=kind,
+        model=model,
         surface=surface,
         load_sensitive=priors.load_sensitive,
     )
 
 
-def model_sites(theta: Float[Array, "p"], kind: str, priors: TyrePriors | None = None) -> dict:
+def model_sites(theta: Float[Array, "p"], model: str, priors: TyrePriors | None = None) -> dict:
     """θ as the per-tyre model's sites by name (one drive, one surface), for ``window_likelihood``.
 
     The shape sites follow :func:`~tyrebayes.inference.tyre.model.tyre_model`'s deterministic
     maps (C = 1 + exp, E = 1 − exp for ``"magic"``; p = p_min + exp for ``"shaped"``).
     """
     priors = TyrePriors() if priors is None else priors
-    names = parameter_names(kind, priors.load_sensitive)
+    names = parameter_names(model, priors.load_sensitive)
     value = {n: theta[i] for i, n in enumerate(names)}
     one = jnp.ones((1,), dtype=theta.dtype)
     sites = {
@@ -211,10 +215,10 @@ def model_sites(theta: Float[Array, "p"], kind: str, priors: TyrePriors | None =
     }
     if priors.load_sensitive:
         sites["load_sensitivity"] = value["load_sensitivity"]
-    if kind == "magic":
+    if model == "magic":
         sites["curve_shape_c"] = 1.0 + jnp.exp(value["log_curve_shape_excess"])
         sites["curve_curvature_e"] = 1.0 - jnp.exp(value["log_curve_curvature_gap"])
-    if kind == "shaped":
+    if model == "shaped":
         sites["curve_shape"] = priors.curve_shape_min + jnp.exp(value["log_curve_bend"])
     return sites
 

@@ -31,7 +31,7 @@ class OnlineRun(eqx.Module):
     >>> import equinox as eqx
     >>> import jax
     >>> from tyrebayes import OnlineEstimator
-    >>> estimator = OnlineEstimator.create(kind="linear")
+    >>> estimator = OnlineEstimator.create(model="linear")
     >>> state = estimator.init()
     >>> first = eqx.filter_jit(estimator.summary)(state)
     >>> run = OnlineRun(state=state, trajectory=jax.tree.map(lambda x: x[None], first))

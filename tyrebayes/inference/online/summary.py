@@ -155,7 +155,7 @@ class OnlineSummary(eqx.Module):
 
     >>> import equinox as eqx
     >>> from tyrebayes import OnlineEstimator
-    >>> estimator = OnlineEstimator.create(kind="magic")
+    >>> estimator = OnlineEstimator.create(model="magic")
     >>> summary = eqx.filter_jit(estimator.summary)(estimator.init())
     >>> record = summary.to_dict()
     >>> record["enough_evidence"], record["c_x"], record["n_slip_windows"]

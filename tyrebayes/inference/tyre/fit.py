@@ -21,15 +21,16 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ...internal.renamed import renamed_keyword
 from ..diagnostics import LAPLACE_METHODS
 from .adequacy import Adequacy, assess_adequacy, likelier_surface
 from .data import TyreObservations
 from .laplace import LaplaceCore, _laplace_core, optimiser_outcome
 from .model import (
-    DEFAULT_KIND,
+    DEFAULT_MODEL,
     SURFACES,
     TyrePriors,
-    check_kind,
+    check_model,
     curve_slip,
     window_likelihood,
 )
@@ -64,7 +65,7 @@ def _mu_observed(fit_draws: np.ndarray, priors: TyrePriors, obs: TyreObservation
 
 
 def _tyre_fit(
-    idata, diagnostics, samples: dict, priors, obs: TyreObservations, kind: str, inflation
+    idata, diagnostics, samples: dict, priors, obs: TyreObservations, model: str, inflation
 ) -> TyreFit:
     """The result both fitting paths return."""
     slip_window = np.asarray(obs.mask & ~obs.at_limit)
@@ -72,18 +73,18 @@ def _tyre_fit(
     rho = rho[np.isfinite(rho)]
     force_range = float(np.quantile(np.abs(rho), 0.9)) if rho.size else 0.0
     mu_observed = _mu_observed(samples["mu_max"], priors, obs)
-    adequacy = _adequacy(obs, samples, kind, priors, mu_observed)
+    adequacy = _adequacy(obs, samples, model, priors, mu_observed)
     return TyreFit(
         idata=idata,
         diagnostics=diagnostics.with_adequacy(adequacy.reasons),
         mu_observed=mu_observed,
         surfaces=obs.surfaces,
         n_samples_used=obs.n_used,
-        kind=kind,
+        model=model,
         slip_variance_inflation=tuple(float(x) for x in inflation),
         adequacy=adequacy,
         force_range=force_range,
-        secant_stiffness=_secant_stiffness(samples, kind, force_range),
+        secant_stiffness=_secant_stiffness(samples, model, force_range),
     )
 
 
@@ -93,21 +94,21 @@ _draws_slip = eqx.filter_jit(curve_slip)
 _CURVE_SHAPE_SITES = ("curve_shape", "curve_shape_c", "curve_curvature_e")
 
 
-def _secant_stiffness(samples: dict, kind: str, force: float) -> np.ndarray:
+def _secant_stiffness(samples: dict, model: str, force: float) -> np.ndarray:
     """Draws of ρ/σ(ρ) of the fitted curve at ``force`` (first surface, C_x at the mean T)."""
     if force <= 0:
         return np.asarray(samples["c_x"], float)
     mu = np.asarray(samples["mu_max"])[:, 0]
     force = np.minimum(force, 0.999 * mu)
     shape = {k: samples[k] for k in _CURVE_SHAPE_SITES if k in samples}
-    slip = np.asarray(_draws_slip(kind, np.asarray(force), samples["c_x"], mu, shape))
+    slip = np.asarray(_draws_slip(model, np.asarray(force), samples["c_x"], mu, shape))
     with np.errstate(invalid="ignore", divide="ignore"):
         return force / slip
 
 
 @eqx.filter_jit
 def _point_residuals(
-    point: dict, obs: TyreObservations, kind: str
+    point: dict, obs: TyreObservations, model: str
 ) -> tuple[Float[Array, " n"], Float[Array, " n"]]:
     """Each window's slip residual σ_obs − loc at one point θ, and the residual standardised
     with the block offset taken out, (σ_obs − loc − offset)/scale (:func:`window_likelihood`).
@@ -116,21 +117,21 @@ def _point_residuals(
     a program of its own, traced, lowered and looked up in the compilation cache at every new
     padded shape (a fleet worker's first fit of a shape).
     """
-    lik = window_likelihood(point, obs, kind)
+    lik = window_likelihood(point, obs, model)
     residual = obs.slip - lik.slip_loc
     return residual, (residual - lik.block_offset) / lik.slip_scale
 
 
 def _adequacy(
-    obs: TyreObservations, samples: dict, kind: str, priors: TyrePriors, mu_observed: dict
+    obs: TyreObservations, samples: dict, model: str, priors: TyrePriors, mu_observed: dict
 ) -> Adequacy:
     """:func:`.adequacy.assess_adequacy` at the posterior mean (slip windows, time order)."""
     point = {k: np.mean(np.asarray(v), axis=0) for k, v in samples.items()}
-    residual, z = (np.asarray(x) for x in _point_residuals(point, obs, kind))
+    residual, z = (np.asarray(x) for x in _point_residuals(point, obs, model))
     slip_window = np.asarray(obs.mask & ~obs.at_limit)
     z = z[slip_window]
     shape_sds = {}
-    if kind == "magic":
+    if model == "magic":
         shape_sds = {
             "shape C": (
                 float(np.mean(np.log(samples["curve_shape_excess"])))
@@ -193,7 +194,7 @@ def _likelier_surface(log_mu: np.ndarray, label: str, priors: TyrePriors) -> tup
     return SURFACES[int(best)], float(lbf)
 
 
-def _weighted_by_correlation(obs: TyreObservations, point: dict, kind: str):
+def _weighted_by_correlation(obs: TyreObservations, point: dict, model: str):
     """``obs`` with each drive's slip weight 1/VIF from the residuals at ``point``.
 
     Returns ``(obs, inflation)``. The weights change the posterior's width, not its centre
@@ -201,7 +202,7 @@ def _weighted_by_correlation(obs: TyreObservations, point: dict, kind: str):
     for them. Where they are the weights ``obs`` has (every drive's VIF 1), ``obs`` itself is
     returned.
     """
-    z = np.asarray(_point_residuals({k: jnp.asarray(v) for k, v in point.items()}, obs, kind)[1])
+    z = np.asarray(_point_residuals({k: jnp.asarray(v) for k, v in point.items()}, obs, model)[1])
     slip_window = np.asarray(obs.mask & ~obs.at_limit)
     weights, inflation = slip_weights(z, slip_window, np.asarray(obs.drive_index), obs.n_drives)
     if np.array_equal(weights, np.asarray(obs.slip_weight)):
@@ -223,22 +224,23 @@ def _second_pass(core: LaplaceCore, first: tuple, obs: TyreObservations, weighte
     return core.mode(mode, weighted, whiten, False)[:2]
 
 
-def _first_pass(core: LaplaceCore, obs: TyreObservations, kind: str):
+def _first_pass(core: LaplaceCore, obs: TyreObservations, model: str):
     """The searched mode with unit slip weights, and the weighted observations it gives.
 
     Returns ``(first, weighted, inflation)``: ``first`` the ``core.mode`` result, ``weighted``
     ``obs`` with each drive's slip weight 1/VIF (``obs`` itself where every VIF is 1).
     """
     first = core.mode(core.flat0, obs, jnp.eye(core.flat0.shape[0], dtype=core.flat0.dtype), True)
-    weighted, inflation = _weighted_by_correlation(obs, first[3], kind)
+    weighted, inflation = _weighted_by_correlation(obs, first[3], model)
     return first, weighted, inflation
 
 
+@renamed_keyword("kind", "model", what="the tyre-curve model")
 def fit_tyre_nuts(
     obs: TyreObservations,
     *,
     priors: TyrePriors | None = None,
-    kind: str = DEFAULT_KIND,
+    model: str = DEFAULT_MODEL,
     num_chains: int = 4,
     num_warmup: int = 300,
     num_samples: int = 1000,
@@ -261,15 +263,15 @@ def fit_tyre_nuts(
     shape (padded bucket, drives, surfaces) and sampler settings.
     """
     priors = TyrePriors() if priors is None else priors
-    check_kind(kind)
+    check_model(model)
     key_laplace, key_init, key_run, key_ppc = jax.random.split(jax.random.PRNGKey(seed), 4)
-    core = _laplace_core(_priors_key(priors), kind, _obs_key(obs), LAPLACE_DRAWS, 2000)
-    first, weighted, inflation = _first_pass(core, obs, kind)
+    core = _laplace_core(_priors_key(priors), model, _obs_key(obs), LAPLACE_DRAWS, 2000)
+    first, weighted, inflation = _first_pass(core, obs, model)
     mode, _ = _second_pass(core, first, obs, weighted)
     obs = weighted
     _, scale, _ = core.laplace(mode, obs, key_laplace)
     runner = _nuts_runner(
-        _priors_key(priors), kind, _obs_key(obs), num_chains, num_warmup, num_samples
+        _priors_key(priors), model, _obs_key(obs), num_chains, num_warmup, num_samples
     )
     u_init = 2.0 * jax.random.normal(key_init, (num_chains, mode.shape[0]), dtype=mode.dtype)
     samples, diverging = runner(key_run, obs, mode, scale, u_init)
@@ -279,20 +281,21 @@ def fit_tyre_nuts(
         samples,
         num_chains,
         obs,
-        kind,
+        model,
         key_ppc,
         sample_stats={"diverging": diverging},
         pointwise=pointwise,
     )
     diagnostics = _scalar_diagnostics(idata)
-    return _tyre_fit(idata, diagnostics, samples, priors, obs, kind, inflation)
+    return _tyre_fit(idata, diagnostics, samples, priors, obs, model, inflation)
 
 
+@renamed_keyword("kind", "model", what="the tyre-curve model")
 def fit_tyre_fast(
     obs: TyreObservations,
     *,
     priors: TyrePriors | None = None,
-    kind: str = DEFAULT_KIND,
+    model: str = DEFAULT_MODEL,
     num_draws: int = LAPLACE_DRAWS,
     seed: int = 0,
     max_steps: int = 2000,
@@ -314,31 +317,32 @@ def fit_tyre_fast(
     drives, surfaces): new data of the same shape reuse them.
     """
     priors = TyrePriors() if priors is None else priors
-    check_kind(kind)
+    check_model(model)
     key_draw, key_ppc = jax.random.split(jax.random.PRNGKey(seed))
-    core = _laplace_core(_priors_key(priors), kind, _obs_key(obs), num_draws, max_steps)
-    first, weighted, inflation = _first_pass(core, obs, kind)
+    core = _laplace_core(_priors_key(priors), model, _obs_key(obs), num_draws, max_steps)
+    first, weighted, inflation = _first_pass(core, obs, model)
     mode, result = _second_pass(core, first, obs, weighted)
     obs = weighted
     min_eig, _, draws = core.laplace(mode, obs, key_draw)
     positive_definite = bool(float(min_eig) > 0)
     samples = {k: np.asarray(v) for k, v in draws.items()}
-    idata = _to_inference_data(samples, 1, obs, kind, key_ppc, pointwise=pointwise)
+    idata = _to_inference_data(samples, 1, obs, model, key_ppc, pointwise=pointwise)
     diagnostics = _scalar_diagnostics(
         idata,
         "fast",
         optimiser_result=optimiser_outcome(result),
         problems=() if positive_definite else ("Hessian at the mode is not positive definite",),
     )
-    return _tyre_fit(idata, diagnostics, samples, priors, obs, kind, inflation)
+    return _tyre_fit(idata, diagnostics, samples, priors, obs, model, inflation)
 
 
+@renamed_keyword("kind", "model", what="the tyre-curve model")
 def fit_tyre(
     obs: TyreObservations,
     method: str = "nuts",
     *,
     priors: TyrePriors | None = None,
-    kind: str = DEFAULT_KIND,
+    model: str = DEFAULT_MODEL,
     seed: int = 0,
     num_chains: int = 4,
     num_warmup: int = 300,
@@ -357,7 +361,7 @@ def fit_tyre(
         Full NUTS (:func:`fit_tyre_nuts`) or MAP + Laplace (:func:`fit_tyre_fast`; ``"laplace"``
         is the same fit, recorded as ``"fast"``):
         :data:`~tyrebayes.inference.diagnostics.FIT_METHODS`.
-    priors, kind, seed
+    priors, model, seed
         Priors (default :class:`TyrePriors`), tyre-curve model, randomness: both methods.
     num_chains, num_warmup, num_samples
         NUTS settings (ignored by the fast path). Four chains here, two in the other fitters:
@@ -396,7 +400,7 @@ def fit_tyre(
         return fit_tyre_nuts(
             obs,
             priors=priors,
-            kind=kind,
+            model=model,
             num_chains=num_chains,
             num_warmup=num_warmup,
             num_samples=num_samples,
@@ -407,7 +411,7 @@ def fit_tyre(
         return fit_tyre_fast(
             obs,
             priors=priors,
-            kind=kind,
+            model=model,
             num_draws=num_draws,
             seed=seed,
             max_steps=max_steps,

@@ -194,8 +194,8 @@ def _em_step(
 def _unconstrained(mixture: _Components, force_sd: Float[Array, ""]) -> _Components:
     """Coordinates in which any extrapolated point is a valid mixture: log w, m / sd(ρ), log τ².
 
-    All three are dimensionless and of order one, so that no one kind dominates the step length
-    of :func:`_em`'s extrapolation.
+    All three are dimensionless and of order one, so that no one coordinate dominates the step
+    length of :func:`_em`'s extrapolation.
     """
     return _Components(
         jnp.log(mixture.weights), mixture.means / force_sd, jnp.log(mixture.variances)

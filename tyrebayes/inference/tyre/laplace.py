@@ -63,16 +63,18 @@ BFGS_RTOL = 1e-8
 
 @functools.lru_cache(maxsize=16)
 def _laplace_core(
-    priors_key: tuple, kind: str, obs_key: tuple, num_draws: int, max_steps: int
+    priors_key: tuple, model: str, obs_key: tuple, num_draws: int, max_steps: int
 ) -> LaplaceCore:
     """The MAP search, refit and Laplace draws for one data shape (:class:`LaplaceCore`)."""
     priors = TyrePriors(*priors_key)
-    model, template, params = _model_layout(priors_key, kind, obs_key)
+    numpyro_model, template, params = _model_layout(priors_key, model, obs_key)
     flat0, unravel = ravel_pytree(params)
-    posterior = _Posterior(model, unravel, _block_hessian(model, template, params), max_steps)
+    posterior = _Posterior(
+        numpyro_model, unravel, _block_hessian(numpyro_model, template, params), max_steps
+    )
     mode_program = _mode_program(posterior, priors, _search_stride(obs_key[0]))
     laplace_program = _laplace_program(posterior, num_draws)
-    key = (priors_key, kind, obs_key, num_draws, max_steps)
+    key = (priors_key, model, obs_key, num_draws, max_steps)
     return LaplaceCore(
         mode=stored_program(mode_program, ("tyre-mode-core", *key)),
         laplace=stored_program(laplace_program, ("tyre-laplace-core", *key)),

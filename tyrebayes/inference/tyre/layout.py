@@ -23,19 +23,19 @@ from .data import TyreObservations
 from .model import TyrePriors, tyre_model
 
 
-def _model_layout(priors_key: tuple, kind: str, obs_key: tuple):
-    """The model for one data shape, a template of that shape and its median parameters.
+def _model_layout(priors_key: tuple, model: str, obs_key: tuple):
+    """The NumPyro model for one data shape, a template of that shape and its median parameters.
 
-    Returns ``(model, template, params)``; ``params`` are unconstrained, keyed by site, and fix
-    the flat layout (``ravel_pytree``) that the Laplace core and the NUTS runner share. They
-    depend on the drives and surfaces, not on the number of windows: the model has no latent
+    Returns ``(numpyro_model, template, params)``; ``params`` are unconstrained, keyed by site,
+    and fix the flat layout (``ravel_pytree``) that the Laplace core and the NUTS runner share.
+    They depend on the drives and surfaces, not on the number of windows: the model has no latent
     per-window site, and ``init_to_median`` draws from the priors only. The template therefore
     has :data:`LAYOUT_WINDOWS` windows whatever the data's length, so that the layout (numpyro's
     initialisation, run op by op: seconds, and memory a fleet worker keeps) is made once per
     number of drives and surfaces, not once per padded length.
     """
     _, n_drives, surfaces = obs_key
-    return _layout(priors_key, kind, n_drives, surfaces)
+    return _layout(priors_key, model, n_drives, surfaces)
 
 
 # Windows of the template :func:`_model_layout` traces the model on (any length gives the same
@@ -44,18 +44,21 @@ LAYOUT_WINDOWS = 256
 
 
 @functools.lru_cache(maxsize=16)
-def _layout(priors_key: tuple, kind: str, n_drives: int, surfaces: tuple):
-    model = partial(tyre_model, priors=TyrePriors(*priors_key), kind=kind)
+def _layout(priors_key: tuple, model: str, n_drives: int, surfaces: tuple):
+    numpyro_model = partial(tyre_model, priors=TyrePriors(*priors_key), model=model)
     template = _template_observations(LAYOUT_WINDOWS, n_drives, surfaces)
-    stored = _stored_medians_path((priors_key, kind, n_drives, surfaces))
+    stored = _stored_medians_path((priors_key, model, n_drives, surfaces))
     params = _read_medians(stored)
     if params is not None:
-        return model, template, params
+        return numpyro_model, template, params
 
     # init_to_median draws a batch of prior samples; numpyro broadcasts it by rank promotion.
     with jax.numpy_rank_promotion("allow"):
         init = initialize_model(
-            jax.random.PRNGKey(0), model, model_args=(template,), init_strategy=init_to_median
+            jax.random.PRNGKey(0),
+            numpyro_model,
+            model_args=(template,),
+            init_strategy=init_to_median,
         )
     # Run op by op, the initialisation compiled a one-op program for each of its few hundred
     # operations, which stay loaded under every later fit's peak; they are not needed again.
@@ -65,7 +68,7 @@ def _layout(priors_key: tuple, kind: str, n_drives: int, surfaces: tuple):
     _drop_op_by_op_programs()
     params = init.param_info.z
     _write_medians(stored, params)
-    return model, template, params
+    return numpyro_model, template, params
 
 
 def _stored_medians_path(key: tuple) -> Path | None:

@@ -87,7 +87,7 @@ class WindowQuantities(NamedTuple):
     drift_sd: jax.Array
 
 
-def window_quantities(params: dict, obs: TyreObservations, kind: str) -> WindowQuantities:
+def window_quantities(params: dict, obs: TyreObservations, model: str) -> WindowQuantities:
     """The per-window quantities of :func:`window_likelihood` (``params`` as there)."""
 
     def per_drive(site):
@@ -111,7 +111,7 @@ def window_quantities(params: dict, obs: TyreObservations, kind: str) -> WindowQ
     if "load_sensitivity" in params:
         c_x = c_x * jnp.exp(params["load_sensitivity"] * obs.load_change)
     mu_window = _per_window(params["mu_max"], obs.surface_index, obs.n_surfaces)
-    slip, slip_slope = _slip_and_slope(kind, rho_hat, c_x, mu_window, params)
+    slip, slip_slope = _slip_and_slope(model, rho_hat, c_x, mu_window, params)
     slip_scale = jnp.sqrt((params["slip_noise_scale"] * obs.slip_sd) ** 2 + slip_slope**2 * rho_var)
 
     # ABS windows: the total force sits near the peak, the slip is not measurable.
@@ -157,14 +157,14 @@ def likelihood_of_quantities(q: WindowQuantities, obs: TyreObservations) -> Wind
     )
 
 
-def window_likelihood(params: dict, obs: TyreObservations, kind: str) -> WindowLikelihood:
+def window_likelihood(params: dict, obs: TyreObservations, model: str) -> WindowLikelihood:
     """The windows' likelihood terms of :func:`tyre_model` (see the module docstring).
 
     ``params`` holds the model's sampled sites by name (``c_xr``, ``temp_sensitivity``,
     ``mu_max``, ``abs_force_ratio``, ``rho_noise_scale``, ``slip_noise_scale``, ``slip_drift_sd``
-    and ``load_sensitivity`` where the priors have them, the curve's shape sites of ``kind`` and
+    and ``load_sensitivity`` where the priors have them, the curve's shape sites of ``model`` and
     the per-drive ``slip_offset``, ``force_gain``, ``force_level``, ``force_spread``); other keys
     are ignored, so a posterior draw can be passed as it is. The model and the posterior
     predictive share it.
     """
-    return likelihood_of_quantities(window_quantities(params, obs, kind), obs)
+    return likelihood_of_quantities(window_quantities(params, obs, model), obs)

@@ -10,7 +10,7 @@ Measurement model for window i of drive d on surface s (all quantities normalise
 
 with f⁻¹ the inverse of the tyre curve in adhesion: by default the Magic Formula (Pacejka 2006,
 4.E9–E18; slope C_x at zero, peak μ) with its shape C and curvature E unknown and their prior the
-spread of the measured car/SUV tyres of the shipped database (``kind="magic"``,
+spread of the measured car/SUV tyres of the shipped database (``model="magic"``,
 :mod:`.tyre_curve_prior`): normal driving uses a fraction of μ, so C_x is the secant the drive
 measures extrapolated through a shape the drive barely sees, and that doubt belongs in its
 posterior; also the brush model (thesis ch. 3, eq. 3.3–3.4), a one-exponent family around it
@@ -87,8 +87,9 @@ import numpyro
 import numpyro.distributions as dist
 
 from ..._domain import SURFACES
+from ...internal.renamed import renamed_keyword
 from ...physics.thermal import stiffness_with_sensitivity
-from .curves import DEFAULT_KIND, MODEL_KINDS, check_kind, curve_slip
+from .curves import CURVE_MODELS, DEFAULT_MODEL, check_model, curve_slip
 from .data import TyreObservations
 from .likelihood import (
     WindowLikelihood,
@@ -101,10 +102,11 @@ from .likelihood import (
 from .priors import MEASURED_LOAD_SENSITIVITY, TyrePriors
 
 
+@renamed_keyword("kind", "model", what="the tyre-curve model")
 def tyre_model(
     obs: TyreObservations,
     priors: TyrePriors | None = None,
-    kind: str = DEFAULT_KIND,
+    model: str = DEFAULT_MODEL,
     observed: bool = True,
 ):
     """NumPyro model of one tyre set's windows (see the module docstring).
@@ -115,7 +117,7 @@ def tyre_model(
         Window-averaged observations (possibly several drives and surfaces).
     priors : TyrePriors, optional
         Prior scales (default :class:`TyrePriors`).
-    kind : {"shaped", "brush", "linear"}
+    model : {"shaped", "brush", "linear"}
         Mean model: the brush model identifies μ_max where the data reach the nonlinear region;
         ``"shaped"`` (the default) adds the curve's shape exponent p (``curve_shape``; p = 1 is
         the brush, :func:`~tyrebayes.physics.tyre.shaped_longitudinal_inverse_and_slope`) for
@@ -125,8 +127,8 @@ def tyre_model(
         Condition on the measured slip and force (True) or sample them (posterior predictive).
     """
     priors = TyrePriors() if priors is None else priors
-    check_kind(kind)
-    params = _tyre_parameters(obs, priors, kind)
+    check_model(model)
+    params = _tyre_parameters(obs, priors, model)
     params.update(_drive_nuisances(obs, priors))
     weights = obs.mask.astype(obs.temperature_c.dtype)
     mean_temperature = jnp.sum(weights * obs.temperature_c) / jnp.maximum(jnp.sum(weights), 1.0)
@@ -135,11 +137,11 @@ def tyre_model(
         stiffness_with_sensitivity(params["c_xr"], mean_temperature, params["temp_sensitivity"]),
     )
     params.update(_optional_parameters(priors))
-    lik = window_likelihood(params, obs, kind)
+    lik = window_likelihood(params, obs, model)
     _observe(lik, obs, priors, observed)
 
 
-def _tyre_parameters(obs: TyreObservations, priors: TyrePriors, kind: str) -> dict:
+def _tyre_parameters(obs: TyreObservations, priors: TyrePriors, model: str) -> dict:
     """The tyre's and the noise scales' sample sites: C_xr, κ, μ_max per surface, the curve."""
     c_xr = numpyro.sample("c_xr", dist.LogNormal(jnp.log(priors.c_xr_median), priors.c_xr_log_sd))
     kappa = numpyro.sample(
@@ -156,7 +158,7 @@ def _tyre_parameters(obs: TyreObservations, priors: TyrePriors, kind: str) -> di
         # 600 draws, the rest ≥ 275), and 1.05 is already two sds out.
         dist.Normal(priors.abs_force_ratio, priors.abs_force_ratio_sd),
     )
-    curve = _curve_parameters(priors, kind)
+    curve = _curve_parameters(priors, model)
     rho_noise_scale = numpyro.sample(
         "rho_noise_scale", dist.LogNormal(0.0, priors.force_noise_log_sd)
     )
@@ -175,10 +177,10 @@ def _tyre_parameters(obs: TyreObservations, priors: TyrePriors, kind: str) -> di
     )
 
 
-def _curve_parameters(priors: TyrePriors, kind: str) -> dict:
+def _curve_parameters(priors: TyrePriors, model: str) -> dict:
     """The curve's shape sites: Magic Formula C and E (``"magic"``), p (``"shaped"``), or none."""
     curve = {}
-    if kind == "magic":
+    if model == "magic":
         shape_excess = numpyro.sample(
             "curve_shape_excess",
             dist.LogNormal(priors.curve_shape_excess_log_mean, priors.curve_shape_excess_log_sd),
@@ -189,7 +191,7 @@ def _curve_parameters(priors: TyrePriors, kind: str) -> dict:
         )
         curve["curve_shape_c"] = numpyro.deterministic("curve_shape_c", 1.0 + shape_excess)
         curve["curve_curvature_e"] = numpyro.deterministic("curve_curvature_e", 1.0 - curvature_gap)
-    if kind == "shaped":
+    if model == "shaped":
         bend = numpyro.sample(
             "curve_bend",
             dist.LogNormal(jnp.log(priors.curve_bend_median), priors.curve_bend_log_sd),
@@ -269,10 +271,10 @@ def _observe(
 
 
 __all__ = [
-    "DEFAULT_KIND",
+    "DEFAULT_MODEL",
     "MEASURED_LOAD_SENSITIVITY",
-    "MODEL_KINDS",
-    "check_kind",
+    "CURVE_MODELS",
+    "check_model",
     "curve_slip",
     "SURFACES",
     "TyrePriors",

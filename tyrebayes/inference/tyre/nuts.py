@@ -19,7 +19,7 @@ from .layout import _model_layout
 from .predictive import _single_precision
 
 
-def _whitened_model(obs, mode, scale, *, model, unravel):
+def _whitened_model(obs, mode, scale, *, numpyro_model, unravel):
     """The model's posterior over u, with unconstrained parameters z = mode + scale @ u.
 
     The model itself is evaluated in single precision (``obs`` comes in float32, z is cast): its
@@ -34,13 +34,13 @@ def _whitened_model(obs, mode, scale, *, model, unravel):
     )
     params = jax.tree.map(lambda z: z.astype(jnp.float32), unravel(mode + scale @ u))
     with handlers.block():  # the inner model's sites stay out of this trace
-        energy = potential_energy(model, (obs,), {}, params)
+        energy = potential_energy(numpyro_model, (obs,), {}, params)
     numpyro.factor("log_density", -energy.astype(mode.dtype))
 
 
 @functools.lru_cache(maxsize=8)
 def _nuts_runner(
-    priors_key: tuple, kind: str, obs_key: tuple, num_chains: int, num_warmup: int, num_samples
+    priors_key: tuple, model: str, obs_key: tuple, num_chains: int, num_warmup: int, num_samples
 ):
     """NUTS on the whitened model of one data shape (:func:`~tyrebayes.inference.nuts.run_nuts`).
 
@@ -48,14 +48,14 @@ def _nuts_runner(
     fit of that shape. Returns ``run(key, obs, mode, scale, u_init)`` giving the constrained draws
     (with deterministic sites), chains stacked on the first axis, and the divergence flags.
     """
-    model, _, params = _model_layout(priors_key, kind, obs_key)
+    numpyro_model, _, params = _model_layout(priors_key, model, obs_key)
     _, unravel = ravel_pytree(params)
-    whitened = partial(_whitened_model, model=model, unravel=unravel)
+    whitened = partial(_whitened_model, numpyro_model=numpyro_model, unravel=unravel)
 
     @jax.jit
     def constrain(z, obs):
         return jax.vmap(
-            lambda f: constrain_fn(model, (obs,), {}, unravel(f), return_deterministic=True)
+            lambda f: constrain_fn(numpyro_model, (obs,), {}, unravel(f), return_deterministic=True)
         )(z)
 
     def run(key, obs, mode, scale, u_init):

@@ -69,7 +69,7 @@ def _obs_key(obs: TyreObservations) -> tuple:
 
 
 @functools.lru_cache(maxsize=16)
-def _predictive_core(kind: str, obs_key: tuple, n_draws: int):
+def _predictive_core(model: str, obs_key: tuple, n_draws: int):
     """Jitted per-window log-likelihood and posterior predictive draws (compiled once per shape).
 
     ``core(samples, obs, key)`` gives ``(loglik, ppc)``, each ``{"slip_obs", "rho_obs"}`` of
@@ -81,7 +81,7 @@ def _predictive_core(kind: str, obs_key: tuple, n_draws: int):
     """
 
     def one_draw(params, obs, key):
-        lik = window_likelihood(params, obs, kind)
+        lik = window_likelihood(params, obs, model)
         slip_observed = obs.mask & ~obs.at_limit
         # Given the window's block offset (its conditional mean): the per-window terms leave
         # the blocks' shared offsets out, as the model's marginal does not.
@@ -112,14 +112,14 @@ def _predictive_core(kind: str, obs_key: tuple, n_draws: int):
         )
 
     # Kept on disk once traced (a new process reads it instead of tracing the model again).
-    return stored_program(core, ("tyre-predictive-core", kind, obs_key, n_draws))
+    return stored_program(core, ("tyre-predictive-core", model, obs_key, n_draws))
 
 
 def _to_inference_data(
     samples: dict,
     n_chains: int,
     obs: TyreObservations,
-    kind: str,
+    model: str,
     key,
     sample_stats=None,
     pointwise: bool = True,
@@ -154,7 +154,7 @@ def _to_inference_data(
     idata["constant_data"] = constant["constant_data"]
     idata.attrs[_KEY_ATTR] = json.dumps([int(w) for w in np.asarray(key).ravel()])
     if pointwise:
-        _attach_pointwise(idata, posterior, obs, kind, key)
+        _attach_pointwise(idata, posterior, obs, model, key)
     return idata
 
 
@@ -162,7 +162,7 @@ _DIMS = {"slip_obs": ["window"], "rho_obs": ["window"], "mu_max": ["surface"]}
 
 
 def _attach_pointwise(
-    idata: xr.DataTree, posterior: dict, obs: TyreObservations, kind: str, key
+    idata: xr.DataTree, posterior: dict, obs: TyreObservations, model: str, key
 ) -> None:
     """Add the log-likelihood and posterior predictive groups (thinned draws) to ``idata``."""
     mask = np.asarray(obs.mask)
@@ -177,7 +177,7 @@ def _attach_pointwise(
             k: jnp.asarray(v[:, keep].reshape((-1,) + v.shape[2:]), dtype=jnp.float32)
             for k, v in posterior.items()
         }
-    core = _predictive_core(kind, _obs_key(obs), len(keep) * n_chains)
+    core = _predictive_core(model, _obs_key(obs), len(keep) * n_chains)
     loglik, ppc = core(thinned, _single_precision(obs), key)
 
     used = int(mask.sum())

@@ -34,8 +34,8 @@ class TyreFit:
     surfaces : tuple of str
     n_samples_used : int
         Number of windows that entered the likelihood.
-    kind : str
-        ``"magic"``, ``"shaped"``, ``"brush"`` or ``"linear"``.
+    model : str
+        The tyre-curve model: ``"magic"``, ``"shaped"``, ``"brush"`` or ``"linear"``.
     slip_variance_inflation : tuple of float
         Per drive, the variance inflation of the slip errors by their correlation between
         windows; each window's slip counted 1/this in the fit (:mod:`.window_correlation`).
@@ -62,7 +62,7 @@ class TyreFit:
     mu_observed: dict
     surfaces: tuple
     n_samples_used: int
-    kind: str
+    model: str
     slip_variance_inflation: tuple
     adequacy: Adequacy
     force_range: float
@@ -84,7 +84,7 @@ class TyreFit:
                 "mu_observed": json.dumps({s: bool(v) for s, v in self.mu_observed.items()}),
                 "surfaces": json.dumps(list(self.surfaces)),
                 "n_samples_used": int(self.n_samples_used),
-                "tyre_model": self.kind,
+                "tyre_model": self.model,
                 "slip_variance_inflation": json.dumps(
                     [float(x) for x in self.slip_variance_inflation]
                 ),
@@ -96,7 +96,7 @@ class TyreFit:
         )
         if self.lateral is not None:
             data[LATERAL_NODE] = _lateral_node(self.lateral)
-        prov = self.provenance or Provenance(method=self.diagnostics.method, model=self.kind)
+        prov = self.provenance or Provenance(method=self.diagnostics.method, model=self.model)
         return Fit(data=data, diagnostics=self.diagnostics, kind="tyre", provenance=prov)
 
     @classmethod
@@ -111,7 +111,7 @@ class TyreFit:
             mu_observed=fit.attr("mu_observed"),
             surfaces=tuple(fit.attr("surfaces")),
             n_samples_used=int(attrs["n_samples_used"]),
-            kind=str(attrs["tyre_model"]),
+            model=str(attrs["tyre_model"]),
             slip_variance_inflation=tuple(fit.attr("slip_variance_inflation")),
             adequacy=Adequacy.from_dict(fit.attr("adequacy")),
             force_range=float(attrs["force_range"]),
@@ -156,7 +156,7 @@ class TyreFit:
             "adequacy_reasons": list(self.diagnostics.adequacy_reasons),
             "diagnostics": self.diagnostics.as_dict(),
             "method": self.diagnostics.method,
-            "model": self.kind,
+            "model": self.model,
             "n_samples_used": self.n_samples_used,
             "slip_variance_inflation": [float(x) for x in self.slip_variance_inflation],
             "n_abs_windows": int(np.asarray(self.idata["constant_data"]["at_limit"]).sum()),

@@ -44,10 +44,10 @@ class TyreChanges(eqx.Module):
     ----------
     index : ndarray of int
         Drive index at which each new tyre set (segment) starts (ascending).
-    kind : tuple of str
+    change_type : tuple of str
         ``"rotation"`` or ``"replacement"`` per change.
     probability : ndarray
-        Probability of the reported kind against the other (equal prior odds).
+        Probability of the reported change type against the other (equal prior odds).
     statistic : ndarray
         The test statistic at each change (in units of its noise sd).
     threshold : float
@@ -56,7 +56,7 @@ class TyreChanges(eqx.Module):
     """
 
     index: np.ndarray
-    kind: tuple[str, ...] = eqx.field(static=True)
+    change_type: tuple[str, ...] = eqx.field(static=True)
     probability: np.ndarray
     statistic: np.ndarray
     threshold: float
@@ -161,7 +161,7 @@ def detect_tyre_changes(
     chosen.sort()
     if not chosen:
         return empty
-    kinds, probs = [], []
+    change_types, probs = [], []
     bounds = [0, *chosen]
     for i, k in enumerate(chosen):
         start = bounds[i]
@@ -180,11 +180,11 @@ def detect_tyre_changes(
                 log_rot += norm.logpdf(ds, -abs(drift), sd_s)
                 log_rep += norm.logpdf(ds, 0.0, sd_s)
         p_rot = float(1.0 / (1.0 + np.exp(np.clip(log_rep - log_rot, -50, 50))))
-        kinds.append("rotation" if p_rot >= 0.5 else "replacement")
+        change_types.append("rotation" if p_rot >= 0.5 else "replacement")
         probs.append(max(p_rot, 1.0 - p_rot))
     return TyreChanges(
         np.asarray(chosen, dtype=int),
-        tuple(kinds),
+        tuple(change_types),
         np.asarray(probs),
         stats[chosen],
         threshold,

@@ -237,7 +237,7 @@ def _pairs(changes: TyreChanges, n: int) -> tuple[np.ndarray, int]:
     """
     pair = np.zeros((n, 2), dtype=int)
     current, next_pair = np.array([0, 1]), 2
-    change_at = dict(zip(changes.index.tolist(), changes.kind, strict=True))
+    change_at = dict(zip(changes.index.tolist(), changes.change_type, strict=True))
     for k in range(n):
         if k in change_at:
             if change_at[k] == "rotation":

@@ -210,7 +210,7 @@ def _history_attrs(history: DriveHistory, extended: bool) -> dict:
         "tyre_changes": json.dumps(
             {
                 "drive_index": changes.index.tolist(),
-                "kind": list(changes.kind),
+                "change_type": list(changes.change_type),
                 "probability": changes.probability.tolist(),
                 "statistic": changes.statistic.tolist(),
                 "threshold": changes.threshold,

@@ -214,19 +214,19 @@ class WearHistoryPrediction:
         return out
 
     def _changes_list(self) -> list[dict]:
-        """Each tyre change: drive index, odometer [km], kind and its probability."""
+        """Each tyre change: drive index, odometer [km], change type and its probability."""
         changes = self.tyre_changes
         return [
             {
                 "drive_index": int(k),
                 "odometer_km": float(odo),
-                "kind": kind,
+                "change_type": change_type,
                 "probability": float(p),
             }
-            for k, odo, kind, p in zip(
+            for k, odo, change_type, p in zip(
                 changes.index,
                 self.tyre_change_odometer_km,
-                changes.kind,
+                changes.change_type,
                 changes.probability,
                 strict=True,
             )
