@@ -2,7 +2,8 @@
 
 Per surface *s* and tyre type *t* an intercept ``a[s,t]`` (mu of a set at the type's reference
 stiffness), a slope ``b[s,t]`` against z = 100 / C_xr - 100 / c_xr_ref[t] and a residual scale
-``sigma[s,t]``; slopes and log-scales partially pooled over types, all non-centred. The stiffness
+``sigma[s,t]``; slopes and log-scales partially pooled over types, the slopes non-centred, the
+log-scales around the types' mean (:func:`_residual_scales` says why). The stiffness
 C_xr of each set is a latent variable, observed with its standard error and drawn from a per-type
 log-normal population.
 
@@ -75,12 +76,7 @@ def fleet_model(
     tau_b = numpyro.sample("tau_slope", dist.HalfNormal(p["tau_slope"]).to_event(1))
     b_raw = numpyro.sample("b_raw", dist.Normal(0.0, 1.0).expand([n_s, n_t]).to_event(2))
     b = numpyro.deterministic("b", slope[:, None] + tau_b[:, None] * b_raw)
-    s0_raw = numpyro.sample("sigma0_raw", dist.Normal(0.0, 1.0).expand([n_s]).to_event(1))
-    log_s0 = jnp.log(p["sigma"]) + p["sigma_log_sd"] * s0_raw
-    numpyro.deterministic("sigma0", jnp.exp(log_s0))
-    tau_s = numpyro.sample("tau_sigma", dist.HalfNormal(p["tau_sigma"]).to_event(1))
-    s_raw = numpyro.sample("sigma_raw", dist.Normal(0.0, 1.0).expand([n_s, n_t]).to_event(2))
-    sigma = numpyro.deterministic("sigma", jnp.exp(log_s0[:, None] + tau_s[:, None] * s_raw))
+    sigma = _residual_scales(p, n_s, n_t)
 
     if lateral is not None:
         _lateral_ratio(p, tyre_type, log_c, *lateral)
@@ -90,6 +86,37 @@ def fleet_model(
     mean = a[row_surface, row_type] + b[row_surface, row_type] * z
     with numpyro.plate("row", row_tyre.shape[0]):
         numpyro.sample("y", dist.Normal(mean, sigma[row_surface, row_type]), obs=y)
+
+
+def _residual_scales(p: dict, n_s: int, n_t: int):
+    """Residual scale ``sigma[s,t]``: log sigma[s,t] = log sigma0[s] + tau_sigma[s] · N(0,1).
+
+    With log sigma0[s] ~ Normal(log sigma, sigma_log_sd) and tau_sigma[s] ~ HalfNormal. Sampled in
+    exactly equivalent coordinates: the types' mean log-scale m[s] (centred: every type's rows
+    pin their own scale, so m is what the data measure), the types' deviations tau · (z - mean z)
+    with z ~ N(0,1) per type, and log sigma0 drawn from its conditional given m and tau, which the
+    likelihood does not see. Non-centred around log sigma0, as before, a few types leave sigma0
+    free by about tau / sqrt(types) while the data pin sigma[s,t]: sigma0, tau and every type's
+    raw deviation then had to move together along a ridge whose width changes with tau, where
+    NUTS diverged (simulated 90-set fleets: the divergent draws sat 4-7 posterior sd up in
+    sigma0, at large tau, ``benchmarks/results/fleet_lateral_ratio.json``).
+    """
+    log_sig = jnp.log(p["sigma"])
+    var0 = p["sigma_log_sd"] ** 2
+    tau_s = numpyro.sample("tau_sigma", dist.HalfNormal(p["tau_sigma"]).to_event(1))
+    # m = log sigma0 + tau · mean(z): Normal(log sigma, sqrt(var0 + tau^2 / n_t)).
+    var_m = var0 + tau_s**2 / n_t
+    m = numpyro.sample("log_sigma_mean", dist.Normal(log_sig, jnp.sqrt(var_m)).to_event(1))
+    z = numpyro.sample("sigma_raw", dist.Normal(0.0, 1.0).expand([n_s, n_t]).to_event(2))
+    # Only the deviations from the types' mean enter; mean(z) keeps its N(0, 1/n_t) prior, which
+    # is independent of them, so dropping it here leaves the model unchanged.
+    dev = tau_s[:, None] * (z - jnp.mean(z, axis=1, keepdims=True))
+    # log sigma0 | m, tau: the Gaussian conditional of the joint (log sigma0, m).
+    s0_raw = numpyro.sample("sigma0_raw", dist.Normal(0.0, 1.0).expand([n_s]).to_event(1))
+    cond_mean = log_sig + var0 / var_m * (m - log_sig)
+    cond_sd = jnp.sqrt(var0 * (tau_s**2 / n_t) / var_m)
+    numpyro.deterministic("sigma0", jnp.exp(cond_mean + cond_sd * s0_raw))
+    return numpyro.deterministic("sigma", jnp.exp(m[:, None] + dev))
 
 
 def _lateral_ratio(p: dict, tyre_type, log_c, lat_tyre, log_c_y, log_c_y_sd) -> None:
