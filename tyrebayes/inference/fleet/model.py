@@ -98,8 +98,8 @@ def _residual_scales(p: dict, n_s: int, n_t: int):
     likelihood does not see. Non-centred around log sigma0, as before, a few types leave sigma0
     free by about tau / sqrt(types) while the data pin sigma[s,t]: sigma0, tau and every type's
     raw deviation then had to move together along a ridge whose width changes with tau, where
-    NUTS diverged (simulated 90-set fleets: the divergent draws sat 4-7 posterior sd up in
-    sigma0, at large tau, ``benchmarks/results/fleet_lateral_ratio.json``).
+    NUTS diverged (the simulated fleets of ``benchmarks/fleet_lateral_ratio.py``: the divergent
+    draws sat far up in sigma0, at large tau).
     """
     log_sig = jnp.log(p["sigma"])
     var0 = p["sigma_log_sd"] ** 2
