@@ -87,9 +87,9 @@ def _hessian(x, obs, weights, scale, priors, surface):
     """The potential's Hessian at ``x``, one Hessian-vector product per coordinate in turn.
 
     ``jax.hessian`` pushes all the coordinates' tangents through the reverse pass at once, so
-    its program holds every intermediate of the likelihood once per coordinate: over 1 GB for a
-    one-hour drive's 13 sites, the largest part of a fleet worker's peak. The products in turn
-    hold them once; the columns are the same.
+    its program holds every intermediate of the likelihood once per site (13 copies of a
+    drive's length); the products in turn hold one, and give the same columns. On a long drive
+    it was the largest part of the lateral fit's peak memory (``benchmarks/lateral_speed.py``).
     """
 
     def gradient(y):
