@@ -37,6 +37,7 @@ INTERNAL: dict[str, tuple[str, str]] = {
     "peak_rss_mb": ("tyrebayes.batch.worker_memory", "peak memory as the workers measure it"),
     "drop_compiled_programs": ("tyrebayes.batch.worker_memory", "a worker's memory release"),
     "release_free_memory": ("tyrebayes.batch.worker_memory", "a worker's memory release"),
+    "reset_peak_rss": ("tyrebayes.batch.worker_memory", "a task's own peak, as a worker counts it"),
     "_worker_env": ("tyrebayes.batch.cluster", "the environment the cluster gives its workers"),
     "enable_compilation_cache": ("tyrebayes.internal.jax_cache", "the JAX cache the CLI sets up"),
     # tyre fit: its compiled core and passes timed apart, constants reported with the figures
