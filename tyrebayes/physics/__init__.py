@@ -24,7 +24,7 @@ Examples
 9.80665
 """
 
-import importlib as _importlib
+from ..internal.lazy_exports import lazy_exports as _lazy_exports
 
 # Public name → the module under this package that holds it.
 _EXPORTS = {
@@ -60,14 +60,4 @@ _EXPORTS = {
 __all__ = list(_EXPORTS)
 
 
-def __getattr__(name: str) -> object:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(_importlib.import_module(module, __name__), name)
-    globals()[name] = value  # later look-ups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
+__getattr__, __dir__ = _lazy_exports(__name__, _EXPORTS, globals())
