@@ -35,7 +35,7 @@ from _results import save_figure  # noqa: E402
 
 from tyrebayes import load_vehicle  # noqa: E402
 from tyrebayes.streams import (  # noqa: E402
-    SEGMENT_KINDS,
+    SEGMENT_REGIMES,
     compute_features,
     read_stream,
     speed_error,
@@ -74,8 +74,8 @@ def _plot(feats, ref, fit, path: Path) -> None:
     ax.legend(fontsize=8)
     ax = axes[3]
     ax.plot(t, feats.rho_driven, lw=0.8, label="ρ_x front axle")
-    colors = plt.cm.tab10(np.arange(len(SEGMENT_KINDS)))
-    for code, kind in enumerate(SEGMENT_KINDS):
+    colors = plt.cm.tab10(np.arange(len(SEGMENT_REGIMES)))
+    for code, kind in enumerate(SEGMENT_REGIMES):
         m = feats.label == code
         if m.any():
             ax.scatter(t[m], np.full(m.sum(), -0.2), s=2, color=colors[code], label=kind)

@@ -17,7 +17,7 @@ from tyrebayes.inference.tyre.data import observations_from_features
 from tyrebayes.simulate.drive import simulate_drive
 from tyrebayes.simulate.drive_io import write_drive
 from tyrebayes.streams import compute_features, read_stream, validate_stream
-from tyrebayes.streams.segments import SEGMENT_KINDS
+from tyrebayes.streams.segments import SEGMENT_REGIMES
 from tyrebayes.streams.tyre_temperature import features_tyre_temperature
 
 
@@ -62,7 +62,7 @@ def test_windows_table_is_the_pipelines_windows(drive_file, tmp_path):
     assert row["drive_id"] == item.drive_id and row["tyre_set_id"] == "s1"
     assert row["duration_s"] == pytest.approx(60.0, abs=0.1)
     assert row["windows"] == len(table)
-    total = sum(row[f"seconds_{k}"] for k in SEGMENT_KINDS)
+    total = sum(row[f"seconds_{k}"] for k in SEGMENT_REGIMES)
     assert total == pytest.approx(row["duration_s"], rel=0.02)
     assert row["friction_work_driven_j"] > 0
 

@@ -10,7 +10,7 @@ import pytest
 from tyrebayes._domain import load_vehicle
 from tyrebayes._resources import data_dir
 from tyrebayes.streams import (
-    SEGMENT_KINDS,
+    SEGMENT_REGIMES,
     compute_features,
     read_stream,
     speed_error,
@@ -135,7 +135,7 @@ def test_nuisances_exposed(synthetic):
 def test_segments_cover_the_drive(synthetic):
     feats, _ = synthetic
     seg = feats.segments()
-    assert set(seg) == set(SEGMENT_KINDS)
+    assert set(seg) == set(SEGMENT_REGIMES)
     total = sum(v["seconds"] for v in seg.values())
     assert total == pytest.approx(120.0, abs=0.05)
     assert seg["traction"]["seconds"] > 20 and seg["braking"]["seconds"] > 10

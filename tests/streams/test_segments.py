@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tyrebayes.streams.segments import (
-    SEGMENT_KINDS,
+    SEGMENT_REGIMES,
     SegmentThresholds,
     label_samples,
     summarize_segments,
@@ -19,7 +19,7 @@ def test_label_priorities():
     slip = np.array([0.001, 0.01, -0.01, 0.2, 0.01, 0.0, 0.0])
     spin = np.zeros(7, bool)
     lat = np.array([0.0, 0.0, 0.0, 3.0, 3.0, 0.0, 0.0])
-    got = [SEGMENT_KINDS[i] for i in label_samples(valid, rho, slip, spin, lat)]
+    got = [SEGMENT_REGIMES[i] for i in label_samples(valid, rho, slip, spin, lat)]
     assert got == [
         "free_rolling",
         "traction",

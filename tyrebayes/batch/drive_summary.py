@@ -14,7 +14,7 @@ import numpy as np
 
 from ..inference.tyre.window_table import WindowTable
 from ..physics.vehicle import Vehicle
-from ..streams.segments import SEGMENT_KINDS
+from ..streams.segments import SEGMENT_REGIMES
 from ..streams.wear_evidence import drive_wear_evidence
 from .manifest import DriveItem
 
@@ -42,7 +42,7 @@ def drive_summary(
     dict
         ``drive_id``, ``tyre_set_id``, ``vehicle``, ``surface``, ``tyre_type``, ``ambient_c``
         [°C], ``duration_s`` [s], ``samples``, ``sample_rate_hz``, ``valid_fraction``,
-        ``seconds_<regime>`` and ``segments_<regime>`` per :data:`SEGMENT_KINDS`, smoothed noise
+        ``seconds_<regime>`` and ``segments_<regime>`` per :data:`SEGMENT_REGIMES`, smoothed noise
         (``noise_vx_mps``, ``noise_slip_velocity_mps``, ``noise_ax_mps2``), nuisances
         (``ax_offset_mps2``, ``ax_gain``, ``speed_scale``), ``friction_work_driven_j`` (the
         driven axle's ∫|F_x V_x σ_x| dt, thesis eq. 4.19a/4.26), ``windows``, ``abs_windows``,
@@ -67,8 +67,8 @@ def drive_summary(
         "samples": int(time_s.size),
         "sample_rate_hz": float(features.sample_rate_hz),
         "valid_fraction": float(np.mean(features.valid)) if time_s.size else 0.0,
-        **{f"seconds_{k}": float(segments[k]["seconds"]) for k in SEGMENT_KINDS},
-        **{f"segments_{k}": int(segments[k]["count"]) for k in SEGMENT_KINDS},
+        **{f"seconds_{k}": float(segments[k]["seconds"]) for k in SEGMENT_REGIMES},
+        **{f"segments_{k}": int(segments[k]["count"]) for k in SEGMENT_REGIMES},
         "noise_vx_mps": float(noise["vx_mps"]),
         "noise_slip_velocity_mps": float(noise["slip_velocity_driven_mps"]),
         "noise_ax_mps2": float(noise["ax_mps2"]),

@@ -16,7 +16,7 @@ from .nuisances import estimate_ax_gain as estimate_ax_gain
 from .nuisances import imu_gain_correction as imu_gain_correction
 from .schema import OPTIONAL_COLUMNS as OPTIONAL_COLUMNS
 from .schema import REQUIRED_COLUMNS as REQUIRED_COLUMNS
-from .segments import SEGMENT_KINDS as SEGMENT_KINDS
+from .segments import SEGMENT_REGIMES as SEGMENT_REGIMES
 from .segments import SegmentThresholds as SegmentThresholds
 from .tyre_temperature import driven_tyre_temperature as driven_tyre_temperature
 from .tyre_temperature import features_tyre_temperature as features_tyre_temperature

@@ -56,7 +56,7 @@ from .schema import WHEEL_COLUMNS
 from .segments import (
     DEFAULT_THRESHOLDS,
     FREE_ROLLING,
-    SEGMENT_KINDS,
+    SEGMENT_REGIMES,
     SegmentThresholds,
     label_samples,
     summarize_segments,
@@ -103,7 +103,7 @@ class StreamFeatures(eqx.Module):
     yaw_rate_radps, yaw_acc_radps2 : yaw rate and its derivative
     steer_rad : front road-wheel angle δ [rad]
     resistance_n : drag + rolling resistance [N]
-    label : index into :data:`SEGMENT_KINDS`
+    label : index into :data:`SEGMENT_REGIMES`
     valid : V_x usable (moving, no gap)
     spin : spin/lock check fired (chapter 4.3.2)
     filled : sample bridged over a dropped sample
@@ -167,12 +167,12 @@ class StreamFeatures(eqx.Module):
         """Count and seconds per regime (see :func:`summarize_segments`)."""
         return summarize_segments(self.time_s, self.label, min_segment_s)
 
-    @renamed_keyword("kind", "regime", what="a segment label of SEGMENT_KINDS")
+    @renamed_keyword("kind", "regime", what="a segment label of SEGMENT_REGIMES")
     def mask(self, regime: str) -> Bool[np.ndarray, "n"]:
-        """Samples labelled with the driving regime ``regime`` (one of :data:`SEGMENT_KINDS`)."""
-        if regime not in SEGMENT_KINDS:
-            raise ValueError(f"mask: expected one of {SEGMENT_KINDS}, got {regime!r}")
-        return self.label == SEGMENT_KINDS.index(regime)
+        """Samples labelled with the driving regime ``regime`` (one of :data:`SEGMENT_REGIMES`)."""
+        if regime not in SEGMENT_REGIMES:
+            raise ValueError(f"mask: expected one of {SEGMENT_REGIMES}, got {regime!r}")
+        return self.label == SEGMENT_REGIMES.index(regime)
 
 
 def compute_features(

@@ -21,7 +21,7 @@ from jaxtyping import Bool, Float, Int
 
 from .order_stats import median
 
-SEGMENT_KINDS: tuple[str, ...] = (
+SEGMENT_REGIMES: tuple[str, ...] = (
     "invalid",
     "free_rolling",
     "traction",
@@ -31,7 +31,7 @@ SEGMENT_KINDS: tuple[str, ...] = (
 )
 """Label names; a sample's label is the index into this tuple."""
 
-INVALID, FREE_ROLLING, TRACTION, BRAKING, HIGH_SLIP, CORNERING = range(len(SEGMENT_KINDS))
+INVALID, FREE_ROLLING, TRACTION, BRAKING, HIGH_SLIP, CORNERING = range(len(SEGMENT_REGIMES))
 
 
 @dataclass(frozen=True)
@@ -94,7 +94,7 @@ def label_samples(
     Returns
     -------
     ndarray of int
-        Index into :data:`SEGMENT_KINDS`.
+        Index into :data:`SEGMENT_REGIMES`.
     """
     # Later assignments take priority; each is one masked write into the same array.
     label = np.full(valid.shape, FREE_ROLLING, dtype=np.int64)
@@ -136,7 +136,7 @@ def summarize_segments(
     run_label = label[starts]
     run_seconds = (ends - starts) * dt
     out: dict[str, dict[str, float | int]] = {}
-    for code, regime in enumerate(SEGMENT_KINDS):
+    for code, regime in enumerate(SEGMENT_REGIMES):
         mine = run_label == code
         out[regime] = {
             "count": int(np.sum(run_seconds[mine] >= min_segment_s)),
