@@ -34,6 +34,8 @@ import os as _os
 import sys as _sys
 from pathlib import Path as _Path
 
+from .internal.lazy_exports import lazy_exports as _lazy_exports
+
 __version__ = "0.2.0"
 
 # Float64 before anything of the package makes an array. Slips are ~1e-3 with noise of ~1e-4,
@@ -66,17 +68,11 @@ _EXPORTS = _exports()
 __all__ = list(_EXPORTS)
 
 
+_lazy_getattr, __dir__ = _lazy_exports(__name__, _EXPORTS, globals())
+
+
 def __getattr__(name: str) -> object:
-    module = _EXPORTS.get(name)
-    if module is None:
-        # A subpackage used as an attribute (``tyrebayes.streams``) after ``import tyrebayes``.
-        if _importlib_util.find_spec(f"{__name__}.{name}") is not None:
-            return _importlib.import_module(f"{__name__}.{name}")
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(_importlib.import_module(module), name)
-    globals()[name] = value  # later look-ups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+    # A subpackage used as an attribute (``tyrebayes.streams``) after ``import tyrebayes``.
+    if name not in _EXPORTS and _importlib_util.find_spec(f"{__name__}.{name}") is not None:
+        return _importlib.import_module(f"{__name__}.{name}")
+    return _lazy_getattr(name)
