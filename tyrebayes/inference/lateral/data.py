@@ -72,8 +72,9 @@ class CorneringObservations(eqx.Module):
     mask_kinematic : Bool[Array, "n"]
         Samples that enter the lateral-kinematics equation (two neighbours each side valid
         too: it differentiates V_x·α_r).
-    dt_s : float
-        Sample interval [s].
+    dt_s : Array
+        Sample interval [s] (0-d: a real clock's differs from drive to drive in the fourth
+        digit, and a static value would compile every program once per drive).
     road_wheel : bool
         Whether ``steering`` is a road-wheel angle (no steering ratio to infer).
     mass_kg, wheelbase_m, cog_to_front_axle_m, yaw_inertia_kgm2, steering_ratio : Array
@@ -102,7 +103,7 @@ class CorneringObservations(eqx.Module):
     steering: Float[Array, " n"]
     mask: Bool[Array, " n"]
     mask_kinematic: Bool[Array, " n"]
-    dt_s: float = eqx.field(static=True)
+    dt_s: Float[Array, ""] = eqx.field(converter=jnp.asarray)
     road_wheel: bool = eqx.field(static=True)
     mass_kg: Float[Array, ""]
     wheelbase_m: Float[Array, ""]
@@ -271,7 +272,7 @@ def cornering_observations(frame: pd.DataFrame, vehicle: Vehicle) -> CorneringOb
         steering=arr(steering),
         mask=jnp.asarray(mask),
         mask_kinematic=jnp.asarray(kinematic),
-        dt_s=float(dt),
+        dt_s=jnp.asarray(float(dt)),
         road_wheel=road_wheel,
         mass_kg=jnp.asarray(float(vehicle.mass_kg)),
         wheelbase_m=jnp.asarray(float(vehicle.wheelbase_m)),

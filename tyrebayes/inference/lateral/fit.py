@@ -93,13 +93,19 @@ def fit_lateral(
     mode, ok, hess, weights, vif = _weighted_mode(obs, priors, surface, max_steps)
     chol, problems = _covariance_root(hess)
     if method == "laplace":
-        samples = _laplace(mode, chol, obs, weights, priors, surface, key_draw, num_draws)
+        samples = _laplace(mode, chol, obs, priors, key_draw, num_draws)
         sample_stats = None
         optimiser = "successful" if ok else "BFGS did not converge"
     else:
-        init = {k: v[0] for k, v in _constrain(mode[None], obs, weights, priors, surface).items()}
+        init = {k: v[0] for k, v in _constrain(mode[None], obs, priors).items()}
         samples, sample_stats = _nuts(
-            obs, priors, surface, weights, init, key_nuts, (num_chains, num_warmup, num_samples)
+            obs,
+            priors,
+            priors.mu_y_prior(surface),
+            weights,
+            init,
+            key_nuts,
+            (num_chains, num_warmup, num_samples),
         )
         optimiser = "n/a"
     names = [k for k in _SUMMARY_SITES if k in samples]

@@ -50,9 +50,15 @@ def _start(obs: CorneringObservations, priors: LateralPriors, surface: str) -> j
     return jnp.asarray([values[n] for n in names], dtype=obs.ay.dtype)
 
 
-def _potential(x, obs, weights, scale, priors, surface):
+def _potential(x, obs, weights, scale, priors, mu_prior):
     params = dict(zip(_site_names(obs.road_wheel, priors), x, strict=True))
-    return potential_energy(lateral_model, (obs, priors, surface, weights, scale), {}, params)
+    return potential_energy(lateral_model, (obs, priors, mu_prior, weights, scale), {}, params)
+
+
+def _mu_prior(priors: LateralPriors, surface: str, dtype) -> jnp.ndarray:
+    """μ_y's prior (median, log-sd) on ``surface`` as data of the compiled programs: a static
+    surface name would compile every program once per surface a fleet's drives were on."""
+    return jnp.asarray(priors.mu_y_prior(surface), dtype=dtype)
 
 
 # BFGS works in whitened coordinates y, x = start + W y with W W' ≈ H⁻¹ (posterior sds), and
@@ -63,27 +69,27 @@ BFGS_ATOL = 1e-4
 BFGS_RTOL = 1e-8
 
 
-@functools.partial(jax.jit, static_argnames=("priors", "surface", "max_steps"))
-def _bfgs(x0, whiten, obs, weights, scale, priors, surface, max_steps):
+@functools.partial(jax.jit, static_argnames=("priors", "max_steps"))
+def _bfgs(x0, whiten, obs, weights, scale, priors, mu_prior, max_steps):
     """BFGS minimum of the potential from ``x0`` in the coordinates ``whiten`` gives.
 
-    Returns ``(mode, converged, steps)``. Compiled once per observation shape, priors and
-    surface; the start, whitening, weights and data scale are data.
+    Returns ``(mode, converged, steps)``. Compiled once per observation shape and priors; the
+    start, whitening, weights, data scale and μ_y's prior are data.
     """
 
     def f(y, _):
-        return _potential(x0 + whiten @ y, obs, weights, scale, priors, surface)
+        return _potential(x0 + whiten @ y, obs, weights, scale, priors, mu_prior)
 
     solver = optx.BFGS(rtol=BFGS_RTOL, atol=BFGS_ATOL)
     sol = optx.minimise(f, solver, jnp.zeros_like(x0), max_steps=max_steps, throw=False)
     return x0 + whiten @ sol.value, sol.result == optx.RESULTS.successful, sol.stats["num_steps"]
 
 
-_potential_at = jax.jit(_potential, static_argnames=("priors", "surface"))
+_potential_at = jax.jit(_potential, static_argnames=("priors",))
 
 
-@functools.partial(jax.jit, static_argnames=("priors", "surface"))
-def _hessian(x, obs, weights, scale, priors, surface):
+@functools.partial(jax.jit, static_argnames=("priors",))
+def _hessian(x, obs, weights, scale, priors, mu_prior):
     """The potential's Hessian at ``x``, one Hessian-vector product per coordinate in turn.
 
     ``jax.hessian`` pushes all the coordinates' tangents through the reverse pass at once, so
@@ -93,7 +99,7 @@ def _hessian(x, obs, weights, scale, priors, surface):
     """
 
     def gradient(y):
-        return jax.grad(_potential)(y, obs, weights, scale, priors, surface)
+        return jax.grad(_potential)(y, obs, weights, scale, priors, mu_prior)
 
     def column(tangent):
         return jax.jvp(gradient, (x,), (tangent,))[1]
@@ -118,7 +124,7 @@ def _whitening(hess: np.ndarray) -> np.ndarray:
     return vec / np.sqrt(np.maximum(np.abs(eig), 1.0))[None, :]
 
 
-def _minimum(x0, obs, weights, scale, priors, surface, max_steps, hess0=None, escapes: int = 3):
+def _minimum(x0, obs, weights, scale, priors, mu_prior, max_steps, hess0=None, escapes: int = 3):
     """A local minimum of the potential (not a saddle): whitened BFGS, then away from any saddle.
 
     The whitening is the Hessian at ``x0`` (or ``hess0``, one at a nearby point). BFGS stops
@@ -128,7 +134,7 @@ def _minimum(x0, obs, weights, scale, priors, surface, max_steps, hess0=None, es
     curvature would drop the potential by 2, and goes on from the lower side.
     Returns ``(mode, converged, hessian)``.
     """
-    args = (obs, weights, scale, priors, surface)
+    args = (obs, weights, scale, priors, mu_prior)
     hess = np.asarray(_hessian(x0, *args)) if hess0 is None else hess0
     if not np.all(np.isfinite(hess)):
         # a potential that is not finite at the start (data the masks let through): BFGS
@@ -156,14 +162,13 @@ def _minimum(x0, obs, weights, scale, priors, surface, max_steps, hess0=None, es
     return mode, bool(ok), hess
 
 
-def _constrain(xs, obs, weights, priors, surface) -> dict:
+def _constrain(xs, obs, priors) -> dict:
     """Constrained draws of unconstrained draws ``xs`` (draws × sites), K included.
 
     The model's transforms are known (exp for the LogNormal sites, identity for the Normal
     ones), so the draws are mapped directly, without running the model's likelihood once per
-    draw. ``weights`` is unused; kept so that the signature follows the model's arguments.
+    draw.
     """
-    del weights
     names = _site_names(obs.road_wheel, priors)
     xs = np.asarray(xs)
     out = {n: xs[:, i] if n in REAL_SITES else np.exp(xs[:, i]) for i, n in enumerate(names)}
@@ -176,7 +181,7 @@ def _residuals_at(point: dict, obs):
     return residuals(obs, point)
 
 
-def _levels(obs, x, subsets, weights, priors, surface, max_steps):
+def _levels(obs, x, subsets, weights, priors, mu_prior, max_steps):
     """The mode found on ``subsets[0]`` stretches of the drive, refined on ``subsets[1]``...
 
     Each entry is a number of stretches (:func:`~.search._search_subset`) or ``None`` for all
@@ -188,7 +193,7 @@ def _levels(obs, x, subsets, weights, priors, surface, max_steps):
     for count in dict.fromkeys(subsets):
         subset, scale = (obs, 1.0) if count is None else _search_subset(obs, count)
         scale = jnp.asarray(scale, dtype=obs.ay.dtype)
-        x, ok, hess = _minimum(x, subset, weights, scale, priors, surface, max_steps, hess)
+        x, ok, hess = _minimum(x, subset, weights, scale, priors, mu_prior, max_steps, hess)
     return x, ok, hess
 
 
@@ -211,13 +216,14 @@ def _weighted_mode(obs, priors, surface, max_steps):
     unit = jnp.ones(2, dtype=dtype)
     first = (_search_blocks(n, INFLATION_SEARCH_SAMPLES), search) if search else (None,)
     start = _start(obs, priors, surface)
-    mode, _, _ = _levels(obs, start, first, unit, priors, surface, max_steps)
-    point = {k: v[0] for k, v in _constrain(mode[None], obs, unit, priors, surface).items()}
+    mu_prior = _mu_prior(priors, surface, dtype)
+    mode, _, _ = _levels(obs, start, first, unit, priors, mu_prior, max_steps)
+    point = {k: v[0] for k, v in _constrain(mode[None], obs, priors).items()}
     steer, kin = (np.asarray(x) for x in _residuals_at(point, obs))
     vif = (
         residual_inflation(steer, np.asarray(obs.mask)),
         residual_inflation(kin, np.asarray(obs.mask_kinematic)),
     )
     weights = jnp.asarray([1.0 / vif[0], 1.0 / vif[1]], dtype=dtype)
-    mode, ok, hess = _levels(obs, mode, (search, None), weights, priors, surface, max_steps)
+    mode, ok, hess = _levels(obs, mode, (search, None), weights, priors, mu_prior, max_steps)
     return mode, ok, hess, weights, vif

@@ -205,7 +205,7 @@ class LateralPriors(eqx.Module):
         return MU_MEDIAN[surface], MU_LOG_SD[surface]
 
 
-def derivative(x: jnp.ndarray, dt: float) -> jnp.ndarray:
+def derivative(x: jnp.ndarray, dt: float | jnp.ndarray) -> jnp.ndarray:
     """d/dt of a sampled signal: the five-point central stencil, second-order at the ends.
 
     The observations are decimated to 10 Hz; there a three-point difference already reads a
@@ -299,11 +299,15 @@ def residuals(
 def lateral_model(
     obs: CorneringObservations,
     priors: LateralPriors,
-    surface: str = "dry",
+    mu_y_prior=None,
     weights=(1.0, 1.0),
     data_scale=1.0,
 ):
     """NumPyro model of one drive's cornering (module docstring).
+
+    ``mu_y_prior`` is the median and log-sd of μ_y's prior (:meth:`LateralPriors.mu_y_prior`
+    of the drive's surface; ``None``: dry). They are numbers the model reads, not a name it
+    looks up, so that drives on every surface share one compiled program of the fit.
 
     ``weights`` are the two equations' likelihood weights, 1/VIF of their residuals'
     correlation between samples (:func:`.fit.residual_inflation`). ``data_scale`` multiplies
@@ -311,7 +315,7 @@ def lateral_model(
     scaled by the whole drive's count over the subset's has the whole drive's curvature, which
     is what the fit's search on a subset needs (:func:`.fit.search_stride`).
     """
-    mu_median, mu_log_sd = priors.mu_y_prior(surface)
+    mu_median, mu_log_sd = priors.mu_y_prior("dry") if mu_y_prior is None else mu_y_prior
     p = {
         "c_y_front": numpyro.sample(
             "c_y_front", dist.LogNormal(jnp.log(priors.c_y_median), priors.c_y_log_sd)

@@ -34,8 +34,10 @@ def _covariance_root(hess: np.ndarray) -> tuple[np.ndarray, list[str]]:
     return vec / np.sqrt(eig)[None, :], problems
 
 
-def _nuts(obs, priors, surface, weights, init: dict, key, settings: tuple[int, int, int]):
-    """NUTS draws (by chain) from ``init`` and the divergences: ``(samples, sample_stats)``."""
+def _nuts(obs, priors, mu_prior, weights, init: dict, key, settings: tuple[int, int, int]):
+    """NUTS draws (by chain) from ``init`` and the divergences: ``(samples, sample_stats)``.
+
+    ``mu_prior``: μ_y's prior, median and log-sd (:meth:`~.model.LateralPriors.mu_y_prior`)."""
     num_chains, num_warmup, num_samples = settings
     kernel = NUTS(
         lateral_model,
@@ -52,15 +54,15 @@ def _nuts(obs, priors, surface, weights, init: dict, key, settings: tuple[int, i
         chain_method="sequential",
         progress_bar=False,
     )
-    mcmc.run(key, obs, priors, surface, weights, extra_fields=("diverging",))
+    mcmc.run(key, obs, priors, mu_prior, weights, extra_fields=("diverging",))
     samples = {k: np.asarray(v) for k, v in mcmc.get_samples(group_by_chain=True).items()}
     diverging = np.asarray(mcmc.get_extra_fields(group_by_chain=True)["diverging"])
     return samples, {"diverging": diverging}
 
 
-def _laplace(mode, chol, obs, weights, priors, surface, key, num_draws: int) -> dict:
+def _laplace(mode, chol, obs, priors, key, num_draws: int) -> dict:
     """Laplace draws (one chain) of the constrained sites, K included: mode + S z, z ~ N(0, I)."""
     z = np.asarray(jax.random.normal(key, (num_draws, mode.shape[0]), dtype=mode.dtype))
     flat = np.asarray(mode)[None, :] + z @ chol.T
-    draws = _constrain(jnp.asarray(flat), obs, weights, priors, surface)
+    draws = _constrain(jnp.asarray(flat), obs, priors)
     return {k: np.asarray(v)[None] for k, v in draws.items()}

@@ -50,8 +50,8 @@ class LateralBlocks(eqx.Module):
         Samples of each block the batch fit reads that were left out for |a_x|.
     time_s : Float[Array, " blocks"]
         Time at the end of each block since the record's start [s].
-    dt_s : float
-        Sample interval [s].
+    dt_s : Array
+        Sample interval [s] (0-d, as :class:`~tyrebayes.inference.lateral.CorneringObservations`'s).
     road_wheel : bool
         Whether ``steering`` is a road-wheel angle.
     mass_kg, wheelbase_m, cog_to_front_axle_m, yaw_inertia_kgm2, steering_ratio : Array
@@ -68,7 +68,7 @@ class LateralBlocks(eqx.Module):
     mask_kinematic: Bool[Array, "blocks width"]
     n_skipped: Float[Array, " blocks"]
     time_s: Float[Array, " blocks"]
-    dt_s: float = eqx.field(static=True)
+    dt_s: Float[Array, ""] = eqx.field(converter=jnp.asarray)
     road_wheel: bool = eqx.field(static=True)
     mass_kg: Float[Array, ""]
     wheelbase_m: Float[Array, ""]
@@ -152,19 +152,20 @@ def lateral_blocks(
     >>> blocks.speed.shape, [float(t) for t in blocks.time_s]
     ((3, 300), [30.0, 60.0, 90.0])
     """
-    width = int(round(step_s / obs.dt_s))
+    dt = float(obs.dt_s)
+    width = int(round(step_s / dt))
     # The decimated rate is the stream's median rate over the decimation step: within a
     # fraction of a per cent of 10 Hz on a real clock, so a block is the nearest whole number.
-    if width < 10 or abs(width * obs.dt_s - step_s) > 0.01 * step_s:
+    if width < 10 or abs(width * dt - step_s) > 0.01 * step_s:
         raise ValueError(
-            f"step_s: expected a whole number (≥ 10) of {obs.dt_s} s samples, got {step_s}"
+            f"step_s: expected a whole number (≥ 10) of {dt} s samples, got {step_s}"
         )
     n = int(obs.speed.shape[0])
     filled = max(1, -(-n // width))
     count = filled if n_blocks is None else int(n_blocks)
     total = count * width
     speed = np.asarray(obs.speed, float)
-    ax = np.gradient(speed, obs.dt_s) if n > 1 else np.zeros(n)
+    ax = np.gradient(speed, dt) if n > 1 else np.zeros(n)
     mask = np.asarray(obs.mask) & (np.abs(ax) <= max_longitudinal_mps2)
     kinematic = np.asarray(obs.mask_kinematic) & mask
 
@@ -192,7 +193,7 @@ def lateral_blocks(
         mask=jnp.asarray(padded(mask, False)),
         mask_kinematic=jnp.asarray(kinematic),
         n_skipped=jnp.asarray(padded(np.asarray(obs.mask) & ~mask, False).sum(axis=1), dtype=dtype),
-        time_s=jnp.asarray(np.arange(1, count + 1) * width * obs.dt_s, dtype=dtype),
+        time_s=jnp.asarray(np.arange(1, count + 1) * width * dt, dtype=dtype),
         dt_s=obs.dt_s,
         road_wheel=obs.road_wheel,
         mass_kg=obs.mass_kg,
