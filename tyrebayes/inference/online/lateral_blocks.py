@@ -157,9 +157,7 @@ def lateral_blocks(
     # The decimated rate is the stream's median rate over the decimation step: within a
     # fraction of a per cent of 10 Hz on a real clock, so a block is the nearest whole number.
     if width < 10 or abs(width * dt - step_s) > 0.01 * step_s:
-        raise ValueError(
-            f"step_s: expected a whole number (≥ 10) of {dt} s samples, got {step_s}"
-        )
+        raise ValueError(f"step_s: expected a whole number (≥ 10) of {dt} s samples, got {step_s}")
     n = int(obs.speed.shape[0])
     filled = max(1, -(-n // width))
     count = filled if n_blocks is None else int(n_blocks)
