@@ -1,8 +1,10 @@
-"""Where the lateral fit's mode search reads a drive: padded lengths and subsets of stretches.
+"""Where the lateral fit reads a drive: its stretches, padded lengths, subsets for the search.
 
-Observations are padded to a few lengths (drives of any length share a few compiled programs);
-a long drive's mode is searched on a fixed number of evenly spaced 5 s stretches, its data
-scaled to the whole drive's weight, and refined on all samples
+A drive longer than :data:`FIT_BLOCKS` 5 s stretches is fitted on that many of them: those with
+the most cornering, and a quarter of the number spread evenly over the rest
+(:func:`_fit_stretches`). Observations are padded to a few lengths (drives of any length share
+a few compiled programs); a long drive's mode is searched on a fixed number of evenly spaced
+stretches, its data scaled to the whole's weight, and refined on all samples
 (:func:`~tyrebayes.inference.lateral.mode._weighted_mode`).
 """
 
@@ -27,6 +29,12 @@ SEARCH_BLOCK = 50
 #: searched on this many samples' worth of evenly spaced stretches, and the search's optimum
 #: refined on all samples.
 SEARCH_SAMPLES = 6000
+#: Stretches a fit reads at most (21 min at 10 Hz): a fleet's drives of 20 to 60 min then share
+#: one padded length, and one set of compiled programs, instead of one per quarter octave.
+FIT_BLOCKS = 256
+#: Of those, the share spread evenly over the drive's other stretches: straight driving fixes
+#: the steering and a_y offsets, which cornering in one direction cannot tell from stiffness.
+FIT_SPREAD_SHARE = 0.25
 #: Samples the first search for the unweighted mode reads (:func:`_weighted_mode`): from
 #: the priors' medians it takes the most BFGS steps of the fit, here each a quarter as dear.
 INFLATION_SEARCH_SAMPLES = 1500
@@ -66,6 +74,61 @@ def _padded(obs: CorneringObservations) -> CorneringObservations:
         )
         for name in _SERIES
     }
+    return dataclasses.replace(obs, **series)
+
+
+def _stretch_mask(blocks: int, chosen: np.ndarray) -> np.ndarray:
+    """Samples of the ``chosen`` stretches (sorted block indices) that the equations may read:
+    all but the two at an end whose neighbouring stretch was not chosen (a five-point derivative
+    there would reach into it)."""
+    keep = np.ones((chosen.size, SEARCH_BLOCK), bool)
+    gap_before = np.r_[True, np.diff(chosen) > 1]
+    gap_after = np.r_[np.diff(chosen) > 1, True]
+    keep[gap_before, :2] = False
+    keep[gap_after, -2:] = False
+    return keep.reshape(-1)
+
+
+def _fit_stretches(obs: CorneringObservations) -> CorneringObservations:
+    """``obs`` cut to :data:`FIT_BLOCKS` stretches when it is longer: the posterior of those.
+
+    The stretches are those with the largest Σ a_y² over the used samples (a stretch's
+    information on the slip angles grows with the forces in it) and, for
+    :data:`FIT_SPREAD_SHARE` of the number, evenly spaced ones among the rest. Choosing by the
+    measured forces, not by the residuals, leaves the likelihood of the kept samples as it is;
+    the fit is then that of 21 minutes of the drive (an interval as wide as those data give,
+    not narrowed as if it had read all of them). ``cornering_seconds`` stays the drive's.
+
+    Examples
+    --------
+    >>> from tyrebayes import load_vehicle
+    >>> from tyrebayes.inference.lateral import cornering_observations
+    >>> from tyrebayes.simulate import simulate_cornering
+    >>> frame, _ = simulate_cornering(load_vehicle("compact_fwd"), duration_s=120.0, seed=1)
+    >>> obs = cornering_observations(frame, load_vehicle("compact_fwd"))
+    >>> _fit_stretches(obs) is obs
+    True
+    """
+    blocks = obs.speed.shape[0] // SEARCH_BLOCK
+    if blocks <= FIT_BLOCKS:
+        return obs
+    n = blocks * SEARCH_BLOCK
+    mask = np.asarray(obs.mask)[:n].reshape(blocks, SEARCH_BLOCK)
+    ay = np.asarray(obs.ay)[:n].reshape(blocks, SEARCH_BLOCK)
+    score = np.where(mask, ay**2, 0.0).sum(axis=1)
+    spread = int(FIT_SPREAD_SHARE * FIT_BLOCKS)
+    order = np.argsort(-score, kind="stable")
+    top, rest = order[: FIT_BLOCKS - spread], np.sort(order[FIT_BLOCKS - spread :])
+    even = rest[((np.arange(spread) + 0.5) * rest.size / spread).astype(int)]
+    chosen = np.sort(np.r_[top, even])
+    keep = jnp.asarray(_stretch_mask(blocks, chosen))
+
+    def take(x):
+        return x[:n].reshape(blocks, SEARCH_BLOCK)[chosen].reshape(-1)
+
+    series = {name: take(getattr(obs, name)) for name in _SERIES}
+    series["mask"] = series["mask"] & keep
+    series["mask_kinematic"] = series["mask_kinematic"] & keep
     return dataclasses.replace(obs, **series)
 
 
