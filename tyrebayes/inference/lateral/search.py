@@ -68,13 +68,21 @@ def _padded(obs: CorneringObservations) -> CorneringObservations:
         return obs
     # Padding's speed stays away from zero: the equations divide by it before the mask applies.
     fill = {"speed": 10.0, "mask": False, "mask_kinematic": False}
-    series = {
-        name: jnp.concatenate(
-            [getattr(obs, name), jnp.full(extra, fill.get(name, 0.0), getattr(obs, name).dtype)]
-        )
-        for name in _SERIES
-    }
-    return dataclasses.replace(obs, **series)
+
+    def pad(name):
+        x = np.asarray(getattr(obs, name))
+        return np.concatenate([x, np.full(extra, fill.get(name, 0.0), x.dtype)])
+
+    return _with_series(obs, {name: pad(name) for name in _SERIES})
+
+
+def _with_series(obs: CorneringObservations, series: dict) -> CorneringObservations:
+    """``obs`` with its series replaced by ``series`` (NumPy arrays).
+
+    The cutting and padding run in NumPy: each eager JAX operation on a new length would compile
+    a small program, and a fleet worker, meeting many lengths, would hold them all.
+    """
+    return dataclasses.replace(obs, **{k: jnp.asarray(v) for k, v in series.items()})
 
 
 def _stretch_mask(blocks: int, chosen: np.ndarray) -> np.ndarray:
@@ -121,15 +129,15 @@ def _fit_stretches(obs: CorneringObservations) -> CorneringObservations:
     top, rest = order[: FIT_BLOCKS - spread], np.sort(order[FIT_BLOCKS - spread :])
     even = rest[((np.arange(spread) + 0.5) * rest.size / spread).astype(int)]
     chosen = np.sort(np.r_[top, even])
-    keep = jnp.asarray(_stretch_mask(blocks, chosen))
+    keep = _stretch_mask(blocks, chosen)
 
     def take(x):
-        return x[:n].reshape(blocks, SEARCH_BLOCK)[chosen].reshape(-1)
+        return np.asarray(x)[:n].reshape(blocks, SEARCH_BLOCK)[chosen].reshape(-1)
 
     series = {name: take(getattr(obs, name)) for name in _SERIES}
     series["mask"] = series["mask"] & keep
     series["mask_kinematic"] = series["mask_kinematic"] & keep
-    return dataclasses.replace(obs, **series)
+    return _with_series(obs, series)
 
 
 def _search_blocks(n: int, samples: int | None = None) -> int | None:
@@ -161,15 +169,15 @@ def _search_subset(obs: CorneringObservations, count: int) -> tuple[CorneringObs
     chosen = ((np.arange(count) + 0.5) * blocks / count).astype(int)
     inner = np.ones(SEARCH_BLOCK, bool)
     inner[:2] = inner[-2:] = False
-    inner = jnp.asarray(np.tile(inner, count))
+    inner = np.tile(inner, count)
 
     def take(x):
-        return x.reshape(blocks, SEARCH_BLOCK)[chosen].reshape(-1)
+        return np.asarray(x).reshape(blocks, SEARCH_BLOCK)[chosen].reshape(-1)
 
     series = {name: take(getattr(obs, name)) for name in _SERIES}
     # Each stretch's ends: the five-point derivatives there would reach into the next stretch.
     series["mask"] = series["mask"] & inner
     series["mask_kinematic"] = series["mask_kinematic"] & inner
-    subset = dataclasses.replace(obs, **series)
-    scale = float(jnp.sum(obs.mask)) / max(float(jnp.sum(subset.mask)), 1.0)
+    subset = _with_series(obs, series)
+    scale = float(np.sum(np.asarray(obs.mask))) / max(float(np.sum(series["mask"])), 1.0)
     return subset, scale
