@@ -11,7 +11,9 @@
    target ≤ 2 GB).
 
 The drive is the package's cornering simulator's (``simulate_cornering``, mixed, 3,600 s at
-100 Hz); its content does not change the cost of a fit of this length.
+100 Hz). A drive over 21 minutes is fitted on its 21 minutes of stretches with the most
+cornering (``fit_lateral``), so the fit's cost is that of 21 minutes of data for any longer
+drive.
 
 Usage: ``python benchmarks/lateral_speed.py [--duration 3600]``.
 """
