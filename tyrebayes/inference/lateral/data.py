@@ -272,7 +272,7 @@ def cornering_observations(frame: pd.DataFrame, vehicle: Vehicle) -> CorneringOb
         steering=arr(steering),
         mask=jnp.asarray(mask),
         mask_kinematic=jnp.asarray(kinematic),
-        dt_s=jnp.asarray(float(dt)),
+        dt_s=float(dt),
         road_wheel=road_wheel,
         mass_kg=jnp.asarray(float(vehicle.mass_kg)),
         wheelbase_m=jnp.asarray(float(vehicle.wheelbase_m)),

@@ -97,6 +97,22 @@ def _stretch_mask(blocks: int, chosen: np.ndarray) -> np.ndarray:
     return keep.reshape(-1)
 
 
+def _stretches(
+    obs: CorneringObservations, chosen: np.ndarray, keep: np.ndarray
+) -> CorneringObservations:
+    """The ``chosen`` stretches of ``obs`` (block indices), both masks cut to ``keep`` (one
+    flag per sample of the result)."""
+    n = obs.speed.shape[0] // SEARCH_BLOCK * SEARCH_BLOCK
+
+    def take(x):
+        return np.asarray(x)[:n].reshape(-1, SEARCH_BLOCK)[chosen].reshape(-1)
+
+    series = {name: take(getattr(obs, name)) for name in _SERIES}
+    series["mask"] = series["mask"] & keep
+    series["mask_kinematic"] = series["mask_kinematic"] & keep
+    return _with_series(obs, series)
+
+
 def _fit_stretches(obs: CorneringObservations) -> CorneringObservations:
     """``obs`` cut to :data:`FIT_BLOCKS` stretches when it is longer: the posterior of those.
 
@@ -129,15 +145,7 @@ def _fit_stretches(obs: CorneringObservations) -> CorneringObservations:
     top, rest = order[: FIT_BLOCKS - spread], np.sort(order[FIT_BLOCKS - spread :])
     even = rest[((np.arange(spread) + 0.5) * rest.size / spread).astype(int)]
     chosen = np.sort(np.r_[top, even])
-    keep = _stretch_mask(blocks, chosen)
-
-    def take(x):
-        return np.asarray(x)[:n].reshape(blocks, SEARCH_BLOCK)[chosen].reshape(-1)
-
-    series = {name: take(getattr(obs, name)) for name in _SERIES}
-    series["mask"] = series["mask"] & keep
-    series["mask_kinematic"] = series["mask_kinematic"] & keep
-    return _with_series(obs, series)
+    return _stretches(obs, chosen, _stretch_mask(blocks, chosen))
 
 
 def _search_blocks(n: int, samples: int | None = None) -> int | None:
@@ -169,15 +177,7 @@ def _search_subset(obs: CorneringObservations, count: int) -> tuple[CorneringObs
     chosen = ((np.arange(count) + 0.5) * blocks / count).astype(int)
     inner = np.ones(SEARCH_BLOCK, bool)
     inner[:2] = inner[-2:] = False
-    inner = np.tile(inner, count)
-
-    def take(x):
-        return np.asarray(x).reshape(blocks, SEARCH_BLOCK)[chosen].reshape(-1)
-
-    series = {name: take(getattr(obs, name)) for name in _SERIES}
     # Each stretch's ends: the five-point derivatives there would reach into the next stretch.
-    series["mask"] = series["mask"] & inner
-    series["mask_kinematic"] = series["mask_kinematic"] & inner
-    subset = _with_series(obs, series)
-    scale = float(np.sum(np.asarray(obs.mask))) / max(float(np.sum(series["mask"])), 1.0)
+    subset = _stretches(obs, chosen, np.tile(inner, count))
+    scale = float(np.sum(np.asarray(obs.mask))) / max(float(np.sum(np.asarray(subset.mask))), 1.0)
     return subset, scale
