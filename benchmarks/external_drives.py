@@ -26,9 +26,12 @@ Fits that do not converge are counted and excluded from the error and coverage f
 ``--load-sensitivity`` fits every model with the load sensitivity of the slip stiffness
 (``TyrePriors().with_load_sensitivity()``), written to ``external_drives_load_sensitivity.json``
 unless ``--out`` says otherwise: these tyres have none, so the run measures what its prior costs.
+``--no-blocks`` fits without the 5 s block slip offsets (``TyrePriors(slip_drift_median=0)``),
+written to ``external_drives_no_blocks.json``: what the offsets do on drives the package did not
+make.
 
 Usage: ``python benchmarks/external_drives.py [DIR] [--out FILE] [--drives e00,e01]
-[--load-sensitivity]``.
+[--load-sensitivity | --no-blocks]``.
 """
 
 from __future__ import annotations
@@ -61,6 +64,7 @@ from tyrebayes import (  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "external_drives.json"
 RESULTS_LOAD = RESULTS.with_name("external_drives_load_sensitivity.json")
+RESULTS_NO_BLOCKS = RESULTS.with_name("external_drives_no_blocks.json")
 SIDE_MODELS = ("brush", "linear")
 
 
@@ -240,10 +244,25 @@ def main() -> None:
     parser.add_argument(
         "--load-sensitivity", action="store_true", help="fit with the measured tyres' q prior"
     )
+    parser.add_argument(
+        "--no-blocks", action="store_true", help="fit without the 5 s block slip offsets"
+    )
     args = parser.parse_args()
-    priors = TyrePriors().with_load_sensitivity() if args.load_sensitivity else None
+    if args.load_sensitivity and args.no_blocks:
+        parser.error("--load-sensitivity and --no-blocks are separate runs: give one")
+    priors = None
+    if args.load_sensitivity:
+        priors = TyrePriors().with_load_sensitivity()
+    elif args.no_blocks:
+        priors = TyrePriors(slip_drift_median=0.0)
     if args.out is None:
-        args.out = RESULTS_LOAD if args.load_sensitivity else RESULTS
+        args.out = (
+            RESULTS_LOAD
+            if args.load_sensitivity
+            else RESULTS_NO_BLOCKS
+            if args.no_blocks
+            else RESULTS
+        )
     t0 = time.perf_counter()
     rows = []
     for drive in external_drives(args.folder, args.drives):
@@ -265,6 +284,7 @@ def main() -> None:
         "n_drives": len(rows),
         "method": "fast",
         "load_sensitivity": bool(args.load_sensitivity),
+        "block_offsets": not args.no_blocks,
         "wall_s": time.perf_counter() - t0,
         "load_avg_1min": os.getloadavg()[0],
         "pooled": {m: pooled(rows, m) for m in ("default", *SIDE_MODELS)},
