@@ -2,8 +2,12 @@
 
 import dataclasses
 
+import jax
+import numpy as np
+
 from tyrebayes._domain import load_vehicle
 from tyrebayes.inference.lateral import LateralPriors, cornering_observations, mode, search
+from tyrebayes.internal.jax_cache import point_compilation_cache
 from tyrebayes.simulate.cornering import simulate_cornering
 
 VEHICLE = load_vehicle("compact_fwd")
@@ -21,3 +25,32 @@ def test_drives_on_other_surfaces_and_clocks_reuse_the_compiled_search():
     compiled = (mode._bfgs._cache_size(), mode._hessian._cache_size())
     mode._weighted_mode(other, priors, "snow", 50)
     assert (mode._bfgs._cache_size(), mode._hessian._cache_size()) == compiled
+
+
+def test_a_worker_that_dropped_its_programs_reads_the_search_from_disk(
+    compilation_cache_dir, monkeypatch
+):
+    """A fleet worker over its memory budget drops every compiled program; the search's traced
+    programs are read back from the compilation cache's folder, not traced again, and give the
+    same mode as the plain jitted functions."""
+    frame, _ = simulate_cornering(VEHICLE, manoeuvre="mixed", duration_s=60.0, seed=5)
+    obs = search._padded(cornering_observations(frame, VEHICLE))
+    priors = LateralPriors()
+    mode._stored.cache_clear()
+    point_compilation_cache(None)
+    plain = mode._weighted_mode(obs, priors, "dry", 50)
+    point_compilation_cache(str(compilation_cache_dir))
+    mode._stored.cache_clear()
+    stored = mode._weighted_mode(obs, priors, "dry", 50)
+    assert list((compilation_cache_dir / "tyrebayes-programs").glob("*.jaxexport"))
+
+    jax.clear_caches()
+    mode._stored.cache_clear()
+    exports = []
+    export = jax.export.export
+    monkeypatch.setattr(jax.export, "export", lambda *a, **k: exports.append(1) or export(*a, **k))
+    again = mode._weighted_mode(obs, priors, "dry", 50)
+    assert exports == []
+    for got in (stored, again):
+        np.testing.assert_allclose(got[0], plain[0], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(got[2], plain[2], rtol=1e-9)

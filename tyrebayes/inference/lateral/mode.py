@@ -16,6 +16,7 @@ import numpy as np
 import optimistix as optx
 from numpyro.infer.util import potential_energy
 
+from ...internal.stored_program import stored_program
 from .data import CorneringObservations, G
 from .inflation import residual_inflation
 from .model import REAL_SITES, LateralPriors, lateral_model, residuals, sample_sites
@@ -50,7 +51,7 @@ def _start(obs: CorneringObservations, priors: LateralPriors, surface: str) -> j
     return jnp.asarray([values[n] for n in names], dtype=obs.ay.dtype)
 
 
-def _potential(x, obs, weights, scale, priors, mu_prior):
+def _potential(x, obs, weights, scale, mu_prior, priors):
     params = dict(zip(_site_names(obs.road_wheel, priors), x, strict=True))
     return potential_energy(lateral_model, (obs, priors, mu_prior, weights, scale), {}, params)
 
@@ -70,7 +71,7 @@ BFGS_RTOL = 1e-8
 
 
 @functools.partial(jax.jit, static_argnames=("priors", "max_steps"))
-def _bfgs(x0, whiten, obs, weights, scale, priors, mu_prior, max_steps):
+def _bfgs(x0, whiten, obs, weights, scale, mu_prior, priors, max_steps):
     """BFGS minimum of the potential from ``x0`` in the coordinates ``whiten`` gives.
 
     Returns ``(mode, converged, steps)``. Compiled once per observation shape and priors; the
@@ -78,7 +79,7 @@ def _bfgs(x0, whiten, obs, weights, scale, priors, mu_prior, max_steps):
     """
 
     def f(y, _):
-        return _potential(x0 + whiten @ y, obs, weights, scale, priors, mu_prior)
+        return _potential(x0 + whiten @ y, obs, weights, scale, mu_prior, priors)
 
     solver = optx.BFGS(rtol=BFGS_RTOL, atol=BFGS_ATOL)
     sol = optx.minimise(f, solver, jnp.zeros_like(x0), max_steps=max_steps, throw=False)
@@ -89,7 +90,7 @@ _potential_at = jax.jit(_potential, static_argnames=("priors",))
 
 
 @functools.partial(jax.jit, static_argnames=("priors",))
-def _hessian(x, obs, weights, scale, priors, mu_prior):
+def _hessian(x, obs, weights, scale, mu_prior, priors):
     """The potential's Hessian at ``x``, one Hessian-vector product per coordinate in turn.
 
     ``jax.hessian`` pushes all the coordinates' tangents through the reverse pass at once, so
@@ -99,12 +100,25 @@ def _hessian(x, obs, weights, scale, priors, mu_prior):
     """
 
     def gradient(y):
-        return jax.grad(_potential)(y, obs, weights, scale, priors, mu_prior)
+        return jax.grad(_potential)(y, obs, weights, scale, mu_prior, priors)
 
     def column(tangent):
         return jax.jvp(gradient, (x,), (tangent,))[1]
 
     return jax.lax.map(column, jnp.eye(x.shape[0], dtype=x.dtype))
+
+
+@functools.cache
+def _stored(function, priors: LateralPriors, **static):
+    """``function`` with its static arguments bound and its traced program kept on disk.
+
+    A fleet worker drops its compiled programs when they would take it past its memory budget
+    (:mod:`tyrebayes.batch.worker_memory`); the lateral fit's programs are then compiled-cache
+    loads, without the seconds of tracing BFGS and the Hessian at three data shapes again
+    (:func:`~tyrebayes.internal.stored_program.stored_program`). Results are NumPy arrays.
+    """
+    bound = functools.partial(function, priors=priors, **static)
+    return stored_program(bound, (f"lateral{function.__name__}", priors, sorted(static.items())))
 
 
 def _whitening(hess: np.ndarray) -> np.ndarray:
@@ -134,14 +148,16 @@ def _minimum(x0, obs, weights, scale, priors, mu_prior, max_steps, hess0=None, e
     curvature would drop the potential by 2, and goes on from the lower side.
     Returns ``(mode, converged, hessian)``.
     """
-    args = (obs, weights, scale, priors, mu_prior)
-    hess = np.asarray(_hessian(x0, *args)) if hess0 is None else hess0
+    args = (obs, weights, scale, mu_prior)
+    hessian = _stored(_hessian, priors)
+    bfgs = _stored(_bfgs, priors, max_steps=max_steps)
+    hess = hessian(x0, *args) if hess0 is None else hess0
     if not np.all(np.isfinite(hess)):
         # a potential that is not finite at the start (data the masks let through): BFGS
         # would take all its steps on NaN
         return x0, False, hess
-    mode, ok, _ = _bfgs(x0, jnp.asarray(_whitening(hess)), *args, max_steps=max_steps)
-    hess = np.asarray(_hessian(mode, *args))
+    mode, ok, _ = bfgs(x0, _whitening(hess), *args)
+    hess = hessian(mode, *args)
     for _ in range(escapes):
         sym = 0.5 * (hess + hess.T)
         if not np.all(np.isfinite(sym)):
@@ -150,15 +166,11 @@ def _minimum(x0, obs, weights, scale, priors, mu_prior, max_steps, hess0=None, e
         if eig[0] > 0:
             break
         step = 2.0 / np.sqrt(abs(eig[0]))
-        starts = [mode + sign * step * jnp.asarray(vec[:, 0]) for sign in (1.0, -1.0)]
-        values = [float(_potential_at(x, *args)) for x in starts]
-        mode, ok, _ = _bfgs(
-            starts[int(np.argmin(values))],
-            jnp.asarray(_whitening(hess)),
-            *args,
-            max_steps=max_steps,
-        )
-        hess = np.asarray(_hessian(mode, *args))
+        starts = [mode + sign * step * vec[:, 0] for sign in (1.0, -1.0)]
+        potential = _stored(_potential_at, priors)
+        values = [float(potential(x, *args)) for x in starts]
+        mode, ok, _ = bfgs(starts[int(np.argmin(values))], _whitening(hess), *args)
+        hess = hessian(mode, *args)
     return mode, bool(ok), hess
 
 
@@ -177,8 +189,13 @@ def _constrain(xs, obs, priors) -> dict:
 
 
 @jax.jit
-def _residuals_at(point: dict, obs):
+def _residuals(point: dict, obs):
     return residuals(obs, point)
+
+
+#: The steering and kinematic residuals at a point (a dict of the sites' values), as NumPy
+#: arrays; its traced program kept on disk like the search's (:func:`_stored`).
+_residuals_at = stored_program(_residuals, ("lateral-residuals",))
 
 
 def _levels(obs, x, subsets, weights, priors, mu_prior, max_steps):
