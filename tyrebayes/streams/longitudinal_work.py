@@ -17,11 +17,27 @@
   balance the mild decelerations that dominate braking put too little force on the driven front
   axle and too much on the rear; the linear braking work goes with the force squared, so the
   front's braking work read low and the rear's, on the drive-history simulator, well above the
-  truth. That was one cause of the evidence reading the simulator's front-axle work at 0.85 of
-  the truth; the other remains (``benchmarks/results/wear_history.json``,
-  ``evidence_work_over_true``): the radius ratios are read on "free-rolling" samples, chosen by
-  the force balance's ρ_x, whose true force the a_x offset's residual hides; the driven wheels'
-  slip at that force is read as radius and taken off every traction sample's slip.
+  truth.
+* **The force's noise** (the force balance's F_x errs by a few hundred newtons, correlated only
+  within the features' smoothing window) must neither choose the samples it is averaged over
+  nor be squared. The free-rolling samples are chosen by |ρ_x| < 0.02: the samples whose noise
+  pulled ρ_x into that window, so their own mean ρ_x reads the driven axle's free-rolling force
+  near 0 (0.002 against a true 0.011 on a simulated commute), the free-rolling slip ρ_x / C_x
+  is read as radius and taken off every traction sample's slip (σ_x 2·10⁻⁴ low, the measured
+  traction work 7 % low). And ρ_x² of the kernel ρ_x² F_z V (eq. 4.27) carries the noise's
+  variance, which inflates the traction kernel, hence Ĉ_x, by ~10 % and reads every linear
+  (braking, free-axle) work low by as much. Both use the force just outside the window
+  (:func:`_outside_window`), whose noise is independent of the sample's own: the kernel is
+  ρ_x(t − k) ρ_x(t + k) F_z V, and the free-rolling force the mean over those samples of the
+  best linear predictor of the true ρ_x (:func:`_denoised_force`: regression calibration, with
+  the true force's variance from the covariance over k samples).
+* **Braking slip beyond linear**: σ_x = ρ_x / C_x (eq. 4.27) is the tyre's slope at zero slip;
+  its curve bends, and harder braking slips more than linear (on the simulator the free rear
+  axle's work, nearly all in braking, read 11 % low). The linear parts use the brush tyre's
+  σ_x = g(ρ_x) ρ_x / C_x, g = 3 / (1 + a + a²), a = (1 − |ρ_x| / μ)^⅓, as the lateral work does
+  (:func:`~tyrebayes.streams.lateral_work.brush_slip_angle`); g → 1 for small ρ_x, so Ĉ_x keeps
+  its meaning. ``benchmarks/results/wear_history.json`` (``evidence_work_over_true``) measures
+  what the three leave of the gap to the simulator's true work.
 
 :func:`longitudinal_work` iterates the radius ratios and Ĉ_x (the ratios need Ĉ_x, Ĉ_x needs the
 slip) and returns a :class:`LongitudinalWork`.
@@ -34,10 +50,31 @@ import numpy as np
 
 from ..physics.vehicle import GRAVITY_MPS2, Vehicle
 from .features import StreamFeatures
+from .lateral_work import LATERAL_MU
 
 #: Coasting in gear brakes the driven wheels with the engine's drag, up to this share of the
 #: weight (0.05 g, about 0.5 m/s²: a petrol car's deceleration in gear with the throttle shut).
 ENGINE_BRAKE_SHARE = 0.05
+
+
+def _outside_window(feats: StreamFeatures, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``x`` k samples before and after each sample (NaN past the ends), k one more than the
+    features' smoothing window: their noise is independent of the sample's own (module
+    docstring), while a force changes little over k samples (0.3 s at 10 Hz)."""
+    k = int(round(feats.smoothing_s * feats.sample_rate_hz)) + 1
+    before = np.full_like(x, np.nan)
+    after = np.full_like(x, np.nan)
+    if x.shape[0] > k:
+        before[k:] = x[:-k]
+        after[:-k] = x[k:]
+    return before, after
+
+
+def _brush_factor(rho: np.ndarray, mu: float = LATERAL_MU) -> np.ndarray:
+    """g(ρ_x) = 3 / (1 + a + a²), a = (1 − |ρ_x| / μ)^⅓: brush slip over linear slip (module
+    docstring); |ρ_x| held below 0.97 μ as for the slip angle, NaN kept."""
+    a = np.cbrt(1.0 - np.minimum(np.abs(rho), 0.97 * mu) / mu)
+    return 3.0 / (1.0 + a + a * a)
 
 
 def _free_slip_ratios(
@@ -50,7 +87,8 @@ def _free_slip_ratios(
 
     "Free rolling" (|ρ_x| < 0.02 on the driven axle) still pushes against drag and rolling
     resistance, so the driven wheels turn faster by σ ≈ ρ_x / C_x there: the free-rolling ratio
-    reads that slip as radius. Divided out with the drive's secant stiffness (eq. 4.27).
+    reads that slip as a smaller radius (the wheel turns faster as a smaller one would). Put
+    back with the drive's secant stiffness (eq. 4.27): the ratio times 1 + ρ_x / Ĉ_x.
     ``free_force``: :func:`_free_rolling_force` of ``feats``, when the caller has it (it does
     not change with Ĉ_x, which :func:`longitudinal_work` iterates on).
     """
@@ -60,19 +98,43 @@ def _free_slip_ratios(
     if free_force is None:
         free_force = _free_rolling_force(feats, driven)
     for axle in driven:
-        ratio[2 * axle : 2 * axle + 2] /= 1.0 + np.nan_to_num(free_force[axle]) / c_hat
+        ratio[2 * axle : 2 * axle + 2] *= 1.0 + np.nan_to_num(free_force[axle]) / c_hat
     return ratio
+
+
+def _denoised_force(feats: StreamFeatures, rho: np.ndarray) -> np.ndarray:
+    """The best linear predictor of each sample's true ρ_x from its noisy one, per axle.
+
+    E[ρ | ρ̂] = m + λ (ρ̂ − m), λ = cov(ρ̂_t, ρ̂_t+k) / var(ρ̂): the covariance over k samples
+    (:func:`_outside_window`) is the true force's variance without the noise's. Averaged over
+    samples chosen by ρ̂ it gives their true mean force (regression calibration), where ρ̂'s own
+    mean there holds the noise that chose them.
+    """
+    out = np.array(rho, dtype=float)
+    _, after = _outside_window(feats, out)
+    for axle in range(out.shape[1]):
+        x, y = out[:, axle], after[:, axle]
+        both = np.isfinite(x) & np.isfinite(y)
+        if both.sum() < 3:
+            continue
+        m = float(np.mean(x[both]))
+        var = float(np.var(x[both]))
+        lam = float(np.mean((x[both] - m) * (y[both] - m)) / var) if var > 0 else 1.0
+        out[:, axle] = m + float(np.clip(lam, 0.0, 1.0)) * (x - m)
+    return out
 
 
 def _free_rolling_force(feats: StreamFeatures, driven: list[int]) -> dict[int, float]:
     """Mean ρ_x of each driven axle over the straight free-rolling samples.
 
-    0 without such samples, NaN when none has a force (:func:`_free_slip_ratios` counts that
-    as 0 too); found once per drive, also where the ratios turn out not to need it, so an
-    all-NaN axle gives NaN without ``np.nanmean``'s warning.
+    The samples are chosen by their own noisy ρ_x, so the mean is of :func:`_denoised_force`
+    (module docstring). 0 without such samples, NaN when none has a force
+    (:func:`_free_slip_ratios` counts that as 0 too); found once per drive, also where the
+    ratios turn out not to need it, so an all-NaN axle gives NaN without ``np.nanmean``'s
+    warning.
     """
     free = feats.mask("free_rolling") & (np.abs(feats.steer_rad) < 0.02)
-    rho = feats.rho_axle[free]
+    rho = _denoised_force(feats, feats.rho_axle)[free]
     if not rho.size:
         return dict.fromkeys(driven, 0.0)
     return {
@@ -168,7 +230,9 @@ class _WorkTerms(eqx.Module):
 
     Per sample and axle, shape (n, 2): ``power_w`` F_x V [W] (NaN where F_x is), ``usable``
     (valid, finite F_x, no spin), ``pushing`` (F_x > 0 on a driven axle), ``slip_sd`` [-],
-    ``kernel_j`` ρ² F_z |V| dt [J], not yet masked.
+    ``kernel_j`` ρ² g(ρ) F_z |V| dt [J], not yet masked: ρ² as ρ(t − k) ρ(t + k), the force
+    outside the smoothing window (:func:`_outside_window`; ρ² where a neighbour is missing), so
+    the force's noise does not add its variance, and g the brush factor (:func:`_brush_factor`).
     """
 
     power_w: np.ndarray
@@ -188,12 +252,15 @@ def _work_terms(feats, fx, is_driven, valid, dt) -> _WorkTerms:
         ]
     )
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        rho = fx / fz
+        before, after = _outside_window(feats, rho)
+        square = np.where(np.isfinite(before * after), before * after, rho**2)
         return _WorkTerms(
             power_w=fx * vx[:, None],
             usable=valid[:, None] & np.isfinite(fx) & ~feats.spin[:, None],
             pushing=(fx > 0) & is_driven[None, :],
             slip_sd=slip_axle_sd,
-            kernel_j=(fx / fz) ** 2 * fz * np.abs(vx)[:, None] * dt,
+            kernel_j=square * _brush_factor(rho) * fz * np.abs(vx)[:, None] * dt,
         )
 
 
