@@ -57,11 +57,15 @@ from .lateral_work import LATERAL_MU
 ENGINE_BRAKE_SHARE = 0.05
 
 
-def _outside_window(feats: StreamFeatures, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``x`` k samples before and after each sample (NaN past the ends), k one more than the
-    features' smoothing window: their noise is independent of the sample's own (module
-    docstring), while a force changes little over k samples (0.3 s at 10 Hz)."""
-    k = int(round(feats.smoothing_s * feats.sample_rate_hz)) + 1
+def _window_step(feats: StreamFeatures) -> int:
+    """k of :func:`_outside_window`: one more sample than the features' smoothing window."""
+    return int(round(feats.smoothing_s * feats.sample_rate_hz)) + 1
+
+
+def _outside_window(x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """``x`` k samples before and after each sample (NaN past the ends). With k from
+    :func:`_window_step` their noise is independent of the sample's own (module docstring),
+    while a force changes little over k samples (0.3 s at 10 Hz)."""
     before = np.full_like(x, np.nan)
     after = np.full_like(x, np.nan)
     if x.shape[0] > k:
@@ -102,7 +106,7 @@ def _free_slip_ratios(
     return ratio
 
 
-def _denoised_force(feats: StreamFeatures, rho: np.ndarray) -> np.ndarray:
+def _denoised_force(rho: np.ndarray, k: int) -> np.ndarray:
     """The best linear predictor of each sample's true ρ_x from its noisy one, per axle.
 
     E[ρ | ρ̂] = m + λ (ρ̂ − m), λ = cov(ρ̂_t, ρ̂_t+k) / var(ρ̂): the covariance over k samples
@@ -111,7 +115,7 @@ def _denoised_force(feats: StreamFeatures, rho: np.ndarray) -> np.ndarray:
     mean there holds the noise that chose them.
     """
     out = np.array(rho, dtype=float)
-    _, after = _outside_window(feats, out)
+    _, after = _outside_window(out, k)
     for axle in range(out.shape[1]):
         x, y = out[:, axle], after[:, axle]
         both = np.isfinite(x) & np.isfinite(y)
@@ -134,7 +138,7 @@ def _free_rolling_force(feats: StreamFeatures, driven: list[int]) -> dict[int, f
     warning.
     """
     free = feats.mask("free_rolling") & (np.abs(feats.steer_rad) < 0.02)
-    rho = _denoised_force(feats, feats.rho_axle)[free]
+    rho = _denoised_force(feats.rho_axle, _window_step(feats))[free]
     if not rho.size:
         return dict.fromkeys(driven, 0.0)
     return {
@@ -253,7 +257,7 @@ def _work_terms(feats, fx, is_driven, valid, dt) -> _WorkTerms:
     )
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         rho = fx / fz
-        before, after = _outside_window(feats, rho)
+        before, after = _outside_window(rho, _window_step(feats))
         square = np.where(np.isfinite(before * after), before * after, rho**2)
         return _WorkTerms(
             power_w=fx * vx[:, None],
