@@ -168,7 +168,7 @@ BENCHMARKS: dict[str, Benchmark] = {
         ),
         Benchmark(
             "wear_history",
-            "wear from a car's drive history with cornering, 3 simulated years",
+            "wear from a car's drive history with cornering, 10 simulated years",
             quick=("--years", "1", "--drives", "12", "--drive-s", "300", "--samples", "200"),
             minutes=15,
         ),

@@ -25,7 +25,7 @@ bias of γ's median, γ·s (γ per joule of evidence work) beside them, the per-
 coverage (rear included), and the ratio of the evidence's work to the simulator's true work per
 axle and component.
 
-Run ``python benchmarks/wear_history.py [--years 3] [--drives 30]``; results go to
+Run ``python benchmarks/wear_history.py [--years 10] [--drives 30] [--samples 800]``; results go to
 ``benchmarks/results/wear_history.json``. Timings are taken on a machine shared with other jobs.
 """
 
@@ -261,10 +261,10 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--years", type=int, default=3, help="simulated years (seeds)")
+    parser.add_argument("--years", type=int, default=10, help="simulated years (seeds)")
     parser.add_argument("--drives", type=int, default=30, help="logged drives per year")
     parser.add_argument("--drive-s", type=float, default=600.0, help="length of a logged drive")
-    parser.add_argument("--samples", type=int, default=400, help="NUTS warm-up and draws")
+    parser.add_argument("--samples", type=int, default=800, help="NUTS warm-up and draws")
     args = parser.parse_args(argv)
     nuts = {"num_warmup": args.samples, "num_samples": args.samples, "num_chains": 2}
     years = []

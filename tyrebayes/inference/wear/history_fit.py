@@ -49,14 +49,12 @@ from .data import WearPriors
 from .history import DriveHistory, TreadReadings, reading_exposure
 
 #: Log-sd of the scale error of a stream's longitudinal friction work (eq. 4.19a from smoothed
-#: F_x and σ_x, the radius-ratio correction of the slip, the linear slip under braking). On the
-#: drive-history simulator the evidence reads the true front-axle work low
-#: (benchmarks/results/wear_history.json, ``evidence_work_over_true``): the braking part was
-#: split by a fixed brake balance (now re-split, streams.longitudinal_work.braking_split); what is
-#: left comes from the radius ratios, read on "free-rolling" samples whose force the a_x offset's
-#: residual hides (the driven wheels' slip at that force is read as radius and taken off the
-#: traction slip). The prior does not correct that, it makes γ's interval honest: its 90 % range,
-#: 0.82-1.22, holds the measured front-axle ratios of the three simulated years (0.87-0.89).
+#: F_x and σ_x, the radius-ratio correction of the slip, the brush slip under braking). Nothing
+#: in a stream measures this scale: γ = (γ s) / s, so its prior bounds γ's interval from below
+#: (a 90 % half-width of about 1.645 × 0.12 = 0.20 in the log however much the readings say).
+#: It is what the evidence can get wrong on a real car (brake balance, radius ratios, the
+#: force balance's gain), not fitted to the drive-history simulator, where
+#: ``benchmarks/results/wear_history.json`` (``evidence_work_over_true``) reports the ratio.
 WORK_SCALE_LOG_SD = 0.12
 #: Correlation of the front and rear lateral-work scale errors: both axles carry the same tyre
 #: model, so most of an error in c_y is common; the axles differ in compliance steer and load.
