@@ -271,3 +271,81 @@ def test_the_rear_axles_lateral_wear_rate_is_recovered():
     assert out["lateral_work"]["share_of_work"]["rear"] > 0.9
     q = out["lateral_work"]["scale"]["rear"]
     assert q["hdi_90"][0] < 0.8 < q["hdi_90"][1]
+
+
+def test_initial_depths_integrated_out_and_drawn_after_the_chains():
+    """The readings' likelihood with each pair's initial depth integrated out equals the joint
+    one integrated over d0 on a grid, and the depths drawn after the chains have that grid's
+    posterior mean and sd."""
+    import numpyro.distributions as dist
+    from numpyro.infer.util import log_density
+    from scipy.stats import norm
+
+    from tyrebayes.inference.wear.data import WearPriors
+    from tyrebayes.inference.wear.history_fit import (
+        DEPTH_NOISE_LOG_SD,
+        NEW_DEPTH_MM,
+        NEW_DEPTH_SD_MM,
+        _initial_depths,
+        wear_history_model,
+    )
+
+    table, _ = synthetic_table(seed=3)
+    h = drive_history(table)
+    end = float(h.odometer_km[-1] + h.interval_km[-1])
+    mid = float(h.odometer_km[10])
+    readings = tread_readings(
+        pd.DataFrame(
+            {
+                "odometer_km": [mid, mid, end, end],
+                "axle": ["front", "rear", "front", "rear"],
+                "depth_mm": [7.6, 7.9, 6.9, 7.7],
+            }
+        )
+    )
+    exposure, pair = reading_exposure(h, readings)
+    depth = np.asarray(readings.depth_mm)
+    area = float(TreadGeometry().wear_area_mm2)
+    priors = WearPriors()
+    point = {
+        "log_gamma_work": np.log(GAMMA),
+        "lateral_z": np.zeros(2),
+        "sigma_ratio_mm": 0.01,
+        "tau": 0.05,
+        "sigma_depth_mm": 0.25,
+    }
+    args = (h, exposure, pair, depth, False, priors, area)
+    without = (h, None, None, None, False, priors, area)
+    drift = {k: v for k, v in point.items() if k != "sigma_depth_mm"}
+    depth_ll = float(log_density(wear_history_model, args, {}, point)[0]) - float(
+        log_density(wear_history_model, without, {}, drift)[0]
+    )
+    noise_prior = dist.LogNormal(np.log(priors.depth_noise_scale_mm), DEPTH_NOISE_LOG_SD)
+    depth_ll -= float(noise_prior.log_prob(0.25))
+    # the same by a grid over each pair's d0 (pairs are independent given the wear)
+    loss = GAMMA / 2.0 / area * h.work_j  # (n, 2) mm per tyre; no lateral work, κ = 0
+    lost = np.einsum("mja,ja->m", exposure, loss)
+    grid = np.linspace(5.0, 11.0, 6001)
+    total, moments = 0.0, {}
+    for p in np.unique(pair):
+        mine = pair == p
+        like = norm.pdf(grid, NEW_DEPTH_MM, NEW_DEPTH_SD_MM) * np.prod(
+            norm.pdf(depth[mine][:, None], grid[None, :] - lost[mine][:, None], 0.25), axis=0
+        )
+        total += np.log(np.trapezoid(like, grid))
+        mean = np.trapezoid(grid * like, grid) / np.trapezoid(like, grid)
+        sd = np.sqrt(np.trapezoid((grid - mean) ** 2 * like, grid) / np.trapezoid(like, grid))
+        moments[int(p)] = (mean, sd)
+    assert depth_ll == pytest.approx(total, abs=1e-6)
+
+    draws = 20_000
+    samples = {
+        "gamma_work": np.full((1, draws), GAMMA),
+        "log_lateral_ratio": np.zeros((1, draws, 2)),
+        "sigma_depth_mm": np.full((1, draws), 0.25),
+    }
+    d0 = _initial_depths(samples, h, exposure, pair, depth, area, seed=0)
+    assert d0.shape == (1, draws, h.n_pairs)
+    for p, (mean, sd) in moments.items():
+        assert d0[0, :, p].mean() == pytest.approx(mean, abs=4 * sd / np.sqrt(draws))
+        assert d0[0, :, p].std() == pytest.approx(sd, rel=0.03)

@@ -17,7 +17,9 @@ Model (drive interval j, axle a, tyre pair p, tyre-set segment s)::
     W_j,a ~ N(Ŵ_j,a, sd_j,a² + τ² Ŵ_j,a²)                 the work's error and how well the drive
                                                           stands for its interval, marginalised:
                                                           y of a segment is multivariate normal
-    depth_i ~ N(d0_p − Σ_j A_i,j,a Δ_j,a, σ_depth²)        readings (optional); d0_p ~ N(8, 0.5)
+    depth_i ~ N(d0_p − Σ_j A_i,j,a Δ_j,a, σ_depth²)        readings (optional), σ_depth ~ LogNormal
+                                                          (log 0.3 mm, 0.7); d0_p ~ N(8, 0.5),
+                                                          integrated out, drawn after the chains
 
 λ = 1 (the radius shrinks by the depth lost). The data fix γ s (``gamma_work``, wear per joule of
 the evidence's longitudinal work) and the lateral work's ratios q_a / s; the model samples
@@ -67,6 +69,12 @@ OFFSET_SD_MM = 3.0
 RATIO_NOISE_SCALE_MM = 0.1
 #: Prior scale of τ, how much an interval's friction work differs from its logged drive's [-].
 REPRESENTATIVENESS_SCALE = 0.3
+#: Log-sd of a tread reading's noise about its median (WearPriors.depth_noise_scale_mm): 90 % in
+#: 0.3 / 3.2 to 0.3 × 3.2 mm. A reading is a gauge's resolution plus where on the tread it was
+#: taken: tenths of a millimetre, never hundredths. A half-normal prior, with the few readings of a
+#: year, let the noise approach zero, where the readings fix the wear exactly: a funnel in which
+#: NUTS diverged on simulated years (``benchmarks/wear_history.py``).
+DEPTH_NOISE_LOG_SD = 0.7
 #: Depth of a new tyre and its spread [mm] (a history starts on new tyres unless readings say
 #: otherwise; replacements fit new tyres).
 NEW_DEPTH_MM, NEW_DEPTH_SD_MM = 8.0, 0.5
@@ -125,13 +133,22 @@ def wear_history_model(
             obs=y,
         )
     if depth_mm is not None:
-        d0 = numpyro.sample(
-            "initial_depth_mm",
-            dist.Normal(NEW_DEPTH_MM, NEW_DEPTH_SD_MM).expand([history.n_pairs]).to_event(1),
+        sigma_d = numpyro.sample(
+            "sigma_depth_mm",
+            dist.LogNormal(np.log(priors.depth_noise_scale_mm), DEPTH_NOISE_LOG_SD),
         )
-        sigma_d = numpyro.sample("sigma_depth_mm", dist.HalfNormal(priors.depth_noise_scale_mm))
         lost = jnp.einsum("mja,ja->m", exposure, loss)
-        numpyro.sample("depth", dist.Normal(d0[read_pair] - lost, sigma_d), obs=depth_mm)
+        # The pairs' initial depths d0_p are integrated out (readings of one pair share theirs):
+        # they are Normal given everything else, so NUTS need not explore them, and their
+        # posterior is drawn exactly after the chains (_initial_depths).
+        pair = jnp.asarray(read_pair)
+        same = (pair[:, None] == pair[None, :]).astype(lost.dtype)
+        cov = NEW_DEPTH_SD_MM**2 * same + sigma_d**2 * jnp.eye(pair.shape[0], dtype=lost.dtype)
+        numpyro.sample(
+            "depth",
+            dist.MultivariateNormal(NEW_DEPTH_MM - lost, covariance_matrix=cov),
+            obs=depth_mm,
+        )
 
 
 class _ScalePrior(eqx.Module):
@@ -195,9 +212,31 @@ def _init_values(priors: WearPriors, extended: bool, n_pairs: int | None) -> dic
     if extended:
         init["kappa"] = 0.0
     if n_pairs is not None:
-        init["initial_depth_mm"] = np.full(n_pairs, NEW_DEPTH_MM)
         init["sigma_depth_mm"] = 0.2
     return init
+
+
+def _initial_depths(
+    samples, history, exposure, read_pair, depth, wear_area_mm2, seed
+) -> np.ndarray:
+    """Draws of each pair's initial depth d0_p from its exact conditional given a draw's other
+    parameters and the readings (the model integrates it out): Normal, by conjugacy, with
+    precision 1/0.5² + n_p/σ_depth² and mean its precision-weighted prior and readings
+    (reading + the depth the history wore off by it). Shape (chains, draws, pairs)."""
+    gamma = np.asarray(samples["gamma_work"])
+    kappa = np.asarray(samples.get("kappa", np.zeros_like(gamma)))
+    ratio = np.exp(np.asarray(samples["log_lateral_ratio"]))  # (c, d, 2)
+    sigma = np.asarray(samples["sigma_depth_mm"])
+    warm = np.exp(kappa[..., None] * (history.tyre_temperature_c - 20.0))  # (c, d, n)
+    factor = gamma[..., None] * warm / 2.0 / wear_area_mm2
+    work = history.work_j + ratio[..., None, :] * history.work_y_j  # (c, d, n, 2)
+    lost = np.einsum("mja,cdja->cdm", exposure, factor[..., None] * work)
+    seen = depth + lost  # each reading's initial depth, in the reading's noise
+    onehot = np.asarray(read_pair)[:, None] == np.arange(history.n_pairs)[None, :]  # (m, p)
+    precision = 1.0 / NEW_DEPTH_SD_MM**2 + onehot.sum(axis=0) / sigma[..., None] ** 2
+    mean = (NEW_DEPTH_MM / NEW_DEPTH_SD_MM**2 + (seen @ onehot) / sigma[..., None] ** 2) / precision
+    rng = np.random.default_rng(seed + 1)
+    return mean + rng.standard_normal(mean.shape) / np.sqrt(precision)
 
 
 def _history_attrs(history: DriveHistory, extended: bool) -> dict:
@@ -296,6 +335,10 @@ def fit_wear_history(
             seed,
         )
     )
+    if depth is not None:
+        samples["initial_depth_mm"] = _initial_depths(
+            samples, history, exposure, read_pair, depth, float(geom.wear_area_mm2), seed
+        )
     tree = azb.from_dict({"posterior": samples, "sample_stats": {"diverging": draws.diverging}})
     tree.attrs.update(_history_attrs(history, extended))
     names = ["log_gamma_work", "lateral_z", "sigma_ratio_mm", "tau"]
