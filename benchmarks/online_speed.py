@@ -286,8 +286,8 @@ def compiler_options_gain(steps, hours: float, pairs: int, reps: int) -> dict:
         "c_x_trajectory_max_rel_diff": float(
             np.max(np.abs(c_x["estimator"] - c_x["default"]) / c_x["default"])
         ),
-        "same_alarms": bool(np.array_equal(*(np.asarray(outputs[k][1].alarm) for k in runs))),
-        "same_ready_flags": bool(np.array_equal(*(np.asarray(outputs[k][1].ready) for k in runs))),
+        "same_alarms": bool(np.array_equal(*(np.asarray(outputs[k].trajectory.alarm) for k in runs))),
+        "same_ready_flags": bool(np.array_equal(*(np.asarray(outputs[k].trajectory.ready) for k in runs))),
         "note": "each value the median of reps runs after compilation; the two alternate on one "
         "core",
     }
