@@ -262,6 +262,12 @@ def _alternated(runs: dict, first: str, second: str) -> dict:
     }
 
 
+def _same(outputs: dict, field: str) -> bool:
+    """Whether the runs' trajectories have the same ``field`` at every step."""
+    first, second = (np.asarray(getattr(run.trajectory, field)) for run in outputs.values())
+    return bool(np.array_equal(first, second))
+
+
 def compiler_options_gain(steps, hours: float, pairs: int, reps: int) -> dict:
     """The Magic Formula car-hour (30 s steps) compiled with XLA's default options and with the
     estimator's :data:`~tyrebayes.inference.online.COMPILER_OPTIONS`, alternated ``pairs`` times
@@ -286,8 +292,8 @@ def compiler_options_gain(steps, hours: float, pairs: int, reps: int) -> dict:
         "c_x_trajectory_max_rel_diff": float(
             np.max(np.abs(c_x["estimator"] - c_x["default"]) / c_x["default"])
         ),
-        "same_alarms": bool(np.array_equal(*(np.asarray(outputs[k].trajectory.alarm) for k in runs))),
-        "same_ready_flags": bool(np.array_equal(*(np.asarray(outputs[k].trajectory.ready) for k in runs))),
+        "same_alarms": _same(outputs, "alarm"),
+        "same_ready_flags": _same(outputs, "ready"),
         "note": "each value the median of reps runs after compilation; the two alternate on one "
         "core",
     }
