@@ -216,6 +216,19 @@ def _init_values(priors: WearPriors, extended: bool, n_pairs: int | None) -> dic
     return init
 
 
+def tread_loss(history, gamma, kappa, log_ratio, wear_area_mm2: float) -> np.ndarray:
+    """Tread lost per draw, drive and axle position (..., n, 2) [mm per tyre].
+
+    γ exp(κ (T − 20)) per joule of each drive's work, longitudinal plus lateral at the scale
+    exp(``log_ratio``) = q_a / s (eq. 4.19a + b), over the two tyres' wear area. ``gamma`` and
+    ``kappa`` have the draws' shape, ``log_ratio`` that shape and 2.
+    """
+    warm = np.exp(np.asarray(kappa)[..., None] * (history.tyre_temperature_c - 20.0))
+    factor = np.asarray(gamma)[..., None] * warm / 2.0 / wear_area_mm2  # (..., n)
+    work = history.work_j + np.exp(np.asarray(log_ratio))[..., None, :] * history.work_y_j
+    return factor[..., None] * work
+
+
 def _initial_depths(
     samples, history, exposure, read_pair, depth, wear_area_mm2, seed
 ) -> np.ndarray:
@@ -225,12 +238,9 @@ def _initial_depths(
     (reading + the depth the history wore off by it). Shape (chains, draws, pairs)."""
     gamma = np.asarray(samples["gamma_work"])
     kappa = np.asarray(samples.get("kappa", np.zeros_like(gamma)))
-    ratio = np.exp(np.asarray(samples["log_lateral_ratio"]))  # (c, d, 2)
+    loss = tread_loss(history, gamma, kappa, samples["log_lateral_ratio"], wear_area_mm2)
+    lost = np.einsum("mja,cdja->cdm", exposure, loss)
     sigma = np.asarray(samples["sigma_depth_mm"])
-    warm = np.exp(kappa[..., None] * (history.tyre_temperature_c - 20.0))  # (c, d, n)
-    factor = gamma[..., None] * warm / 2.0 / wear_area_mm2
-    work = history.work_j + ratio[..., None, :] * history.work_y_j  # (c, d, n, 2)
-    lost = np.einsum("mja,cdja->cdm", exposure, factor[..., None] * work)
     seen = depth + lost  # each reading's initial depth, in the reading's noise
     onehot = np.asarray(read_pair)[:, None] == np.arange(history.n_pairs)[None, :]  # (m, p)
     precision = 1.0 / NEW_DEPTH_SD_MM**2 + onehot.sum(axis=0) / sigma[..., None] ** 2

@@ -24,7 +24,7 @@ from ..result import Fit
 from ..summary import summarize
 from .changepoint import TyreChanges
 from .history import DriveHistory, TreadReadings
-from .history_fit import NEW_DEPTH_MM, NEW_DEPTH_SD_MM
+from .history_fit import NEW_DEPTH_MM, NEW_DEPTH_SD_MM, tread_loss
 
 #: Tread limits of the predictions [mm]: a common replacement advice and the legal minimum (EU).
 LIMITS_MM = (3.0, 1.6)
@@ -322,18 +322,11 @@ def _loss_per_drive(
     scale q_a / s (eq. 4.19a + b), over the two tyres' wear area.
     """
     kappa = np.zeros_like(gamma) if kappa is None else kappa
-    factor = (
-        gamma[:, None]
-        * np.exp(kappa[:, None] * (history.tyre_temperature_c[None, :] - 20.0))
-        / 2.0
-        / geom.wear_area_mm2
-    )  # (draws, n) mm per tyre per J of axle work
     if "log_lateral_ratio" in fit.posterior.data_vars:
-        ratio = np.exp(fit.draws("log_lateral_ratio"))  # (draws, 2): q_a / s
+        log_ratio = fit.draws("log_lateral_ratio")  # (draws, 2): log q_a / s
     else:
-        ratio = np.ones((gamma.size, 2))
-    work = history.work_j[None, :, :] + ratio[:, None, :] * history.work_y_j[None, :, :]
-    return factor[:, :, None] * work
+        log_ratio = np.zeros((gamma.size, 2))
+    return tread_loss(history, gamma, kappa, log_ratio, geom.wear_area_mm2)
 
 
 def _depth_now(
