@@ -95,11 +95,15 @@ if not em_steps:
     from tyrebayes.inference.tyre.fit import fit_tyre
 
     configure_jax(sys.argv[5])
+    # The tyre-curve keyword is ``kind`` in revisions before the API's one dialect.
+    import inspect
+    curve = "model" if "model" in inspect.signature(fit_tyre).parameters else "kind"
     for drive in drives:
         table = pd.read_parquet(f"{out}/{drive['drive_id']}.windows.parquet")
         windows, surfaces = drives_from_windows(table)
         obs = stack_drives(windows, surfaces, pad_to=pad_size(len(table)))
-        summary = fit_tyre(obs, method="fast", model=settings.model, seed=settings.seed).summary()
+        fit = fit_tyre(obs, method="fast", seed=settings.seed, **{curve: settings.model})
+        summary = fit.summary()
         drive["c_xr"] = float(summary["c_xr"]["mean"])
         drive["c_xr_sd"] = float(summary["c_xr"]["sd"])
 print(json.dumps({"drives": drives, "package": tyrebayes.__file__}))
