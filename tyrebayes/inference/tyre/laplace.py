@@ -152,7 +152,9 @@ def _searched_start(posterior: _Posterior, priors: TyrePriors, stride: int) -> C
         starts = jax.vmap(lambda c, m: _start(flat_init, posterior.unravel, coarse, priors, c, m))(
             *map(jnp.asarray, zip(*MAP_STARTS, strict=True))
         )
-        values, results, whitens = jax.vmap(posterior.minimise_from, (0, None))(starts, coarse)
+        # One start after another (lax.map): vmapped, the four starts' Hessians and BFGS states
+        # are held at once, and every start runs as many steps as the slowest.
+        values, results, whitens = jax.lax.map(lambda s: posterior.minimise_from(s, coarse), starts)
         energies = jax.vmap(posterior.negative_log_posterior, (0, None))(values, coarse)
         ok = (results == optx.RESULTS.successful) & jnp.isfinite(energies)
         best = jnp.argmin(jnp.where(ok, energies, jnp.inf))
