@@ -59,6 +59,8 @@ def test_programs_are_dropped_at_the_first_fit_and_when_the_shape_changes(monkey
         (1200.0, 400.0, None, True),  # over, never dropped: drop
         (1200.0, 400.0, 700.0, True),  # over, 500 MB above the floor
         (1200.0, 400.0, 1150.0, False),  # over, but a drop would free little
+        (1100.0, 400.0, 700.0, True),  # 36 MB under, but not under with the need's margin
+        (1070.0, 400.0, 700.0, False),  # under with the margin
     ],
 )
 def test_a_drop_comes_only_when_the_next_task_would_pass_the_budget(rss, need, floor, expected):
