@@ -72,8 +72,11 @@ def _tyre_fit(
     rho = np.asarray(obs.rho)[slip_window]
     rho = rho[np.isfinite(rho)]
     force_range = float(np.quantile(np.abs(rho), 0.9)) if rho.size else 0.0
-    mu_observed = _mu_observed(samples["mu_max"], priors, obs)
-    adequacy = _adequacy(obs, samples, model, priors, mu_observed)
+    # A fit that did not converge may carry non-finite or zero draws: its diagnostics say so
+    # ("non-finite draws"), and NumPy's warnings on their logarithms would add nothing.
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        mu_observed = _mu_observed(samples["mu_max"], priors, obs)
+        adequacy = _adequacy(obs, samples, model, priors, mu_observed)
     return TyreFit(
         idata=idata,
         diagnostics=diagnostics.with_adequacy(adequacy.reasons),
