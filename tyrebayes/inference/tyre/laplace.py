@@ -25,7 +25,7 @@ from .model import TyrePriors
 
 
 class LaplaceCore(NamedTuple):
-    """The fast path's two compiled programs for one data shape (:func:`_laplace_core`).
+    """The fast path's compiled programs for one data shape (:func:`_laplace_core`).
 
     ``mode(start, obs, whiten, search)`` gives the mode, the optimiser's outcome (a code:
     :func:`optimiser_outcome`), the whitening W its last BFGS run used and the constrained
@@ -34,13 +34,13 @@ class LaplaceCore(NamedTuple):
     comes from one BFGS run started at ``start`` in the coordinates ``whiten`` gives: the second
     pass of a fit, whose slip weights move the posterior's width and barely its centre, keeps
     the basin the search found and the whitening of its refinement (a Hessian of every window
-    not paid again). ``search`` is a traced flag, so both passes are one program.
+    not paid again). The search and that BFGS run are two programs (:func:`_mode_programs`).
 
     ``laplace(mode, obs, key)`` gives the smallest Hessian eigenvalue at the mode, the scale S
     with S S' = H⁻¹ (eigenvalues floored) and the constrained Laplace draws. The first pass of
     a fit needs none: its slip weights read the residuals at its mode.
 
-    Both are traced once per shape and kept on disk
+    Each is traced once per shape and kept on disk
     (:func:`~tyrebayes.internal.stored_program.stored_program`).
     """
 
@@ -72,11 +72,21 @@ def _laplace_core(
     posterior = _Posterior(
         numpyro_model, unravel, _block_hessian(numpyro_model, template, params), max_steps
     )
-    mode_program = _mode_program(posterior, priors, _search_stride(obs_key[0]))
+    search_program, refine_program = _mode_programs(posterior, priors, _search_stride(obs_key[0]))
     laplace_program = _laplace_program(posterior, num_draws)
     key = (priors_key, model, obs_key, num_draws, max_steps)
+    search = stored_program(search_program, ("tyre-search-core", *key))
+    refine = stored_program(refine_program, ("tyre-refine-core", *key))
+
+    def mode(start, obs, whiten, search_first: bool):
+        if search_first:
+            start, whiten, code, sites = search(start, obs)
+            if int(code) >= 0:  # the search ran on every window: its mode is the mode
+                return start, code, whiten, sites
+        return refine(start, obs, whiten)
+
     return LaplaceCore(
-        mode=stored_program(mode_program, ("tyre-mode-core", *key)),
+        mode=mode,
         laplace=stored_program(laplace_program, ("tyre-laplace-core", *key)),
         flat0=flat0,
     )
@@ -171,30 +181,29 @@ def _searched_start(posterior: _Posterior, priors: TyrePriors, stride: int) -> C
     return searched_start
 
 
-def _mode_program(posterior: _Posterior, priors: TyrePriors, stride: int) -> Callable:
-    """The jitted ``mode`` program of :class:`LaplaceCore` (the search, or the second pass)."""
+def _mode_programs(posterior: _Posterior, priors: TyrePriors, stride: int) -> tuple:
+    """The jitted search and refinement programs behind :class:`LaplaceCore`'s ``mode``.
+
+    ``search(start, obs)`` gives the refinement's start, its whitening, the search's outcome
+    code (or ``_NOT_YET``) and the constrained sites at that start; ``refine(start, obs,
+    whiten)`` one BFGS run on all windows, its outcome code, its whitening and the constrained
+    sites at its mode. Compiled apart, not as one program: XLA's compilation of one program
+    holding both was a first fit's peak memory (about 900 MB above the process for a one-hour
+    drive), and a fit's second pass needs the refinement alone.
+    """
     searched_start = _searched_start(posterior, priors, stride)
 
-    def given_start(start, obs, whiten):
-        return start, whiten, _NOT_YET
-
-    def refined(start, obs, whiten):
-        mode, result, whiten = posterior.minimise_whitened(start, obs, whiten)
-        return mode, _outcome_code(result), whiten
+    @jax.jit
+    def search_program(start, obs):
+        start, whiten, code = searched_start(start, obs, None)
+        return start, whiten, code, posterior.constrained(start, obs)
 
     @jax.jit
-    def mode_program(start, obs, whiten, search):
-        # One BFGS run on all windows serves both passes (the search's refinement, or the
-        # second pass from its given start): the program holds it once, not once per branch.
-        start, whiten, code = jax.lax.cond(search, searched_start, given_start, start, obs, whiten)
-        mode, code, whiten = jax.lax.cond(
-            code >= 0,
-            lambda: (start, code, whiten),
-            lambda: refined(start, obs, whiten),
-        )
-        return mode, code, whiten, posterior.constrained(mode, obs)
+    def refine_program(start, obs, whiten):
+        mode, result, whiten = posterior.minimise_whitened(start, obs, whiten)
+        return mode, _outcome_code(result), whiten, posterior.constrained(mode, obs)
 
-    return mode_program
+    return search_program, refine_program
 
 
 def _laplace_program(posterior: _Posterior, num_draws: int) -> Callable:
