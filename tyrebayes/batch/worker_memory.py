@@ -151,10 +151,10 @@ def must_drop(rss: float, need: float, floor: float | None, budget: float) -> bo
     """Whether to drop the compiled programs before a task (all in MB).
 
     Drop when the memory held now (``rss``) plus the most a task of this stage has needed above
-    its start (``need``), times :data:`NEED_MARGIN`, would pass ``budget``, unless the process holds less than
-    :data:`MIN_DROP_MB` above its ``floor`` (what it held right after its last drop; None: no
-    drop yet): then a drop would cost reloads and free little, and the task runs over budget,
-    which its record shows.
+    its start (``need``), times :data:`NEED_MARGIN`, would pass ``budget``, unless the process
+    holds less than :data:`MIN_DROP_MB` above its ``floor`` (what it held right after its last
+    drop; None: no drop yet): then a drop would cost reloads and free little, and the task runs
+    over budget, which its record shows.
 
     Examples
     --------
