@@ -22,8 +22,8 @@ import dataclasses
 MIN_DROP_MB = 100.0
 #: A task is taken to need this multiple of the largest rise seen in its stage. The largest of n
 #: rises seen is passed by the next task's in about 1 case of n + 1 (a longer drive, a padded
-#: shape not met before): 15 % of a drive's rise (~340 MB for an hour) is some 50 MB, which
-#: covers the passes measured in the ``fleet_run`` benchmark (up to 5 MB).
+#: shape not met before); without the margin the ``fleet_run`` benchmark had workers a few MB
+#: over their budget.
 NEED_MARGIN = 1.15
 
 

@@ -188,8 +188,9 @@ def _mode_programs(posterior: _Posterior, priors: TyrePriors, stride: int) -> tu
     code (or ``_NOT_YET``) and the constrained sites at that start; ``refine(start, obs,
     whiten)`` one BFGS run on all windows, its outcome code, its whitening and the constrained
     sites at its mode. Compiled apart, not as one program: XLA's compilation of one program
-    holding both was a first fit's peak memory (about 900 MB above the process for a one-hour
-    drive), and a fit's second pass needs the refinement alone.
+    holding both set a first fit's peak memory (``fit-tyre`` in a fresh process,
+    ``benchmarks/results/lateral_speed.json``), and a fit's second pass needs the refinement
+    alone.
     """
     searched_start = _searched_start(posterior, priors, stride)
 
