@@ -8,7 +8,7 @@
 2. ``tyrebayes fit-tyre STREAM --method fast --json`` on a one-hour drive in a fresh child
    process with an empty JAX compilation cache (a first fit): wall time and the child's peak RSS
    (the whole fit: reading, validation, longitudinal and lateral fits, their compilation;
-   target ≤ 2 GB). The drive is one of the fleet's drive simulator (``simulate_tyre_set_drives``:
+   target ≤ 2 GB). The drive is a drive of the fleet's simulator (``simulate_tyre_set_drives``:
    normal driving with cornering and two ABS stops), so that both fits have their data: on the
    cornering simulator's drive, without braking, the longitudinal fit need not converge.
 
