@@ -75,15 +75,15 @@ def _laplace_core(
     search_program, refine_program = _mode_programs(posterior, priors, _search_stride(obs_key[0]))
     laplace_program = _laplace_program(posterior, num_draws)
     key = (priors_key, model, obs_key, num_draws, max_steps)
-    search = stored_program(search_program, ("tyre-search-core", *key))
-    refine = stored_program(refine_program, ("tyre-refine-core", *key))
+    searched = stored_program(search_program, ("tyre-search-core", *key))
+    refined = stored_program(refine_program, ("tyre-refine-core", *key))
 
-    def mode(start, obs, whiten, search_first: bool):
-        if search_first:
-            start, whiten, code, sites = search(start, obs)
+    def mode(start, obs, whiten, search: bool):
+        if search:
+            start, whiten, code, sites = searched(start, obs)
             if int(code) >= 0:  # the search ran on every window: its mode is the mode
                 return start, code, whiten, sites
-        return refine(start, obs, whiten)
+        return refined(start, obs, whiten)
 
     return LaplaceCore(
         mode=mode,
