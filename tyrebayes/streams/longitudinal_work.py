@@ -27,10 +27,14 @@
   traction work 7 % low). And ρ_x² of the kernel ρ_x² F_z V (eq. 4.27) carries the noise's
   variance, which inflates the traction kernel, hence Ĉ_x, by ~10 % and reads every linear
   (braking, free-axle) work low by as much. Both use the force just outside the window
-  (:func:`_outside_window`), whose noise is independent of the sample's own: the kernel is
-  ρ_x(t − k) ρ_x(t + k) F_z V, and the free-rolling force the mean over those samples of the
-  best linear predictor of the true ρ_x (:func:`_denoised_force`: regression calibration, with
-  the true force's variance from the covariance over k samples).
+  (:func:`_outside_window`), whose noise is independent of the sample's own. The kernel takes
+  the noise's variance off: (ρ̂_x² − σ̂²) F_z V, with σ̂² from the second differences over k
+  samples (:func:`_noise_variance`). The product ρ̂_x(t − k) ρ̂_x(t + k), also free of the
+  noise, is not used: a force that changes within ±k samples (the onset of braking, an ABS
+  stop) makes it smaller than ρ_x², and reads low the free rear axle's work, nearly all in
+  such braking. The free-rolling force is the mean
+  over those samples of the best linear predictor of the true ρ_x (:func:`_denoised_force`:
+  regression calibration, with the true force's variance from the covariance over k samples).
 * **Braking slip beyond linear**: σ_x = ρ_x / C_x (eq. 4.27) is the tyre's slope at zero slip;
   its curve bends, and harder braking slips more than linear (on the simulator the free rear
   axle's work, nearly all in braking, read 11 % low). The linear parts use the brush tyre's
@@ -51,6 +55,11 @@ import numpy as np
 from ..physics.vehicle import GRAVITY_MPS2, Vehicle
 from .features import StreamFeatures
 from .lateral_work import LATERAL_MU
+
+#: Fewer samples than this in a group (braking, the rest) leave ρ̂_x² uncorrected.
+_MIN_NOISE_SAMPLES = 50
+#: The median of the χ² distribution with one degree of freedom.
+_CHI2_1_MEDIAN = 0.4549364231195724
 
 #: Coasting in gear brakes the driven wheels with the engine's drag, up to this share of the
 #: weight (0.05 g, about 0.5 m/s²: a petrol car's deceleration in gear with the throttle shut).
@@ -104,6 +113,27 @@ def _free_slip_ratios(
     for axle in driven:
         ratio[2 * axle : 2 * axle + 2] *= 1.0 + np.nan_to_num(free_force[axle]) / c_hat
     return ratio
+
+
+def _noise_variance(rho: np.ndarray, k: int, groups: np.ndarray) -> np.ndarray:
+    """Per sample and axle, the variance of ρ̂_x's noise, one value per axle and group.
+
+    The noise is independent past the smoothing window, so d = ρ̂_t − (ρ̂_t−k + ρ̂_t+k) / 2
+    holds 1.5 times its variance, and the true force's part of d is negligible wherever the
+    force is smooth over ±k samples: the median of d² over a group (robust to the braking onsets
+    and ABS cycles, where it is not) is 0.455 × 1.5 σ² (the median of χ²₁ is 0.455). The groups
+    are braking and the rest (:func:`_work_terms`): a braking split gives each axle its own
+    share of the total force's noise. 0 for a group of fewer than :data:`_MIN_NOISE_SAMPLES`.
+    """
+    before, after = _outside_window(rho, k)
+    d2 = (rho - 0.5 * (before + after)) ** 2
+    out = np.zeros_like(rho)
+    for axle in range(rho.shape[1]):
+        for group in (True, False):
+            rows = (groups == group) & np.isfinite(d2[:, axle])
+            if rows.sum() >= _MIN_NOISE_SAMPLES:
+                out[groups == group, axle] = np.median(d2[rows, axle]) / (1.5 * _CHI2_1_MEDIAN)
+    return out
 
 
 def _denoised_force(rho: np.ndarray, k: int) -> np.ndarray:
@@ -234,9 +264,9 @@ class _WorkTerms(eqx.Module):
 
     Per sample and axle, shape (n, 2): ``power_w`` F_x V [W] (NaN where F_x is), ``usable``
     (valid, finite F_x, no spin), ``pushing`` (F_x > 0 on a driven axle), ``slip_sd`` [-],
-    ``kernel_j`` ρ² g(ρ) F_z |V| dt [J], not yet masked: ρ² as ρ(t − k) ρ(t + k), the force
-    outside the smoothing window (:func:`_outside_window`; ρ² where a neighbour is missing), so
-    the force's noise does not add its variance, and g the brush factor (:func:`_brush_factor`).
+    ``kernel_j`` ρ² g(ρ) F_z |V| dt [J], not yet masked: ρ² as ρ̂² less the noise's variance
+    (:func:`_noise_variance`, in braking and elsewhere apart), so the force's noise does not
+    add its variance, and g the brush factor (:func:`_brush_factor`).
     """
 
     power_w: np.ndarray
@@ -257,8 +287,8 @@ def _work_terms(feats, fx, is_driven, valid, dt) -> _WorkTerms:
     )
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         rho = fx / fz
-        before, after = _outside_window(rho, _window_step(feats))
-        square = np.where(np.isfinite(before * after), before * after, rho**2)
+        braking = fx.sum(axis=1) < 0.0
+        square = rho**2 - _noise_variance(rho, _window_step(feats), braking)
         return _WorkTerms(
             power_w=fx * vx[:, None],
             usable=valid[:, None] & np.isfinite(fx) & ~feats.spin[:, None],
