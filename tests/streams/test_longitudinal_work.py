@@ -9,8 +9,8 @@ from tyrebayes.streams.longitudinal_work import (
     ENGINE_BRAKE_SHARE,
     _corrected_slip,
     _denoised_force,
-    _noise_variance,
     _free_slip_ratios,
+    _noise_variance,
     braking_split,
 )
 from tyrebayes.streams.wear_evidence import drive_wear_evidence
