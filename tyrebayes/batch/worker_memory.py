@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import dataclasses
 
+from ..internal.heap import release_free_memory
+
 #: A drop is worth its reloads only when the programs hold at least this much [MB] above what
 #: the process held right after its last drop (its floor): below, nothing much would be freed.
 MIN_DROP_MB = 100.0
@@ -57,26 +59,6 @@ def peak_rss_mb() -> float:
     import resource
 
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
-def release_free_memory() -> None:
-    """Give the memory the allocator holds but no object uses back to the system (glibc).
-
-    A worker's tasks free what they allocate, but glibc keeps freed heap below chunks still in
-    use: after a tyre-set fit most of a worker's resident memory can be such free heap, and it
-    counts towards the worker's limit and every later task's peak (the ``fleet_run``
-    benchmark's result has the per-task peaks). No-op where there is no glibc.
-    """
-    import ctypes
-
-    # No gc.collect() here: arrays go when their last reference does, and a full collection
-    # walks every object of a worker that has traced fits. With one before and after each task
-    # the full-size fleet_run benchmark spent 1.5 CPU s per drive-hour outside the drive
-    # stage's steps, 0.1 s without.
-    try:
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):
-        pass
 
 
 #: glibc's ``mallopt`` parameters (malloc.h) and the values set where a worker's thresholds are

@@ -29,6 +29,7 @@ import jax
 import numpy as np
 
 from .._io import atomic_write_bytes
+from .heap import clear_staging_caches
 
 _FOLDER = "tyrebayes-programs"
 
@@ -92,6 +93,9 @@ def stored_program(function: Callable, key: tuple) -> Callable:
         structure = str(treedef) + repr([(leaf.shape, str(leaf.dtype)) for leaf in leaves])
         program = loaded.get(structure)
         if program is None:
+            # Its compilation, if it needs one, is the process's peak: the staging caches of
+            # the programs compiled before are not needed for it (:mod:`.heap`).
+            clear_staging_caches()
             program = _load_or_export(function, key, structure, treedef, leaves)
             loaded[structure] = program
         # The exported program's results come committed to one device; as NumPy arrays (on the
