@@ -59,6 +59,21 @@ def test_history_finds_the_rotation_and_lays_out_the_pairs():
     assert h.scale == pytest.approx(h.interval_km / 10.0)
 
 
+def test_history_takes_each_axles_temperature_and_the_cars_rolling_radius():
+    table, _ = synthetic_table()
+    h = drive_history(table)  # the driven tyres' temperature for both, the outer radius
+    assert h.tyre_temperature_c.shape == (table.shape[0], 2)
+    assert h.radius_mm == TreadGeometry().outer_radius_mm
+    per_axle = table.assign(
+        tyre_temperature_front_c=25.0, tyre_temperature_rear_c=21.0, rolling_radius_mm=310.0
+    )
+    h2 = drive_history(per_axle)
+    assert h2.tyre_temperature_c[0].tolist() == [25.0, 21.0]
+    assert h2.radius_mm == 310.0
+    # the same ratios read as slightly less tread with the smaller radius
+    assert h2.ratio_mm == pytest.approx(h.ratio_mm * 310.0 / h.radius_mm)
+
+
 def test_one_drive_is_bad_input():
     table, _ = synthetic_table()
     with pytest.raises(BadInputError, match="at least 2 drives"):

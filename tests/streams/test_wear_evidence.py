@@ -57,3 +57,26 @@ def test_radius_ratio_recovers_a_set_radius_change():
     sd = np.hypot(a.radius_ratio_front_rear_sd, b.radius_ratio_front_rear_sd)
     assert change == pytest.approx(expected, abs=max(4 * sd, 1e-4))
     assert abs(change - expected) < 0.1 * abs(expected)
+
+
+def test_each_axle_has_its_own_tyre_temperature():
+    """A front-driven commute: the free rear tyres run cooler than the driven front ones; each
+    axle's friction-power weighted temperature is the simulator's within 1.5 K, and the rolling
+    radius behind the ratio's mm scale is the car's."""
+    from tyrebayes.simulate.wear_history import COMMUTE_PROFILE, lateral_sliding_power
+
+    df, truth = simulate_drive(
+        3, VEHICLE, "summer", duration_s=600.0, sample_rate_hz=10.0, profile=COMMUTE_PROFILE
+    )
+    ev = drive_wear_evidence(validate_stream(df, VEHICLE), VEHICLE)
+    power = np.abs(truth.rho_x * truth.wheel_load_n * truth.wheel_centre_speed_mps * truth.slip)
+    power = power + np.repeat(lateral_sliding_power(truth, VEHICLE) / 2.0, 2, axis=1)
+    temp = truth.tyre_temperature_c
+    true = [
+        np.sum(temp[:, s] * power[:, s]) / np.sum(power[:, s]) for s in (slice(0, 2), slice(2, 4))
+    ]
+    assert ev.tyre_temperature_axle_c == pytest.approx(true, abs=1.5)
+    assert ev.tyre_temperature_axle_c[1] < ev.tyre_temperature_axle_c[0] - 1.0
+    row = ev.row()
+    assert row["rolling_radius_mm"] == pytest.approx(1000.0 * VEHICLE.wheel_radius_m)
+    assert row["tyre_temperature_rear_c"] == ev.tyre_temperature_axle_c[1]

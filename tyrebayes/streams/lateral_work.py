@@ -44,10 +44,8 @@ def brush_slip_angle(rho_y: np.ndarray, c_y_per_rad, mu: float = LATERAL_MU) -> 
 def lateral_work(
     feats: StreamFeatures, vehicle: Vehicle, valid: np.ndarray, c_y_per_rad: np.ndarray, dt: float
 ) -> np.ndarray:
-    """Lateral friction work of each axle (front, rear) [J] (module docstring; 0: none usable).
-
-    The axle forces are the single-track model's (eq. 4.23b, c) from a_y = V_x ψ̇ and the yaw
-    acceleration; the slip angle the brush tyre's at each axle's ``c_y_per_rad`` (shape (2,)).
+    """Lateral friction work of each axle (front, rear) [J] (module docstring; 0: none usable):
+    :func:`lateral_power` summed over the drive.
 
     Examples
     --------
@@ -60,6 +58,18 @@ def lateral_work(
     >>> w = lateral_work(feats, vehicle, feats.valid, np.array([16.5, 16.5]), dt)
     >>> w.shape, bool(np.all(w >= 0))
     ((2,), True)
+    """
+    return lateral_power(feats, vehicle, valid, c_y_per_rad).sum(0) * dt
+
+
+def lateral_power(
+    feats: StreamFeatures, vehicle: Vehicle, valid: np.ndarray, c_y_per_rad: np.ndarray
+) -> np.ndarray:
+    """Lateral friction power of each axle per sample, shape (n, 2) [W] (0 where unusable).
+
+    The axle forces are the single-track model's (eq. 4.23b, c) from a_y = V_x ψ̇ and the yaw
+    acceleration; the slip angle the brush tyre's at each axle's ``c_y_per_rad`` (shape (2,)).
+
     """
     vx = feats.vx_mps
     fz = feats.fz_axle_n
@@ -78,4 +88,4 @@ def lateral_work(
         tan_alpha = brush_slip_angle(fy / fz, np.asarray(c_y_per_rad)[None, :])
         power_y = np.abs(fy * vx[:, None] * tan_alpha)
     ok_y = usable_y[:, None] & np.isfinite(power_y)
-    return np.where(ok_y, power_y, 0.0).sum(0) * dt
+    return np.where(ok_y, power_y, 0.0)

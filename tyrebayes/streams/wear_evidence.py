@@ -12,9 +12,14 @@ What one drive tells about tread wear (thesis Sec. 4.4):
   millimetre is about 0.3 % of a 316 mm rolling radius).
 * **Speed scale** V_x / GNSS speed where ``speed_reference`` is logged: the free-rolling wheels'
   nominal over true radius, which rises as their tread goes.
-* Ambient temperature (median of ``ambient_temperature``) and the driven tyre's temperature
-  (lumped heat balance, :func:`~tyrebayes.streams.tyre_temperature.features_tyre_temperature`),
-  weighted by friction power.
+* Ambient temperature (median of ``ambient_temperature``) and the tyres' temperature (lumped
+  heat balance, :func:`~tyrebayes.streams.tyre_temperature.driven_tyre_temperature`): the driven
+  tyres' (:func:`~tyrebayes.streams.tyre_temperature.features_tyre_temperature`), and each
+  axle's from its own load and longitudinal friction power, averaged over the drive with that
+  axle's friction power (longitudinal and lateral), as its wear is. A free-rolling rear axle
+  carries less load and little longitudinal work: its tyres run cooler than the driven ones, and
+  wear that depends on temperature (κ) must be taken at each axle's own.
+* The car's rolling radius [mm], which turns the radius ratio into millimetres of tread.
 * Distance (∫ V_x dt over the valid samples) and the odometer at the start of the drive, from an
   optional extra ``odometer`` column [m]: with it, a history of logged drives stands for the
   distance driven between them.
@@ -42,10 +47,10 @@ import numpy as np
 from ..physics.vehicle import Vehicle
 from .cornering_stiffness import TYPE_PRIOR_CORNERING, CorneringStiffness
 from .features import StreamFeatures, compute_features
-from .lateral_work import lateral_work
-from .longitudinal_work import longitudinal_work
+from .lateral_work import lateral_power
+from .longitudinal_work import LongitudinalWork, longitudinal_work
 from .order_stats import nanmedian
-from .tyre_temperature import features_tyre_temperature
+from .tyre_temperature import driven_tyre_temperature, features_tyre_temperature
 from .validate import ValidatedStream
 
 #: Columns of :meth:`DriveWearEvidence.row`, in order (units in the names; ``_sd`` = 1-sigma).
@@ -70,6 +75,9 @@ WEAR_EVIDENCE_COLUMNS: tuple[str, ...] = (
     "speed_scale_sd",
     "ambient_c",
     "tyre_temperature_c",
+    "tyre_temperature_front_c",
+    "tyre_temperature_rear_c",
+    "rolling_radius_mm",
 )
 
 #: Ambient temperature assumed for the tyre-temperature estimate of a stream without an
@@ -107,6 +115,10 @@ class DriveWearEvidence(eqx.Module):
         Median ambient temperature [°C] (NaN without an ambient column).
     tyre_temperature_c : float
         Friction-power weighted mean temperature of the driven tyres [°C].
+    tyre_temperature_axle_c : ndarray, shape (2,)
+        Each axle's tyre temperature, weighted by that axle's friction power [°C].
+    rolling_radius_mm : float
+        The car's nominal rolling radius [mm], the radius ratio's reference.
 
     Examples
     --------
@@ -139,6 +151,8 @@ class DriveWearEvidence(eqx.Module):
     speed_scale_sd: float
     ambient_c: float
     tyre_temperature_c: float
+    tyre_temperature_axle_c: np.ndarray
+    rolling_radius_mm: float
 
     def row(self) -> dict[str, float]:
         """The evidence as one flat row: :data:`WEAR_EVIDENCE_COLUMNS` to floats."""
@@ -163,6 +177,9 @@ class DriveWearEvidence(eqx.Module):
             "speed_scale_sd": float(self.speed_scale_sd),
             "ambient_c": float(self.ambient_c),
             "tyre_temperature_c": float(self.tyre_temperature_c),
+            "tyre_temperature_front_c": float(self.tyre_temperature_axle_c[0]),
+            "tyre_temperature_rear_c": float(self.tyre_temperature_axle_c[1]),
+            "rolling_radius_mm": float(self.rolling_radius_mm),
         }
 
 
@@ -183,13 +200,29 @@ def _extent(
     return duration_s, distance_km, odometer_start_km
 
 
-def _temperatures(
-    stream: ValidatedStream, feats: StreamFeatures, weight_j: np.ndarray
-) -> tuple[float, float]:
-    """(median ambient [°C], NaN without a column; driven tyres' temperature [°C]).
+def _weighted_mean(temp: np.ndarray, weight: np.ndarray) -> float:
+    """Mean of ``temp`` weighted by ``weight`` over finite samples of positive weight, plain where
+    none has any."""
+    ok = np.isfinite(temp) & (weight > 0)
+    if ok.any():
+        return float(np.sum(weight[ok] * temp[ok]) / np.sum(weight[ok]))
+    return float(np.nanmean(temp))
 
-    The tyre temperature (lumped heat balance) is averaged with the per-sample weights
-    ``weight_j`` (the longitudinal friction kernel), plainly where no sample has weight.
+
+def _temperatures(
+    stream: ValidatedStream,
+    feats: StreamFeatures,
+    lon: LongitudinalWork,
+    power_y_w: np.ndarray,
+    driven_axle: str,
+) -> tuple[float, float, np.ndarray]:
+    """(median ambient [°C], NaN without a column; driven tyres' temperature [°C]; each axle's
+    tyre temperature (2,) [°C]) (module docstring).
+
+    The driven tyres' mean is weighted with the longitudinal friction kernel of both axles; each
+    axle's with its own friction power, longitudinal (the kernel over Ĉ_x) plus lateral
+    (``power_y_w``, (n, 2) [W]). A free axle's tyres are heated by their own load and linear-slip
+    power (the kernel over Ĉ_x; none where Ĉ_x is unknown).
     """
     data = stream.data
     ambient = (
@@ -198,16 +231,29 @@ def _temperatures(
         else np.array([np.nan])
     )
     ambient_c = nanmedian(ambient) if np.any(np.isfinite(ambient)) else float("nan")
-    temp = features_tyre_temperature(
-        feats, ambient_c=ambient_c if np.isfinite(ambient_c) else FALLBACK_AMBIENT_C
-    )
-    ok = np.isfinite(temp) & (weight_j > 0)
-    tyre_temp = (
-        float(np.sum(weight_j[ok] * temp[ok]) / np.sum(weight_j[ok]))
-        if ok.any()
-        else float(np.nanmean(temp))
-    )
-    return ambient_c, tyre_temp
+    start_c = ambient_c if np.isfinite(ambient_c) else FALLBACK_AMBIENT_C
+    driven = features_tyre_temperature(feats, ambient_c=start_c)
+    kernel = np.where(lon.usable, np.maximum(lon.kernel_j, 0.0), 0.0)
+    dt = 1.0 / feats.sample_rate_hz
+    c_hat = lon.secant_stiffness if np.isfinite(lon.secant_stiffness) else np.inf
+    power_x = kernel / (c_hat * dt)  # [W]
+    temps = []
+    for axle, name in enumerate(("front", "rear")):
+        if driven_axle in (name, "both"):
+            temp = driven
+        else:
+            temp = driven_tyre_temperature(
+                feats.time_s,
+                feats.vx_mps,
+                feats.fz_axle_n[:, axle] / 2.0,
+                power_x[:, axle] / 2.0,
+                ambient_c=start_c,
+            )
+        weight = (kernel[:, axle] / c_hat if np.isfinite(c_hat) else kernel[:, axle]) + power_y_w[
+            :, axle
+        ] * dt
+        temps.append(_weighted_mean(temp, weight))
+    return ambient_c, _weighted_mean(driven, lon.weight_j), np.asarray(temps)
 
 
 def drive_wear_evidence(
@@ -255,15 +301,17 @@ def drive_wear_evidence(
     valid = feats.valid & np.isfinite(feats.vx_mps)
     duration_s, distance_km, odometer_start_km = _extent(stream, feats, valid, dt)
     lon = longitudinal_work(feats, vehicle, valid, dt)
-    work_y = lateral_work(feats, vehicle, valid, cornering.per_axle, dt)
-    ambient_c, tyre_temp = _temperatures(stream, feats, lon.weight_j)
+    power_y = lateral_power(feats, vehicle, valid, cornering.per_axle)
+    ambient_c, tyre_temp, axle_temp = _temperatures(
+        stream, feats, lon, power_y, vehicle.driven_axle
+    )
     return DriveWearEvidence(
         duration_s=duration_s,
         distance_km=distance_km,
         odometer_start_km=odometer_start_km,
         work_x_j=np.asarray(lon.work_x_j, dtype=float),
         work_x_sd_j=np.asarray(lon.work_x_sd_j, dtype=float),
-        work_y_j=np.asarray(work_y, dtype=float),
+        work_y_j=power_y.sum(axis=0) * dt,
         cornering=cornering,
         secant_stiffness=lon.secant_stiffness,
         radius_ratio_front_rear=lon.radius_ratio_front_rear,
@@ -273,4 +321,6 @@ def drive_wear_evidence(
         speed_scale_sd=float(feats.nuisances.speed_scale_sd),
         ambient_c=ambient_c,
         tyre_temperature_c=tyre_temp,
+        tyre_temperature_axle_c=axle_temp,
+        rolling_radius_mm=1000.0 * float(vehicle.wheel_radius_m),
     )

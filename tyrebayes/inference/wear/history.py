@@ -68,12 +68,15 @@ class DriveHistory(eqx.Module):
     lateral_source : where c_y came from (``lateral_fit``, ``type_prior``, ``given``, ``none``)
     ratio_mm, ratio_sd_mm : (n,) front/rear radius ratio as (ratio − 1) R_0 [mm] and its sd
     speed_scale_mm : (n,) free-rolling axle's radius change against GNSS [mm] (NaN: none)
-    tyre_temperature_c : (n,) friction-power weighted tyre temperature [°C]
+    tyre_temperature_c : (n, 2) each axle's friction-power weighted tyre temperature [°C] (the
+        driven tyres' for both axles where the evidence has no per-axle columns)
     segment : (n,) tyre-set segment of each drive
     pair : (n, 2) tyre pair on the (front, rear) axle in each drive's interval
     n_pairs : number of tyre pairs in the history
     changes : TyreChanges
-    radius_mm : R_0 used for the mm scale
+    radius_mm : R_0 used for the mm scale: the car's rolling radius where the evidence gives it
+        (``rolling_radius_mm``, the radius the wheel speeds were read with), else the tread
+        geometry's outer radius
     """
 
     odometer_km: np.ndarray
@@ -147,7 +150,7 @@ def drive_history(
     distance, work, work_sd, ratio, ratio_sd = _evidence(table)
     odometer, interval = _intervals(_column(table, "odometer_start_km"), distance)
     scale = interval / distance
-    radius_mm = float(geom.outer_radius_mm)
+    radius_mm = _radius_mm(table, geom)
     ratio_mm = (ratio - 1.0) * radius_mm
     ratio_sd_mm = ratio_sd * radius_mm
     ss = _column(table, "speed_scale") if "speed_scale" in table else np.full(n, np.nan)
@@ -225,9 +228,30 @@ def _intervals(odometer: np.ndarray, distance: np.ndarray) -> tuple[np.ndarray, 
 
 
 def _tyre_temperatures(table: pd.DataFrame) -> np.ndarray:
-    """Each drive's tyre temperature [°C]; a missing one the drives' mean (20 °C: none at all)."""
-    temp = _column(table, "tyre_temperature_c")
-    return np.where(np.isfinite(temp), temp, np.nanmean(temp) if np.isfinite(temp).any() else 20.0)
+    """Each drive's tyre temperature per axle, (n, 2) [°C]: the per-axle columns where the
+    evidence has them, else the driven tyres' for both; a missing one the drives' mean of its
+    axle (20 °C: none at all)."""
+    names = ("tyre_temperature_front_c", "tyre_temperature_rear_c")
+    if all(name in table for name in names):
+        temp = np.column_stack([_column(table, name) for name in names])
+    else:
+        temp = np.repeat(_column(table, "tyre_temperature_c")[:, None], 2, axis=1)
+    out = np.empty_like(temp)
+    for axle in range(2):
+        t = temp[:, axle]
+        out[:, axle] = np.where(np.isfinite(t), t, np.nanmean(t) if np.isfinite(t).any() else 20.0)
+    return out
+
+
+def _radius_mm(table: pd.DataFrame, geom: TreadGeometry) -> float:
+    """R_0 of the radius ratio's mm scale: a tread loss Δ moves the rolling radius the wheel
+    speeds are read with by Δ, so the ratio moves by Δ / R_roll. The evidence's
+    ``rolling_radius_mm`` (one car: its median), else the geometry's outer radius."""
+    if "rolling_radius_mm" in table:
+        radius = _column(table, "rolling_radius_mm")
+        if np.isfinite(radius).any():
+            return float(np.nanmedian(radius))
+    return float(geom.outer_radius_mm)
 
 
 def _pairs(changes: TyreChanges, n: int) -> tuple[np.ndarray, int]:

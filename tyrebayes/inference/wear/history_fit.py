@@ -8,7 +8,7 @@ Model (drive interval j, axle a, tyre pair p, tyre-set segment s)::
                                                           σ_q the cornering stiffness' log-sd
                                                           (W_y ∝ 1 / c_y; history.lateral_log_sd)
     κ     ~ Normal(0, kappa_sd)                            extended model; 0 in the baseline
-    Δ_j,a = γ exp(κ (T_j − 20)) (s Wx_j,a + q_a Wy_j,a) / 2 / A_wear
+    Δ_j,a = γ exp(κ (T_j,a − 20)) (s Wx_j,a + q_a Wy_j,a) / 2 / A_wear
                                                           tread lost per tyre [mm] (eq. 4.26
                                                           with eq. 4.19a + b)
     y_k   = c_s − λ Σ_{j<k, j in s} (Δ_j,front − Δ_j,rear) + e_k
@@ -109,14 +109,15 @@ def wear_history_model(
     kappa = numpyro.sample("kappa", dist.Normal(0.0, priors.kappa_sd_per_k)) if extended else 0.0
     sigma_y = numpyro.sample("sigma_ratio_mm", dist.HalfNormal(RATIO_NOISE_SCALE_MM))
     tau = numpyro.sample("tau", dist.HalfNormal(REPRESENTATIVENESS_SCALE))
+    # (n, 2): each axle's tyres wear at their own temperature
     factor = gamma * jnp.exp(kappa * (history.tyre_temperature_c - 20.0)) / 2.0 / wear_area_mm2
     work = jnp.asarray(history.work_j) + jnp.exp(log_ratio)[None, :] * jnp.asarray(
         history.work_y_j
     )  # per joule of longitudinal evidence work
-    loss = factor[:, None] * work  # (n, 2) mm per tyre
+    loss = factor * work  # (n, 2) mm per tyre
     diff = loss[:, 0] - loss[:, 1]
     var_w = jnp.asarray(history.work_sd_j) ** 2 + (tau * work) ** 2
-    var_diff = factor**2 * (var_w[:, 0] + var_w[:, 1])
+    var_diff = jnp.sum(factor**2 * var_w, axis=1)
     for s, idx in enumerate(_segment_blocks(history)):
         m = idx.size
         lower = np.tril(np.ones((m, m)), -1)  # y_k sees intervals j < k
@@ -223,10 +224,10 @@ def tread_loss(history, gamma, kappa, log_ratio, wear_area_mm2: float) -> np.nda
     exp(``log_ratio``) = q_a / s (eq. 4.19a + b), over the two tyres' wear area. ``gamma`` and
     ``kappa`` have the draws' shape, ``log_ratio`` that shape and 2.
     """
-    warm = np.exp(np.asarray(kappa)[..., None] * (history.tyre_temperature_c - 20.0))
-    factor = np.asarray(gamma)[..., None] * warm / 2.0 / wear_area_mm2  # (..., n)
+    warm = np.exp(np.asarray(kappa)[..., None, None] * (history.tyre_temperature_c - 20.0))
+    factor = np.asarray(gamma)[..., None, None] * warm / 2.0 / wear_area_mm2  # (..., n, 2)
     work = history.work_j + np.exp(np.asarray(log_ratio))[..., None, :] * history.work_y_j
-    return factor[..., None] * work
+    return factor * work
 
 
 def _initial_depths(
