@@ -556,6 +556,16 @@ def merge(paths: list[str], out: Path) -> None:
         + "; ".join(f"{','.join(r['results'])}: {r['wall_time_s']:.0f} s" for r in runs)
         + "); wall_time_s is their sum"
     )
+    # This file's own run block is the merge's; each part keeps the revision that ran it.
+    data["merged_from"] = [
+        {
+            "settings": list(r["results"]),
+            "revision": r.get("run", {}).get("revision"),
+            "date": r.get("run", {}).get("date"),
+            "wall_time_s": r["wall_time_s"],
+        }
+        for r in runs
+    ]
     write(out, data)
     print(f"merged {len(runs)} runs into {out}")
 
