@@ -121,11 +121,24 @@ def provenance(result: dict) -> str:
     dirty = " (uncommitted changes)" if rev.get("dirty") else ""
     m = run.get("machine") or {}
     quick = " A quick (reduced) run." if run.get("quick") else ""
-    return (
+    line = (
         f"Revision `{commit}`{dirty}, {run.get('date', '?')}, {m.get('cores', '?')} cores "
         f"({m.get('cpu_model', '?')}); {run.get('wall_s', 0):,.0f} s wall, "
         f"{run.get('cpu_s', 0):,.0f} CPU s, peak RSS {run.get('peak_rss_mb', 0):,.0f} MB.{quick}"
     )
+    parts = result.get("merged_from") or []
+    if parts:
+        line = (
+            "Merged from runs in processes of their own: "
+            + "; ".join(
+                f"{', '.join(p.get('settings', []))} at revision "
+                f"`{((p.get('revision') or {}).get('commit') or 'unknown')[:10]}`, "
+                f"{p.get('date', '?')}, {p.get('wall_time_s', 0):,.0f} s wall"
+                for p in parts
+            )
+            + f". The merge: {line}"
+        )
+    return line
 
 
 def load(stem: str) -> dict:
