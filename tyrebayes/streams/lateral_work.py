@@ -69,7 +69,6 @@ def lateral_power(
 
     The axle forces are the single-track model's (eq. 4.23b, c) from a_y = V_x ψ̇ and the yaw
     acceleration; the slip angle the brush tyre's at each axle's ``c_y_per_rad`` (shape (2,)).
-
     """
     vx = feats.vx_mps
     fz = feats.fz_axle_n

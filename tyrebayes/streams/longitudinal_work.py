@@ -32,9 +32,9 @@
   samples (:func:`_noise_variance`). The product ρ̂_x(t − k) ρ̂_x(t + k), also free of the
   noise, is not used: a force that changes within ±k samples (the onset of braking, an ABS
   stop) makes it smaller than ρ_x², and reads low the free rear axle's work, nearly all in
-  such braking. The free-rolling force is the mean
-  over those samples of the best linear predictor of the true ρ_x (:func:`_denoised_force`:
-  regression calibration, with the true force's variance from the covariance over k samples).
+  such braking. The free-rolling force is the mean over those samples of the best linear
+  predictor of the true ρ_x (:func:`_denoised_force`: regression calibration, with the true
+  force's variance from the covariance over k samples).
 * **Braking slip beyond linear**: σ_x = ρ_x / C_x (eq. 4.27) is the tyre's slope at zero slip;
   its curve bends, and harder braking slips more than linear (on the simulator the free rear
   axle's work, nearly all in braking, read 11 % low). The linear parts use the brush tyre's

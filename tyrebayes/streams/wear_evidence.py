@@ -220,9 +220,9 @@ def _temperatures(
     tyre temperature (2,) [°C]) (module docstring).
 
     The driven tyres' mean is weighted with the longitudinal friction kernel of both axles; each
-    axle's with its own friction power, longitudinal (the kernel over Ĉ_x) plus lateral
+    axle's with its own friction work, longitudinal (the kernel over Ĉ_x) plus lateral
     (``power_y_w``, (n, 2) [W]). A free axle's tyres are heated by their own load and linear-slip
-    power (the kernel over Ĉ_x; none where Ĉ_x is unknown).
+    power (the kernel over Ĉ_x). Where Ĉ_x is unknown the longitudinal work is taken as none.
     """
     data = stream.data
     ambient = (
@@ -236,7 +236,8 @@ def _temperatures(
     kernel = np.where(lon.usable, np.maximum(lon.kernel_j, 0.0), 0.0)
     dt = 1.0 / feats.sample_rate_hz
     c_hat = lon.secant_stiffness if np.isfinite(lon.secant_stiffness) else np.inf
-    power_x = kernel / (c_hat * dt)  # [W]
+    work_x = kernel / c_hat  # [J] per sample
+    power_x = work_x / dt  # [W]
     temps = []
     for axle, name in enumerate(("front", "rear")):
         if driven_axle in (name, "both"):
@@ -249,10 +250,7 @@ def _temperatures(
                 power_x[:, axle] / 2.0,
                 ambient_c=start_c,
             )
-        weight = (kernel[:, axle] / c_hat if np.isfinite(c_hat) else kernel[:, axle]) + power_y_w[
-            :, axle
-        ] * dt
-        temps.append(_weighted_mean(temp, weight))
+        temps.append(_weighted_mean(temp, work_x[:, axle] + power_y_w[:, axle] * dt))
     return ambient_c, _weighted_mean(driven, lon.weight_j), np.asarray(temps)
 
 
