@@ -41,11 +41,14 @@ def brush_slip_angle(rho_y: np.ndarray, c_y_per_rad, mu: float = LATERAL_MU) -> 
     return 3.0 * rho / (np.asarray(c_y_per_rad, dtype=float) * (1.0 + a + a * a))
 
 
-def lateral_work(
-    feats: StreamFeatures, vehicle: Vehicle, valid: np.ndarray, c_y_per_rad: np.ndarray, dt: float
+def lateral_power(
+    feats: StreamFeatures, vehicle: Vehicle, valid: np.ndarray, c_y_per_rad: np.ndarray
 ) -> np.ndarray:
-    """Lateral friction work of each axle (front, rear) [J] (module docstring; 0: none usable):
-    :func:`lateral_power` summed over the drive.
+    """Lateral friction power of each axle per sample, shape (n, 2) [W] (0 where unusable).
+
+    The axle forces are the single-track model's (eq. 4.23b, c) from a_y = V_x ψ̇ and the yaw
+    acceleration; the slip angle the brush tyre's at each axle's ``c_y_per_rad`` (shape (2,)).
+    Summed over the samples times the sample interval it is each axle's lateral friction work.
 
     Examples
     --------
@@ -54,21 +57,9 @@ def lateral_work(
     >>> vehicle = load_vehicle("suv_rav4")
     >>> stream = validate_stream(read_stream(data_dir() / "comma2k19_rav4_segment.csv"), vehicle)
     >>> feats = compute_features(stream, vehicle)
-    >>> dt = 1.0 / feats.sample_rate_hz
-    >>> w = lateral_work(feats, vehicle, feats.valid, np.array([16.5, 16.5]), dt)
-    >>> w.shape, bool(np.all(w >= 0))
-    ((2,), True)
-    """
-    return lateral_power(feats, vehicle, valid, c_y_per_rad).sum(0) * dt
-
-
-def lateral_power(
-    feats: StreamFeatures, vehicle: Vehicle, valid: np.ndarray, c_y_per_rad: np.ndarray
-) -> np.ndarray:
-    """Lateral friction power of each axle per sample, shape (n, 2) [W] (0 where unusable).
-
-    The axle forces are the single-track model's (eq. 4.23b, c) from a_y = V_x ψ̇ and the yaw
-    acceleration; the slip angle the brush tyre's at each axle's ``c_y_per_rad`` (shape (2,)).
+    >>> power = lateral_power(feats, vehicle, feats.valid, np.array([16.5, 16.5]))
+    >>> power.shape == (feats.vx_mps.size, 2), bool(np.all(power >= 0))
+    (True, True)
     """
     vx = feats.vx_mps
     fz = feats.fz_axle_n
