@@ -13,6 +13,9 @@ Figures (issue 59, item 4):
   drive's end) lies within one batch posterior sd of the batch mean, for c_y front, c_y rear and
   the understeer gradient each (target ≥ 0.9), whether or not the online estimate is "ready" yet
   (that is counted beside it); the paramsd-style EKF's share for comparison.
+* **truth**: the share of the 24 quantities (3 per drive) whose online 90 % interval covers the
+  generator's truth, and the batch fit's share beside it (no target: where online and batch
+  differ, it says which is nearer the truth);
 * **jumps in braking corners**: blocks that hold at least 1 s of braking in a corner (a_x, the
   derivative of the low-passed V_x, below −:data:`BRAKING_MPS2` while |a_y| >
   :data:`CORNER_AY_MPS2`). For each such block and each reported estimate, the move of its
@@ -203,6 +206,13 @@ def main() -> None:
     within = [all(abs(r[k]["online_batch_sds"]) <= 1.0 for k in KEYS) for r in used]
     per_key = {k: sum(abs(r[k]["online_batch_sds"]) <= 1.0 for r in used) for k in KEYS}
     ekf_within = [all(abs(r[k]["ekf_batch_sds"]) <= 1.0 for k in KEYS) for r in used]
+
+    def covers(r, k, source):
+        low, high = r[k][source]["hdi_90"]
+        return low <= r[k]["truth"] <= high
+
+    online_covers = [covers(r, k, "online") for r in used for k in KEYS]
+    batch_covers = [covers(r, k, "batch") for r in used for k in KEYS]
     braking_blocks = [j for r in rows for j in r["braking_corner_blocks"]]
     judged = [j for j in braking_blocks if any(j[k] is not None for k in KEYS)]
     worst = max((r["max_jump_over_interval"] for r in rows), default=None)
@@ -222,6 +232,20 @@ def main() -> None:
                 f"{sum(r['online_k_ready'] for r in rows)}"
             ),
             headline=True,
+        ),
+        figure(
+            "online 90 % intervals after 10 min covering the truth (c_y front, rear and K)",
+            float(np.mean(online_covers)) if used else None,
+            count=len(online_covers),
+            exclusions=excluded,
+            note=f"{sum(online_covers)} of {len(online_covers)}",
+        ),
+        figure(
+            "batch 90 % intervals covering the truth (c_y front, rear and K), for comparison",
+            float(np.mean(batch_covers)) if used else None,
+            count=len(batch_covers),
+            exclusions=excluded,
+            note=f"{sum(batch_covers)} of {len(batch_covers)}",
         ),
         figure(
             "baseline paramsd-style EKF within one batch sd of the batch mean (all three)",

@@ -33,9 +33,9 @@ def test_identified_gives_the_estimate_object():
     cov = np.asarray(state.cov).copy()
     cov[:2, :2] = 0.01**2 * np.eye(2)
     state = eqx.tree_at(
-        lambda s: (s.cov, s.steering.batches, s.kinematic.batches),
+        lambda s: (s.cov, s.batches_30s),
         state,
-        (jnp.asarray(cov), jnp.full(3, 8.0), jnp.full(3, 8.0)),
+        (jnp.asarray(cov), jnp.full(2, 8.0)),
     )
     run = _run(est, state)
     out = run.to_dict()

@@ -25,9 +25,9 @@ def test_a_ridge_along_the_axle_level_reports_the_gradient_only():
     mean = np.asarray(state.mean).copy()
     mean[:2] = np.log([c_f, c_r])
     state = eqx.tree_at(
-        lambda s: (s.steering.batches, s.kinematic.batches),
+        lambda s: s.batches_30s,
         state,
-        (jnp.full(3, 8.0), jnp.full(3, 8.0)),
+        jnp.full(2, 8.0),
     )
     ridge_state = eqx.tree_at(
         lambda s: (s.mean, s.cov), state, (jnp.asarray(mean), jnp.asarray(cov))

@@ -9,10 +9,10 @@ detector (:mod:`.change`), the slip errors' inflation (:mod:`.inflation`), the s
 (:mod:`.state`), settings (:mod:`.config`), the reported estimate and its readiness
 (:mod:`.summary`), a stream's run (:mod:`.run`) and the linear-model EKF it is compared with
 (:mod:`.linear_ekf`). Beside it the lateral estimator: c_y front and rear and the understeer
-gradient (:mod:`.lateral`), its blocks (:mod:`.lateral_blocks`), its coordinates and prior
-(:mod:`.lateral_prior`), a block's likelihood (:mod:`.lateral_likelihood`), the residuals' VIF
-(:mod:`.lateral_vif`), its state (:mod:`.lateral_state`), its estimate (:mod:`.lateral_summary`)
-and a drive's run (:mod:`.lateral_run`).
+gradient (:mod:`.lateral`), its blocks (:mod:`.lateral_blocks`), the batch model's priors
+(:mod:`.lateral_prior`), a block's sufficient statistics (:mod:`.lateral_statistics`), the
+residuals' VIF (:mod:`.lateral_vif`), its state (:mod:`.lateral_state`), its estimate
+(:mod:`.lateral_summary`) and a drive's run (:mod:`.lateral_run`).
 """
 
 from .config import OnlineConfig as OnlineConfig

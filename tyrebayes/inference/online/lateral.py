@@ -1,80 +1,154 @@
 """The in-car lateral estimator: c_y front and rear and the understeer gradient, block by block.
 
-The parameters are the batch lateral model's (:mod:`tyrebayes.inference.lateral.model`), on
-its unconstrained space (log for the positive sites): log c_y front and rear, log μ_y, the
-steering ratio, the steering and a_y offsets, the roll gradient, the yaw inertia's factor, the
-curve's shape, and the noise scales of the two equations and of the axle forces. Their
-Gaussian starts at the batch model's priors and is updated every :data:`.LATERAL_STEP_S` of
-driving by the assumed-density Laplace update of the longitudinal estimator
-(:func:`~.laplace_update.laplace_update`: Newton steps to the mode of prior × the block's
-likelihood, a Laplace covariance there), where the block's likelihood is the batch model's own
-(:func:`~tyrebayes.inference.lateral.model.log_likelihoods` and its peak bound) on the block's
-samples, braking samples left out (:mod:`.lateral_blocks`), with its Fisher information as the
-curvature (:func:`~.lateral_likelihood.block_information`).
+The model is the batch lateral model's (:mod:`tyrebayes.inference.lateral.model`) with its tyre
+curve to fifth order, α = (ρ/c_y)(1 + λρ² + κλ²ρ⁴): there both of its equations have residuals
+linear in a vector of coefficients that are functions of the physical parameters, so a drive's
+data enter only through the moments of the equations' regressors (:mod:`.lateral_statistics`),
+taken once per block, vectorised. The parameters are seven of the batch model's, on its
+unconstrained space: log c_y front and rear, the steering ratio, the steering and a_y offsets,
+the roll gradient and the yaw inertia's factor, and log λ (:func:`linear_sites`). Their Gaussian
+prior is the batch model's; λ's is what the batch model's priors of the curve's shape and of μ_y
+imply (:func:`cubic_prior`).
 
-Correlated residuals: each equation is weighted by 1/VIF of its residuals, estimated as they
-arrive by the batch fit's rule (:mod:`.lateral_vif`). The data's part of the state is kept as
-per-equation Gaussian messages, re-weighted by the VIF as it stands at every step
-(:class:`~.lateral_state.LateralState`): the posterior after 10 minutes weights every block by
-the VIF of all 10 minutes, as the batch fit does.
+Every :data:`~.lateral_blocks.LATERAL_STEP_S` of driving the block's moments are added to the
+faded sums and the posterior's mode is found again by Newton steps from the last one, on the
+exact log-posterior of all data so far: each equation's noise variance integrated out under a
+weak inverse-gamma prior (one pseudo-sample at the batch model's median noise), so an equation
+with n samples and residual sum of squares RSS(θ) adds
 
-A fixed-lag window: the last :data:`WINDOW_BLOCKS` blocks (5 minutes) keep their exact
-likelihood, and each step takes Newton steps (from the last mode) to the mode of prior × the
-older blocks' messages × the window's likelihood; a block's message is taken only when it leaves
-the window, at the mode it helped find. A block linearised where the estimate stood after its
-own 30 s (the first minutes, from a wide prior) would fix a wrong linearisation for good: on a
-nonlinear front/rear level one early block can pull c_y far off and the narrowed Gaussian never
-recovers. The cost is a window's likelihood per step instead of a block's.
+    −½ (ν₀ + n/VIF) log(ν₀ σ₀² + RSS(θ)/VIF),
+
+where VIF is the equation's variance inflation at the last mode, by the batch fit's rule
+(:mod:`.lateral_vif`). The covariance is the inverse Hessian at the mode (Laplace). Because the
+sums hold every sample, a block never fixes an early, wrong linearisation: the posterior after
+10 minutes is the batch fit's linear-range posterior, whatever the order of the data.
+
+Near the curve's peak the series reads c_y low; normal cornering stays below it, and the
+benchmark compares against the batch fit's full Magic Formula (``benchmarks/online_lateral.py``).
 
 Old blocks fade over :data:`MEMORY_S` (slow change of the tyres).
 
 Readiness waits until the VIFs have seen :data:`~.lateral_vif.MIN_CHUNKS` batches of 30 s
-(4 minutes of cornering data): before that the intervals leave out slow correlations they have
-not yet measured. Then the batch fit's identification rule
+(4 minutes of data): before that the intervals leave out slow correlations they have not yet
+measured. Then the batch fit's identification rule
 (:data:`~tyrebayes.inference.lateral.posterior_checks.K_CONTRACTION`) in the Gaussian: the
-understeer gradient is reported once its sd is at most half its prior's;
-c_y front and rear once, in addition, each axle's log-sd is at most half its prior's: steady
-cornering narrows K alone (δ = L/R + K a_y), and only yaw transients tell front from rear.
+understeer gradient is reported once its sd is at most half its prior's; c_y front and rear
+once, in addition, each axle's log-sd is at most half its prior's: steady cornering narrows K
+alone (δ = L/R + K a_y), and only yaw transients tell front from rear.
 """
 
 from __future__ import annotations
 
+import math
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
+from scipy.special import erfinv
 
-from ..lateral.data import CorneringObservations
-from ..lateral.model import LateralPriors, residuals
+from ...physics.magic_formula import magic_formula_inverse_series
+from ..lateral.data import G
+from ..lateral.model import LateralPriors
 from ..lateral.posterior_checks import K_CONTRACTION
-from .laplace_update import laplace_update
 from .lateral_blocks import LateralBlocks
-from .lateral_likelihood import block_information, block_log_likelihood, block_parts
-from .lateral_prior import LateralPrior, constrained, lateral_prior
+from .lateral_prior import LateralPrior, lateral_prior
 from .lateral_run import LateralRun
-from .lateral_state import LateralState, Window
+from .lateral_state import LateralState
+from .lateral_statistics import CHUNK, BlockMoments, EquationMoments, block_moments
 from .lateral_summary import LateralTrajectory, OnlineLateral
-from .lateral_vif import ResidualMoments
+from .lateral_vif import inflation
 
 #: Time constant over which a block's information fades [s]: a tyre's cornering stiffness moves
 #: with tread wear, temperature and pressure over hours, not minutes; an hour keeps a 10-minute
 #: drive's blocks at 85 % or more of their weight.
 MEMORY_S = 3600.0
-#: Blocks whose likelihood is kept exact and whose messages are taken again at every step
-#: (5 minutes): a block's message taken at a mode far from the final one (the first minutes,
-#: from a wide prior) would fix a wrong linearisation for good; inside the window it is
-#: re-linearised as the estimate settles (a fixed-lag Laplace smoother).
-WINDOW_BLOCKS = 10
-#: Newton iterations per block at most, and the step (in posterior sds) that ends them.
-NEWTON_STEPS = 12
-NEWTON_TOLERANCE = 0.05
+#: Gauss-Newton iterations per block at most, and the step (in posterior sds) that ends them:
+#: each starts from the last block's mode, which one block of 30 s moves little.
+NEWTON_STEPS = 10
+NEWTON_TOLERANCE = 0.01
+#: Pseudo-samples of each equation's noise-variance prior (inverse-gamma): enough to keep a
+#: block without cornering from claiming a zero residual, too few to matter once a corner is in.
+NOISE_PSEUDO_SAMPLES = 1.0
+#: The batch model's sites the linear-range model reads, in its order.
+LINEAR_SITES = (
+    "c_y_front",
+    "c_y_rear",
+    "steering_ratio",
+    "steering_offset",
+    "ay_offset",
+    "roll_gradient",
+    "yaw_inertia_factor",
+    "curve_cubic",
+)
+#: Value of a site whose effect the priors leave out.
+_NULL_VALUES = {
+    "steering_offset": 0.0,
+    "ay_offset": 0.0,
+    "roll_gradient": 0.0,
+    "yaw_inertia_factor": 1.0,
+}
+#: The steering equation reads samples whose axle forces stay below this share of μ_y's prior
+#: median on the surface: there, at the curve priors' medians, the series' slip angle is 0.6 %
+#: short of the curve's (the tangent's 10 %; the example of
+#: :func:`~tyrebayes.physics.magic_formula.magic_formula_inverse_series`), beyond it the
+#: series departs fast, and the batch model gives such samples little weight (their slope
+#: dα/dρ, and with it their variance, grows towards the peak).
+PEAK_SHARE = 0.6
+#: Steps tried along each Gauss-Newton direction (the best is kept, the current point included).
+_STEP_SCALES = (1.0, 0.5, 0.25, 0.0625, 0.0)
 
 
-def _symmetric_inverse(matrix: Float[Array, "p p"]) -> Float[Array, "p p"]:
-    """Inverse of a precision (positive definite by construction: a prior's plus Fisher
-    informations), by Cholesky."""
-    factor = jnp.linalg.cholesky(0.5 * (matrix + matrix.T))
-    return jax.scipy.linalg.cho_solve((factor, True), jnp.eye(matrix.shape[0], dtype=matrix.dtype))
+def linear_sites(priors: LateralPriors) -> tuple[str, ...]:
+    """The estimator's coordinates: :data:`LINEAR_SITES` whose effects ``priors`` carry.
+
+    Examples
+    --------
+    >>> linear_sites(LateralPriors())[:3]
+    ('c_y_front', 'c_y_rear', 'steering_ratio')
+    >>> "roll_gradient" in linear_sites(LateralPriors().without("roll"))
+    False
+    """
+    full = (*lateral_prior(priors).names, "curve_cubic")
+    return tuple(n for n in LINEAR_SITES if n in full)
+
+
+def curve_medians(priors: LateralPriors) -> tuple[float, float]:
+    """The batch model's prior medians of the curve's shape C and curvature E."""
+    return (
+        1.0 + math.exp(priors.curve_shape_excess_log_mean),
+        1.0 - math.exp(priors.curve_curvature_gap_log_mean),
+    )
+
+
+def cubic_prior(priors: LateralPriors, surface: str = "dry") -> tuple[float, float]:
+    """Median and log-sd of λ = ((1 + E)/3 + C²/6)/(C μ_y)² under the batch model's priors of
+    the curve's shape C, curvature E and μ_y on ``surface``.
+
+    The batch priors put a little mass on curves whose cubic term is not positive (E far below
+    −1 with a small C); the log-sd is therefore read from the central 68 % of λ (half the log
+    distance between its 16th and 84th percentiles), over a fixed grid of the three priors'
+    quantiles.
+
+    Examples
+    --------
+    >>> m, s = cubic_prior(LateralPriors())
+    >>> round(math.exp(m), 3), round(s, 2)
+    (0.223, 0.53)
+    """
+    levels = np.linspace(0.5, 99.5, 100) / 100.0
+    z = np.sqrt(2.0) * erfinv(2.0 * levels - 1.0)
+    mu_median, mu_log_sd = priors.mu_y_prior(surface)
+    shape = 1.0 + np.exp(priors.curve_shape_excess_log_mean + priors.curve_shape_excess_log_sd * z)
+    curvature = 1.0 - np.exp(
+        priors.curve_curvature_gap_log_mean + priors.curve_curvature_gap_log_sd * z
+    )
+    mu = mu_median * np.exp(mu_log_sd * z)
+    c, e, m = np.meshgrid(shape, curvature, mu, indexing="ij")
+    cubic = magic_formula_inverse_series(c, e)[0] / m**2
+    low, median, high = np.percentile(cubic, [15.87, 50.0, 84.13])
+    return math.log(median), 0.5 * math.log(high / max(low, 1e-12))
 
 
 class OnlineLateralEstimator(eqx.Module):
@@ -83,19 +157,29 @@ class OnlineLateralEstimator(eqx.Module):
     Attributes
     ----------
     prior : LateralPrior
-    priors : LateralPriors
-        The batch model's prior scales (its peak margin, its effects).
+        The Gaussian over :func:`linear_sites`.
+    noise_scales : tuple of float
+        The noise-variance priors' scales σ₀ of the steering [rad] and kinematic [m/s²]
+        equations: the batch model's medians.
+    roll_gain : float
+        The roll gain at its prior median, where the curve terms' axle forces are taken.
+    force_limit : float
+        The steering equation reads samples whose axle forces stay below it
+        (:data:`PEAK_SHARE` of μ_y's prior median).
+    quintic_ratio : float
+        κ = k₅/k₃² of the curve at its priors' medians (:mod:`.lateral_statistics`).
     memory_s : float
-        Time constant over which old blocks' messages fade [s] (:data:`MEMORY_S`).
+        Time constant over which old blocks' moments fade [s] (:data:`MEMORY_S`).
     newton_steps : int
-    newton_tolerance : float
     """
 
     prior: LateralPrior
-    priors: LateralPriors = eqx.field(static=True)
-    memory_s: float = eqx.field(static=True, default=None)
+    noise_scales: tuple[float, float] = eqx.field(static=True)
+    roll_gain: float = eqx.field(static=True)
+    force_limit: float = eqx.field(static=True)
+    quintic_ratio: float = eqx.field(static=True)
+    memory_s: float = eqx.field(static=True, default=MEMORY_S)
     newton_steps: int = eqx.field(static=True, default=NEWTON_STEPS)
-    newton_tolerance: float = eqx.field(static=True, default=NEWTON_TOLERANCE)
 
     @classmethod
     def create(
@@ -110,134 +194,199 @@ class OnlineLateralEstimator(eqx.Module):
         Examples
         --------
         >>> OnlineLateralEstimator.create().prior.names[-1]
-        'force_noise'
+        'curve_cubic'
         """
         priors = LateralPriors() if priors is None else priors
-        prior = lateral_prior(priors, surface=surface, steering_ratio=steering_ratio)
-        return cls(prior=prior, priors=priors, memory_s=MEMORY_S)
+        full = lateral_prior(priors, surface=surface, steering_ratio=steering_ratio)
+        names = linear_sites(priors)
+        rows = jnp.asarray([full.names.index(n) for n in names[:-1]])
+        cubic_mean, cubic_sd = cubic_prior(priors, surface)
+        prior = LateralPrior(
+            mean=jnp.append(full.mean[rows], cubic_mean),
+            cov=jax.scipy.linalg.block_diag(full.cov[jnp.ix_(rows, rows)], cubic_sd**2),
+            names=names,
+        )
+        # The steering equation's noise: the sensor's and the axle forces' through the slope
+        # dα/dρ = 1/c_y of each axle (the batch model's errors in variables, linear range).
+        steer = math.hypot(
+            priors.steer_noise_median,
+            math.sqrt(2.0) * priors.force_noise_median / priors.c_y_median,
+        )
+        roll = priors.roll_gradient_median if "roll" in priors.effects else 0.0
+        k3, k5 = magic_formula_inverse_series(*curve_medians(priors))
+        return cls(
+            prior=prior,
+            noise_scales=(steer, priors.kinematic_noise_median),
+            roll_gain=1.0 + G * roll,
+            force_limit=PEAK_SHARE * priors.mu_y_prior(surface)[0],
+            quintic_ratio=k5 / k3**2,
+        )
 
-    def init(self, width: int = 300) -> LateralState:
-        """The state before any block of ``width`` samples: the prior."""
+    def init(self) -> LateralState:
+        """The state before any block: the prior."""
         dtype = self.prior.mean.dtype
         zero = jnp.zeros((), dtype)
-        p = self.prior.mean.shape[0]
         return LateralState(
             mean=self.prior.mean,
             cov=self.prior.cov,
-            information=jnp.zeros((3, p, p), dtype),
-            shift=jnp.zeros((3, p), dtype),
+            steering=EquationMoments.zeros(9, dtype),
+            kinematic=EquationMoments.zeros(8, dtype),
+            batches_30s=jnp.zeros(2, dtype),
+            steering_vif=zero + 1.0,
+            kinematic_vif=zero + 1.0,
             time_s=zero,
-            steering=ResidualMoments.empty(dtype),
-            kinematic=ResidualMoments.empty(dtype),
             n_samples=zero,
             n_skipped=zero,
-            window=Window.empty(WINDOW_BLOCKS, width, dtype),
         )
 
-    def _posterior(self, information, shift, steering, kinematic):
-        """The prior times the messages, the equations weighted 1/VIF: mean and covariance."""
-        w = jnp.stack(
-            [1.0 / steering.inflation(), 1.0 / kinematic.inflation(), jnp.ones(())]
-        ).astype(shift.dtype)
-        prior_precision = _symmetric_inverse(self.prior.cov)
-        precision = prior_precision + jnp.einsum("k,kij->ij", w, information)
-        cov = _symmetric_inverse(precision)
-        mean = cov @ (prior_precision @ self.prior.mean + w @ shift)
-        return mean, cov, w[:2]
+    def coefficients(
+        self, theta: Float[Array, " p"], blocks: LateralBlocks
+    ) -> tuple[Float[Array, "9"], Float[Array, "8"]]:
+        """The two equations' coefficients c_s, c_k at ``theta``
+        (:mod:`.lateral_statistics`)."""
+        p = dict(_NULL_VALUES)
+        for i, name in enumerate(self.prior.names):
+            p[name] = theta[i] if name in ("steering_offset", "ay_offset") else jnp.exp(theta[i])
+        u, v, cubic = 1.0 / p["c_y_front"], 1.0 / p["c_y_rear"], p["curve_cubic"]
+        quintic = self.quintic_ratio * cubic**2
+        ratio = 1.0 if blocks.road_wheel else p["steering_ratio"]
+        gain = 1.0 + G * p["roll_gradient"]
+        b = p["ay_offset"]
+        lf = blocks.cog_to_front_axle_m
+        lr = blocks.wheelbase_m - lf
+        inertia = p["yaw_inertia_factor"] * blocks.yaw_inertia_kgm2 / (blocks.mass_kg * G)
+        one = jnp.ones((), theta.dtype)
+        steering = jnp.stack(
+            [
+                one / ratio,
+                -p["steering_offset"] / ratio + (u - v) * b / (gain * G),
+                -(u - v) / (gain * G),
+                -inertia * (u / lr + v / lf),
+                -one,
+                -cubic * u,
+                cubic * v,
+                -quintic * u,
+                quintic * v,
+            ]
+        )
+        kinematic = jnp.stack(
+            [
+                one, -gain, -b, v / G, -v * b / G, -gain * v * inertia / lf,
+                gain * v * cubic, gain * v * quintic,
+            ]
+        )  # fmt: skip
+        return steering, kinematic
+
+    def _vifs(self, theta, steering: EquationMoments, kinematic: EquationMoments, blocks):
+        width = blocks.speed.shape[1]
+        sizes = jnp.asarray([CHUNK, width, 2 * width], theta.dtype)
+        c_s, c_k = self.coefficients(theta, blocks)
+        return inflation(steering, c_s, sizes), inflation(kinematic, c_k, sizes)
+
+    def objective(
+        self,
+        theta: Float[Array, " p"],
+        steering: EquationMoments,
+        kinematic: EquationMoments,
+        vifs: tuple,
+        blocks: LateralBlocks,
+    ) -> Float[Array, ""]:
+        """The negative log-posterior at ``theta`` (module docstring), up to a constant."""
+        c_s, c_k = self.coefficients(theta, blocks)
+        nu = NOISE_PSEUDO_SAMPLES
+        total = 0.0
+        for moments, c, vif, scale in zip(
+            (steering, kinematic), (c_s, c_k), vifs, self.noise_scales, strict=True
+        ):
+            rss = c @ moments.gram @ c
+            total = total + 0.5 * (nu + moments.count / vif) * jnp.log(nu * scale**2 + rss / vif)
+        d = theta - self.prior.mean
+        return total + 0.5 * d @ jnp.linalg.solve(self.prior.cov, d)
+
+    def _gauss_newton(self, theta, steering, kinematic, vifs, blocks) -> Float[Array, "p p"]:
+        """The data's Fisher information at ``theta``: each equation's Jᵀ (Σ z zᵀ) J over its
+        noise variance (the inverse-gamma posterior's mean) and VIF, J = ∂c/∂θ."""
+        jac_s, jac_k = jax.jacfwd(lambda t: self.coefficients(t, blocks))(theta)
+        c_s, c_k = self.coefficients(theta, blocks)
+        nu = NOISE_PSEUDO_SAMPLES
+        total = 0.0
+        for moments, c, jac, vif, scale in zip(
+            (steering, kinematic), (c_s, c_k), (jac_s, jac_k), vifs, self.noise_scales, strict=True
+        ):
+            rss = c @ moments.gram @ c
+            precision = (nu + moments.count / vif) / (nu * scale**2 + rss / vif) / vif
+            total = total + precision * jac.T @ moments.gram @ jac
+        return total
 
     def update(
-        self, state: LateralState, obs: CorneringObservations, time_s, skipped
+        self, state: LateralState, block: BlockMoments, time_s, skipped, blocks: LateralBlocks
     ) -> LateralState:
-        """One block: the oldest window block's message frozen, the new block in, the mode of
-        prior × frozen messages × the window's exact likelihood, the residuals' sums."""
-        names = self.prior.names
+        """One block: its moments added to the faded sums, Newton steps from the last mode to
+        the new one, the Laplace covariance there (module docstring)."""
         elapsed = jnp.maximum(time_s - state.time_s, 0.0)
         fade = jnp.exp(-elapsed / self.memory_s)
-        # The block leaving the window: its message at the latest mode, which it helped find.
-        _, gradient, leaving = block_parts(
-            state.mean, state.window.block(0, obs), names, self.priors
-        )
-        information = fade * (state.information + leaving)
-        shift = fade * (state.shift + jnp.einsum("kij,j->ki", leaving, state.mean) + gradient)
-        window = state.window.pushed(obs)
-        mean, cov, weights = self._posterior(information, shift, state.steering, state.kinematic)
-        precision = _symmetric_inverse(cov)
-        start = state.mean
-        rows = jnp.arange(WINDOW_BLOCKS)
+        steering = state.steering.scaled(fade).plus(block.steering)
+        kinematic = state.kinematic.scaled(fade).plus(block.kinematic)
+        vifs = self._vifs(state.mean, steering, kinematic, blocks)
 
-        def window_parts(theta):
-            return jax.vmap(
-                lambda i: block_information(
-                    theta, window.block(i, obs), weights, names, self.priors
-                )
-            )(rows)
+        def f(theta):
+            return self.objective(theta, steering, kinematic, vifs, blocks)
 
-        # Newton from the latest mode, not the frozen messages' mean: the objective
-        # ½(θ − m)ᵀP⁻¹(θ − m) − ℓ(θ) written about ``start`` (laplace_update's mean) by moving
-        # the difference of the two quadratics into the likelihood.
-        def moved(theta):
-            d, e = theta - mean, theta - start
-            return -0.5 * d @ precision @ d + 0.5 * e @ precision @ e
+        scales = jnp.asarray(_STEP_SCALES, state.mean.dtype)
+        prior_precision = jnp.linalg.inv(self.prior.cov)
 
-        def log_likelihood(theta):
-            value = jax.vmap(
-                lambda i: block_log_likelihood(
-                    theta, window.block(i, obs), weights, names, self.priors
-                )
-            )(rows)
-            return jnp.sum(value) + moved(theta)
-
-        def curvature(theta):
-            value, gradient, info = window_parts(theta)
-            return (
-                jnp.sum(value) + moved(theta),
-                jnp.sum(gradient, axis=0) + precision @ (mean - start),
-                jnp.sum(info, axis=0),
+        def newton(carry):
+            i, theta, _ = carry
+            precision = prior_precision + self._gauss_newton(
+                theta, steering, kinematic, vifs, blocks
             )
+            step = jnp.linalg.solve(precision, jax.grad(f)(theta))
+            tries = theta[None, :] - scales[:, None] * step[None, :]
+            best = tries[jnp.argmin(jax.vmap(f)(tries))]
+            # The step's length in posterior sds (the precision's diagonal, a lower bound).
+            moved = jnp.max(jnp.abs(best - theta) * jnp.sqrt(jnp.diag(precision)))
+            return i + 1, best, moved
 
-        mode = laplace_update(
-            log_likelihood,
-            start,
-            cov,
-            self.newton_steps,
-            self.newton_tolerance,
-            curvature=curvature,
-        ).mean
-        steer, kinematic = residuals(obs, constrained(mode, names))
-        steering = state.steering.add(steer, obs.mask)
-        kinematic = state.kinematic.add(kinematic, obs.mask_kinematic)
-        _, gradient, block = jax.vmap(
-            lambda i: block_parts(mode, window.block(i, obs), names, self.priors)
-        )(rows)
-        window_information = jnp.sum(block, axis=0)
-        window_shift = jnp.einsum("kij,j->ki", window_information, mode) + jnp.sum(gradient, 0)
-        mean, cov, _ = self._posterior(
-            information + window_information, shift + window_shift, steering, kinematic
-        )
+        def going(carry):
+            i, _, moved = carry
+            return (i < self.newton_steps) & (moved > NEWTON_TOLERANCE)
+
+        start = (jnp.zeros((), jnp.int32), state.mean, jnp.asarray(jnp.inf, state.mean.dtype))
+        _, mode, _ = jax.lax.while_loop(going, newton, start)
+        vifs = self._vifs(mode, steering, kinematic, blocks)
+        exact = jax.hessian(lambda t: self.objective(t, steering, kinematic, vifs, blocks))(mode)
+        fisher = prior_precision + self._gauss_newton(mode, steering, kinematic, vifs, blocks)
+        # The exact curvature where it is positive definite (the batch fit's Laplace); the
+        # Fisher information where a mode is not yet reached.
+        hessian = jnp.where(jnp.linalg.eigvalsh(exact)[0] > 0.0, exact, fisher)
+        counted = jnp.stack([block.steering.batches[1], block.kinematic.batches[1]])
         return LateralState(
-            mean=mean,
-            cov=cov,
-            information=information,
-            shift=shift,
-            window=window,
-            time_s=jnp.maximum(time_s, state.time_s),
+            mean=mode,
+            cov=jnp.linalg.inv(0.5 * (hessian + hessian.T)),
             steering=steering,
             kinematic=kinematic,
-            n_samples=state.n_samples + jnp.sum(obs.mask),
+            batches_30s=state.batches_30s + counted,
+            steering_vif=vifs[0],
+            kinematic_vif=vifs[1],
+            time_s=jnp.maximum(time_s, state.time_s),
+            n_samples=state.n_samples + block.steering.count,
             n_skipped=state.n_skipped + skipped,
         )
 
     def run(
         self, state: LateralState, blocks: LateralBlocks
     ) -> tuple[LateralState, LateralTrajectory]:
-        """Scan :meth:`update` over the blocks; the last state and each block's moments."""
-        index = {n: i for i, n in enumerate(self.prior.names)}
-        rows = jnp.asarray([index["c_y_front"], index["c_y_rear"]])
+        """Every block's moments at once, then :meth:`update` scanned over them; the last state
+        and each block's moments of log c_y."""
+        moments = block_moments(blocks, self.roll_gain, self.force_limit)
+        rows = jnp.asarray([0, 1])
 
         def step(carry, i):
-            new = self.update(carry, blocks.block(i), blocks.time_s[i], blocks.n_skipped[i])
-            moments = (new.time_s, new.mean[rows], new.cov[rows[:, None], rows[None, :]])
-            return new, (*moments, new.vif_settled())
+            new = self.update(
+                carry, moments.block(i), blocks.time_s[i], blocks.n_skipped[i], blocks
+            )
+            out = (new.time_s, new.mean[rows], new.cov[rows[:, None], rows[None, :]])
+            return new, (*out, new.vif_settled())
 
         last, (time_s, mean, cov, settled) = jax.lax.scan(step, state, jnp.arange(blocks.n_blocks))
         return last, LateralTrajectory(
@@ -246,20 +395,18 @@ class OnlineLateralEstimator(eqx.Module):
 
     def result(self, state: LateralState) -> OnlineLateral:
         """The estimate of a state (readiness included, module docstring)."""
-        index = {n: i for i, n in enumerate(self.prior.names)}
-        rows = [index["c_y_front"], index["c_y_rear"]]
         return OnlineLateral(
             mean=state.mean,
             cov=state.cov,
             names=self.prior.names,
             time_s=state.time_s,
-            prior_log_c_y_mean=self.prior.mean[rows[0]],
-            prior_log_c_y_sd=jnp.sqrt(self.prior.cov[rows[0], rows[0]]),
+            prior_log_c_y_mean=self.prior.mean[0],
+            prior_log_c_y_sd=jnp.sqrt(self.prior.cov[0, 0]),
             contraction=K_CONTRACTION,
             n_samples=state.n_samples,
             n_skipped_longitudinal=state.n_skipped,
-            steering_vif=state.steering.inflation(),
-            kinematic_vif=state.kinematic.inflation(),
+            steering_vif=state.steering_vif,
+            kinematic_vif=state.kinematic_vif,
             vif_settled=state.vif_settled(),
         )
 
@@ -286,7 +433,7 @@ def online_lateral(
         From :func:`~.lateral_blocks.lateral_blocks`.
     priors : LateralPriors, optional
     surface : str
-        Road surface: the centre of μ_y's prior.
+        Road surface (the batch model's priors; the linear range does not read μ_y).
 
     Returns
     -------
@@ -296,9 +443,6 @@ def online_lateral(
 
     Examples
     --------
-    A simulated cornering drive; the estimator's first compilation takes longer than a doctest
-    should, so that line is not run here (``tyrebayes online`` runs it):
-
     >>> from tyrebayes import cornering_observations, lateral_blocks, load_vehicle
     >>> from tyrebayes.simulate.cornering import simulate_cornering
     >>> vehicle = load_vehicle("compact_fwd")
@@ -306,23 +450,24 @@ def online_lateral(
     >>> blocks = lateral_blocks(cornering_observations(frame, vehicle))
     >>> blocks.n_blocks
     10
-    >>> run = online_lateral(blocks)  # doctest: +SKIP
-    >>> run.to_dict()["lateral"]["ready"]  # doctest: +SKIP
+    >>> online_lateral(blocks).to_dict()["lateral"]["ready"]
     True
     """
     estimator = OnlineLateralEstimator.create(
         priors=priors, surface=surface, steering_ratio=float(blocks.steering_ratio)
     )
-    last, trajectory = run_online_lateral(estimator, estimator.init(blocks.speed.shape[1]), blocks)
+    last, trajectory = run_online_lateral(estimator, estimator.init(), blocks)
     return LateralRun(estimate=estimator.result(last), trajectory=trajectory)
 
 
 __all__ = [
+    "LINEAR_SITES",
     "MEMORY_S",
     "NEWTON_STEPS",
     "NEWTON_TOLERANCE",
-    "WINDOW_BLOCKS",
+    "NOISE_PSEUDO_SAMPLES",
     "OnlineLateralEstimator",
+    "linear_sites",
     "online_lateral",
     "run_online_lateral",
 ]

@@ -1,10 +1,10 @@
-"""The online lateral estimator's coordinates and its Gaussian prior.
+"""The batch lateral model's priors as a Gaussian on its unconstrained space.
 
-The parameters are the batch lateral model's (:mod:`tyrebayes.inference.lateral.model`), on its
-unconstrained space (log for the positive sites): log c_y front and rear, log μ_y, the steering
-ratio, the steering and a_y offsets, the roll gradient, the yaw inertia's factor, the curve's
-shape, and the noise scales of the two equations and of the axle forces. Their Gaussian starts at
-the batch model's priors, independent sites (:func:`lateral_prior`).
+The sites are the batch model's (:mod:`tyrebayes.inference.lateral.model`), log for the positive
+ones: log c_y front and rear, log μ_y, the steering ratio, the steering and a_y offsets, the roll
+gradient, the yaw inertia's factor, the curve's shape, and the noise scales of the two equations
+and of the axle forces; independent (:func:`lateral_prior`). The online lateral estimator
+(:mod:`.lateral`) starts from the sites it reads.
 """
 
 from __future__ import annotations
@@ -15,22 +15,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ..lateral.model import REAL_SITES, LateralPriors, sample_sites
-
-
-def site_names(priors: LateralPriors, road_wheel: bool = False) -> tuple[str, ...]:
-    """The state's coordinates: the batch model's sites for ``priors``' effects.
-
-    The steering ratio is kept where the log gives a road-wheel angle: the likelihood does not
-    read it then, and it stays at its prior.
-
-    Examples
-    --------
-    >>> site_names(LateralPriors())[:3]
-    ('c_y_front', 'c_y_rear', 'mu_y')
-    """
-    del road_wheel
-    return sample_sites(priors)
+from ..lateral.model import LateralPriors, sample_sites
 
 
 class LateralPrior(eqx.Module):
@@ -41,7 +26,7 @@ class LateralPrior(eqx.Module):
     mean : Float[Array, "p"]
     cov : Float[Array, "p p"]
     names : tuple of str
-        The coordinates (:func:`site_names`).
+        The coordinates.
     """
 
     mean: Float[Array, " p"]
@@ -95,15 +80,10 @@ def lateral_prior(
         "kinematic_noise": (math.log(priors.kinematic_noise_median), 1.0),
         "force_noise": (math.log(priors.force_noise_median), 1.0),
     }
-    names = site_names(priors)
+    names = sample_sites(priors)
     mean = jnp.asarray([centre_sd[n][0] for n in names])
     sd = jnp.asarray([centre_sd[n][1] for n in names])
     return LateralPrior(mean=mean, cov=jnp.diag(sd**2), names=names)
 
 
-def constrained(theta: Float[Array, " p"], names: tuple[str, ...]) -> dict:
-    """The model's parameters at the unconstrained point ``theta``."""
-    return {n: theta[i] if n in REAL_SITES else jnp.exp(theta[i]) for i, n in enumerate(names)}
-
-
-__all__ = ["LateralPrior", "constrained", "lateral_prior", "site_names"]
+__all__ = ["LateralPrior", "lateral_prior"]

@@ -112,7 +112,7 @@ class OnlineLateral(eqx.Module):
     Attributes
     ----------
     mean, cov : Array
-        The Gaussian over the unconstrained coordinates (:func:`~.lateral.site_names`).
+        The Gaussian over the unconstrained coordinates (:func:`~.lateral.linear_sites`).
     names : tuple of str
     time_s : Float[Array, ""]
         Time of the last block's end [s].
@@ -242,7 +242,7 @@ class OnlineLateral(eqx.Module):
             "samples_skipped_longitudinal": int(self.n_skipped_longitudinal),
             "steering_vif": float(self.steering_vif),
             "kinematic_vif": float(self.kinematic_vif),
-            "method": "online laplace",
+            "method": "online moments",
         }
 
     def unconditional(self, seed: int = 0) -> dict:
