@@ -76,8 +76,10 @@ def test_straight_drive_has_no_lateral_estimate_and_costs_no_fit():
 def test_lateral_fits_are_part_of_the_drive_settings():
     on, off = RunSettings(), RunSettings(lateral=False)
     assert on.drive_settings()["lateral"] is True and off.drive_settings()["lateral"] is False
-    # the seed reaches the drives only through the lateral fit's draws
+    # the seed reaches the drives only through the lateral fit's draws; the fit's method too
     assert RunSettings(seed=1).drive_settings() != on.drive_settings()
+    assert on.drive_settings()["lateral_method"] == "moments"
+    assert RunSettings(method="nuts").drive_settings()["lateral_method"] == "laplace"
     assert RunSettings(lateral=False, seed=1).drive_settings() == off.drive_settings()
 
 
@@ -92,3 +94,21 @@ def test_cornering_drive_gives_its_geometric_mean_c_y():
     c = math.sqrt(12.0 * 15.0)
     assert abs(math.log(out["c_y"] / c)) < max(3 * out["c_y_log_sd"], 0.02)
     assert abs(out["c_y_front"] / 12.0 - 1) < 0.05 and abs(out["c_y_rear"] / 15.0 - 1) < 0.05
+
+
+def test_the_moments_fit_agrees_with_the_batch_fit():
+    """A fast run's lateral fit (the in-car estimator over the drive) against the batch fit:
+    stated tolerance, the geometric mean c_y within two batch log-sds, the log-sds within a
+    factor 1.5 (the moments leave out the samples near the curve's peak)."""
+    from tyrebayes.simulate.cornering import simulate_cornering
+    from tyrebayes.streams import validate_stream
+
+    frame, _ = simulate_cornering(VEHICLE, manoeuvre="mixed", duration_s=300.0, seed=3)
+    data = validate_stream(frame, VEHICLE).data
+    batch = drive_lateral(data, VEHICLE, "dry")
+    fast = drive_lateral(data, VEHICLE, "dry", method="moments")
+    assert batch["lateral_reason"] == "" and fast["lateral_reason"] == "", fast
+    assert abs(math.log(fast["c_y"] / batch["c_y"])) < 2 * batch["c_y_log_sd"]
+    assert 1 / 1.5 < fast["c_y_log_sd"] / batch["c_y_log_sd"] < 1.5
+    with pytest.raises(ValueError, match="method: expected one of"):
+        drive_lateral(data, VEHICLE, "dry", method="ols")

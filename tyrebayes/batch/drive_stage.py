@@ -114,7 +114,14 @@ def _windows_and_summary(
     features = compute_features(stream, vehicle)
     cpu.append(time.process_time())
     lateral = (
-        drive_lateral(stream.data, vehicle, item.surface, seed=settings.seed, source=item.path)
+        drive_lateral(
+            stream.data,
+            vehicle,
+            item.surface,
+            method=settings.lateral_method,
+            seed=settings.seed,
+            source=item.path,
+        )
         if settings.lateral
         else lateral_off()
     )

@@ -6,9 +6,14 @@ The fleet model learns the per-type ratio k = c_y / C_xr from the sets whose dri
 Per drive, not per set: the drive stage holds the log (the set stage reads only windows
 tables, so a set is refitted without its logs), the lateral model's nuisances (steering and a_y
 offsets, roll, relaxation) belong to one drive and one sensor mounting, and the time derivatives
-of its equations do not run across two logs. So :func:`drive_lateral` fits each drive
-(:func:`tyrebayes.inference.lateral.fit_lateral`, MAP + Laplace, as ``fit-tyre`` does) and the set
-stage combines the drives' posteriors (:func:`combine_drive_laterals`).
+of its equations do not run across two logs. So :func:`drive_lateral` fits each drive and the
+set stage combines the drives' posteriors (:func:`combine_drive_laterals`). A drive's fit is
+the batch lateral fit (:func:`tyrebayes.inference.lateral.fit_lateral`, MAP + Laplace, as
+``fit-tyre`` does), or, for a fast run, the in-car estimator's state after the drive's last
+block (:mod:`tyrebayes.inference.online.lateral`: the batch model to fifth order in the tyre
+curve, on the equations' sufficient statistics; milliseconds where the batch fit takes seconds,
+and within about half a batch sd of it on the independent cornering drives,
+``benchmarks/results/online_lateral.json``).
 
 The quantity is the car's normalised cornering stiffness c_y = sqrt(c_y_front · c_y_rear)
 [1/rad over the static axle load], the geometric mean of the axles': a drive measures the
@@ -62,7 +67,16 @@ def lateral_off() -> dict:
     return _none("lateral: not fitted (the run was started without lateral fits)")
 
 
-def drive_lateral(frame, vehicle, surface: str, *, seed: int = 0, source: str = "") -> dict:
+#: A drive's lateral fit: the batch fit, or the in-car estimator's moments (module docstring).
+LATERAL_METHODS = ("laplace", "moments")
+#: The moments path pads a drive's 30 s blocks to a power of two, at least this many, so that
+#: drives of many lengths share a few compiled runs.
+MIN_PADDED_BLOCKS = 16
+
+
+def drive_lateral(
+    frame, vehicle, surface: str, *, method: str = "laplace", seed: int = 0, source: str = ""
+) -> dict:
     """One drive's c_y (log-normal summary) from its lateral fit, or NaN with the reason.
 
     Parameters
@@ -72,6 +86,9 @@ def drive_lateral(frame, vehicle, surface: str, *, seed: int = 0, source: str = 
     vehicle : Vehicle
     surface : str
         The drive's surface (the centre of the lateral fit's μ_y prior).
+    method : str
+        ``"laplace"`` (the batch lateral fit) or ``"moments"`` (the in-car estimator over the
+        drive, :data:`LATERAL_METHODS`).
     seed : int
         Randomness of the Laplace draws.
     source : str
@@ -97,11 +114,15 @@ def drive_lateral(frame, vehicle, surface: str, *, seed: int = 0, source: str = 
     """
     from ..inference.lateral import NoCornering, cornering_observations, fit_lateral
 
+    if method not in LATERAL_METHODS:
+        raise ValueError(f"method: expected one of {LATERAL_METHODS}, got {method!r}")
     try:
         obs = cornering_observations(frame, vehicle)
     except NoCornering as err:
         return _none(str(err).splitlines()[0])
     seconds = float(obs.cornering_seconds)
+    if method == "moments":
+        return _by_moments(obs, surface, seconds)
     fit = fit_lateral(
         obs, "laplace", surface=surface, seed=seed, inputs=(source,) if source else ()
     )
@@ -121,6 +142,31 @@ def drive_lateral(frame, vehicle, surface: str, *, seed: int = 0, source: str = 
         "c_y_log_sd": float(np.std(log_c)),
         "c_y_front": float(np.mean(c_f)),
         "c_y_rear": float(np.mean(c_r)),
+        "lateral_cornering_s": seconds,
+        "lateral_reason": "",
+    }
+
+
+def _by_moments(obs, surface: str, seconds: float) -> dict:
+    """:func:`drive_lateral` by the in-car estimator's state after the drive's last block."""
+    from ..inference.online.lateral import online_lateral
+    from ..inference.online.lateral_blocks import LATERAL_STEP_S, lateral_blocks
+
+    filled = max(1, math.ceil(obs.duration_s / LATERAL_STEP_S))
+    padded = max(MIN_PADDED_BLOCKS, 1 << (filled - 1).bit_length())
+    estimate = online_lateral(lateral_blocks(obs, n_blocks=padded), surface=surface).estimate
+    if not bool(estimate.converged) or not estimate.k_identified:
+        # The in-car wording ("not yet") becomes the batch fit's ("not identified").
+        reason = estimate.reason().replace("lateral: not yet:", "lateral: not identified:")
+        return _none(reason, seconds)
+    rows = [estimate.names.index("c_y_front"), estimate.names.index("c_y_rear")]
+    mean = np.asarray(estimate.mean)[rows]
+    cov = np.asarray(estimate.cov)[np.ix_(rows, rows)]
+    return {
+        "c_y": float(np.exp(mean.mean())),
+        "c_y_log_sd": float(0.5 * math.sqrt(max(cov.sum(), 0.0))),
+        "c_y_front": float(np.exp(mean[0] + 0.5 * cov[0, 0])),
+        "c_y_rear": float(np.exp(mean[1] + 0.5 * cov[1, 1])),
         "lateral_cornering_s": seconds,
         "lateral_reason": "",
     }

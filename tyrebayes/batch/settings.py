@@ -17,7 +17,8 @@ class RunSettings:
     Attributes
     ----------
     method : str
-        Tyre-set fit: ``"fast"`` (MAP + Laplace) or ``"nuts"``.
+        Tyre-set fit: ``"fast"`` (MAP + Laplace) or ``"nuts"``; it sets the drives' lateral fit
+        too (:attr:`lateral_method`).
     model : str
         Tyre-curve model of the tyre-set fit (:data:`tyrebayes.inference.tyre.model.CURVE_MODELS`).
     load_sensitivity : bool
@@ -44,7 +45,7 @@ class RunSettings:
         Fit each drive's cornering (:func:`tyrebayes.batch.lateral.drive_lateral`) and give each
         tyre set its c_y, which the fleet model's per-type ratio c_y / C_xr learns from. A drive
         without usable cornering costs a fraction of a second; one with it, a lateral fit
-        (seconds per hour of driving, and a compilation per new length of its observations).
+        (:attr:`lateral_method`).
 
     Examples
     --------
@@ -70,10 +71,27 @@ class RunSettings:
         if not self.memory_budget_mb > 0:
             raise ValueError(f"memory_budget_mb: expected > 0, got {self.memory_budget_mb}")
 
+    @property
+    def lateral_method(self) -> str:
+        """The drives' lateral fit (:func:`tyrebayes.batch.lateral.drive_lateral`): the in-car
+        estimator's moments for a fast run (milliseconds per drive), the batch fit's Laplace
+        (seconds per hour of driving, a compilation per new length) for a NUTS run.
+
+        Examples
+        --------
+        >>> RunSettings().lateral_method, RunSettings(method="nuts").lateral_method
+        ('moments', 'laplace')
+        """
+        return "moments" if self.method == "fast" else "laplace"
+
     def drive_settings(self) -> dict:
-        """What a drive's outputs depend on (the fit method does not change them; the seed does
-        only through the lateral fit's draws)."""
-        lateral = {"lateral": True, "seed": self.seed} if self.lateral else {"lateral": False}
+        """What a drive's outputs depend on: the window length, and the lateral fit's method
+        and seed (the seed only through the Laplace fit's draws)."""
+        lateral = (
+            {"lateral": True, "lateral_method": self.lateral_method, "seed": self.seed}
+            if self.lateral
+            else {"lateral": False}
+        )
         return {"stage": "drive", "window_s": self.window_s, **lateral, "version": PACKAGE_VERSION}
 
     def tyre_set_settings(self) -> dict:

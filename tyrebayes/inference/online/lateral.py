@@ -237,6 +237,7 @@ class OnlineLateralEstimator(eqx.Module):
             time_s=zero,
             n_samples=zero,
             n_skipped=zero,
+            converged=jnp.asarray(True),
         )
 
     def coefficients(
@@ -352,7 +353,7 @@ class OnlineLateralEstimator(eqx.Module):
             return (i < self.newton_steps) & (moved > NEWTON_TOLERANCE)
 
         start = (jnp.zeros((), jnp.int32), state.mean, jnp.asarray(jnp.inf, state.mean.dtype))
-        _, mode, _ = jax.lax.while_loop(going, newton, start)
+        _, mode, moved = jax.lax.while_loop(going, newton, start)
         vifs = self._vifs(mode, steering, kinematic, blocks)
         exact = jax.hessian(lambda t: self.objective(t, steering, kinematic, vifs, blocks))(mode)
         fisher = prior_precision + self._gauss_newton(mode, steering, kinematic, vifs, blocks)
@@ -371,6 +372,7 @@ class OnlineLateralEstimator(eqx.Module):
             time_s=jnp.maximum(time_s, state.time_s),
             n_samples=state.n_samples + block.steering.count,
             n_skipped=state.n_skipped + skipped,
+            converged=moved <= NEWTON_TOLERANCE,
         )
 
     def run(
@@ -408,6 +410,7 @@ class OnlineLateralEstimator(eqx.Module):
             steering_vif=state.steering_vif,
             kinematic_vif=state.kinematic_vif,
             vif_settled=state.vif_settled(),
+            converged=state.converged,
         )
 
 

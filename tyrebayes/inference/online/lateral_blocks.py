@@ -129,8 +129,9 @@ def lateral_blocks(
     max_longitudinal_mps2 : float
         Samples with |a_x| above it are left out [m/s²].
     n_blocks : int, optional
-        Pad (with empty blocks) or cut to this many blocks: streams of different lengths then
-        share one compiled run. Default: as many as the record fills.
+        Pad (with empty blocks, which end where the record does) or cut to this many blocks:
+        streams of different lengths then share one compiled run. Default: as many as the
+        record fills.
 
     Returns
     -------
@@ -191,7 +192,8 @@ def lateral_blocks(
         mask=jnp.asarray(padded(mask, False)),
         mask_kinematic=jnp.asarray(kinematic),
         n_skipped=jnp.asarray(padded(np.asarray(obs.mask) & ~mask, False).sum(axis=1), dtype=dtype),
-        time_s=jnp.asarray(np.arange(1, count + 1) * width * dt, dtype=dtype),
+        # Padding blocks end where the record does: no time passes in them, nothing fades.
+        time_s=jnp.asarray(np.minimum(np.arange(1, count + 1), filled) * width * dt, dtype=dtype),
         dt_s=obs.dt_s,
         road_wheel=obs.road_wheel,
         mass_kg=obs.mass_kg,

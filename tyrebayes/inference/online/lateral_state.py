@@ -34,6 +34,9 @@ class LateralState(eqx.Module):
         Time of the last block's end [s].
     n_samples, n_skipped : Float[Array, ""]
         Samples that entered the steering equation; samples left out for |a_x|.
+    converged : Bool[Array, ""]
+        Whether the last block's Gauss-Newton steps ended below their tolerance (not at their
+        limit, :data:`~.lateral.NEWTON_STEPS`).
     """
 
     mean: Float[Array, " p"]
@@ -46,6 +49,7 @@ class LateralState(eqx.Module):
     time_s: Float[Array, ""]
     n_samples: Float[Array, ""]
     n_skipped: Float[Array, ""]
+    converged: Bool[Array, ""]
 
     def vif_settled(self) -> Bool[Array, ""]:
         """Whether both equations' VIFs have seen enough 30 s batches

@@ -128,6 +128,9 @@ class OnlineLateral(eqx.Module):
     vif_settled : Bool[Array, ""]
         Whether both VIFs have seen enough 30 s batches to include the slow correlations
         (:mod:`.lateral`); nothing is reported before.
+    converged : Bool[Array, ""]
+        Whether the last block's mode was reached (its Gauss-Newton steps ended below their
+        tolerance); nothing is reported from one that was not.
     """
 
     mean: Float[Array, " p"]
@@ -142,14 +145,16 @@ class OnlineLateral(eqx.Module):
     steering_vif: Float[Array, ""]
     kinematic_vif: Float[Array, ""]
     vif_settled: Bool[Array, ""]
+    converged: Bool[Array, ""]
 
     def _rows(self) -> list[int]:
         return [self.names.index("c_y_front"), self.names.index("c_y_rear")]
 
     @property
     def k_identified(self) -> bool:
-        """Whether the VIFs are settled and K's sd is at most ``contraction`` of its prior's."""
-        if not bool(self.vif_settled):
+        """Whether the mode was reached, the VIFs are settled and K's sd is at most
+        ``contraction`` of its prior's."""
+        if not (bool(self.vif_settled) and bool(self.converged)):
             return False
         rows = self._rows()
         _, k_sd = k_moments(self.mean[jnp.asarray(rows)], self.cov[np.ix_(rows, rows)])
@@ -187,6 +192,11 @@ class OnlineLateral(eqx.Module):
 
     def reason(self) -> str:
         """Why a value is withheld ("" when all are reported)."""
+        if not bool(self.converged):
+            return (
+                "lateral: not converged: the last block's Gauss-Newton steps reached their "
+                "limit before the mode"
+            )
         if not bool(self.vif_settled):
             return (
                 "lateral: not yet: the residuals' slow correlation (30 s batches) is not "
@@ -242,6 +252,7 @@ class OnlineLateral(eqx.Module):
             "samples_skipped_longitudinal": int(self.n_skipped_longitudinal),
             "steering_vif": float(self.steering_vif),
             "kinematic_vif": float(self.kinematic_vif),
+            "converged": bool(self.converged),
             "method": "online moments",
         }
 
