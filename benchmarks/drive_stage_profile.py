@@ -10,7 +10,8 @@ repeats, and of the force-density EM inside the windows step (``deconvolve_force
 largest entries of a ``cProfile`` of one more run (its own overhead makes those slower; their
 shares are what they are for).
 
-The stage's lateral fit (``tyrebayes.batch.lateral.drive_lateral``) is measured apart, on a
+The stage's lateral fit (``tyrebayes.batch.lateral.drive_lateral``, with the method of a fast
+run: ``RunSettings().lateral_method``) is measured apart, on a
 simulated one-hour cornering drive (the longitudinal drive above has too little cornering), in
 another fresh process with an empty persistent compilation cache: its first call (compiled),
 the fastest of ``--repeats`` calls with its programs kept, and the fastest of ``--repeats`` calls
@@ -100,7 +101,10 @@ import json, sys, time
 from benchmarks._internal import configure_jax
 configure_jax(sys.argv[3])
 from tyrebayes import load_vehicle, read_stream, validate_stream
+from tyrebayes.batch.settings import RunSettings
 from benchmarks._internal import drive_lateral, drop_compiled_programs, rss_mb
+
+METHOD = RunSettings().lateral_method
 
 path, repeats = sys.argv[1], int(sys.argv[2])
 vehicle = load_vehicle("compact_fwd")
@@ -108,7 +112,7 @@ frame = validate_stream(read_stream(path), vehicle).data
 
 def run():
     c = time.process_time()
-    row = drive_lateral(frame, vehicle, "dry", source=path)
+    row = drive_lateral(frame, vehicle, "dry", method=METHOD, source=path)
     return time.process_time() - c, row
 
 first, row = run()
@@ -122,7 +126,7 @@ for _ in range(repeats):
     dropped_rss.append(rss_mb())
 print(json.dumps({
     "duration_s": float(frame["time"].iloc[-1] - frame["time"].iloc[0]),
-    "lateral_reason": row["lateral_reason"], "c_y": row["c_y"],
+    "lateral_method": METHOD, "lateral_reason": row["lateral_reason"], "c_y": row["c_y"],
     "first_call_cpu_s": first, "rss_mb_after_first_call": first_rss,
     "kept_cpu_s": min(kept), "rss_mb_with_programs_kept": kept_rss,
     "after_drop_cpu_s": min(dropped), "rss_mb_after_drop_and_call": max(dropped_rss),
@@ -241,7 +245,7 @@ def main() -> int:
             lateral["per_drive_hour_cpu_s"]["kept"],
             unit="s",
             count=1,
-            note="one simulated hour of cornering; resident "
+            note=f"method {lateral['lateral_method']}; one simulated hour of cornering; resident "
             f"{lateral['rss_mb_with_programs_kept']:.0f} MB; "
             f"fit: {lateral['lateral_reason'] or 'usable'}",
             headline=True,
