@@ -39,6 +39,7 @@ alone (δ = L/R + K a_y), and only yaw transients tell front from rear.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import equinox as eqx
@@ -122,6 +123,7 @@ def curve_medians(priors: LateralPriors) -> tuple[float, float]:
     )
 
 
+@functools.lru_cache(maxsize=16)
 def cubic_prior(priors: LateralPriors, surface: str = "dry") -> tuple[float, float]:
     """Median and log-sd of λ = ((1 + E)/3 + C²/6)/(C μ_y)² under the batch model's priors of
     the curve's shape C, curvature E and μ_y on ``surface``.
@@ -129,7 +131,7 @@ def cubic_prior(priors: LateralPriors, surface: str = "dry") -> tuple[float, flo
     The batch priors put a little mass on curves whose cubic term is not positive (E far below
     −1 with a small C); the log-sd is therefore read from the central 68 % of λ (half the log
     distance between its 16th and 84th percentiles), over a fixed grid of the three priors'
-    quantiles.
+    quantiles. Kept per priors and surface: a fleet worker creates an estimator per drive.
 
     Examples
     --------
