@@ -31,6 +31,7 @@ INTERNAL: dict[str, tuple[str, str]] = {
     # batch stages: steps timed or profiled apart, and the worker's memory handling
     "configure_jax": ("tyrebayes.batch.settings", "set JAX up as a fleet-run worker does"),
     "drive_lateral": ("tyrebayes.batch.lateral", "the drive stage's lateral step, timed alone"),
+    "LATERAL_METHODS": ("tyrebayes.batch.lateral", "the drive stage's lateral fits, compared"),
     "pad_size": ("tyrebayes.batch.tyre_set_stage", "pad a drive's windows as the stage does"),
     "tyre_set_table": ("tyrebayes.batch.tyre_set_stage", "the tyre-set stage's step, timed"),
     "rss_mb": ("tyrebayes.batch.worker_memory", "resident memory as the workers measure it"),

@@ -1,6 +1,6 @@
 """The fleet's per-type ratio c_y / C_xr: recovered on simulated fleets, and a straight-only V_max.
 
-Run: ``python benchmarks/fleet_lateral_ratio.py [--seeds N] [--no-e2e]``. Saves
+Run: ``python benchmarks/fleet_lateral_ratio.py [--seeds N] [--no-e2e] [--lateral-method M]``. Saves
 ``benchmarks/results/fleet_lateral_ratio.json``.
 
 1. Table level (``--seeds`` fleets): :func:`tyrebayes.simulate.fleet.simulate_fleet` with known
@@ -22,7 +22,8 @@ Run: ``python benchmarks/fleet_lateral_ratio.py [--seeds N] [--no-e2e]``. Saves
    three-minute mixed cornering drive (:func:`tyrebayes.simulate.cornering.simulate_cornering`,
    axles at 0.9 c and c / 0.9 of the set's true c = k_i · C_true_i) fitted by the fleet run's
    own per-drive step (:func:`tyrebayes.batch.lateral.drive_lateral`: cornering observations and
-   the lateral Laplace fit); only these 12 sets carry c_y. Figures: the sets' c_y 90 % intervals
+   the lateral fit of ``--lateral-method``, by default a fast run's, the in-car estimator's
+   moments); only these 12 sets carry c_y. Figures: the sets' c_y 90 % intervals
    cover the truth, and the fleet's type ratios cover theirs. The cornering simulator shares the
    lateral model's assumptions (a test of the code path, not of the method).
 
@@ -46,9 +47,9 @@ import jax  # noqa: E402
 jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
-from _internal import drive_lateral  # noqa: E402
+from _internal import LATERAL_METHODS, drive_lateral  # noqa: E402
 
-from tyrebayes import TYRE_TYPES, fit_fleet, load_vehicle, summarize  # noqa: E402
+from tyrebayes import TYRE_TYPES, RunSettings, fit_fleet, load_vehicle, summarize  # noqa: E402
 from tyrebayes.inference.vmax import (  # noqa: E402
     MU_TYPE,
     MU_Y_RATIO,
@@ -179,7 +180,7 @@ def _table_level(seeds: list[int], vehicle) -> list[dict]:
     return out
 
 
-def _end_to_end(seed: int, vehicle) -> dict:
+def _end_to_end(seed: int, vehicle, method: str) -> dict:
     table, truth = simulate_fleet(
         seed, N_SETS, type_shares=SHARES, lateral_ratio=TRUE_RATIO, lateral_share=LATERAL_SHARE
     )
@@ -204,7 +205,7 @@ def _end_to_end(seed: int, vehicle) -> dict:
                 c_y_rear=c / 0.9,
             )
             start = time.perf_counter()
-            lat = drive_lateral(frame, vehicle, "dry", seed=i)
+            lat = drive_lateral(frame, vehicle, "dry", method=method, seed=i)
             row = {"tyre_id": f"T{i:05d}", "tyre_type": t, "c_y_true": c,
                    "seconds": time.perf_counter() - start, **lat}  # fmt: skip
             if lat["lateral_reason"]:
@@ -250,11 +251,17 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20, help="simulated fleets (table level)")
     parser.add_argument("--no-e2e", action="store_true", help="skip the end-to-end case")
+    parser.add_argument(
+        "--lateral-method",
+        choices=LATERAL_METHODS,
+        default=RunSettings().lateral_method,
+        help="the end-to-end drives' lateral fit (default: a fast fleet run's)",
+    )
     args = parser.parse_args()
     vehicle = load_vehicle(VEHICLE)
     seeds = list(range(1, args.seeds + 1))
     fleets = _table_level(seeds, vehicle)
-    e2e = None if args.no_e2e else _end_to_end(101, vehicle)
+    e2e = None if args.no_e2e else _end_to_end(101, vehicle, args.lateral_method)
 
     not_converged = {
         f"seed {f['seed']}": "; ".join(f["reasons"]) for f in fleets if not f["converged"]
@@ -362,7 +369,9 @@ def main() -> None:
                 "v_max_draws": N_DRAWS,
                 "seeds": seeds,
                 "fit": "fit_fleet NUTS at its defaults",
-                "end_to_end": None if e2e is None else "cornering simulation + drive_lateral",
+                "end_to_end": None
+                if e2e is None
+                else f"cornering simulation + drive_lateral (method {args.lateral_method})",
                 "machine": "shared 2-core machine (other jobs running)",
             },
             "counts": {

@@ -98,17 +98,21 @@ def test_cornering_drive_gives_its_geometric_mean_c_y():
 
 def test_the_moments_fit_agrees_with_the_batch_fit():
     """A fast run's lateral fit (the in-car estimator over the drive) against the batch fit:
-    stated tolerance, the geometric mean c_y within two batch log-sds, the log-sds within a
-    factor 1.5 (the moments leave out the samples near the curve's peak)."""
+    stated tolerance, the geometric mean c_y within two batch log-sds; the log-sd no narrower
+    than the batch fit's over 1.5 and no wider than twice it (on three minutes the moments' VIF
+    is still blended with its cautious start, and they leave out the samples near the curve's
+    peak)."""
     from tyrebayes.simulate.cornering import simulate_cornering
     from tyrebayes.streams import validate_stream
 
-    frame, _ = simulate_cornering(VEHICLE, manoeuvre="mixed", duration_s=300.0, seed=3)
+    # Three minutes: less than the 4 minutes of 30 s batches a car waits for; a drive's fit does
+    # not wait (the batch fit's rule).
+    frame, _ = simulate_cornering(VEHICLE, manoeuvre="mixed", duration_s=180.0, seed=3)
     data = validate_stream(frame, VEHICLE).data
     batch = drive_lateral(data, VEHICLE, "dry")
     fast = drive_lateral(data, VEHICLE, "dry", method="moments")
     assert batch["lateral_reason"] == "" and fast["lateral_reason"] == "", fast
     assert abs(math.log(fast["c_y"] / batch["c_y"])) < 2 * batch["c_y_log_sd"]
-    assert 1 / 1.5 < fast["c_y_log_sd"] / batch["c_y_log_sd"] < 1.5
+    assert 1 / 1.5 < fast["c_y_log_sd"] / batch["c_y_log_sd"] < 2.0
     with pytest.raises(ValueError, match="method: expected one of"):
         drive_lateral(data, VEHICLE, "dry", method="ols")

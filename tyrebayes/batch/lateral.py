@@ -69,9 +69,6 @@ def lateral_off() -> dict:
 
 #: A drive's lateral fit: the batch fit, or the in-car estimator's moments (module docstring).
 LATERAL_METHODS = ("laplace", "moments")
-#: The moments path pads a drive's 30 s blocks to a power of two, at least this many, so that
-#: drives of many lengths share a few compiled runs.
-MIN_PADDED_BLOCKS = 16
 
 
 def drive_lateral(
@@ -150,15 +147,19 @@ def drive_lateral(
 def _by_moments(obs, surface: str, seconds: float) -> dict:
     """:func:`drive_lateral` by the in-car estimator's state after the drive's last block."""
     from ..inference.online.lateral import online_lateral
-    from ..inference.online.lateral_blocks import LATERAL_STEP_S, lateral_blocks
+    from ..inference.online.lateral_blocks import lateral_blocks
 
-    filled = max(1, math.ceil(obs.duration_s / LATERAL_STEP_S))
-    padded = max(MIN_PADDED_BLOCKS, 1 << (filled - 1).bit_length())
-    estimate = online_lateral(lateral_blocks(obs, n_blocks=padded), surface=surface).estimate
-    if not bool(estimate.converged) or not estimate.k_identified:
-        # The in-car wording ("not yet") becomes the batch fit's ("not identified").
-        reason = estimate.reason().replace("lateral: not yet:", "lateral: not identified:")
-        return _none(reason, seconds)
+    estimate = online_lateral(lateral_blocks(obs), surface=surface).estimate
+    if not bool(estimate.converged):
+        return _none(estimate.reason(), seconds)
+    # The batch fit's rule: K contracted. A car also waits for 4 minutes of VIF batches before
+    # it trusts an interval; over a whole drive the VIF is the batch fit's, whatever its length.
+    if not estimate.k_contracted:
+        return _none(
+            "lateral: not identified: the cornering did not narrow the understeer gradient to "
+            "half its prior's spread",
+            seconds,
+        )
     rows = [estimate.names.index("c_y_front"), estimate.names.index("c_y_rear")]
     mean = np.asarray(estimate.mean)[rows]
     cov = np.asarray(estimate.cov)[np.ix_(rows, rows)]

@@ -69,6 +69,10 @@ MEMORY_S = 3600.0
 #: each starts from the last block's mode, which one block of 30 s moves little.
 NEWTON_STEPS = 10
 NEWTON_TOLERANCE = 0.01
+#: Blocks per compiled call of :func:`online_lateral` (8 minutes): a drive of any length runs
+#: as calls on this many blocks, so that one program serves every drive (a fleet worker traces
+#: it once).
+RUN_BLOCKS = 16
 #: Pseudo-samples of each equation's noise-variance prior (inverse-gamma): enough to keep a
 #: block without cornering from claiming a zero residual, too few to matter once a corner is in.
 NOISE_PSEUDO_SAMPLES = 1.0
@@ -461,8 +465,12 @@ def online_lateral(
     estimator = OnlineLateralEstimator.create(
         priors=priors, surface=surface, steering_ratio=float(blocks.steering_ratio)
     )
-    last, trajectory = run_online_lateral(estimator, estimator.init(), blocks)
-    return LateralRun(estimate=estimator.result(last), trajectory=trajectory)
+    state, parts = estimator.init(), []
+    for start in range(0, blocks.n_blocks, RUN_BLOCKS):
+        state, part = run_online_lateral(estimator, state, blocks.part(start, RUN_BLOCKS))
+        parts.append(part)
+    trajectory = jax.tree.map(lambda *x: jnp.concatenate(x)[: blocks.n_blocks], *parts)
+    return LateralRun(estimate=estimator.result(state), trajectory=trajectory)
 
 
 __all__ = [
@@ -471,6 +479,7 @@ __all__ = [
     "NEWTON_STEPS",
     "NEWTON_TOLERANCE",
     "NOISE_PSEUDO_SAMPLES",
+    "RUN_BLOCKS",
     "OnlineLateralEstimator",
     "linear_sites",
     "online_lateral",

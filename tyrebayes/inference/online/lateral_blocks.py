@@ -90,6 +90,27 @@ class LateralBlocks(eqx.Module):
     def n_blocks(self) -> int:
         return int(self.speed.shape[0])
 
+    def part(self, start: int, count: int) -> LateralBlocks:
+        """Blocks ``start`` to ``start + count``, padded after the record's end with empty
+        blocks that end where the record does (no time passes in them)."""
+        end = min(start + count, self.n_blocks)
+        pad = count - (end - start)
+        fills = {"speed": 10.0, "mask": False, "mask_kinematic": False}
+
+        def cut(name):
+            x = getattr(self, name)[start:end]
+            if pad == 0:
+                return x
+            if name == "time_s":
+                fill = x[-1] if end > start else self.time_s[-1]
+            else:
+                fill = fills.get(name, 0)
+            return jnp.concatenate([x, jnp.full((pad, *x.shape[1:]), fill, x.dtype)])
+
+        names = ("speed", "yaw_rate", "yaw_acceleration", "ay", "steering", "ax", "mask",
+                 "mask_kinematic", "n_skipped", "time_s")  # fmt: skip
+        return eqx.tree_at(lambda b: [getattr(b, n) for n in names], self, [cut(n) for n in names])
+
     def block(self, i) -> CorneringObservations:
         """Block ``i`` as the batch model's observations (traceable ``i``)."""
         return CorneringObservations(

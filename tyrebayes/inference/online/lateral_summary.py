@@ -151,17 +151,21 @@ class OnlineLateral(eqx.Module):
         return [self.names.index("c_y_front"), self.names.index("c_y_rear")]
 
     @property
-    def k_identified(self) -> bool:
-        """Whether the mode was reached, the VIFs are settled and K's sd is at most
-        ``contraction`` of its prior's."""
-        if not (bool(self.vif_settled) and bool(self.converged)):
-            return False
+    def k_contracted(self) -> bool:
+        """Whether K's sd is at most ``contraction`` of its prior's (the batch fit's
+        identification rule, which is all a whole drive's fit needs)."""
         rows = self._rows()
         _, k_sd = k_moments(self.mean[jnp.asarray(rows)], self.cov[np.ix_(rows, rows)])
         limit = self.contraction * prior_k_sd(
             float(self.prior_log_c_y_mean), float(self.prior_log_c_y_sd)
         )
         return bool(float(k_sd) <= limit)
+
+    @property
+    def k_identified(self) -> bool:
+        """Whether the mode was reached, the VIFs are settled and K is contracted
+        (:attr:`k_contracted`): what a car reports K on."""
+        return bool(self.vif_settled) and bool(self.converged) and self.k_contracted
 
     @property
     def axle_log_sds(self) -> tuple[float, float]:
