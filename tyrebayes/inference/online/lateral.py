@@ -49,6 +49,7 @@ import numpy as np
 from jaxtyping import Array, Float
 from scipy.special import erfinv
 
+from ...internal.stored_program import stored_program
 from ...physics.magic_formula import magic_formula_inverse_series
 from ..lateral.data import G
 from ..lateral.model import LateralPriors
@@ -466,11 +467,32 @@ def online_lateral(
         priors=priors, surface=surface, steering_ratio=float(blocks.steering_ratio)
     )
     state, parts = estimator.init(), []
+    state_structure = jax.tree.structure(state)
     for start in range(0, blocks.n_blocks, RUN_BLOCKS):
-        state, part = run_online_lateral(estimator, state, blocks.part(start, RUN_BLOCKS))
-        parts.append(part)
+        # A stored program returns NumPy arrays; the modules hold JAX arrays.
+        leaves, part = _stored_run(estimator, state, blocks.part(start, RUN_BLOCKS))
+        state = jax.tree.unflatten(state_structure, [jnp.asarray(x) for x in leaves])
+        parts.append(LateralTrajectory(*(jnp.asarray(x) for x in part)))
     trajectory = jax.tree.map(lambda *x: jnp.concatenate(x)[: blocks.n_blocks], *parts)
     return LateralRun(estimate=estimator.result(state), trajectory=trajectory)
+
+
+@jax.jit
+def _run_leaves(
+    estimator: OnlineLateralEstimator, state: LateralState, blocks: LateralBlocks
+) -> tuple[list, tuple]:
+    """:meth:`OnlineLateralEstimator.run` with its results as plain containers of arrays (what a
+    stored program returns): the last state's leaves and the trajectory's fields."""
+    last, trajectory = estimator.run(state, blocks)
+    fields = (trajectory.time_s, trajectory.log_c_y_mean, trajectory.log_c_y_cov)
+    return jax.tree.leaves(last), (*fields, trajectory.vif_settled)
+
+
+#: :func:`_run_leaves` with its traced program kept on disk beside JAX's compilation cache
+#: (:func:`~tyrebayes.internal.stored_program.stored_program`): a fleet worker that dropped its
+#: compiled programs, or a new process, loads it instead of tracing it again. The estimator's
+#: settings and the blocks' shape are in the arguments' structure, which names the file.
+_stored_run = stored_program(_run_leaves, ("online-lateral-run",))
 
 
 __all__ = [
