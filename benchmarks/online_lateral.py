@@ -233,19 +233,25 @@ def main() -> None:
             ),
             headline=True,
         ),
-        figure(
-            "online 90 % intervals after 10 min covering the truth (c_y front, rear and K)",
-            float(np.mean(online_covers)) if used else None,
-            count=len(online_covers),
-            exclusions=excluded,
-            note=f"{sum(online_covers)} of {len(online_covers)}",
-        ),
-        figure(
-            "batch 90 % intervals covering the truth (c_y front, rear and K), for comparison",
-            float(np.mean(batch_covers)) if used else None,
-            count=len(batch_covers),
-            exclusions=excluded,
-            note=f"{sum(batch_covers)} of {len(batch_covers)}",
+        *(
+            figure(
+                name,
+                float(np.mean(hits)) if hits else None,
+                count=len(hits),
+                exclusions=excluded,
+                note=f"{sum(hits)} of {len(hits)}",
+            )
+            for name, hits in (
+                (
+                    "online 90 % intervals after 10 min covering the truth (c_y front, rear and K)",
+                    online_covers,
+                ),
+                (
+                    "batch 90 % intervals covering the truth (c_y front, rear and K), "
+                    "for comparison",
+                    batch_covers,
+                ),
+            )
         ),
         figure(
             "baseline paramsd-style EKF within one batch sd of the batch mean (all three)",
