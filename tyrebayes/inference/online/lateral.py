@@ -47,6 +47,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
+from scipy.linalg import block_diag
 from scipy.special import erfinv
 
 from ...internal.stored_program import stored_program
@@ -206,11 +207,14 @@ class OnlineLateralEstimator(eqx.Module):
         priors = LateralPriors() if priors is None else priors
         full = lateral_prior(priors, surface=surface, steering_ratio=steering_ratio)
         names = linear_sites(priors)
-        rows = jnp.asarray([full.names.index(n) for n in names[:-1]])
+        rows = [full.names.index(n) for n in names[:-1]]
         cubic_mean, cubic_sd = cubic_prior(priors, surface)
+        # In NumPy: each eager JAX operation would be a compiled program of its own, compiled
+        # again by a fleet worker after it drops its programs.
+        mean, cov = np.asarray(full.mean), np.asarray(full.cov)
         prior = LateralPrior(
-            mean=jnp.append(full.mean[rows], cubic_mean),
-            cov=jax.scipy.linalg.block_diag(full.cov[jnp.ix_(rows, rows)], cubic_sd**2),
+            mean=jnp.asarray(np.append(mean[rows], cubic_mean)),
+            cov=jnp.asarray(block_diag(cov[np.ix_(rows, rows)], cubic_sd**2)),
             names=names,
         )
         # The steering equation's noise: the sensor's and the axle forces' through the slope
@@ -232,19 +236,22 @@ class OnlineLateralEstimator(eqx.Module):
     def init(self) -> LateralState:
         """The state before any block: the prior."""
         dtype = self.prior.mean.dtype
-        zero = jnp.zeros((), dtype)
+
+        def value(x, shape=()):
+            return jnp.asarray(np.full(shape, x, dtype))
+
         return LateralState(
             mean=self.prior.mean,
             cov=self.prior.cov,
             steering=EquationMoments.zeros(9, dtype),
             kinematic=EquationMoments.zeros(8, dtype),
-            batches_30s=jnp.zeros(2, dtype),
-            steering_vif=zero + 1.0,
-            kinematic_vif=zero + 1.0,
-            time_s=zero,
-            n_samples=zero,
-            n_skipped=zero,
-            converged=jnp.asarray(True),
+            batches_30s=value(0.0, 2),
+            steering_vif=value(1.0),
+            kinematic_vif=value(1.0),
+            time_s=value(0.0),
+            n_samples=value(0.0),
+            n_skipped=value(0.0),
+            converged=jnp.asarray(np.True_),
         )
 
     def coefficients(
@@ -409,8 +416,8 @@ class OnlineLateralEstimator(eqx.Module):
             cov=state.cov,
             names=self.prior.names,
             time_s=state.time_s,
-            prior_log_c_y_mean=self.prior.mean[0],
-            prior_log_c_y_sd=jnp.sqrt(self.prior.cov[0, 0]),
+            prior_log_c_y_mean=jnp.asarray(np.asarray(self.prior.mean)[0]),
+            prior_log_c_y_sd=jnp.asarray(np.sqrt(np.asarray(self.prior.cov)[0, 0])),
             contraction=K_CONTRACTION,
             n_samples=state.n_samples,
             n_skipped_longitudinal=state.n_skipped,
@@ -473,7 +480,7 @@ def online_lateral(
         leaves, part = _stored_run(estimator, state, blocks.part(start, RUN_BLOCKS))
         state = jax.tree.unflatten(state_structure, [jnp.asarray(x) for x in leaves])
         parts.append(LateralTrajectory(*(jnp.asarray(x) for x in part)))
-    trajectory = jax.tree.map(lambda *x: jnp.concatenate(x)[: blocks.n_blocks], *parts)
+    trajectory = jax.tree.map(lambda *x: jnp.asarray(np.concatenate(x)[: blocks.n_blocks]), *parts)
     return LateralRun(estimate=estimator.result(state), trajectory=trajectory)
 
 

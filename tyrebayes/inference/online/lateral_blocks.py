@@ -92,20 +92,21 @@ class LateralBlocks(eqx.Module):
 
     def part(self, start: int, count: int) -> LateralBlocks:
         """Blocks ``start`` to ``start + count``, padded after the record's end with empty
-        blocks that end where the record does (no time passes in them)."""
+        blocks that end where the record does (no time passes in them).
+
+        Cut in NumPy: an eager JAX operation is a small compiled program of its own, which a
+        fleet worker that dropped its compiled programs would compile again for every drive.
+        """
         end = min(start + count, self.n_blocks)
         pad = count - (end - start)
-        fills = {"speed": 10.0, "mask": False, "mask_kinematic": False}
+        fills = {"speed": 10.0, "time_s": float(self.time_s[end - 1 if end > start else -1])}
 
         def cut(name):
-            x = getattr(self, name)[start:end]
-            if pad == 0:
-                return x
-            if name == "time_s":
-                fill = x[-1] if end > start else self.time_s[-1]
-            else:
-                fill = fills.get(name, 0)
-            return jnp.concatenate([x, jnp.full((pad, *x.shape[1:]), fill, x.dtype)])
+            x = np.asarray(getattr(self, name))[start:end]
+            if pad:
+                fill = np.full((pad, *x.shape[1:]), fills.get(name, 0), x.dtype)
+                x = np.concatenate([x, fill])
+            return jnp.asarray(x)
 
         names = ("speed", "yaw_rate", "yaw_acceleration", "ay", "steering", "ax", "mask",
                  "mask_kinematic", "n_skipped", "time_s")  # fmt: skip

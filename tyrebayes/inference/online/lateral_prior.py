@@ -13,6 +13,7 @@ import math
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from ..lateral.model import LateralPriors, sample_sites
@@ -81,9 +82,10 @@ def lateral_prior(
         "force_noise": (math.log(priors.force_noise_median), 1.0),
     }
     names = sample_sites(priors)
-    mean = jnp.asarray([centre_sd[n][0] for n in names])
-    sd = jnp.asarray([centre_sd[n][1] for n in names])
-    return LateralPrior(mean=mean, cov=jnp.diag(sd**2), names=names)
+    # Built in NumPy: eager JAX operations would each be a small compiled program.
+    mean = np.asarray([centre_sd[n][0] for n in names])
+    sd = np.asarray([centre_sd[n][1] for n in names])
+    return LateralPrior(mean=jnp.asarray(mean), cov=jnp.asarray(np.diag(sd**2)), names=names)
 
 
 __all__ = ["LateralPrior", "lateral_prior"]

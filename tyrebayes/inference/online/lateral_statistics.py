@@ -43,6 +43,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from ..lateral.data import G
@@ -89,7 +90,11 @@ class EquationMoments(eqx.Module):
     @classmethod
     def zeros(cls, q: int, dtype) -> EquationMoments:
         """No samples yet (``q`` regressors)."""
-        z = jnp.zeros
+
+        def z(shape, dtype):
+            # NumPy, then one transfer: an eager jnp.zeros is a compiled program of its own.
+            return jnp.asarray(np.zeros(shape, dtype))
+
         return cls(
             z((), dtype), z(q, dtype), z((q, q), dtype), z((q, q), dtype),
             z(3, dtype), z((3, q), dtype), z((3, q, q), dtype),

@@ -12,9 +12,8 @@ from __future__ import annotations
 import math
 
 import equinox as eqx
-import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Bool, Float
+from jaxtyping import Array, ArrayLike, Bool, Float
 
 from ..lateral.data import G
 from ..summary import summarize
@@ -38,21 +37,23 @@ def prior_k_sd(log_c_mean: float, log_c_sd: float) -> float:
 
 
 def k_moments(
-    log_c_mean: Float[Array, "... 2"], log_c_cov: Float[Array, "... 2 2"]
-) -> tuple[Float[Array, "..."], Float[Array, "..."]]:
+    log_c_mean: Float[ArrayLike, "... 2"], log_c_cov: Float[ArrayLike, "... 2 2"]
+) -> tuple[Float[np.ndarray, "..."], Float[np.ndarray, "..."]]:
     """Mean and sd of K = (e^(−x_f) − e^(−x_r))/g for x ~ N(mean, cov), to first order.
 
     Examples
     --------
-    >>> m, s = k_moments(jnp.log(jnp.asarray([14.0, 18.0])), jnp.eye(2) * 1e-6)
+    >>> m, s = k_moments(np.log([14.0, 18.0]), np.eye(2) * 1e-6)
     >>> round(float(m) * 1e3, 4)
     1.6186
     """
-    inv = jnp.exp(-log_c_mean)
+    # NumPy: called on the host, where eager JAX operations would each compile a program.
+    log_c_mean, log_c_cov = np.asarray(log_c_mean), np.asarray(log_c_cov)
+    inv = np.exp(-log_c_mean)
     mean = (inv[..., 0] - inv[..., 1]) / G
-    grad = jnp.stack([-inv[..., 0], inv[..., 1]], axis=-1) / G
-    var = jnp.einsum("...i,...ij,...j->...", grad, log_c_cov, grad)
-    return mean, jnp.sqrt(jnp.maximum(var, 0.0))
+    grad = np.stack([-inv[..., 0], inv[..., 1]], axis=-1) / G
+    var = np.einsum("...i,...ij,...j->...", grad, log_c_cov, grad)
+    return np.asarray(mean), np.asarray(np.sqrt(np.maximum(var, 0.0)))
 
 
 class LateralTrajectory(eqx.Module):
@@ -81,6 +82,7 @@ class LateralTrajectory(eqx.Module):
 
         Examples
         --------
+        >>> import jax.numpy as jnp
         >>> t = LateralTrajectory(jnp.ones(1), jnp.log(jnp.asarray([[14.0, 18.0]])),
         ...                       jnp.eye(2)[None] * 1e-4, jnp.ones(1, bool))
         >>> round(float(t.estimates()["c_y_front"]["low"][0]), 2)
@@ -155,7 +157,7 @@ class OnlineLateral(eqx.Module):
         """Whether K's sd is at most ``contraction`` of its prior's (the batch fit's
         identification rule, which is all a whole drive's fit needs)."""
         rows = self._rows()
-        _, k_sd = k_moments(self.mean[jnp.asarray(rows)], self.cov[np.ix_(rows, rows)])
+        _, k_sd = k_moments(np.asarray(self.mean)[rows], np.asarray(self.cov)[np.ix_(rows, rows)])
         limit = self.contraction * prior_k_sd(
             float(self.prior_log_c_y_mean), float(self.prior_log_c_y_sd)
         )
@@ -171,7 +173,8 @@ class OnlineLateral(eqx.Module):
     def axle_log_sds(self) -> tuple[float, float]:
         """Posterior sd of log c_y front, rear."""
         rows = self._rows()
-        return tuple(float(jnp.sqrt(self.cov[i, i])) for i in rows)
+        cov = np.asarray(self.cov)
+        return tuple(float(np.sqrt(cov[i, i])) for i in rows)
 
     @property
     def split_identified(self) -> bool:
