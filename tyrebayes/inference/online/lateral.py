@@ -11,20 +11,23 @@ prior is the batch model's; λ's is what the batch model's priors of the curve's
 imply (:func:`cubic_prior`).
 
 Every :data:`~.lateral_blocks.LATERAL_STEP_S` of driving the block's moments are added to the
-faded sums and the posterior's mode is found again by Newton steps from the last one, on the
-exact log-posterior of all data so far: each equation's noise variance integrated out under a
-weak inverse-gamma prior (one pseudo-sample at the batch model's median noise), so an equation
-with n samples and residual sum of squares RSS(θ) adds
+faded sums and the posterior's mode is found again by Gauss-Newton steps (each equation's Jᵀ(Σ z
+zᵀ)J, J = ∂c/∂θ) from the last one, on the exact log-posterior of all data so far: each
+equation's noise variance integrated out under a weak inverse-gamma prior (one pseudo-sample at
+the batch model's median noise), so an equation with n samples and residual sum of squares
+RSS(θ) adds
 
     −½ (ν₀ + n/VIF) log(ν₀ σ₀² + RSS(θ)/VIF),
 
 where VIF is the equation's variance inflation at the last mode, by the batch fit's rule
-(:mod:`.lateral_vif`). The covariance is the inverse Hessian at the mode (Laplace). Because the
-sums hold every sample, a block never fixes an early, wrong linearisation: the posterior after
-10 minutes is the batch fit's linear-range posterior, whatever the order of the data.
+(:mod:`.lateral_vif`). The covariance is the inverse of the exact Hessian at the mode
+(Laplace), or of the Fisher information where that is not positive definite. Because the sums
+hold every sample, a block never fixes an early, wrong linearisation: the posterior after 10
+minutes is that of the fifth-order model on all 10 minutes, whatever the order of the data.
 
-Near the curve's peak the series reads c_y low; normal cornering stays below it, and the
-benchmark compares against the batch fit's full Magic Formula (``benchmarks/online_lateral.py``).
+Near the curve's peak the series reads c_y low; the steering equation leaves those samples out
+(:data:`PEAK_SHARE`), and the benchmark compares against the batch fit's full Magic Formula
+(``benchmarks/online_lateral.py``).
 
 Old blocks fade over :data:`MEMORY_S` (slow change of the tyres).
 
