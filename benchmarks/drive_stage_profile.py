@@ -100,8 +100,7 @@ _LATERAL_CHILD = r"""
 import json, sys, time
 from benchmarks._internal import configure_jax
 configure_jax(sys.argv[3])
-from tyrebayes import load_vehicle, read_stream, validate_stream
-from tyrebayes.batch.settings import RunSettings
+from tyrebayes import RunSettings, load_vehicle, read_stream, validate_stream
 from benchmarks._internal import drive_lateral, drop_compiled_programs, rss_mb
 
 METHOD = RunSettings().lateral_method

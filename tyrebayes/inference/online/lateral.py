@@ -8,7 +8,7 @@ taken once per block, vectorised. The parameters are seven of the batch model's,
 unconstrained space: log c_y front and rear, the steering ratio, the steering and a_y offsets,
 the roll gradient and the yaw inertia's factor, and log λ (:func:`linear_sites`). Their Gaussian
 prior is the batch model's; λ's is what the batch model's priors of the curve's shape and of μ_y
-imply (:func:`cubic_prior`).
+imply (:func:`~.lateral_curve.cubic_prior`).
 
 Every :data:`~.lateral_blocks.LATERAL_STEP_S` of driving the block's moments are added to the
 faded sums and the posterior's mode is found again by Gauss-Newton steps (each equation's Jᵀ(Σ z
@@ -26,8 +26,8 @@ hold every sample, a block never fixes an early, wrong linearisation: the poster
 minutes is that of the fifth-order model on all 10 minutes, whatever the order of the data.
 
 Near the curve's peak the series reads c_y low; the steering equation leaves those samples out
-(:data:`PEAK_SHARE`), and the benchmark compares against the batch fit's full Magic Formula
-(``benchmarks/online_lateral.py``).
+(:data:`~.lateral_curve.PEAK_SHARE`), and the benchmark compares against the batch fit's full
+Magic Formula (``benchmarks/online_lateral.py``).
 
 Old blocks fade over :data:`MEMORY_S` (slow change of the tyres).
 
@@ -42,7 +42,6 @@ alone (δ = L/R + K a_y), and only yaw transients tell front from rear.
 
 from __future__ import annotations
 
-import functools
 import math
 
 import equinox as eqx
@@ -51,7 +50,6 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 from scipy.linalg import block_diag
-from scipy.special import erfinv
 
 from ...internal.stored_program import stored_program
 from ...physics.magic_formula import magic_formula_inverse_series
@@ -59,6 +57,7 @@ from ..lateral.data import G
 from ..lateral.model import LateralPriors
 from ..lateral.posterior_checks import K_CONTRACTION
 from .lateral_blocks import LateralBlocks
+from .lateral_curve import PEAK_SHARE, cubic_prior, curve_medians
 from .lateral_prior import LateralPrior, lateral_prior
 from .lateral_run import LateralRun
 from .lateral_state import LateralState
@@ -99,13 +98,6 @@ _NULL_VALUES = {
     "roll_gradient": 0.0,
     "yaw_inertia_factor": 1.0,
 }
-#: The steering equation reads samples whose axle forces stay below this share of μ_y's prior
-#: median on the surface: there, at the curve priors' medians, the series' slip angle is 0.6 %
-#: short of the curve's (the tangent's 10 %; the example of
-#: :func:`~tyrebayes.physics.magic_formula.magic_formula_inverse_series`), beyond it the
-#: series departs fast, and the batch model gives such samples little weight (their slope
-#: dα/dρ, and with it their variance, grows towards the peak).
-PEAK_SHARE = 0.6
 #: Steps tried along each Gauss-Newton direction (the best is kept, the current point included).
 _STEP_SCALES = (1.0, 0.5, 0.25, 0.0625, 0.0)
 
@@ -124,44 +116,6 @@ def linear_sites(priors: LateralPriors) -> tuple[str, ...]:
     return tuple(n for n in LINEAR_SITES if n in full)
 
 
-def curve_medians(priors: LateralPriors) -> tuple[float, float]:
-    """The batch model's prior medians of the curve's shape C and curvature E."""
-    return (
-        1.0 + math.exp(priors.curve_shape_excess_log_mean),
-        1.0 - math.exp(priors.curve_curvature_gap_log_mean),
-    )
-
-
-@functools.lru_cache(maxsize=16)
-def cubic_prior(priors: LateralPriors, surface: str = "dry") -> tuple[float, float]:
-    """Median and log-sd of λ = ((1 + E)/3 + C²/6)/(C μ_y)² under the batch model's priors of
-    the curve's shape C, curvature E and μ_y on ``surface``.
-
-    The batch priors put a little mass on curves whose cubic term is not positive (E far below
-    −1 with a small C); the log-sd is therefore read from the central 68 % of λ (half the log
-    distance between its 16th and 84th percentiles), over a fixed grid of the three priors'
-    quantiles. Kept per priors and surface: a fleet worker creates an estimator per drive.
-
-    Examples
-    --------
-    >>> m, s = cubic_prior(LateralPriors())
-    >>> round(math.exp(m), 3), round(s, 2)
-    (0.223, 0.53)
-    """
-    levels = np.linspace(0.5, 99.5, 100) / 100.0
-    z = np.sqrt(2.0) * erfinv(2.0 * levels - 1.0)
-    mu_median, mu_log_sd = priors.mu_y_prior(surface)
-    shape = 1.0 + np.exp(priors.curve_shape_excess_log_mean + priors.curve_shape_excess_log_sd * z)
-    curvature = 1.0 - np.exp(
-        priors.curve_curvature_gap_log_mean + priors.curve_curvature_gap_log_sd * z
-    )
-    mu = mu_median * np.exp(mu_log_sd * z)
-    c, e, m = np.meshgrid(shape, curvature, mu, indexing="ij")
-    cubic = magic_formula_inverse_series(c, e)[0] / m**2
-    low, median, high = np.percentile(cubic, [15.87, 50.0, 84.13])
-    return math.log(median), 0.5 * math.log(high / max(low, 1e-12))
-
-
 class OnlineLateralEstimator(eqx.Module):
     """Recursive estimator of a car's lateral tyre parameters (module docstring).
 
@@ -176,7 +130,7 @@ class OnlineLateralEstimator(eqx.Module):
         The roll gain at its prior median, where the curve terms' axle forces are taken.
     force_limit : float
         The steering equation reads samples whose axle forces stay below it
-        (:data:`PEAK_SHARE` of μ_y's prior median).
+        (:data:`~.lateral_curve.PEAK_SHARE` of μ_y's prior median).
     quintic_ratio : float
         κ = k₅/k₃² of the curve at its priors' medians (:mod:`.lateral_statistics`).
     memory_s : float
