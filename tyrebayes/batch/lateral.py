@@ -153,7 +153,7 @@ def _by_moments(obs, surface: str, seconds: float) -> dict:
     if not bool(estimate.converged):
         return _none(estimate.reason(), seconds)
     # The batch fit's rule: K contracted. A car also waits for 4 minutes of VIF batches before
-    # it trusts an interval; over a whole drive the VIF is the batch fit's, whatever its length.
+    # it shows an interval; a drive's fit is judged as the batch fit is, by K's contraction.
     if not estimate.k_contracted:
         return _none(
             "lateral: not identified: the cornering did not narrow the understeer gradient to "
