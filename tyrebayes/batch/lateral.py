@@ -12,7 +12,7 @@ the batch lateral fit (:func:`tyrebayes.inference.lateral.fit_lateral`, MAP + La
 ``fit-tyre`` does), or, for a fast run, the in-car estimator's state after the drive's last
 block (:mod:`tyrebayes.inference.online.lateral`: the batch model to fifth order in the tyre
 curve, on the equations' sufficient statistics; milliseconds where the batch fit takes seconds,
-and within about half a batch sd of it on the independent cornering drives,
+and within one batch sd of it on 7 of the 8 independent cornering drives,
 ``benchmarks/results/online_lateral.json``).
 
 The quantity is the car's normalised cornering stiffness c_y = sqrt(c_y_front · c_y_rear)

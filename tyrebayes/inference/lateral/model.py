@@ -50,7 +50,7 @@ LATERAL_EFFECTS = ("roll", "ay_offset", "steering_offset", "relaxation", "yaw_in
 #: what the data resolve.
 DEFAULT_EFFECTS = ("roll", "ay_offset", "steering_offset", "yaw_inertia")
 #: Each effect's value where it is left out.
-_NULL_VALUES = {
+NULL_VALUES = {
     "roll_gradient": 0.0,
     "ay_offset": 0.0,
     "steering_offset": 0.0,
@@ -232,7 +232,7 @@ class AxleState(eqx.Module):
 def axle_state(obs: CorneringObservations, p: dict) -> AxleState:
     """ρ and α per axle at the parameters ``p`` (module docstring; effects missing from ``p``
     take their null values)."""
-    p = {**_NULL_VALUES, **p}
+    p = {**NULL_VALUES, **p}
     m, lf, lr = obs.mass_kg, obs.cog_to_front_axle_m, obs.cog_to_rear_axle_m
     gain = 1.0 + G * p["roll_gradient"]
     a = (obs.ay - p["ay_offset"]) / gain
@@ -283,7 +283,7 @@ def residuals(
     ``state`` is :func:`axle_state` at ``p`` where the caller has it already (the model
     reads it for the peak bound too: one evaluation of the curve's inverse serves all three).
     """
-    p = {**_NULL_VALUES, **p}
+    p = {**NULL_VALUES, **p}
     s = axle_state(obs, p) if state is None else state
     ratio = 1.0 if obs.road_wheel else p["steering_ratio"]
     delta = (obs.steering - p["steering_offset"]) / ratio
@@ -346,7 +346,7 @@ def lateral_model(
     }
     included = {EFFECT_SITES[e] for e in priors.effects}
     for site, prior in nuisance.items():
-        p[site] = numpyro.sample(site, prior) if site in included else _NULL_VALUES[site]
+        p[site] = numpyro.sample(site, prior) if site in included else NULL_VALUES[site]
     if not obs.road_wheel:
         p["steering_ratio"] = numpyro.sample(
             "steering_ratio",

@@ -54,7 +54,7 @@ from scipy.linalg import block_diag
 from ...internal.stored_program import stored_program
 from ...physics.magic_formula import magic_formula_inverse_series
 from ..lateral.data import G
-from ..lateral.model import LateralPriors
+from ..lateral.model import NULL_VALUES, LateralPriors, sample_sites
 from ..lateral.posterior_checks import K_CONTRACTION
 from .lateral_blocks import LateralBlocks
 from .lateral_curve import PEAK_SHARE, cubic_prior, curve_medians
@@ -91,13 +91,6 @@ LINEAR_SITES = (
     "yaw_inertia_factor",
     "curve_cubic",
 )
-#: Value of a site whose effect the priors leave out.
-_NULL_VALUES = {
-    "steering_offset": 0.0,
-    "ay_offset": 0.0,
-    "roll_gradient": 0.0,
-    "yaw_inertia_factor": 1.0,
-}
 #: Steps tried along each Gauss-Newton direction (the best is kept, the current point included).
 _STEP_SCALES = (1.0, 0.5, 0.25, 0.0625, 0.0)
 
@@ -112,7 +105,7 @@ def linear_sites(priors: LateralPriors) -> tuple[str, ...]:
     >>> "roll_gradient" in linear_sites(LateralPriors().without("roll"))
     False
     """
-    full = (*lateral_prior(priors).names, "curve_cubic")
+    full = (*sample_sites(priors), "curve_cubic")
     return tuple(n for n in LINEAR_SITES if n in full)
 
 
@@ -216,7 +209,7 @@ class OnlineLateralEstimator(eqx.Module):
     ) -> tuple[Float[Array, "9"], Float[Array, "8"]]:
         """The two equations' coefficients c_s, c_k at ``theta``
         (:mod:`.lateral_statistics`)."""
-        p = dict(_NULL_VALUES)
+        p = dict(NULL_VALUES)
         for i, name in enumerate(self.prior.names):
             p[name] = theta[i] if name in ("steering_offset", "ay_offset") else jnp.exp(theta[i])
         u, v, cubic = 1.0 / p["c_y_front"], 1.0 / p["c_y_rear"], p["curve_cubic"]
