@@ -14,6 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ..internal.device_arrays import device_array
 from ..physics.vehicle import (
     Vehicle,
     aero_drag,
@@ -165,7 +166,7 @@ def _force_balance(
         chunk = [a[i : i + size] for a in inputs]
         if size < _CHUNK:  # the last chunk, padded with zeros to the fixed length
             chunk = [np.pad(c, (0, _CHUNK - size)) for c in chunk]
-        parts = _force_balance_chunk(vehicle, braking_vehicle, *(jnp.asarray(c) for c in chunk))
+        parts = _force_balance_chunk(vehicle, braking_vehicle, *(device_array(c) for c in chunk))
         for row, part in zip(out, parts, strict=True):
             row[i : i + size] = np.asarray(part)[:size]
     return _AxleForces(

@@ -33,6 +33,7 @@ import numpy as np
 from jaxtyping import Float
 
 from .._errors import BadInputError
+from ..internal.device_arrays import device_array
 from ..physics.thermal import ThermalParams, simulate_tyre_temperature
 from .order_stats import median
 
@@ -117,9 +118,9 @@ def driven_tyre_temperature(
     temps = np.asarray(
         _scan(
             ThermalParams() if params is None else params,
-            jnp.asarray(t_padded),
+            device_array(t_padded),
             *(
-                jnp.asarray(np.pad(x, (0, padded - n_blocks), mode="edge"))
+                device_array(np.pad(x, (0, padded - n_blocks), mode="edge"))
                 for x in (speed, load, power)
             ),
             jnp.asarray(float(ambient_c)),

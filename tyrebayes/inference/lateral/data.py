@@ -20,6 +20,7 @@ import pandas as pd
 from jaxtyping import Array, Bool, Float
 from scipy.signal import butter, sosfiltfilt
 
+from ...internal.device_arrays import device_array
 from ...physics.vehicle import Vehicle
 
 #: Zero-phase low-pass cut-off of every channel [Hz].
@@ -262,16 +263,16 @@ def cornering_observations(frame: pd.DataFrame, vehicle: Vehicle) -> CorneringOb
         )
 
     def arr(x):
-        return jnp.asarray(np.where(mask, x, 0.0) if x.dtype.kind == "f" else x)
+        return device_array(np.where(mask, x, 0.0) if x.dtype.kind == "f" else x)
 
     return CorneringObservations(
-        speed=jnp.asarray(np.where(mask, speed, 10.0)),
+        speed=device_array(np.where(mask, speed, 10.0)),
         yaw_rate=arr(yaw_rate),
         yaw_acceleration=arr(yaw_acceleration),
         ay=arr(ay),
         steering=arr(steering),
-        mask=jnp.asarray(mask),
-        mask_kinematic=jnp.asarray(kinematic),
+        mask=device_array(mask),
+        mask_kinematic=device_array(kinematic),
         dt_s=float(dt),
         road_wheel=road_wheel,
         mass_kg=jnp.asarray(float(vehicle.mass_kg)),

@@ -51,6 +51,7 @@ import numpy as np
 from jaxtyping import Array, Float
 from scipy.linalg import block_diag
 
+from ...internal.device_arrays import device_array
 from ...internal.stored_program import stored_program
 from ...physics.magic_formula import magic_formula_inverse_series
 from ..lateral.data import G
@@ -428,9 +429,9 @@ def online_lateral(
     for start in range(0, blocks.n_blocks, RUN_BLOCKS):
         # A stored program returns NumPy arrays; the modules hold JAX arrays.
         leaves, part = _stored_run(estimator, state, blocks.part(start, RUN_BLOCKS))
-        state = jax.tree.unflatten(state_structure, [jnp.asarray(x) for x in leaves])
-        parts.append(LateralTrajectory(*(jnp.asarray(x) for x in part)))
-    trajectory = jax.tree.map(lambda *x: jnp.asarray(np.concatenate(x)[: blocks.n_blocks]), *parts)
+        state = jax.tree.unflatten(state_structure, [device_array(x) for x in leaves])
+        parts.append(LateralTrajectory(*(device_array(x) for x in part)))
+    trajectory = jax.tree.map(lambda *x: device_array(np.concatenate(x)[: blocks.n_blocks]), *parts)
     return LateralRun(estimate=estimator.result(state), trajectory=trajectory)
 
 

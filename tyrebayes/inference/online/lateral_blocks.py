@@ -24,6 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
+from ...internal.device_arrays import device_array
 from ..lateral.data import CorneringObservations
 
 #: Length of one update of the lateral estimator on the clock [s] (the longitudinal one's).
@@ -99,14 +100,15 @@ class LateralBlocks(eqx.Module):
         """
         end = min(start + count, self.n_blocks)
         pad = count - (end - start)
-        fills = {"speed": 10.0, "time_s": float(self.time_s[end - 1 if end > start else -1])}
+        times = np.asarray(self.time_s)
+        fills = {"speed": 10.0, "time_s": float(times[end - 1 if end > start else -1])}
 
         def cut(name):
             x = np.asarray(getattr(self, name))[start:end]
             if pad:
                 fill = np.full((pad, *x.shape[1:]), fills.get(name, 0), x.dtype)
                 x = np.concatenate([x, fill])
-            return jnp.asarray(x)
+            return device_array(x)
 
         names = ("speed", "yaw_rate", "yaw_acceleration", "ay", "steering", "ax", "mask",
                  "mask_kinematic", "n_skipped", "time_s")  # fmt: skip
@@ -202,7 +204,7 @@ def lateral_blocks(
     dtype = obs.ay.dtype
 
     def arr(x, fill=0.0):
-        return jnp.asarray(padded(np.asarray(x, float), fill), dtype=dtype)
+        return device_array(padded(np.asarray(x, float), fill), dtype=dtype)
 
     return LateralBlocks(
         speed=arr(speed, 10.0),
@@ -211,11 +213,11 @@ def lateral_blocks(
         ay=arr(obs.ay),
         steering=arr(obs.steering),
         ax=arr(ax),
-        mask=jnp.asarray(padded(mask, False)),
-        mask_kinematic=jnp.asarray(kinematic),
-        n_skipped=jnp.asarray(padded(np.asarray(obs.mask) & ~mask, False).sum(axis=1), dtype=dtype),
+        mask=device_array(padded(mask, False)),
+        mask_kinematic=device_array(kinematic),
+        n_skipped=device_array(padded(np.asarray(obs.mask) & ~mask, False).sum(axis=1), dtype),
         # Padding blocks end where the record does: no time passes in them, nothing fades.
-        time_s=jnp.asarray(np.minimum(np.arange(1, count + 1), filled) * width * dt, dtype=dtype),
+        time_s=device_array(np.minimum(np.arange(1, count + 1), filled) * width * dt, dtype),
         dt_s=obs.dt_s,
         road_wheel=obs.road_wheel,
         mass_kg=obs.mass_kg,

@@ -65,10 +65,11 @@ them (``noise_scales``) so that a user sees how far off the stream's estimates w
 from __future__ import annotations
 
 import dataclasses
+import math
 
+import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.scipy.stats import norm
 
 from .window_correlation import variance_inflation
 
@@ -140,12 +141,17 @@ def likelier_surface(
     (1, 4.3)
     """
     label_index = surfaces.index(label)
-    log_medians = jnp.asarray(log_medians)
-    scale = jnp.sqrt(jnp.asarray(log_sds) ** 2 + jnp.asarray(log_mu_sd) ** 2)
-    log_density = norm.logpdf(log_mu_mean, log_medians, scale)
+    # NumPy for host values: a fit calls this eagerly, where every jnp operation would be a
+    # small compiled program of its own (compiled again after a worker drops its programs).
+    traced = any(isinstance(a, jax.Array) for a in (log_mu_mean, log_mu_sd, log_medians, log_sds))
+    xp = jnp if traced else np
+    log_medians = xp.asarray(log_medians)
+    scale = xp.sqrt(xp.asarray(log_sds) ** 2 + xp.asarray(log_mu_sd) ** 2)
+    z = (log_mu_mean - log_medians) / scale
+    log_density = -0.5 * z**2 - xp.log(scale) - 0.5 * math.log(2.0 * math.pi)
     grippier = log_medians > log_medians[label_index]
-    candidates = jnp.where(grippier, log_density, -jnp.inf)
-    best = jnp.where(jnp.any(grippier), jnp.argmax(candidates), label_index)
+    candidates = xp.where(grippier, log_density, -xp.inf)
+    best = xp.where(xp.any(grippier), xp.argmax(candidates), label_index)
     return best, candidates[best] - log_density[label_index]
 
 

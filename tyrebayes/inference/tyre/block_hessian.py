@@ -8,7 +8,6 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.flatten_util import ravel_pytree
 from numpyro import handlers
 
 from .data import TyreObservations
@@ -30,6 +29,12 @@ def _site_plates(model, template: TyreObservations) -> dict[str, tuple[str, ...]
     with jax.numpy_rank_promotion("allow"):
         jax.make_jaxpr(record)(template)
     return plates
+
+
+def _ravel(tree) -> np.ndarray:
+    """``ravel_pytree(tree)[0]`` of a tree of NumPy arrays, in NumPy: the same order (its
+    leaves'), without an eager JAX program per shape."""
+    return np.concatenate([np.ravel(leaf) for leaf in jax.tree.leaves(tree)])
 
 
 def _block_hessian(model, template: TyreObservations, params: dict):
@@ -59,9 +64,8 @@ def _block_hessian(model, template: TyreObservations, params: dict):
                 f"site {name!r}: expected shape ({template.n_drives},) in the drive plate, "
                 f"got {np.shape(value)}"
             )
-    drive = np.asarray(ravel_pytree(drive_of)[0]).astype(int)
-    site_of = ravel_pytree({k: np.full(np.shape(v), i) for i, (k, v) in enumerate(params.items())})
-    site = np.asarray(site_of[0]).astype(int)
+    drive = _ravel(drive_of).astype(int)
+    site = _ravel({k: np.full(np.shape(v), i) for i, (k, v) in enumerate(params.items())})
     n = drive.size
     global_idx = np.flatnonzero(drive < 0)
     drive_sites = sorted({int(site[i]) for i in np.flatnonzero(drive >= 0)})

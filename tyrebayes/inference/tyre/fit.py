@@ -21,6 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ...internal.device_arrays import device_array
 from ...internal.renamed import renamed_keyword
 from ..diagnostics import LAPLACE_METHODS
 from .adequacy import Adequacy, assess_adequacy, likelier_surface
@@ -56,7 +57,7 @@ LAPLACE_DRAWS = 2000
 def _mu_observed(fit_draws: np.ndarray, priors: TyrePriors, obs: TyreObservations) -> dict:
     log_sd = np.std(np.log(fit_draws), axis=0)
     contraction = 1.0 - log_sd / np.asarray(priors.mu_log_sd(obs.surfaces))
-    at_limit = np.asarray(obs.mask & obs.at_limit)
+    at_limit = np.asarray(obs.mask) & np.asarray(obs.at_limit)
     surface = np.asarray(obs.surface_index)
     return {
         s: bool(at_limit[surface == i].any() and contraction[i] >= MU_OBSERVED_CONTRACTION)
@@ -68,7 +69,7 @@ def _tyre_fit(
     idata, diagnostics, samples: dict, priors, obs: TyreObservations, model: str, inflation
 ) -> TyreFit:
     """The result both fitting paths return."""
-    slip_window = np.asarray(obs.mask & ~obs.at_limit)
+    slip_window = np.asarray(obs.mask) & ~np.asarray(obs.at_limit)
     rho = np.asarray(obs.rho)[slip_window]
     rho = rho[np.isfinite(rho)]
     force_range = float(np.quantile(np.abs(rho), 0.9)) if rho.size else 0.0
@@ -131,7 +132,7 @@ def _adequacy(
     """:func:`.adequacy.assess_adequacy` at the posterior mean (slip windows, time order)."""
     point = {k: np.mean(np.asarray(v), axis=0) for k, v in samples.items()}
     residual, z = (np.asarray(x) for x in _point_residuals(point, obs, model))
-    slip_window = np.asarray(obs.mask & ~obs.at_limit)
+    slip_window = np.asarray(obs.mask) & ~np.asarray(obs.at_limit)
     z = z[slip_window]
     shape_sds = {}
     if model == "magic":
@@ -205,12 +206,12 @@ def _weighted_by_correlation(obs: TyreObservations, point: dict, model: str):
     for them. Where they are the weights ``obs`` has (every drive's VIF 1), ``obs`` itself is
     returned.
     """
-    z = np.asarray(_point_residuals({k: jnp.asarray(v) for k, v in point.items()}, obs, model)[1])
-    slip_window = np.asarray(obs.mask & ~obs.at_limit)
+    z = np.asarray(_point_residuals({k: device_array(v) for k, v in point.items()}, obs, model)[1])
+    slip_window = np.asarray(obs.mask) & ~np.asarray(obs.at_limit)
     weights, inflation = slip_weights(z, slip_window, np.asarray(obs.drive_index), obs.n_drives)
     if np.array_equal(weights, np.asarray(obs.slip_weight)):
         return obs, inflation
-    weighted = dataclasses.replace(obs, slip_weight=jnp.asarray(weights, dtype=obs.slip.dtype))
+    weighted = dataclasses.replace(obs, slip_weight=device_array(weights, obs.slip.dtype))
     return weighted, inflation
 
 
@@ -233,7 +234,8 @@ def _first_pass(core: LaplaceCore, obs: TyreObservations, model: str):
     Returns ``(first, weighted, inflation)``: ``first`` the ``core.mode`` result, ``weighted``
     ``obs`` with each drive's slip weight 1/VIF (``obs`` itself where every VIF is 1).
     """
-    first = core.mode(core.flat0, obs, jnp.eye(core.flat0.shape[0], dtype=core.flat0.dtype), True)
+    identity = device_array(np.eye(core.flat0.shape[0]), core.flat0.dtype)
+    first = core.mode(core.flat0, obs, identity, True)
     weighted, inflation = _weighted_by_correlation(obs, first[3], model)
     return first, weighted, inflation
 

@@ -32,6 +32,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
 from ..._errors import BadInputError
+from ...internal.device_arrays import device_array
 
 N_COMPONENTS = 8
 # EM is stopped after this many EM steps. The likelihood is flat along a ridge towards mixtures
@@ -105,11 +106,11 @@ def deconvolve_forces(
     # Padding: a force of 0 with unit noise (finite everywhere), masked out of every sum.
     with jax.enable_x64(True):
         weights, means, variances, iterations, converged = _em(
-            jnp.asarray(np.concatenate([x, np.zeros(size - x.size)])),
-            jnp.asarray(np.concatenate([noise2[:, 0], np.ones(size - x.size)])),
-            jnp.asarray(np.arange(size) < x.size),
-            jnp.asarray(means),
-            jnp.asarray(variances),
+            device_array(np.concatenate([x, np.zeros(size - x.size)])),
+            device_array(np.concatenate([noise2[:, 0], np.ones(size - x.size)])),
+            device_array(np.arange(size) < x.size),
+            device_array(means),
+            device_array(variances),
             jnp.full(k, 1.0 / k),
             jnp.asarray(_MAX_ITERATIONS),
             jnp.asarray(_TOLERANCE),

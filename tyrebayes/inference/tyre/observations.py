@@ -9,12 +9,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import equinox as eqx
-import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
 from ..._domain import SURFACES
 from ..._errors import BadInputError
+from ...internal.device_arrays import device_array
 from .window_table import WindowTable
 from .windows import _slip_window_scores
 
@@ -199,22 +199,22 @@ def stack_drives(
 
     cat = {k: np.concatenate(v) for k, v in parts.items()}
     return TyreObservations(
-        slip=jnp.asarray(pad(cat["slip"], 0.0)),
-        rho=jnp.asarray(pad(cat["rho"], 0.0)),
-        slip_sd=jnp.asarray(pad(cat["slip_sd"], 1.0)),
-        rho_sd=jnp.asarray(pad(cat["rho_sd"], 1.0)),
-        temperature_c=jnp.asarray(pad(cat["temperature_c"], 20.0)),
-        load_change=jnp.asarray(pad(cat["load_change"], 0.0)),
-        neighbour_slip=jnp.asarray(pad(cat["neighbour_slip"], 0.0)),
-        slip_weight=jnp.ones(size),
-        imu_gain_log_sd=jnp.asarray(pad(cat["imu_gain_log_sd"], 0.0)),
-        rho_score=jnp.asarray(pad(cat["rho_score"], 0.0)),
-        rho_score_slope=jnp.asarray(pad(cat["rho_score_slope"], 0.0)),
-        at_limit=jnp.asarray(pad(cat["at_limit"], False)),
-        drive_index=jnp.asarray(pad(np.concatenate(drive_idx), 0)),
-        block_index=jnp.asarray(pad(np.concatenate(block_idx), 0)),
-        surface_index=jnp.asarray(pad(np.concatenate(surface_idx), 0)),
-        mask=jnp.asarray(np.arange(size) < n),
+        slip=device_array(pad(cat["slip"], 0.0)),
+        rho=device_array(pad(cat["rho"], 0.0)),
+        slip_sd=device_array(pad(cat["slip_sd"], 1.0)),
+        rho_sd=device_array(pad(cat["rho_sd"], 1.0)),
+        temperature_c=device_array(pad(cat["temperature_c"], 20.0)),
+        load_change=device_array(pad(cat["load_change"], 0.0)),
+        neighbour_slip=device_array(pad(cat["neighbour_slip"], 0.0)),
+        slip_weight=device_array(np.ones(size)),
+        imu_gain_log_sd=device_array(pad(cat["imu_gain_log_sd"], 0.0)),
+        rho_score=device_array(pad(cat["rho_score"], 0.0)),
+        rho_score_slope=device_array(pad(cat["rho_score_slope"], 0.0)),
+        at_limit=device_array(pad(cat["at_limit"], False)),
+        drive_index=device_array(pad(np.concatenate(drive_idx), 0)),
+        block_index=device_array(pad(np.concatenate(block_idx), 0)),
+        surface_index=device_array(pad(np.concatenate(surface_idx), 0)),
+        mask=device_array(np.arange(size) < n),
         n_drives=len(drives),
         surfaces=used_surfaces,
     )
