@@ -132,11 +132,18 @@ def plain_loop(items, out: Path, settings, traced_drives: bool = False) -> dict:
     # Largest padded shape first, as fleet_run submits them (a process keeps one fit shape).
     order = sorted(sets, key=lambda s: -pad_size(sum(r["windows"] for r in finished[s])))
     set_records, kept_cpu, kept_wall = [], 0.0, 0.0
+    kept = Path(f"{out}_kept")
+    if traced_drives:  # the second fits read the same windows tables, write apart
+        kept.mkdir()
+        (kept / "drives").symlink_to((out / "drives").resolve())
     for s in order:
         set_records.append(fit_tyre_set(s, sets[s][0], finished[s], str(out), settings))
         if traced_drives:
             c, w = time.process_time(), time.perf_counter()
-            fit_tyre_set(s, sets[s][0], finished[s], f"{out}_kept", settings)
+            again = fit_tyre_set(s, sets[s][0], finished[s], str(kept), settings)
+            ran = again["status"] == set_records[-1]["status"] and not again["skipped"]
+            if not ran or again["programs_dropped"]:
+                raise RuntimeError(f"{s}: the second fit did not run with its programs kept")
             kept_cpu += time.process_time() - c
             kept_wall += time.perf_counter() - w
     fit_s = time.perf_counter() - start - drive_s - kept_wall
