@@ -259,6 +259,12 @@ BENCHMARKS: dict[str, Benchmark] = {
             minutes=5,
         ),
         Benchmark(
+            "core_contention",
+            "a worker's CPU time with the other core busy: the machine's share of scaling",
+            quick=("--duration", "300", "--repeats", "2"),
+            minutes=3,
+        ),
+        Benchmark(
             "drive_stage_profile",
             "the per-drive stage of a one-hour drive: CPU per step, EM, profile",
             quick=("--duration", "600", "--repeats", "1"),
