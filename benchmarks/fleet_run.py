@@ -341,14 +341,20 @@ def _figures(results: dict) -> list[dict]:
     }
     exclusions = {f"{stage} not done": n for stage, n in failed.items()}
     steps = results["per_drive_hour_cpu_seconds"]
+    throughput = results["drive_hours_per_core_hour"]
+
+    def against_target(name: str, key: str, note: str, headline: bool = False) -> dict:
+        target = (">=", TARGET_DRIVE_HOURS_PER_CORE_HOUR)
+        return figure(
+            name, throughput[key], target=target, count=count, exclusions=exclusions, note=note,
+            headline=headline,
+        )  # fmt: skip
+
     return [
-        figure(
+        against_target(
             "drive-hours per core-hour, full path (lateral fit included), one worker on one core",
-            results["drive_hours_per_core_hour"]["one_worker_one_core"],
-            target=(">=", TARGET_DRIVE_HOURS_PER_CORE_HOUR),
-            count=count,
-            exclusions=exclusions,
-            note=f"{size['drive_hours']:.1f} drive-hours in {size['tyre_sets']} tyre sets; "
+            "one_worker_one_core",
+            f"{size['drive_hours']:.1f} drive-hours in {size['tyre_sets']} tyre sets; "
             "wall time x workers, worker start and tracing included",
             headline=True,
         ),
@@ -387,14 +393,11 @@ def _figures(results: dict) -> list[dict]:
             note="each set's second fit, its shape's programs kept; "
             f"{steps['tyre_set_fit_fast_with_reloads']:.2f} with a reload per set",
         ),
-        figure(
+        against_target(
             "drive-hours per core-hour at steady state (per-drive stage + tyre-set fit, CPU)",
-            results["drive_hours_per_core_hour"]["per_item_cpu"],
-            target=(">=", TARGET_DRIVE_HOURS_PER_CORE_HOUR),
-            count=count,
-            exclusions=exclusions,
-            note="what a long fleet run tends to: worker start and each shape's reload paid "
-            "once per worker, not per set",
+            "per_item_cpu",
+            "what a long fleet run tends to: worker start and each shape's reload paid once per "
+            "worker, not per set",
         ),
     ]
 
