@@ -2,10 +2,11 @@
 
 Outside a trace, ``jnp.asarray`` and ``jnp.array`` of a NumPy array lift it with ``lax.stage``,
 an eager primitive that JAX compiles (and looks up in the persistent cache) once per shape and
-dtype: about 18 ms of one core for each new one on this machine's JAX, and again after a worker
-drops its compiled programs. A drive's arrays have the drive's own length, so every drive paid
-that for each array it handed to JAX. :func:`device_array` copies the data to the device
-instead (``jax.device_put``, a fraction of a millisecond): the same values, dtype and shape.
+dtype, and again after a worker drops its compiled programs. A drive's arrays have the drive's
+own length, so every drive paid a compilation for each array it handed to JAX.
+:func:`device_array` copies the data to the device instead (``jax.device_put``, no program):
+the same values, dtype and shape. ``benchmarks/results/drive_stage_profile.json`` has the
+per-drive stage's cost with it.
 
 Examples
 --------
