@@ -5,7 +5,7 @@ stay resident after a task and count towards every later task's peak:
 
 * heap that glibc keeps after the task freed it (:func:`release_free_memory` gives it back);
 * the programs JAX compiled: a fit's programs of one padded shape and each padded drive
-  length's force-density EM and temperature scan (344 MB in one process at the end of the warm
+  length's force-density EM and temperature scan (343 MB in one process at the end of the warm
   loop of the ``fleet_run`` benchmark). Keeping them is what makes the next task of
   the same shape fast (a dropped program is reloaded from the shared cache), so they are dropped
   only when keeping them would take the next task past the worker's memory budget
