@@ -249,8 +249,34 @@ def cluster_run(
         "idle_and_overhead_seconds_per_task": (summary["wall_seconds"] * workers - task_seconds)
         / n_tasks,
         "noop_round_trip_seconds_per_task": overhead,
+        "per_item_cpu": _per_item_cpu(out),
         "load_average_at_start": load,
         "load_average_at_end": os.getloadavg(),
+    }
+
+
+def _per_item_cpu(out: Path) -> dict:
+    """Medians over a run's items of their CPU seconds (per drive-hour for the drives), from
+    their records: robust to a worker's first items, which trace and load its programs, so that
+    two runs' medians differ where every item cost more, not where a warm-up was paid twice."""
+    import statistics
+
+    def done(stage: str) -> list[dict]:
+        records = [json.loads(p.read_text()) for p in (out / stage).glob("*.record.json")]
+        return [r for r in records if r.get("status") == "done" and not r.get("skipped")]
+
+    drives, sets = done("drives"), done("tyre_sets")
+    return {
+        "drive_cpu_s_per_drive_hour_median": statistics.median(
+            3600.0 * r["cpu_seconds"] / r["duration_s"] for r in drives
+        )
+        if drives
+        else None,
+        "tyre_set_cpu_s_median": statistics.median(r["cpu_seconds"] for r in sets)
+        if sets
+        else None,
+        "drives": len(drives),
+        "tyre_sets": len(sets),
     }
 
 
@@ -263,7 +289,9 @@ def _scaling_shortfall(one_core: dict, two: dict) -> dict:
     worker paid once, paid twice); the fleet stage, which runs on the client after every set
     (its wall time counts on both cores, one of them idle, against its once on the one core);
     and the rest: cores idle while sets wait for their drives and at the end of each stage,
-    the scheduler's and client's own CPU, contention with other processes.
+    the scheduler's and client's own CPU, contention with other processes. The runs' median CPU
+    per item (``per_item_cpu``) tells the first part's two causes apart: a warm-up paid once
+    more leaves the medians alike, items that each cost more raise them.
     """
     w1, w2 = one_core["run_wall_seconds"], two["run_wall_seconds"]
 
@@ -278,6 +306,11 @@ def _scaling_shortfall(one_core: dict, two: dict) -> dict:
         "worker_task_cpu_beyond_one_core_run": duplicated,
         "fleet_stage_serial": fleet_stage,
         "idle_scheduler_and_contention": extra - duplicated - fleet_stage,
+        "median_item_cpu_two_over_one_core": {
+            key: two["per_item_cpu"][key] / one_core["per_item_cpu"][key]
+            for key in ("drive_cpu_s_per_drive_hour_median", "tyre_set_cpu_s_median")
+            if two["per_item_cpu"][key] and one_core["per_item_cpu"][key]
+        },
         "note": "2 x W2 - W1 and its parts [core-seconds] (_scaling_shortfall)",
     }
 
