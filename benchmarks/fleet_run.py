@@ -17,14 +17,17 @@ Steps:
    with the whole run (client, scheduler, worker) held to one core, then of 2 workers, each
    into a fresh output folder with the warm cache (workers still trace each shape once per
    process);
-4. a second plain loop with the warm cache: the same work without dask, for comparison, its
-   drive stage timed after an untimed pass has traced the per-drive programs (steady state);
+4. a second plain loop with the warm cache, in a spawned process of its own (a worker's memory):
+   the same work without dask, its drive stage timed after an untimed pass has traced the
+   per-drive programs, and each set fitted again right after its first fit with its shape's
+   programs kept (steady state: ``per_drive_hour_cpu_seconds``);
 5. no-op tasks on the 2-worker cluster: the scheduler's round trip per task.
 
 Throughput = drive-hours / (wall seconds x workers / 3600): everything a run costs (worker start,
 tracing, idle tail) included. Scaling efficiency = the one-core run's wall time / (2 x the 2-worker
 run's): with the second core free, one worker is not one core's work (XLA's runtime runs
-independent parts of a program there, and the client and scheduler run beside). The per-item costs
+independent parts of a program there, and the client and scheduler run beside); where the rest
+goes is ``scaling_shortfall_core_seconds`` (:func:`_scaling_shortfall`). The per-item costs
 (CPU seconds of each stage per drive-hour, from the items' records) give the cost model for 10^5
 vehicles x 1 h a day, saved in the JSON with the sizes of the windows tables. The machine is shared
 with other work: the load averages are recorded and every timing is inflated by it.
