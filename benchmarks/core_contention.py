@@ -7,7 +7,7 @@ loads the programs its first tasks need), part the machine: two processes on its
 share its caches, memory bandwidth and, on a virtual machine, whatever the host puts under the
 cores. This benchmark measures the machine's part alone: the per-drive stage
 (:func:`tyrebayes.batch.process_drive`, a fast run's settings) on one simulated drive, repeated
-in one worker-like process (its programs traced and compiled by a first, untimed call), first
+in one worker-like process (its programs traced and compiled by two untimed calls), first
 alone, then in two such processes at once. Figures: the CPU seconds of one call alone and beside
 the other process (medians of the repeats after two untimed calls; the two processes' calls
 pooled), their ratio, and the ratio of the calls' wall times.
