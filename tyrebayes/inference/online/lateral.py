@@ -164,8 +164,8 @@ class OnlineLateralEstimator(eqx.Module):
         # again by a fleet worker after it drops its programs.
         mean, cov = np.asarray(full.mean), np.asarray(full.cov)
         prior = LateralPrior(
-            mean=jnp.asarray(np.append(mean[rows], cubic_mean)),
-            cov=jnp.asarray(block_diag(cov[np.ix_(rows, rows)], cubic_sd**2)),
+            mean=device_array(np.append(mean[rows], cubic_mean)),
+            cov=device_array(block_diag(cov[np.ix_(rows, rows)], cubic_sd**2)),
             names=names,
         )
         # The steering equation's noise: the sensor's and the axle forces' through the slope
@@ -189,7 +189,7 @@ class OnlineLateralEstimator(eqx.Module):
         dtype = self.prior.mean.dtype
 
         def value(x, shape=()):
-            return jnp.asarray(np.full(shape, x, dtype))
+            return device_array(np.full(shape, x, dtype))
 
         return LateralState(
             mean=self.prior.mean,
@@ -202,7 +202,7 @@ class OnlineLateralEstimator(eqx.Module):
             time_s=value(0.0),
             n_samples=value(0.0),
             n_skipped=value(0.0),
-            converged=jnp.asarray(np.True_),
+            converged=device_array(np.True_),
         )
 
     def coefficients(
@@ -367,8 +367,8 @@ class OnlineLateralEstimator(eqx.Module):
             cov=state.cov,
             names=self.prior.names,
             time_s=state.time_s,
-            prior_log_c_y_mean=jnp.asarray(np.asarray(self.prior.mean)[0]),
-            prior_log_c_y_sd=jnp.asarray(np.sqrt(np.asarray(self.prior.cov)[0, 0])),
+            prior_log_c_y_mean=device_array(np.asarray(self.prior.mean)[0]),
+            prior_log_c_y_sd=device_array(np.sqrt(np.asarray(self.prior.cov)[0, 0])),
             contraction=K_CONTRACTION,
             n_samples=state.n_samples,
             n_skipped_longitudinal=state.n_skipped,

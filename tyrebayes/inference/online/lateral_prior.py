@@ -12,10 +12,10 @@ from __future__ import annotations
 import math
 
 import equinox as eqx
-import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ...internal.device_arrays import device_array
 from ..lateral.model import LateralPriors, sample_sites
 
 
@@ -51,7 +51,7 @@ def lateral_prior(
     Examples
     --------
     >>> prior = lateral_prior()
-    >>> round(float(jnp.exp(prior.mean[0])), 2), round(float(jnp.sqrt(prior.cov[0, 0])), 2)
+    >>> round(float(np.exp(prior.mean[0])), 2), round(float(np.sqrt(prior.cov[0, 0])), 2)
     (16.5, 0.5)
     """
     priors = LateralPriors() if priors is None else priors
@@ -85,7 +85,7 @@ def lateral_prior(
     # Built in NumPy: eager JAX operations would each be a small compiled program.
     mean = np.asarray([centre_sd[n][0] for n in names])
     sd = np.asarray([centre_sd[n][1] for n in names])
-    return LateralPrior(mean=jnp.asarray(mean), cov=jnp.asarray(np.diag(sd**2)), names=names)
+    return LateralPrior(mean=device_array(mean), cov=device_array(np.diag(sd**2)), names=names)
 
 
 __all__ = ["LateralPrior", "lateral_prior"]

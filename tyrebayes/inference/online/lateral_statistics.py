@@ -46,6 +46,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
+from ...internal.device_arrays import device_array
 from ..lateral.data import G
 from ..lateral.model import derivative
 from .lateral_blocks import LateralBlocks
@@ -93,7 +94,7 @@ class EquationMoments(eqx.Module):
 
         def z(shape, dtype):
             # NumPy, then one transfer: an eager jnp.zeros is a compiled program of its own.
-            return jnp.asarray(np.zeros(shape, dtype))
+            return device_array(np.zeros(shape, dtype))
 
         return cls(
             z((), dtype), z(q, dtype), z((q, q), dtype), z((q, q), dtype),
