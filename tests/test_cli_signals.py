@@ -73,7 +73,8 @@ def _run_and_signal(
     the signal to the exit)."""
     module, name = hook.rsplit(":", 1)
     marker = tmp_path / "busy.marker"
-    env = {**os.environ, "JAX_PLATFORMS": "cpu"}
+    # faulthandler: a crash on the way out shows where it happened, not only "-11"
+    env = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONFAULTHANDLER": "1"}
     proc = subprocess.Popen(
         [sys.executable, "-c", _CHILD, module, name, str(marker), mode, *argv],
         stdout=subprocess.DEVNULL,
@@ -193,7 +194,8 @@ def test_ctrl_c_in_online_does_not_crash(tmp_path, stream):
 
 def test_ctrl_c_while_the_commands_load(tmp_path, stream):
     # The signal comes while the command modules (and JAX with them) are being imported:
-    # ``import tyrebayes`` loads nothing heavy, so the handler is already in place.
+    # ``import tyrebayes`` loads nothing heavy, so the handler is already in place. One that
+    # lands inside jaxlib's own initialisation waits until it is whole (it crashed there).
     argv = ["fit-tyre", str(stream), "--vehicle", "compact_fwd"]
     status, err, _ = _run_and_signal(tmp_path, "tyrebayes.cli:build_parser", argv)
     assert status == 130, err

@@ -119,3 +119,33 @@ def test_a_signal_while_python_exits_after_a_success_keeps_its_status():
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 3 and err == b""
+
+
+def test_a_signal_while_a_compiled_module_loads_waits_until_it_is_whole():
+    # Ctrl-C while JAX was being imported: raised inside jaxlib's initialisation (which imports
+    # Python modules), it crashed the command (a segmentation fault, or std::terminate). The
+    # signal must wait for the extension module to be whole. _decimal's initialisation imports
+    # Python modules too; an audit hook signals from inside the first of them.
+    code = (
+        "import os, signal, sys, time\n"
+        "from tyrebayes import _interrupts\n"
+        "assert '_decimal' not in sys.modules\n"
+        "state = {'inside': False, 'survived': None}\n"
+        "def hook(event, args):\n"
+        "    if event == 'import' and args[0] == '_decimal':\n"
+        "        state['inside'] = True\n"
+        "    elif event == 'import' and state['inside'] and state['survived'] is None:\n"
+        "        state['survived'] = False\n"
+        "        os.kill(os.getpid(), signal.SIGINT)\n"
+        "        time.sleep(0.2)  # the signal is handled in here unless it is held\n"
+        "        state['survived'] = True\n"
+        "sys.addaudithook(hook)\n"
+        "with _interrupts.signals_as_interruptions():\n"
+        "    try:\n"
+        "        import decimal\n"
+        "    except _interrupts.Interrupted:\n"
+        "        print('interrupted', state['survived'])\n"
+        "print('finder removed:', _interrupts._extension_finder not in sys.meta_path)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.stdout == "interrupted True\nfinder removed: True\n", out.stderr

@@ -16,6 +16,12 @@ line. Three rules keep an interruption from doing harm on its way out:
   :class:`BaseException` drops it for good, so the signal is also recorded (:func:`pending`),
   and :func:`check` raises it at the next safe point: before an output replaces the previous
   one, and before a command returns success.
+* **A compiled module is never cut half-way through its loading.** A C extension's
+  initialisation can run Python code (its own imports); a signal raised there unwinds through C++
+  that does not expect it (jaxlib's: a segmentation fault or ``std::terminate`` when Ctrl-C came
+  while JAX was being imported). While the command runs, every extension module is created and
+  executed inside :func:`deferred` (:class:`_HeldExtensionLoader`), so the signal is raised
+  just after the module is whole.
 * **An interruption is not a failure.** Code that records failures as data (a fleet run's items)
   asks :func:`pending` before it records one: an item stopped by the interruption is left without
   a record and is run again next time.
@@ -35,6 +41,8 @@ from __future__ import annotations
 
 import _thread
 import contextlib
+import importlib.abc
+import importlib.machinery
 import os
 import signal
 import sys
@@ -163,6 +171,52 @@ _active = False
 _previous_hook = sys.unraisablehook
 
 
+class _HeldExtensionLoader(importlib.machinery.ExtensionFileLoader):
+    """An extension module's loader whose creation and execution hold signals (main thread)."""
+
+    def create_module(self, spec):
+        with _held_on_main_thread():
+            return super().create_module(spec)
+
+    def exec_module(self, module) -> None:
+        with _held_on_main_thread():
+            super().exec_module(module)
+
+
+@contextlib.contextmanager
+def _held_on_main_thread() -> Iterator[None]:
+    # Off the main thread no handler runs there; raising a held signal in a helper thread's
+    # import would only break that thread, so it is left to the main thread.
+    if threading.current_thread() is threading.main_thread():
+        with deferred():
+            yield
+    else:
+        yield
+
+
+class _HoldExtensionLoading(importlib.abc.MetaPathFinder):
+    """First on ``sys.meta_path``: asks the finders after it, and hands a C extension's spec
+    a :class:`_HeldExtensionLoader` in place of the plain one."""
+
+    def find_spec(self, fullname, path, target=None):
+        for finder in sys.meta_path:
+            find = getattr(finder, "find_spec", None)
+            if finder is self or find is None:
+                continue
+            spec = find(fullname, path, target)
+            if spec is not None:
+                break
+        else:
+            return None
+        loader = spec.loader
+        if type(loader) is importlib.machinery.ExtensionFileLoader:
+            spec.loader = _HeldExtensionLoader(loader.name, loader.path)
+        return spec
+
+
+_extension_finder = _HoldExtensionLoading()
+
+
 _exit_status = 1  # what a signal after the block ends the process with (until_exit)
 
 
@@ -199,12 +253,15 @@ def signals_as_interruptions(*, until_exit: bool = False) -> Iterator[None]:
     _pending, _signals, _armed, _redelivering, _redeliveries = None, 0, True, False, 0
     _previous_hook, sys.unraisablehook = sys.unraisablehook, _unraisable
     _active = True
+    sys.meta_path.insert(0, _extension_finder)
     for s in SIGNALS:
         signal.signal(s, _handler)
     try:
         yield
     finally:
         _active = False
+        with contextlib.suppress(ValueError):
+            sys.meta_path.remove(_extension_finder)
         if _timer is not None:
             _timer.cancel()
         for s, handler in previous.items():
