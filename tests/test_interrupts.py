@@ -45,6 +45,39 @@ def test_held_inside_deferred_and_raised_at_its_end():
         assert finished
 
 
+def test_blocked_keeps_the_signal_in_the_kernel_until_its_end():
+    # Loading compiled code: the signal must reach no thread, not even a helper's started
+    # inside the block (OpenBLAS's took it while jaxlib loaded, and the command crashed). In a
+    # fresh process, as the command line uses it: a thread started before the block (this test
+    # process has several) would still take the signal.
+    code = """
+import os, signal, threading, time
+from tyrebayes import _interrupts
+mask = lambda: signal.pthread_sigmask(signal.SIG_BLOCK, [])
+masks = []
+with _interrupts.signals_as_interruptions():
+    try:
+        with _interrupts.blocked():
+            helper = threading.Thread(target=lambda: masks.append(mask()))
+            helper.start()
+            helper.join()
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.2)
+            print("pending", signal.SIGINT in signal.sigpending(), _interrupts.pending())
+    except _interrupts.Interrupted as err:
+        print("raised", err.signum == signal.SIGINT)
+print("helper blocks", {signal.SIGINT, signal.SIGTERM} <= masks[0])
+print("unblocked after", signal.SIGINT not in mask())
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.stdout.splitlines() == [
+        "pending True None",
+        "raised True",
+        "helper blocks True",
+        "unblocked after True",
+    ], out.stderr
+
+
 def test_one_raised_in_a_gc_callback_is_raised_again_without_a_word(capfd):
     # JAX registers a gc callback; a signal that lands in it is "Exception ignored in ...",
     # a traceback on stderr, and the command ran on to its end (online, SIGTERM).

@@ -19,9 +19,9 @@ line. Three rules keep an interruption from doing harm on its way out:
 * **A compiled module is never cut half-way through its loading.** A C extension's
   initialisation can run Python code (its own imports); a signal raised there unwinds through C++
   that does not expect it (jaxlib's: a segmentation fault or ``std::terminate`` when Ctrl-C came
-  while JAX was being imported). While the command runs, every extension module is created and
-  executed inside :func:`deferred` (:class:`_HeldExtensionLoader`), so the signal is raised
-  just after the module is whole.
+  while JAX was being imported). The command line loads its modules inside :func:`blocked`,
+  and while it runs every extension module is created and executed inside it too
+  (:class:`_HeldExtensionLoader`): the signal is raised just after the module is whole.
 * **An interruption is not a failure.** Code that records failures as data (a fleet run's items)
   asks :func:`pending` before it records one: an item stopped by the interruption is left without
   a record and is run again next time.
@@ -114,6 +114,29 @@ def deferred() -> Iterator[None]:
     check()
 
 
+@contextlib.contextmanager
+def blocked() -> Iterator[None]:
+    """Block SIGINT and SIGTERM in the operating system for the block; one that came is raised
+    when it ends (as :func:`deferred` does).
+
+    For loading compiled code, where a signal must not arrive at all: held in Python alone, it
+    still reached jaxlib's initialisation (a segmentation fault, 1 in ~20 Ctrl-C's while JAX
+    loaded), by way of a helper thread (OpenBLAS's) that took the signal. Threads started
+    inside the block inherit the mask and never take one; the main thread gets it when the
+    block ends. Off the main thread the block only ends with :func:`check`.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        check()
+        return
+    with deferred():
+        previous = signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
+        try:
+            yield
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 def on_interrupt(callback: Callable[[], None]) -> None:
     """Call ``callback`` (quickly, without raising) when the first signal arrives.
 
@@ -172,26 +195,15 @@ _previous_hook = sys.unraisablehook
 
 
 class _HeldExtensionLoader(importlib.machinery.ExtensionFileLoader):
-    """An extension module's loader whose creation and execution hold signals (main thread)."""
+    """An extension module's loader whose creation and execution block signals (:func:`blocked`)."""
 
     def create_module(self, spec):
-        with _held_on_main_thread():
+        with blocked():
             return super().create_module(spec)
 
     def exec_module(self, module) -> None:
-        with _held_on_main_thread():
+        with blocked():
             super().exec_module(module)
-
-
-@contextlib.contextmanager
-def _held_on_main_thread() -> Iterator[None]:
-    # Off the main thread no handler runs there; raising a held signal in a helper thread's
-    # import would only break that thread, so it is left to the main thread.
-    if threading.current_thread() is threading.main_thread():
-        with deferred():
-            yield
-    else:
-        yield
 
 
 class _HoldExtensionLoading(importlib.abc.MetaPathFinder):

@@ -54,14 +54,17 @@ def build_parser() -> argparse.ArgumentParser:
         description="Tyre parameters with honest uncertainty from ordinary vehicle sensors.",
     )
     subparsers = parser.add_subparsers(dest="command", required=True)
-    for name in _COMMAND_MODULES:
-        try:
-            module = importlib.import_module(f"tyrebayes._commands.{name}")
-        except ModuleNotFoundError as err:
-            if err.name == f"tyrebayes._commands.{name}":
-                continue  # command not built in this installation
-            raise
-        module.register(subparsers)
+    # The command modules load NumPy, JAX and Arrow: compiled code that a signal must not cut
+    # (and whose helper threads, started here, then never take one).
+    with _interrupts.blocked():
+        for name in _COMMAND_MODULES:
+            try:
+                module = importlib.import_module(f"tyrebayes._commands.{name}")
+            except ModuleNotFoundError as err:
+                if err.name == f"tyrebayes._commands.{name}":
+                    continue  # command not built in this installation
+                raise
+            module.register(subparsers)
     return parser
 
 
