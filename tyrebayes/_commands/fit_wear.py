@@ -223,10 +223,15 @@ def run(args: argparse.Namespace) -> int:
     cornering, note = None, ""
     if args.tyre_fit is not None:
         from ..inference.result import load_fit
+        from ..inference.tyre.result import TyreFit
         from ..inference.wear.cornering import cornering_stiffness_from_tyre_fit
 
-        cornering = cornering_stiffness_from_tyre_fit(load_fit(args.tyre_fit, kind="tyre"))
-        if cornering is None:
+        tyre_fit = load_fit(args.tyre_fit, kind="tyre")
+        cornering = cornering_stiffness_from_tyre_fit(tyre_fit)
+        lateral = TyreFit.from_fit(tyre_fit).lateral
+        if cornering is None and lateral is not None:
+            note = f"{args.tyre_fit}: {lateral.unusable_reason()}: the type prior's c_y is used"
+        elif cornering is None:
             note = f"{args.tyre_fit} has no lateral posterior: the type prior's c_y is used"
     table = drive_table(args.drives, args.vehicle, cornering)
     history = drive_history(table)

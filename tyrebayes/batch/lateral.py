@@ -97,7 +97,7 @@ def drive_lateral(
         :data:`DRIVE_LATERAL_COLUMNS`: ``c_y`` = exp(mean log sqrt(c_f c_r)) [1/rad],
         ``c_y_log_sd`` (its posterior log-sd), the axles' posterior means, the seconds of
         cornering, and ``lateral_reason`` ("" when usable; else no usable cornering, not
-        identified, or not converged, in one line).
+        identified, not converged or not adequate, in one line).
 
     Examples
     --------
@@ -129,9 +129,8 @@ def drive_lateral(
             "half its prior's spread",
             seconds,
         )
-    if not fit.converged:
-        reasons = "; ".join(fit.fit.diagnostics.reasons) or "diagnostics"
-        return _none(f"lateral: not converged: {reasons}", seconds)
+    if fit.unusable_reason():
+        return _none(f"lateral: {fit.unusable_reason()}", seconds)
     c_f, c_r = fit.draws("c_y_front"), fit.draws("c_y_rear")
     log_c = 0.5 * (np.log(c_f) + np.log(c_r))
     return {

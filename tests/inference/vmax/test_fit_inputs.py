@@ -6,6 +6,7 @@ the package did not make. Every prediction uses one vehicle and one draw count, 
 change is compiled once for the module.
 """
 
+import dataclasses
 import json
 
 import arviz_base as azb
@@ -29,6 +30,7 @@ from tyrebayes.inference.vmax import (
     type_vmax_inputs,
     vmax_draws,
 )
+from tyrebayes.inference.wear.cornering import cornering_stiffness_from_tyre_fit
 
 VEHICLE = load_vehicle("compact_fwd")
 N = 48  # draws per prediction: one compiled program for the module
@@ -162,6 +164,24 @@ def test_no_lateral_path_is_the_type_relation_unchanged():
     fallback = fit_vmax_inputs(_tyre_fit(failed), KEY, N)
     assert fallback.lateral_source == "type_prior"
     assert "did not converge" in fallback.note and "max_steps" in fallback.note
+    # nor one whose model does not describe its drive
+    off = _lateral(16.0, 18.0, 1.0, mu_observed=True)
+    reason = "yaw inertia pulled to 1.92x the vehicle file's (+4.3 prior sds)"
+    off = LateralFit(
+        fit=dataclasses.replace(off.fit, diagnostics=off.fit.diagnostics.with_adequacy([reason])),
+        **{
+            f: getattr(off, f)
+            for f in ("mu_y_observed", "identified", "cornering_seconds", "peak_use", "road_wheel")
+        },
+    )
+    assert off.converged and not off.adequate
+    fallback = fit_vmax_inputs(_tyre_fit(off), KEY, N)
+    assert fallback.lateral_source == "type_prior"
+    assert fallback.note == f"the lateral fit does not describe the drive: {reason}"
+    # and the wear evidence's lateral work does not take its stiffnesses either
+    usable = _lateral(16.0, 18.0, 1.0, mu_observed=True)
+    assert cornering_stiffness_from_tyre_fit(_tyre_fit(usable).fit) is not None
+    assert cornering_stiffness_from_tyre_fit(_tyre_fit(off).fit) is None
 
 
 def test_inputs_refuse_unknown_sources_and_ragged_draws():

@@ -127,7 +127,7 @@ def fit_lateral(
         var_names=[n for n in names if n != "understeer_gradient"],
         optimiser_result=optimiser,
         problems=problems,
-    ).with_adequacy(_adequacy(obs, flat_samples, vif))
+    ).with_adequacy(_adequacy(obs, flat_samples, vif, priors))
     data.attrs["lateral_vif"] = json.dumps([float(v) for v in vif])
     # A long drive is fitted on its stretches with the most cornering (.search._fit_stretches).
     data.attrs["lateral_samples_read"] = obs.n_used

@@ -49,6 +49,19 @@ class LateralFit:
     def adequate(self) -> bool:
         return self.fit.adequate
 
+    def unusable_reason(self) -> str:
+        """Why the stiffnesses are not to be used downstream (V_max, the wear's lateral work, a
+        fleet's c_y), in one line; "" when they are: a fit that did not converge, or one whose
+        model does not describe its drive (its adequacy reasons)."""
+        diagnostics = self.fit.diagnostics
+        if not self.converged:
+            return "the lateral fit did not converge: " + "; ".join(diagnostics.reasons)
+        if not self.adequate:
+            return "the lateral fit does not describe the drive: " + "; ".join(
+                diagnostics.adequacy_reasons
+            )
+        return ""
+
     def draws(self, name: str) -> np.ndarray:
         return self.fit.draws(name)
 

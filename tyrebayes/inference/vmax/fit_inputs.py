@@ -23,12 +23,13 @@ def fit_vmax_inputs(
 ) -> VmaxInputs:
     """The V_max inputs of a per-tyre fit: its lateral posterior if it has one, else the types'.
 
-    A converged lateral posterior gives :func:`lateral_vmax_inputs` (with the fit's μ_max on
-    its first surface where it observed that peak and the lateral fit did not observe μ_y);
+    A converged and adequate lateral posterior gives :func:`lateral_vmax_inputs` (with the
+    fit's μ_max on its first surface where it observed that peak and the lateral fit did not
+    observe μ_y);
     otherwise, given a fleet fit that learnt the per-type ratio c_y / C_xr, that ratio at the
     fit's C_xr draws (:func:`fleet_ratio_vmax_inputs`), else the type relations there
     (:func:`type_vmax_inputs`), with the reason in ``note`` (the fit's ``lateral_reason``, or
-    the lateral fit's convergence failure).
+    :meth:`LateralFit.unusable_reason`).
 
     Parameters
     ----------
@@ -56,11 +57,11 @@ def fit_vmax_inputs(
     """
     lateral = fit.lateral
     surface = str(fit.surfaces[0])
-    if lateral is not None and lateral.converged:
+    if lateral is not None and not lateral.unusable_reason():
         mu_max = fit.draws("mu_max")[:, 0] if fit.mu_observed.get(surface, False) else None
         return lateral_vmax_inputs(key, lateral, n, mu_max=mu_max, surface=surface)
     if lateral is not None:
-        why = "the lateral fit did not converge: " + "; ".join(lateral.fit.diagnostics.reasons)
+        why = lateral.unusable_reason()
     else:
         why = fit.lateral_reason or "the fit carries no lateral posterior"
     if fleet is not None and has_lateral_ratio(fleet):

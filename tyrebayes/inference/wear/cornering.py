@@ -16,7 +16,7 @@ import numpy as np
 from ...streams.cornering_stiffness import CorneringStiffness
 from ..lateral.result import LateralFit
 from ..result import Fit
-from ..tyre.result import LATERAL_NODE
+from ..tyre.result import LATERAL_NODE, TyreFit
 
 
 def cornering_stiffness_from_draws(
@@ -69,7 +69,7 @@ def cornering_stiffness_from_lateral(lateral: LateralFit) -> CorneringStiffness:
 
 
 def cornering_stiffness_from_tyre_fit(fit: Fit) -> CorneringStiffness | None:
-    """The per-axle c_y of a saved tyre fit's lateral part, or None where it has none.
+    """The per-axle c_y of a saved tyre fit's lateral part, or None where it has none to use.
 
     Parameters
     ----------
@@ -79,7 +79,8 @@ def cornering_stiffness_from_tyre_fit(fit: Fit) -> CorneringStiffness | None:
     Returns
     -------
     CorneringStiffness or None
-        ``source`` ``"lateral_fit"``; None without a lateral posterior (no usable cornering).
+        ``source`` ``"lateral_fit"``; None without a lateral posterior (no usable cornering) or
+        with one not to be used (:meth:`.LateralFit.unusable_reason`).
 
     Examples
     --------
@@ -87,9 +88,7 @@ def cornering_stiffness_from_tyre_fit(fit: Fit) -> CorneringStiffness | None:
     """
     if LATERAL_NODE not in fit.data.children:
         return None
-    posterior = fit.data[LATERAL_NODE].children.get("posterior")
-    if posterior is None or "c_y_front" not in posterior or "c_y_rear" not in posterior:
+    lateral = TyreFit.from_fit(fit).lateral
+    if lateral is None or lateral.unusable_reason():
         return None
-    return cornering_stiffness_from_draws(
-        np.asarray(posterior["c_y_front"]), np.asarray(posterior["c_y_rear"]), "lateral_fit"
-    )
+    return cornering_stiffness_from_lateral(lateral)
