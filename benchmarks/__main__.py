@@ -76,6 +76,12 @@ BENCHMARKS: dict[str, Benchmark] = {
             minutes=3,
         ),
         Benchmark(
+            "lateral_simulated_drives",
+            "lateral fit on the package's longitudinal drive simulator: the gap and the flag",
+            quick=("--seeds", "2"),
+            minutes=4,
+        ),
+        Benchmark(
             "lateral_effects",
             "each nuisance of the lateral model: ELPD gain and error change",
             quick=("--drives", "l00"),

@@ -99,6 +99,7 @@ def _fit_drive(drive: Drive) -> dict:
         "mu_y": None if d["mu_y"] is None else _interval_row(d["mu_y"], truth["mu_y"]),
         "peak_use": d["peak_use"],
         "peak_use_truth": max(truth["peak_use_front"], truth["peak_use_rear"]),
+        "yaw_inertia_factor": d["yaw_inertia_factor"]["mean"],
         "roll_gradient": d["roll_gradient"]["mean"],
         "roll_gradient_truth": truth["roll_gradient_rad_per_mps2"],
         "vif": json.loads(fit.fit.data.attrs["lateral_vif"]),
@@ -179,6 +180,17 @@ def main() -> None:
             count=len(used),
             exclusions=excluded,
             headline=True,
+        ),
+        figure(
+            "fits flagged not adequate",
+            sum(not r["adequate"] for r in used),
+            count=len(used),
+            exclusions=excluded,
+            note="; ".join(
+                f"{r['drive']}: {', '.join(r['adequacy_reasons'])}"
+                for r in used
+                if not r["adequate"]
+            ),
         ),
         figure(
             "mu_y claimed where the drive did not near it",

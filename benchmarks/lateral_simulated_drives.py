@@ -1,0 +1,152 @@
+"""The lateral fit on the package's own longitudinal drive simulator: what it reads, and the flag.
+
+:func:`tyrebayes.simulate.simulate_drive` turns its car through planned corners and lane changes
+(yaw rate a_y / V, steering from the tyres' brush curve, the same c_y on both axles: a neutral
+car, whose understeer gradient is zero). Its drives are not built for the lateral model (the
+cornering simulator, :func:`tyrebayes.simulate.cornering.simulate_cornering`, is): on them the
+understeer gradient is all that steady cornering shows, and the axles' common stiffness rests on
+the yaw transients. This benchmark fits each drive as ``fit-tyre`` does
+(``validate_stream`` → ``cornering_observations`` → ``fit_lateral``, Laplace) and reports, per
+drive: c_y front and rear against the simulated tyre's, whether the 90 % interval covers it, the
+yaw-inertia factor the fit settled on and its distance from the vehicle file's in prior sds, and
+whether the fit flagged itself not adequate (:mod:`tyrebayes.inference.lateral.posterior_checks`).
+
+Figures: the fits flagged, the coverage of the truth among the fits that were not flagged (a fit
+that is wrong should be flagged, so this is what a user would be told to trust), and the median
+c_y over the truth (no target: it states the gap).
+
+Usage: ``python benchmarks/lateral_simulated_drives.py [--seeds 8] [--duration 600]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import jax
+from _results import figure, write_result
+
+jax.config.update("jax_enable_x64", True)
+
+import numpy as np  # noqa: E402
+
+from tyrebayes import cornering_observations, fit_lateral, load_vehicle, validate_stream  # noqa: E402
+from tyrebayes.inference.lateral import LateralPriors, NoCornering  # noqa: E402
+from tyrebayes.simulate import simulate_drive  # noqa: E402
+
+VEHICLE = "compact_fwd"
+TYRE = "summer"
+RATE_HZ = 100.0
+
+
+def _drive(seed: int, duration_s: float) -> dict:
+    vehicle = load_vehicle(VEHICLE)
+    frame, truth = simulate_drive(
+        seed, vehicle, TYRE, duration_s=duration_s, sample_rate_hz=RATE_HZ
+    )
+    row: dict = {"seed": seed, "c_y_true": float(truth.c_y_per_rad)}
+    try:
+        obs = cornering_observations(validate_stream(frame, vehicle).data, vehicle)
+    except NoCornering as err:
+        return row | {"status": "no cornering", "reason": str(err).splitlines()[0]}
+    start = time.perf_counter()
+    fit = fit_lateral(obs)
+    d = fit.to_dict()
+    factor = float(np.exp(np.mean(np.log(fit.draws("yaw_inertia_factor")))))
+    row |= {
+        "status": "fitted",
+        "fit_s": time.perf_counter() - start,
+        "converged": bool(fit.converged),
+        "identified": bool(fit.identified),
+        "adequate": bool(fit.adequate),
+        "adequacy_reasons": list(fit.fit.diagnostics.adequacy_reasons),
+        "cornering_s": float(obs.cornering_seconds),
+        "yaw_inertia_factor": factor,
+        "yaw_inertia_prior_sds": math.log(factor) / LateralPriors().yaw_inertia_log_sd,
+        "understeer_gradient": d["understeer_gradient"],
+    }
+    for axle in ("c_y_front", "c_y_rear"):
+        lo, hi = d[axle]["hdi_90"]
+        row[axle] = d[axle] | {
+            "over_truth": d[axle]["mean"] / row["c_y_true"],
+            "covers_truth": bool(lo <= row["c_y_true"] <= hi),
+        }
+    return row
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=8, help="drives (seeds 1..N)")
+    parser.add_argument("--duration", type=float, default=600.0, help="drive length [s]")
+    args = parser.parse_args()
+    rows = []
+    for seed in range(1, args.seeds + 1):
+        row = _drive(seed, args.duration)
+        rows.append(row)
+        print(
+            seed,
+            row["status"],
+            {k: round(row[k]["over_truth"], 2) for k in ("c_y_front", "c_y_rear") if k in row},
+            row.get("adequacy_reasons"),
+            flush=True,
+        )
+    fitted = [r for r in rows if r["status"] == "fitted" and r["converged"]]
+    excluded = {
+        f"seed {r['seed']}": r.get("reason") or "lateral fit did not converge"
+        for r in rows
+        if r not in fitted
+    }
+    flagged = [r for r in fitted if not r["adequate"]]
+    trusted = [r for r in fitted if r["adequate"]]
+    hit = sum(r[a]["covers_truth"] for r in trusted for a in ("c_y_front", "c_y_rear"))
+    ratios = [r[a]["over_truth"] for r in fitted for a in ("c_y_front", "c_y_rear")]
+    figures = [
+        figure(
+            "fits flagged not adequate",
+            len(flagged) / max(len(fitted), 1),
+            count=len(fitted),
+            exclusions=excluded,
+            note=f"{len(flagged)} of {len(fitted)}; the reasons are in the drives' rows",
+            headline=True,
+        ),
+        figure(
+            "c_y 90 % interval coverage among the fits not flagged",
+            hit / (2 * len(trusted)) if trusted else None,
+            count=2 * len(trusted),
+            exclusions=excluded,
+            note=f"{hit} of {2 * len(trusted)} axle values",
+            headline=True,
+        ),
+        figure(
+            "c_y over the simulated tyre's, median over axles and drives",
+            float(np.median(ratios)) if ratios else None,
+            count=len(ratios),
+            exclusions=excluded,
+            note="the drive simulator is not built for the lateral model (module docstring)",
+        ),
+        figure(
+            "yaw inertia's distance from the vehicle file's, median",
+            float(np.median([r["yaw_inertia_prior_sds"] for r in fitted])) if fitted else None,
+            unit="prior sds",
+            count=len(fitted),
+            exclusions=excluded,
+        ),
+    ]
+    payload = {
+        "settings": {
+            "vehicle": VEHICLE,
+            "tyre": TYRE,
+            "duration_s": args.duration,
+            "sample_rate_hz": RATE_HZ,
+            "seeds": list(range(1, args.seeds + 1)),
+        },
+        "drives": rows,
+    }
+    path = write_result("lateral_simulated_drives", payload, figures=figures)
+    print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
