@@ -16,9 +16,11 @@ NUTS). Two sources of the cornering stiffness behind the lateral work, each its 
     simulated tyre's is 22 /rad).
 ``posterior_stand_in``
     a per-axle c_y as a lateral posterior would give it, drawn as the true c_y times
-    exp(0.1 N(0, 1)) per axle with log-sd 0.1. This is a stand-in, not a lateral fit: the lateral
-    fit of these 10 Hz drives did not converge in 150 s each, so it shows what the wear fit does
-    with an inferred stiffness of that precision, not that the lateral fit reaches it.
+    exp(0.1 N(0, 1)) per axle with log-sd 0.1. This is a stand-in, not a lateral fit: it shows what
+    the wear fit does with an inferred stiffness of that precision, not that the lateral fit
+    reaches it. On drives of this simulator, whose corners are slow, the lateral fit reads the
+    tyres about twice as stiff as they are (``benchmarks/results/lateral_simulated_drives.json``;
+    the lateral guide says why).
 
 Reported per source: γ's own 90 % coverage and its one-year interval half-width (relative), the
 bias of γ's median, γ·s (γ per joule of evidence work) beside them, the per-axle wear rates' 90 %
