@@ -38,10 +38,10 @@ def test_a_yaw_inertia_far_from_the_vehicle_files_is_a_reason():
     [("drive", False), ("cornering", True)],
 )
 def test_a_drive_whose_yaw_transients_do_not_fit_is_flagged(simulated, adequate):
-    # The longitudinal drive simulator turns its car with a yaw rate of a_y / V and a steering
-    # built from the tyres' slip; on its drives the fit pulls J_z far from the vehicle file's
-    # (with c_y about twice the truth): flagged, and its stiffnesses are not used downstream.
-    # The cornering simulator integrates the single-track dynamics: not flagged.
+    # The longitudinal drive simulator's corners are slow; on this drive (seed 2 of
+    # benchmarks/results/lateral_simulated_drives.json) the fit pulls J_z far from the vehicle
+    # file's, with c_y about twice the truth: flagged, and its stiffnesses are not used
+    # downstream. The cornering simulator's mixed drive has strong transients: not flagged.
     if simulated == "drive":
         frame, _ = simulate_drive(2, VEHICLE, "summer", duration_s=600.0, sample_rate_hz=100.0)
         frame = validate_stream(frame, VEHICLE).data

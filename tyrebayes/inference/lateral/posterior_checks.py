@@ -97,11 +97,12 @@ def _yaw_inertia(samples: dict, priors: LateralPriors) -> list[str]:
     """A yaw inertia pulled far from the vehicle file's: the yaw transients do not fit.
 
     With the understeer gradient fixed by steady cornering, the axles' common stiffness level
-    rests on the transients, through J_z ṙ / c_y (the model docstring's equations): a data set
-    whose transients the model cannot describe moves J_z and c_y together. On the package's own
-    drive simulator (its yaw rate a_y / V, a steering that carries the transients only through
-    the tyres' slip) the fit put J_z at about twice the car's and c_y at about twice the truth,
-    with intervals that excluded it; the stiffnesses are then not to be used.
+    rests on the transients (J_z ṙ in the axle forces, the sideslip rate in the kinematic
+    equation: the model docstring's equations), so a J_z that the data pull far from the vehicle
+    file's says those transients do not fit, and the level is not to be used. It is a partial
+    guard: where the transients are weak, a_y's noise through the sideslip rate reads the tyres
+    stiff whether or not J_z moves (``benchmarks/results/lateral_simulated_drives.json`` counts
+    the fits it flags; the lateral guide says why).
     """
     draws = samples.get("yaw_inertia_factor")
     if draws is None or priors.yaw_inertia_log_sd <= 0:
