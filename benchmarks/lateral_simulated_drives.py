@@ -18,8 +18,9 @@ c_y over the truth (no target: it states the gap).
 The cause, isolated on the cornering simulator (single-track dynamics integrated from a steering
 input, the model's own assumptions): its ``steady`` manoeuvre (long constant-radius corners, the
 transients weak) and its ``mixed`` one (transients strong), each with and without sensor noise,
-over the same seeds. Reported per case: the median c_y over the truth and the 90 % coverage of
-both axles.
+over the same seeds, and the steady manoeuvre without noise but for one channel's (the
+simulator's own white noise, :data:`CHANNEL_SD`). Reported per case: the median c_y over the
+truth and the 90 % coverage of both axles.
 
 Usage: ``python benchmarks/lateral_simulated_drives.py [--seeds 8] [--duration 600]``.
 """
@@ -83,16 +84,32 @@ def _drive(seed: int, duration_s: float) -> dict:
 
 
 CASES = (("steady", True), ("steady", False), ("mixed", True), ("mixed", False))
+#: The cornering simulator's white sensor noise per channel (sd, in the stream's units:
+#: ``tyrebayes/simulate/cornering.py``), added one channel at a time to its noise-free drives.
+CHANNEL_NOISE = {
+    "ay": ("ay",),
+    "yaw_rate": ("yaw_rate",),
+    "steering_wheel_angle": ("steering_wheel_angle",),
+    "wheel speeds": tuple(f"wheel_speed_{w}" for w in ("fl", "fr", "rl", "rr")),
+}
+CHANNEL_SD = {"ay": 0.05, "yaw_rate": 0.002, "steering_wheel_angle": 0.002, "wheel speeds": 0.02}
 
 
-def _cornering_case(manoeuvre: str, noise: bool, seeds: list[int], duration_s: float) -> dict:
-    """The cornering simulator's drives of one case: c_y over the truth, coverage."""
+def _cornering_case(
+    manoeuvre: str, noise: bool, seeds: list[int], duration_s: float, channel: str = ""
+) -> dict:
+    """The cornering simulator's drives of one case: c_y over the truth, coverage. With
+    ``channel`` (and ``noise`` off) that channel alone gets its white noise."""
     vehicle = load_vehicle(VEHICLE)
     ratios, hits = [], []
     for seed in seeds:
         frame, truth = simulate_cornering(
             vehicle, manoeuvre=manoeuvre, duration_s=duration_s, seed=seed, noise=noise
         )
+        if channel:
+            rng = np.random.default_rng(seed + 1000)
+            for column in CHANNEL_NOISE[channel]:
+                frame[column] = frame[column] + rng.normal(0.0, CHANNEL_SD[channel], len(frame))
         d = fit_lateral(cornering_observations(frame, vehicle)).to_dict()
         for axle in ("c_y_front", "c_y_rear"):
             true = float(getattr(truth, axle))
@@ -102,6 +119,7 @@ def _cornering_case(manoeuvre: str, noise: bool, seeds: list[int], duration_s: f
     return {
         "manoeuvre": manoeuvre,
         "noise": noise,
+        "noise_only_on": channel,
         "seeds": seeds,
         "c_y_over_truth": ratios,
         "covers_truth": hits,
@@ -173,10 +191,14 @@ def main() -> int:
     ]
     seeds = list(range(21, 21 + args.cornering_seeds))
     cases = [_cornering_case(m, noise, seeds, args.duration) for m, noise in CASES]
+    cases += [
+        _cornering_case("steady", False, seeds, args.duration, channel) for channel in CHANNEL_NOISE
+    ]
     for case in cases:
-        label = (
-            f"cornering simulator, {case['manoeuvre']}, {'with' if case['noise'] else 'no'} noise"
-        )
+        noise = "with noise" if case["noise"] else "no noise"
+        if case["noise_only_on"]:
+            noise = f"noise on {case['noise_only_on']} only"
+        label = f"cornering simulator, {case['manoeuvre']}, {noise}"
         print(label, round(case["median_over_truth"], 3), case["coverage_90"], flush=True)
         figures += [
             figure(
