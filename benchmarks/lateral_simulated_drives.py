@@ -40,8 +40,7 @@ import numpy as np  # noqa: E402
 
 from tyrebayes import cornering_observations, fit_lateral, load_vehicle, validate_stream  # noqa: E402
 from tyrebayes.inference.lateral import LateralPriors, NoCornering  # noqa: E402
-from tyrebayes.simulate import simulate_drive  # noqa: E402
-from tyrebayes.simulate.cornering import simulate_cornering  # noqa: E402
+from tyrebayes.simulate import simulate_cornering, simulate_drive  # noqa: E402
 
 VEHICLE = "compact_fwd"
 TYRE = "summer"
