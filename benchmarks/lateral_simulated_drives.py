@@ -40,6 +40,7 @@ import numpy as np  # noqa: E402
 
 from tyrebayes import cornering_observations, fit_lateral, load_vehicle, validate_stream  # noqa: E402
 from tyrebayes.inference.lateral import LateralPriors, NoCornering  # noqa: E402
+from tyrebayes.inference.online import lateral_blocks, online_lateral  # noqa: E402
 from tyrebayes.simulate import simulate_cornering, simulate_drive  # noqa: E402
 
 VEHICLE = "compact_fwd"
@@ -79,7 +80,19 @@ def _drive(seed: int, duration_s: float) -> dict:
             "over_truth": d[axle]["mean"] / row["c_y_true"],
             "covers_truth": bool(lo <= row["c_y_true"] <= hi),
         }
+    row["moments"] = _moments(obs, row["c_y_true"])
     return row
+
+
+def _moments(obs, c_y_true: float) -> dict:
+    """A fast fleet run's lateral step on the same observations: the in-car estimator's state
+    after the drive's last block (``tyrebayes.batch.lateral``'s rule: converged, K contracted);
+    its c_y is the geometric mean of the axles'."""
+    estimate = online_lateral(lateral_blocks(obs), surface="dry").estimate
+    usable = bool(estimate.converged) and bool(estimate.k_contracted)
+    rows = [estimate.names.index("c_y_front"), estimate.names.index("c_y_rear")]
+    c_y = float(np.exp(np.asarray(estimate.mean)[rows].mean()))
+    return {"usable": usable, "c_y": c_y, "over_truth": c_y / c_y_true}
 
 
 CASES = (("steady", True), ("steady", False), ("mixed", True), ("mixed", False))
@@ -156,6 +169,7 @@ def main() -> int:
     trusted = [r for r in fitted if r["adequate"]]
     hit = sum(r[a]["covers_truth"] for r in trusted for a in ("c_y_front", "c_y_rear"))
     ratios = [r[a]["over_truth"] for r in fitted for a in ("c_y_front", "c_y_rear")]
+    moments = [r["moments"]["over_truth"] for r in fitted if r["moments"]["usable"]]
     figures = [
         figure(
             "fits flagged not adequate",
@@ -179,6 +193,13 @@ def main() -> int:
             count=len(ratios),
             exclusions=excluded,
             note="the drive simulator is not built for the lateral model (module docstring)",
+        ),
+        figure(
+            "a fast fleet run's lateral step (in-car moments): c_y over the truth, median",
+            float(np.median(moments)) if moments else None,
+            count=len(moments),
+            exclusions=excluded,
+            note="the geometric mean of the axles; drives whose estimate the fleet run would use",
         ),
         figure(
             "yaw inertia's distance from the vehicle file's, median",
