@@ -140,6 +140,16 @@ def _cornering_case(
     }
 
 
+def _median_figure(name: str, values: list[float], excluded: dict, note: str) -> dict:
+    return figure(
+        name,
+        float(np.median(values)) if values else None,
+        count=len(values),
+        exclusions=excluded,
+        note=note,
+    )
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=8, help="drives (seeds 1..N)")
@@ -187,19 +197,17 @@ def main() -> int:
             note=f"{hit} of {2 * len(trusted)} axle values",
             headline=True,
         ),
-        figure(
+        _median_figure(
             "c_y over the simulated tyre's, median over axles and drives",
-            float(np.median(ratios)) if ratios else None,
-            count=len(ratios),
-            exclusions=excluded,
-            note="the drive simulator is not built for the lateral model (module docstring)",
+            ratios,
+            excluded,
+            "the drive simulator is not built for the lateral model (module docstring)",
         ),
-        figure(
+        _median_figure(
             "a fast fleet run's lateral step (in-car moments): c_y over the truth, median",
-            float(np.median(moments)) if moments else None,
-            count=len(moments),
-            exclusions=excluded,
-            note="the geometric mean of the axles; drives whose estimate the fleet run would use",
+            moments,
+            excluded,
+            "the geometric mean of the axles; drives whose estimate the fleet run would use",
         ),
         figure(
             "yaw inertia's distance from the vehicle file's, median",
