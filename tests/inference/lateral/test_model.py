@@ -59,3 +59,36 @@ def test_effects_can_be_left_out_one_by_one():
         priors.without("bank")
     with pytest.raises(ValueError, match="expected a subset"):
         LateralPriors(effects=("roll", "wind"))
+
+
+def _truth_point(truth, scale: float = 1.0) -> dict:
+    point = {
+        "c_y_front": scale * truth.c_y_front,
+        "c_y_rear": scale * truth.c_y_rear,
+        "mu_y": truth.mu_y,
+        "curve_shape_excess": truth.shape - 1.0,
+        "curve_curvature_gap": 1.0 - truth.curvature,
+        "steering_ratio": truth.steering_ratio,
+        "steering_offset": truth.steering_offset_rad,
+        "ay_offset": truth.ay_offset,
+        "roll_gradient": truth.roll_gradient,
+    }
+    return {k: jnp.asarray(v) for k, v in point.items()}
+
+
+def test_a_y_noise_reaches_the_kinematic_residual_whatever_the_stiffness():
+    """Errors in variables: the slip angle's rate comes from the noisy a_y. The residual's noise
+    part must not shrink as the tyres stiffen, or the fit reads them stiff (model docstring)."""
+    frame, truth = simulate_cornering(VEHICLE, manoeuvre="steady", duration_s=120.0, seed=5,
+                                      noise=False)  # fmt: skip
+    clean = cornering_observations(frame, VEHICLE)
+    frame["ay"] = frame["ay"] + np.random.default_rng(0).normal(0.0, 0.1, len(frame))
+    noisy = cornering_observations(frame, VEHICLE)
+    mask = np.asarray(clean.mask_kinematic) & np.asarray(noisy.mask_kinematic)
+    noise_rms = []
+    for scale in (1.0, 1.5):
+        point = _truth_point(truth, scale)
+        part = np.asarray(residuals(noisy, point)[1]) - np.asarray(residuals(clean, point)[1])
+        noise_rms.append(np.sqrt(np.mean(part[mask] ** 2)))
+    # Unfiltered, the stiffer point's noise was 15 % smaller (a_y noise 0.1 m/s²).
+    assert noise_rms[1] == pytest.approx(noise_rms[0], rel=0.01)

@@ -16,7 +16,9 @@ from tyrebayes.inference.online.lateral import OnlineLateralEstimator
 from tyrebayes.inference.online.lateral_blocks import lateral_blocks
 from tyrebayes.inference.online.lateral_statistics import (
     block_moments,
-    kinematic_regressors,
+    equation_moments,
+    filtered_kinematic_regressors,
+    node_weights,
     nominal_axle_forces,
     steering_regressors,
 )
@@ -56,7 +58,8 @@ def test_residuals_are_the_batch_models_in_the_linear_range(drive):
     estimator = OnlineLateralEstimator.create(steering_ratio=float(obs.steering_ratio))
     c_s, c_k = estimator.coefficients(_theta(estimator), blocks)
     steer = np.asarray(steering_regressors(blocks, estimator.roll_gain) @ c_s)
-    kin = np.asarray(kinematic_regressors(blocks, estimator.roll_gain) @ c_k)
+    z_k = filtered_kinematic_regressors(blocks, estimator.roll_gain, PARAMETERS["c_y_rear"])
+    kin = np.asarray(z_k @ c_k)
     p = {
         **PARAMETERS,
         "mu_y": 1e4,
@@ -79,7 +82,9 @@ def test_moments_give_the_residuals_sums(drive):
     _, blocks = drive
     estimator = OnlineLateralEstimator.create()
     c_s, _ = estimator.coefficients(_theta(estimator, cubic=0.3), blocks)
-    moments = block_moments(blocks, estimator.roll_gain, estimator.force_limit).steering
+    moments = block_moments(
+        blocks, estimator.roll_gain, estimator.force_limit, estimator.rear_nodes
+    ).steering
     e = np.asarray(steering_regressors(blocks, estimator.roll_gain) @ c_s)
     used = np.asarray(moments.count).sum()
     assert 0 < used <= np.asarray(blocks.mask).sum()
@@ -98,3 +103,24 @@ def test_moments_give_the_residuals_sums(drive):
     assert np.isclose(
         c @ np.asarray(moments.batch_gram)[:, 1].sum(axis=0) @ c, np.sum(block_means**2)
     )
+
+
+@pytest.mark.parametrize("c_y_rear", [9.0, 17.0, 30.0])
+def test_kinematic_moments_between_the_nodes_are_the_filtered_ones(drive, c_y_rear):
+    """The rear axle's sideslip lag depends on c_r: moments taken at the nodes and interpolated
+    in log c_r give the residual sum of squares of regressors filtered at c_r itself."""
+    _, blocks = drive
+    estimator = OnlineLateralEstimator.create()
+    theta = _theta(estimator).at[1].set(np.log(c_y_rear))
+    _, c_k = estimator.coefficients(theta, blocks)
+    nodes = block_moments(blocks, estimator.roll_gain, estimator.force_limit, estimator.rear_nodes)
+    total = jax.tree_util.tree_map(lambda x: x.sum(axis=0), nodes.kinematic)
+    mixed = total.mixed(node_weights(theta[1], estimator.rear_nodes))
+    z = filtered_kinematic_regressors(blocks, estimator.roll_gain, c_y_rear)
+    direct = jax.tree_util.tree_map(
+        lambda x: x.sum(axis=0), equation_moments(z, blocks.mask_kinematic)
+    )
+    c = np.asarray(c_k)
+    rss_mixed = c @ np.asarray(mixed.gram) @ c
+    rss_direct = c @ np.asarray(direct.gram) @ c
+    assert rss_mixed == pytest.approx(rss_direct, rel=2e-3)

@@ -18,7 +18,10 @@ peak μ_y). Then
 2. **lateral kinematics**: a = V_x r + v̇_y − g sin φ_bank with v_y = l_r r − V_x α_r (the rear
    axle's slip angle gives the lateral velocity), so a_y,meas = G (V_x r + l_r ṙ − d(V_x α_r)/dt)
    + b + ε. This is what fixes the roll gain G (a body-fixed sensor that rolls by k_φ a reads
-   a (1 + g k_φ)) and, in transients, the rear axle alone. Road bank is in ε.
+   a (1 + g k_φ)) and, in transients, the rear axle alone. Road bank is in ε. The slip angle
+   α_r comes from the measured a_y, so its derivative carries a_y's noise; the residual is the
+   equation's error filtered by the rear axle's sideslip lag, which takes that noise out again
+   (output error, :func:`sideslip_lag`).
 
 Nuisances: the steering ratio i_s (prior centred on the vehicle file's, not fixed), the
 steering-wheel offset δ_0, the a_y offset b, the roll gradient k_φ, the yaw inertia J_z (prior
@@ -33,9 +36,12 @@ from __future__ import annotations
 import dataclasses
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpyro
 import numpyro.distributions as dist
+from jax.lax.linalg import tridiagonal_solve
+from jaxtyping import Array, Bool, Float
 
 from ...physics.tyre import magic_formula_inverse_and_slope
 from ..surface_friction import MU_LOG_SD, MU_MEDIAN
@@ -288,12 +294,92 @@ def residuals(
     ratio = 1.0 if obs.road_wheel else p["steering_ratio"]
     delta = (obs.steering - p["steering_offset"]) / ratio
     steer = delta - obs.wheelbase_m * obs.yaw_rate / obs.speed - (s.alpha_front - s.alpha_rear)
-    va = obs.speed * s.alpha_rear
-    dva = derivative(va, obs.dt_s)
     gain = 1.0 + G * p["roll_gradient"]
-    kin_mean = obs.speed * obs.yaw_rate + obs.cog_to_rear_axle_m * obs.yaw_acceleration - dva
-    kinematic = obs.ay - (gain * kin_mean + p["ay_offset"])
+    kinematic_rate = obs.speed * obs.yaw_rate + obs.cog_to_rear_axle_m * obs.yaw_acceleration
+    # The equation error e = a_y − Γ(V_x r + l_r ṙ − D(V_x α_r)) − b, premultiplied by P.
+    equation = compact_p(obs.ay - gain * kinematic_rate - p["ay_offset"])
+    equation = equation + gain * compact_q(obs.speed * s.alpha_rear, obs.dt_s)
+    # Λ: how fast the rear axle's sideslip V_x α_r settles, G (dρ_r/dα_r)/V_x.
+    settling = G / (obs.speed * s.slope_rear)
+    kinematic = sideslip_lag(equation[:, None], settling, obs.mask_kinematic, obs.dt_s)[:, 0]
     return steer, kinematic
+
+
+def compact_p(x: jnp.ndarray, axis: int = 0) -> jnp.ndarray:
+    """P x of the compact derivative D = P⁻¹Q (:func:`sideslip_lag`) along ``axis``; wraps at
+    the ends, which no equation reads."""
+    return 0.25 * jnp.roll(x, 1, axis) + x + 0.25 * jnp.roll(x, -1, axis)
+
+
+def compact_q(x: jnp.ndarray, dt: float | jnp.ndarray, axis: int = 0) -> jnp.ndarray:
+    """Q x of the compact derivative (:func:`compact_p`)."""
+    return 0.75 * (jnp.roll(x, -1, axis) - jnp.roll(x, 1, axis)) / dt
+
+
+def sideslip_lag(
+    equation: Float[Array, "*batch n k"],
+    settling: Float[Array, "*batch n"],
+    valid: Bool[Array, "*batch n"],
+    dt: float | jnp.ndarray,
+    solve=tridiagonal_solve,
+) -> Float[Array, "*batch n k"]:
+    """Λ (Q + PΛ)⁻¹ of P-premultiplied equation errors: the kinematic equation's residuals.
+
+    The kinematic equation's sideslip rate D(V_x α_r) differentiates the slip angle that the
+    measured a_y gives, and so a_y's noise: its equation error at the true parameters is
+    (I + DΛ⁻¹) ε, with Λ = diag(``settling``) the rate at which the rear axle's sideslip
+    settles. Fitted as it stands, that error shrinks as the rear axle stiffens (Λ grows); in
+    steady cornering, where the term carries no signal, the fit read the tyres stiff by a
+    margin that grew with the square of a_y's noise
+    (``benchmarks/results/lateral_simulated_drives.json``). Λ (D + Λ)⁻¹ applied to the equation
+    error leaves ε: the residual is then a_y against what the yaw motion predicts through the
+    rear axle's sideslip lag (output error, not equation error), with the slip angle linearised
+    at the measured a_y. D is the fourth-order compact (Padé) derivative, P = (¼, 1, ¼),
+    Q = ¾(−1, 0, 1)/Δt, so D + Λ = P⁻¹(Q + PΛ) and the inverse is one tridiagonal solve. A
+    sample outside ``valid`` is a row w = 0: stretches between gaps are solved apart, each
+    starting at rest relative to the measured slip. Time runs along the second-last axis of
+    ``equation``; its columns (k) are solved together. ``solve``: the tridiagonal solver
+    (:func:`thomas_solve` for many short systems).
+    """
+    q = 0.75 / dt
+    zero = jnp.zeros_like(settling[..., :1])
+    lower = jnp.concatenate([zero, -q + 0.25 * settling[..., :-1]], axis=-1)
+    upper = jnp.concatenate([q + 0.25 * settling[..., 1:], zero], axis=-1)
+    lower, upper = (jnp.where(valid, x, 0.0) for x in (lower, upper))
+    diagonal = jnp.where(valid, settling, 1.0)
+    rhs = jnp.where(valid[..., None], equation, 0.0)
+    return settling[..., None] * solve(lower, diagonal, upper, rhs)
+
+
+def thomas_solve(lower, diagonal, upper, rhs):
+    """:func:`jax.lax.linalg.tridiagonal_solve` by the Thomas algorithm, scanned along time.
+
+    For many short systems at once (the in-car estimator's blocks and rear nodes): the library's
+    solve takes each system in turn, this one sweeps all of them together, sample by sample
+    (about twice as fast there). Without pivoting: (Q + PΛ) has Λ on its diagonal and ¾/Δt ± Λ/4
+    beside it, and eliminating along time keeps every pivot positive for Λ > 0.
+    """
+    lo, d, up = (jnp.moveaxis(x, -1, 0) for x in (lower, diagonal, upper))
+    b = jnp.moveaxis(rhs, -2, 0)
+
+    def forward(carry, row):
+        c_prev, d_prev = carry
+        below, dd, u, bb = row
+        pivot = dd - below * c_prev
+        c = u / pivot
+        x = (bb - below[..., None] * d_prev) / pivot[..., None]
+        return (c, x), (c, x)
+
+    start = (jnp.zeros_like(d[0]), jnp.zeros_like(b[0]))
+    _, (c, x) = jax.lax.scan(forward, start, (lo, d, up, b))
+
+    def backward(after, row):
+        c_i, x_i = row
+        value = x_i - c_i[..., None] * after
+        return value, value
+
+    _, solution = jax.lax.scan(backward, jnp.zeros_like(b[0]), (c, x), reverse=True)
+    return jnp.moveaxis(solution, 0, -2)
 
 
 def lateral_model(

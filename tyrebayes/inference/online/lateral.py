@@ -4,7 +4,9 @@ The model is the batch lateral model's (:mod:`tyrebayes.inference.lateral.model`
 curve to fifth order, α = (ρ/c_y)(1 + λρ² + κλ²ρ⁴): there both of its equations have residuals
 linear in a vector of coefficients that are functions of the physical parameters, so a drive's
 data enter only through the moments of the equations' regressors (:mod:`.lateral_statistics`),
-taken once per block, vectorised. The parameters are seven of the batch model's, on its
+taken once per block, vectorised; the kinematic equation's at a few rear stiffnesses, between
+which they are interpolated (its residual passes through the rear axle's sideslip lag, which
+depends on c_r). The parameters are seven of the batch model's, on its
 unconstrained space: log c_y front and rear, the steering ratio, the steering and a_y offsets,
 the roll gradient and the yaw inertia's factor, and log λ (:func:`linear_sites`). Their Gaussian
 prior is the batch model's; λ's is what the batch model's priors of the curve's shape and of μ_y
@@ -62,7 +64,14 @@ from .lateral_curve import PEAK_SHARE, cubic_prior, curve_medians
 from .lateral_prior import LateralPrior, lateral_prior
 from .lateral_run import LateralRun
 from .lateral_state import LateralState
-from .lateral_statistics import CHUNK, BlockMoments, EquationMoments, block_moments
+from .lateral_statistics import (
+    CHUNK,
+    BlockMoments,
+    EquationMoments,
+    block_moments,
+    node_weights,
+    rear_nodes,
+)
 from .lateral_summary import LateralTrajectory, OnlineLateral
 from .lateral_vif import inflation
 
@@ -127,6 +136,9 @@ class OnlineLateralEstimator(eqx.Module):
         (:data:`~.lateral_curve.PEAK_SHARE` of μ_y's prior median).
     quintic_ratio : float
         κ = k₅/k₃² of the curve at its priors' medians (:mod:`.lateral_statistics`).
+    rear_nodes : tuple of float
+        Rear stiffnesses [1/rad] at which the kinematic moments are taken and between which
+        they are interpolated (:func:`~.lateral_statistics.rear_nodes`).
     memory_s : float
         Time constant over which old blocks' moments fade [s] (:data:`MEMORY_S`).
     newton_steps : int
@@ -137,6 +149,7 @@ class OnlineLateralEstimator(eqx.Module):
     roll_gain: float = eqx.field(static=True)
     force_limit: float = eqx.field(static=True)
     quintic_ratio: float = eqx.field(static=True)
+    rear_nodes: tuple[float, ...] = eqx.field(static=True)
     memory_s: float = eqx.field(static=True, default=MEMORY_S)
     newton_steps: int = eqx.field(static=True, default=NEWTON_STEPS)
 
@@ -182,6 +195,7 @@ class OnlineLateralEstimator(eqx.Module):
             roll_gain=1.0 + G * roll,
             force_limit=PEAK_SHARE * priors.mu_y_prior(surface)[0],
             quintic_ratio=k5 / k3**2,
+            rear_nodes=rear_nodes(priors.c_y_median),
         )
 
     def init(self) -> LateralState:
@@ -195,7 +209,7 @@ class OnlineLateralEstimator(eqx.Module):
             mean=self.prior.mean,
             cov=self.prior.cov,
             steering=EquationMoments.zeros(9, dtype),
-            kinematic=EquationMoments.zeros(8, dtype),
+            kinematic=EquationMoments.zeros(8, dtype, lead=(len(self.rear_nodes),)),
             batches_30s=value(0.0, 2),
             steering_vif=value(1.0),
             kinematic_vif=value(1.0),
@@ -243,7 +257,14 @@ class OnlineLateralEstimator(eqx.Module):
         )  # fmt: skip
         return steering, kinematic
 
+    def kinematic_at(
+        self, theta: Float[Array, " p"], kinematic: EquationMoments
+    ) -> EquationMoments:
+        """The kinematic moments at ``theta``'s rear stiffness, from those at the nodes."""
+        return kinematic.mixed(node_weights(theta[1], self.rear_nodes))
+
     def _vifs(self, theta, steering: EquationMoments, kinematic: EquationMoments, blocks):
+        kinematic = self.kinematic_at(theta, kinematic)
         width = blocks.speed.shape[1]
         sizes = jnp.asarray([CHUNK, width, 2 * width], theta.dtype)
         c_s, c_k = self.coefficients(theta, blocks)
@@ -259,6 +280,7 @@ class OnlineLateralEstimator(eqx.Module):
     ) -> Float[Array, ""]:
         """The negative log-posterior at ``theta`` (module docstring), up to a constant."""
         c_s, c_k = self.coefficients(theta, blocks)
+        kinematic = self.kinematic_at(theta, kinematic)
         nu = NOISE_PSEUDO_SAMPLES
         total = 0.0
         for moments, c, vif, scale in zip(
@@ -274,6 +296,7 @@ class OnlineLateralEstimator(eqx.Module):
         noise variance (the inverse-gamma posterior's mean) and VIF, J = ∂c/∂θ."""
         jac_s, jac_k = jax.jacfwd(lambda t: self.coefficients(t, blocks))(theta)
         c_s, c_k = self.coefficients(theta, blocks)
+        kinematic = self.kinematic_at(theta, kinematic)
         nu = NOISE_PSEUDO_SAMPLES
         total = 0.0
         for moments, c, jac, vif, scale in zip(
@@ -325,7 +348,7 @@ class OnlineLateralEstimator(eqx.Module):
         # The exact curvature where it is positive definite (the batch fit's Laplace); the
         # Fisher information where a mode is not yet reached.
         hessian = jnp.where(jnp.linalg.eigvalsh(exact)[0] > 0.0, exact, fisher)
-        counted = jnp.stack([block.steering.batches[1], block.kinematic.batches[1]])
+        counted = jnp.stack([block.steering.batches[1], block.kinematic.batches[0, 1]])
         return LateralState(
             mean=mode,
             cov=jnp.linalg.inv(0.5 * (hessian + hessian.T)),
@@ -345,7 +368,7 @@ class OnlineLateralEstimator(eqx.Module):
     ) -> tuple[LateralState, LateralTrajectory]:
         """Every block's moments at once, then :meth:`update` scanned over them; the last state
         and each block's moments of log c_y."""
-        moments = block_moments(blocks, self.roll_gain, self.force_limit)
+        moments = block_moments(blocks, self.roll_gain, self.force_limit, self.rear_nodes)
         rows = jnp.asarray([0, 1])
 
         def step(carry, i):

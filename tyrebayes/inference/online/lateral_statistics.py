@@ -16,23 +16,30 @@ L r/V_x = α_f − α_r reads
     c_s = [1/i_s, −δ₀/i_s + (u − v) b/(Γ g), −(u − v)/(Γ g), −f P (u/l_r + v/l_f), −1,
            −λu, λv, −κλ²u, κλ²v],
 
-and the kinematic equation a_y = Γ (V_x r + l_r ṙ − d(V_x α_r)/dt) + b
+and the kinematic equation a_y = Γ (V_x r + l_r ṙ − d(V_x α_r)/dt) + b, premultiplied by the
+compact derivative's P (D = P⁻¹Q, :func:`~tyrebayes.inference.lateral.model.sideslip_lag`),
 
-    e_k = z_k · c_k,
-    z_k = [a_y, V_x r + l_r ṙ, 1, d(V_x a_y)/dt, dV_x/dt, d(V_x ṙ)/dt, d(V_x ρ̃_r³)/dt,
-           d(V_x ρ̃_r⁵)/dt],
+    P e_k = z_k · c_k,
+    z_k = [P a_y, P(V_x r + l_r ṙ), P 1, Q(V_x a_y), Q V_x, Q(V_x ṙ), Q(V_x ρ̃_r³), Q(V_x ρ̃_r⁵)],
     c_k = [1, −Γ, −b, v/g, −v b/g, −Γ v f P/l_f, Γ v λ, Γ v κλ²].
+
+The batch model's residual is that error through the rear axle's sideslip lag, Λ(Q + PΛ)⁻¹ P e_k
+with Λ = g c_r/V_x in the linear range: it takes out the a_y noise that the slip angle's rate
+carries (errors in variables). The lag depends on c_r, so the kinematic moments are taken with
+z_k so filtered at each of a few rear stiffnesses (:func:`rear_nodes`) and interpolated in
+log c_r between them (:func:`node_weights`).
 
 The curve terms' axle forces ρ̃ are taken at the nuisances' prior medians (no offset, the
 median roll gain, the vehicle file's J_z): their error moves terms that are themselves a few
 per cent of α by a few per cent of them.
 
 So every sum the estimator needs is a quadratic (or linear) form of the coefficients in
-moments of z that do not depend on the parameters: Σe² = cᵀ(Σ z zᵀ)c, the lag-one product
-Σ e_t e_(t−1) = cᵀ(Σ z_t z_(t−1)ᵀ)c, and the means of the residuals over the 10 s, 30 s and
-60 s batches of the variance inflation (:mod:`.lateral_vif`) from the batches' mean z. A block's
-moments are taken once, vectorised over all blocks (:func:`block_moments`); the estimator then
-only adds matrices and solves an eight-parameter problem per block (:mod:`.lateral`).
+moments of z that do not depend on the parameters (the kinematic ones but for the nodes'
+weights): Σe² = cᵀ(Σ z zᵀ)c, the lag-one product Σ e_t e_(t−1) = cᵀ(Σ z_t z_(t−1)ᵀ)c, and
+the means of the residuals over the 10 s, 30 s and 60 s batches of the variance inflation
+(:mod:`.lateral_vif`) from the batches' mean z. A block's moments are taken once, vectorised
+over all blocks (:func:`block_moments`); the estimator then only adds matrices and solves an
+eight-parameter problem per block (:mod:`.lateral`).
 
 Beyond the series' range, near the curve's peak, the model reads c_y low. The batch fit, with
 the whole curve, is the reference the benchmark compares against (``online_lateral.py``).
@@ -48,7 +55,7 @@ from jaxtyping import Array, Bool, Float
 
 from ...internal.device_arrays import device_array
 from ..lateral.data import G
-from ..lateral.model import derivative
+from ..lateral.model import compact_p, compact_q, sideslip_lag, thomas_solve
 from .lateral_blocks import LateralBlocks
 
 #: The shortest batch of the variance inflation's batch means [samples] (10 s at 10 Hz); the
@@ -89,12 +96,12 @@ class EquationMoments(eqx.Module):
     batch_gram: Float[Array, "... 3 q q"]
 
     @classmethod
-    def zeros(cls, q: int, dtype) -> EquationMoments:
-        """No samples yet (``q`` regressors)."""
+    def zeros(cls, q: int, dtype, lead: tuple[int, ...] = ()) -> EquationMoments:
+        """No samples yet (``q`` regressors; ``lead``: leading axes, e.g. the rear nodes')."""
 
         def z(shape, dtype):
             # NumPy, then one transfer: an eager jnp.zeros is a compiled program of its own.
-            return device_array(np.zeros(shape, dtype))
+            return device_array(np.zeros((*lead, *np.atleast_1d(shape).astype(int)), dtype))
 
         return cls(
             z((), dtype), z(q, dtype), z((q, q), dtype), z((q, q), dtype),
@@ -112,6 +119,10 @@ class EquationMoments(eqx.Module):
     def block(self, i) -> EquationMoments:
         """Block ``i``'s moments (traceable ``i``) of per-block moments."""
         return jax.tree_util.tree_map(lambda x: x[i], self)
+
+    def mixed(self, weights: Float[Array, " k"]) -> EquationMoments:
+        """Σ_k weights_k × the moments of the k-th entry of the leading axis (the rear nodes')."""
+        return jax.tree_util.tree_map(lambda x: jnp.tensordot(weights, x, axes=1), self)
 
 
 def _batch_level(sums, counts, size):
@@ -211,29 +222,82 @@ def steering_regressors(blocks: LateralBlocks, roll_gain: float) -> Float[Array,
 
 
 def kinematic_regressors(blocks: LateralBlocks, roll_gain: float) -> Float[Array, "blocks width 8"]:
-    """z_k = [a_y, V_x r + l_r ṙ, 1, d(V_x a_y)/dt, dV_x/dt, d(V_x ṙ)/dt, d(V_x ρ̃_r³)/dt,
-    d(V_x ρ̃_r⁵)/dt] per sample, the derivatives by the batch model's five-point stencil within
-    each block (module docstring)."""
+    """z_k = [P a_y, P(V_x r + l_r ṙ), P 1, Q(V_x a_y), Q V_x, Q(V_x ṙ), Q(V_x ρ̃_r³),
+    Q(V_x ρ̃_r⁵)] per sample, P and Q the batch model's compact derivative within each block
+    (module docstring); before the sideslip lag (:func:`filtered_kinematic_regressors`)."""
     v, r, q, a = blocks.speed, blocks.yaw_rate, blocks.yaw_acceleration, blocks.ay
     lr = blocks.wheelbase_m - blocks.cog_to_front_axle_m
     _, rear = nominal_axle_forces(blocks, roll_gain)
-
-    def rows(x):
-        return jax.vmap(lambda row: derivative(row, blocks.dt_s))(x)
-
-    return jnp.stack(
-        [
-            a,
-            v * r + lr * q,
-            jnp.ones_like(v),
-            rows(v * a),
-            rows(v),
-            rows(v * q),
-            rows(v * rear**3),
-            rows(v * rear**5),
-        ],  # fmt: skip
-        axis=-1,
+    values = jnp.stack([a, v * r + lr * q, jnp.ones_like(v)], axis=-1)
+    rates = jnp.stack([v * a, v, v * q, v * rear**3, v * rear**5], axis=-1)
+    return jnp.concatenate(
+        [compact_p(values, axis=1), compact_q(rates, blocks.dt_s, axis=1)], axis=-1
     )
+
+
+def filtered_kinematic_regressors(
+    blocks: LateralBlocks, roll_gain: float, c_y_rear: float | Float[Array, ""]
+) -> Float[Array, "blocks width 8"]:
+    """:func:`kinematic_regressors` through the rear axle's sideslip lag at ``c_y_rear`` (linear
+    range, Λ = g c_r/V_x): z_k · c_k is then the batch model's kinematic residual."""
+    settling = G * c_y_rear / blocks.speed
+    z = kinematic_regressors(blocks, roll_gain)
+    return sideslip_lag(z, settling, blocks.mask_kinematic, blocks.dt_s, solve=thomas_solve)
+
+
+#: Rear stiffnesses at which the kinematic moments are taken, as multiples of the prior median
+#: (half-octave steps, ± 1.4 prior sds: 8.25 to 33 /rad at the default prior, where cars' axles
+#: lie): c_r between them is interpolated (:func:`node_weights`), to about 0.1 % of the residual
+#: sum of squares (``tests/inference/online/test_lateral_statistics.py``); beyond the ends the
+#: end node's moments are used. Each node costs a filter of
+#: every block, which is most of the estimator's time.
+NODE_MULTIPLES = tuple(2.0 ** (k / 2) for k in range(-2, 3))
+
+
+def rear_nodes(c_y_median: float) -> tuple[float, ...]:
+    """The rear stiffnesses [1/rad] of the kinematic moments (:data:`NODE_MULTIPLES`).
+
+    Examples
+    --------
+    >>> [round(c, 1) for c in rear_nodes(16.5)]
+    [8.2, 11.7, 16.5, 23.3, 33.0]
+    """
+    return tuple(c_y_median * m for m in NODE_MULTIPLES)
+
+
+def node_weights(log_c_y_rear: Float[Array, ""], nodes: tuple[float, ...]) -> Float[Array, " k"]:
+    """Weights of the moments at ``nodes`` that give them at ``log_c_y_rear``: the Catmull-Rom
+    cubic in log c_r (continuous slope); beyond the ends, the end node's moments.
+
+    Examples
+    --------
+    >>> nodes = rear_nodes(16.5)
+    >>> w = node_weights(jnp.log(16.5), nodes)
+    >>> [round(float(x), 6) for x in w], round(float(w.sum()), 6)
+    ([0.0, 0.0, 1.0, 0.0, 0.0], 1.0)
+    """
+    logs = np.log(np.asarray(nodes))
+    step = float(logs[1] - logs[0])
+    u = jnp.clip((log_c_y_rear - logs[0]) / step, 0.0, len(nodes) - 1.0)
+    i = jnp.minimum(jnp.floor(u), len(nodes) - 2.0)
+    t = u - i
+    t2, t3 = t * t, t * t * t
+    cubic = jnp.stack(
+        [
+            0.5 * (-t3 + 2.0 * t2 - t),
+            0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+            0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+            0.5 * (t3 - t2),
+        ]
+    )
+    # Beyond the ends the cubic reads a node extrapolated linearly, M₋₁ = 2M₀ − M₁.
+    k = len(nodes)
+    index = i.astype(jnp.int32) + jnp.arange(-1, 3)
+    below, above = index < 0, index > k - 1
+    inner = jnp.clip(index, 0, k - 1)
+    weights = jnp.zeros(k, cubic.dtype).at[inner].add(jnp.where(below | above, 2.0 * cubic, cubic))
+    step_in = jnp.where(below, 1, jnp.where(above, k - 2, 0))
+    return weights.at[step_in].add(jnp.where(below | above, -cubic, 0.0))
 
 
 class BlockMoments(eqx.Module):
@@ -252,11 +316,14 @@ class BlockMoments(eqx.Module):
         return BlockMoments(self.steering.block(i), self.kinematic.block(i))
 
 
-def block_moments(blocks: LateralBlocks, roll_gain: float, force_limit: float) -> BlockMoments:
+def block_moments(
+    blocks: LateralBlocks, roll_gain: float, force_limit: float, nodes: tuple[float, ...]
+) -> BlockMoments:
     """The moments of every block of a drive, both equations (vectorised over blocks).
 
     ``roll_gain`` is the median roll gain the cubic term's axle forces take; samples where an
-    axle's force ρ̃ exceeds ``force_limit`` are left out (module docstring).
+    axle's force ρ̃ exceeds ``force_limit`` are left out (module docstring). The kinematic
+    moments have a second axis: one per rear stiffness of ``nodes`` (:func:`rear_nodes`).
 
     Examples
     --------
@@ -264,15 +331,22 @@ def block_moments(blocks: LateralBlocks, roll_gain: float, force_limit: float) -
     >>> from tyrebayes.simulate.cornering import simulate_cornering
     >>> vehicle = load_vehicle("compact_fwd")
     >>> frame, _ = simulate_cornering(vehicle, duration_s=120.0, seed=3)
-    >>> mom = block_moments(lateral_blocks(cornering_observations(frame, vehicle)), 1.06, 0.6)
+    >>> blocks = lateral_blocks(cornering_observations(frame, vehicle))
+    >>> mom = block_moments(blocks, 1.06, 0.6, rear_nodes(16.5))
     >>> mom.steering.gram.shape, mom.kinematic.gram.shape
-    ((4, 9, 9), (4, 8, 8))
+    ((4, 9, 9), (4, 5, 8, 8))
     """
     front, rear = nominal_axle_forces(blocks, roll_gain)
     linear = jnp.maximum(jnp.abs(front), jnp.abs(rear)) <= force_limit
+
+    def kinematic(c_y_rear):
+        z = filtered_kinematic_regressors(blocks, roll_gain, c_y_rear)
+        return equation_moments(z, blocks.mask_kinematic)
+
+    per_node = jax.vmap(kinematic)(jnp.asarray(nodes, blocks.speed.dtype))
     return BlockMoments(
         steering=equation_moments(steering_regressors(blocks, roll_gain), blocks.mask & linear),
-        kinematic=equation_moments(kinematic_regressors(blocks, roll_gain), blocks.mask_kinematic),
+        kinematic=jax.tree_util.tree_map(lambda x: jnp.moveaxis(x, 0, 1), per_node),
     )
 
 
@@ -281,8 +355,12 @@ __all__ = [
     "BlockMoments",
     "EquationMoments",
     "block_moments",
+    "NODE_MULTIPLES",
     "equation_moments",
+    "filtered_kinematic_regressors",
     "kinematic_regressors",
+    "node_weights",
     "nominal_axle_forces",
+    "rear_nodes",
     "steering_regressors",
 ]
