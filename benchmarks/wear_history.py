@@ -8,19 +8,22 @@ wears by the longitudinal and the lateral work, eq. 4.19a + b), 15,000 km a year
 replacement, tread readings every 5,000 km) the pipeline reads only the stream files
 (:func:`tyrebayes.wear_evidence_table`), builds the history (tyre changes
 detected) and fits γ and κ with the readings (:func:`tyrebayes.inference.wear.fit_wear_history`,
-NUTS). Two sources of the cornering stiffness behind the lateral work, each its own fit:
+NUTS). Three sources of the cornering stiffness behind the lateral work, each its own fit:
 
 ``type_prior``
     what the package uses without a lateral posterior
     (:data:`~tyrebayes.streams.cornering_stiffness.TYPE_PRIOR_CORNERING`: 16.5 /rad, log-sd 0.5; the
     simulated tyre's is 22 /rad).
+``lateral_fit``
+    the package's own path: the lateral fit (:func:`tyrebayes.fit_lateral`, Laplace) of the
+    year's first drive whose fit is usable (converged and adequate; up to the first
+    :data:`LATERAL_TRIES` drives), turned into per-axle c_y by
+    :func:`tyrebayes.cornering_stiffness_from_lateral`. A year with no usable fit among them is
+    counted and left out of this source.
 ``posterior_stand_in``
-    a per-axle c_y as a lateral posterior would give it, drawn as the true c_y times
-    exp(0.1 N(0, 1)) per axle with log-sd 0.1. This is a stand-in, not a lateral fit: it shows what
-    the wear fit does with an inferred stiffness of that precision, not that the lateral fit
-    reaches it. On drives of this simulator, whose corners are slow, the lateral fit reads the
-    tyres about twice as stiff as they are (``benchmarks/results/lateral_simulated_drives.json``;
-    the lateral guide says why).
+    a per-axle c_y as a lateral posterior of log-sd 0.1 would give it, drawn as the true c_y
+    times exp(0.1 N(0, 1)) per axle: what the wear fit does with an inferred stiffness of that
+    precision, whatever the lateral fit reaches.
 
 Reported per source: γ's own 90 % coverage and its one-year interval half-width (relative), the
 bias of γ's median, γ·s (γ per joule of evidence work) beside them, the per-axle wear rates' 90 %
@@ -48,10 +51,15 @@ from _internal import WORK_SCALE_LOG_SD, hdi  # noqa: E402
 
 from tyrebayes import (  # noqa: E402
     CorneringStiffness,
+    cornering_observations,
+    cornering_stiffness_from_lateral,
     drive_history,
+    fit_lateral,
     fit_wear_history,
     load_vehicle,
+    read_stream,
     tread_readings,
+    validate_stream,
     wear_evidence_table,
     wear_history_predictions,
 )
@@ -60,8 +68,15 @@ from tyrebayes.simulate import simulate_wear_year  # noqa: E402
 
 GAMMA = 0.022
 KAPPA = 0.02
-SOURCES = ("type_prior", "posterior_stand_in")
+SOURCES = ("type_prior", "lateral_fit", "posterior_stand_in")
+#: Drives of a year the lateral fit is tried on, in order, until one is usable.
+LATERAL_TRIES = 5
 STAND_IN_LOG_SD = 0.1
+LABELS = {
+    "type_prior": "type prior c_y",
+    "lateral_fit": "c_y from the lateral fit",
+    "posterior_stand_in": "c_y posterior stand-in",
+}
 HALF_WIDTH_TARGET = 0.20
 GEOM = TreadGeometry()
 
@@ -105,6 +120,23 @@ def _fit_source(table, truth, seed: int, nuts: dict) -> dict:
     }
 
 
+def _lateral_fit(paths, vehicle) -> tuple[CorneringStiffness | None, dict]:
+    """The first usable lateral fit among the year's first drives, and what each try gave."""
+    tries = []
+    for path in paths[:LATERAL_TRIES]:
+        frame = validate_stream(read_stream(path), vehicle).data
+        try:
+            fit = fit_lateral(cornering_observations(frame, vehicle))
+        except ValueError as err:  # NoCornering: the reason in one line
+            tries.append({"drive": str(path), "reason": str(err)})
+            continue
+        reason = fit.unusable_reason()
+        tries.append({"drive": str(path), "reason": reason})
+        if not reason:
+            return cornering_stiffness_from_lateral(fit), {"tries": tries}
+    return None, {"tries": tries}
+
+
 def run_year(seed: int, n_drives: int, drive_s: float, nuts: dict) -> dict:
     vehicle = load_vehicle("compact_fwd")
     rng = np.random.default_rng(seed + 17)
@@ -116,13 +148,19 @@ def run_year(seed: int, n_drives: int, drive_s: float, nuts: dict) -> dict:
         t1 = time.time()
         c_y = truth.c_y_per_rad * np.exp(STAND_IN_LOG_SD * rng.standard_normal(2))
         stand_in = CorneringStiffness(float(c_y[0]), float(c_y[1]), STAND_IN_LOG_SD, "given")
+        fitted, lateral = _lateral_fit(truth.stream_paths, vehicle)
+        t2 = time.time()
         tables = {
             "type_prior": wear_evidence_table(truth.stream_paths, vehicle, "compact_fwd"),
             "posterior_stand_in": wear_evidence_table(
                 truth.stream_paths, vehicle, "compact_fwd", cornering=stand_in
             ),
         }
-        t2 = time.time()
+        if fitted is not None:
+            tables["lateral_fit"] = wear_evidence_table(
+                truth.stream_paths, vehicle, "compact_fwd", cornering=fitted
+            )
+        t3 = time.time()
     table = tables["type_prior"]
     history = drive_history(table)
     found = dict(zip(history.changes.index.tolist(), history.changes.change_type, strict=True))
@@ -142,6 +180,9 @@ def run_year(seed: int, n_drives: int, drive_s: float, nuts: dict) -> dict:
         "km": truth.total_km,
         "c_y_true": truth.c_y_per_rad,
         "c_y_stand_in": c_y.tolist(),
+        "c_y_lateral_fit": None if fitted is None else fitted.per_axle.tolist(),
+        "c_y_lateral_fit_log_sd": None if fitted is None else fitted.log_sd,
+        "lateral_fit_tries": lateral["tries"],
         "true_wear_mm_per_1000km": np.asarray(truth.wear_mm_per_1000km).tolist(),
         "true_g_per_1000km_car_set": float(
             2.0
@@ -160,10 +201,10 @@ def run_year(seed: int, n_drives: int, drive_s: float, nuts: dict) -> dict:
             **{f"y_front_{k}": float(v[0] / true_y[0]) for k, v in ev_y.items()},
             **{f"y_rear_{k}": float(v[1] / true_y[1]) for k, v in ev_y.items()},
         },
-        "seconds": {"simulate": t1 - t0, "evidence_two_tables": t2 - t1},
+        "seconds": {"simulate": t1 - t0, "lateral_fit": t2 - t1, "evidence_tables": t3 - t2},
     }
     for name in SOURCES:
-        out[name] = _fit_source(tables[name], truth, seed, nuts)
+        out[name] = _fit_source(tables[name], truth, seed, nuts) if name in tables else None
     return out
 
 
@@ -186,9 +227,15 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
     summary: dict = {"years": n, "gamma_true": GAMMA, "kappa_true": KAPPA}
     figures = []
     for source in SOURCES:
-        # A fit that did not converge is counted and named, not summarised.
-        done = [r for r in years if r[source]["converged"]]
-        left_out = {str(r["seed"]): r[source]["diagnostics"]["reasons"] for r in years}
+        # A fit that did not converge is counted and named, not summarised; so is a year
+        # without a usable lateral fit (the lateral_fit source).
+        done = [r for r in years if r[source] is not None and r[source]["converged"]]
+        left_out = {
+            str(r["seed"]): r[source]["diagnostics"]["reasons"]
+            if r[source] is not None
+            else ["no usable lateral fit"]
+            for r in years
+        }
         left_out = {seed: reasons for seed, reasons in left_out.items() if reasons}
         k = len(done)
         g_cov = _share(done, source, "gamma", "covers_truth") if done else None
@@ -212,10 +259,10 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
             "fits_not_converged": not_conv,
             "not_converged": left_out,
         }
-        label = "type prior c_y" if source == "type_prior" else "c_y posterior stand-in"
+        label = LABELS[source]
         note = (
             f"{k} of {n} simulated years, one fit each with tread readings; "
-            f"{not_conv} not converged, left out"
+            f"{not_conv} left out (not converged, or no usable lateral fit)"
         )
         kw = {"count": k, "exclusions": left_out}
         figures += [
@@ -242,10 +289,17 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
             figure(f"rear wear-rate 90% coverage ({label})", rear, target=(">=", 0.8), **kw),
             figure(f"wear fits not converged ({label})", not_conv, target=("==", 0), count=n),
         ]
+    keys = dict.fromkeys(k for r in years for k in r["evidence_work_over_true"])
     ratios = {
-        k: float(np.median([r["evidence_work_over_true"][k] for r in years]))
-        for k in years[0]["evidence_work_over_true"]
+        k: _median(
+            [r["evidence_work_over_true"][k] for r in years if k in r["evidence_work_over_true"]]
+        )
+        for k in keys
     }
+    fitted = [r for r in years if r["c_y_lateral_fit"] is not None]
+    c_y_over_truth = _median([c / r["c_y_true"] for r in fitted for c in r["c_y_lateral_fit"]])
+    summary["lateral_fit_c_y_over_truth_median"] = c_y_over_truth
+    summary["years_without_usable_lateral_fit"] = n - len(fitted)
     summary["evidence_work_over_true_median"] = ratios
     summary["lateral_share_of_true_work_median"] = float(
         np.median([r["lateral_share_of_true_work"] for r in years])
@@ -261,6 +315,22 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
             note=f"WORK_SCALE_LOG_SD = {WORK_SCALE_LOG_SD} carries it",
         ),
         figure("evidence longitudinal work over true, rear", ratios["x_rear"], count=n),
+        figure(
+            "lateral fit's c_y over the truth, median over axles and years",
+            c_y_over_truth,
+            count=2 * len(fitted),
+            note=f"{n - len(fitted)} of {n} years without a usable lateral fit",
+        ),
+        figure(
+            "evidence lateral work over true, front (c_y from the lateral fit)",
+            ratios.get("y_front_lateral_fit"),
+            count=len(fitted),
+        ),
+        figure(
+            "evidence lateral work over true, rear (c_y from the lateral fit)",
+            ratios.get("y_rear_lateral_fit"),
+            count=len(fitted),
+        ),
         figure(
             "evidence lateral work over true, front (c_y stand-in)",
             ratios["y_front_posterior_stand_in"],
