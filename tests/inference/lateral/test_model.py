@@ -24,13 +24,10 @@ def test_five_point_derivative_is_exact_on_a_quartic():
     np.testing.assert_allclose(d[2:-2], (1.2 * t**3 - 3 * t**2 + 2)[2:-2], rtol=1e-10)
 
 
-def test_residuals_vanish_at_the_truth_of_a_noise_free_drive():
-    """Both equations at the simulator's own parameters: only the low-pass filter is left."""
-    frame, truth = simulate_cornering(VEHICLE, duration_s=120.0, seed=5, noise=False)
-    obs = cornering_observations(frame, VEHICLE)
+def _truth_point(truth, scale: float = 1.0) -> dict:
     point = {
-        "c_y_front": truth.c_y_front,
-        "c_y_rear": truth.c_y_rear,
+        "c_y_front": scale * truth.c_y_front,
+        "c_y_rear": scale * truth.c_y_rear,
         "mu_y": truth.mu_y,
         "curve_shape_excess": truth.shape - 1.0,
         "curve_curvature_gap": 1.0 - truth.curvature,
@@ -38,10 +35,15 @@ def test_residuals_vanish_at_the_truth_of_a_noise_free_drive():
         "steering_offset": truth.steering_offset_rad,
         "ay_offset": truth.ay_offset,
         "roll_gradient": truth.roll_gradient,
-        "yaw_inertia_factor": 1.0,
-        "relaxation_length": 0.0,
     }
-    steer, kin = residuals(obs, {k: jnp.asarray(v) for k, v in point.items()})
+    return {k: jnp.asarray(v) for k, v in point.items()}
+
+
+def test_residuals_vanish_at_the_truth_of_a_noise_free_drive():
+    """Both equations at the simulator's own parameters: only the low-pass filter is left."""
+    frame, truth = simulate_cornering(VEHICLE, duration_s=120.0, seed=5, noise=False)
+    obs = cornering_observations(frame, VEHICLE)
+    steer, kin = residuals(obs, _truth_point(truth))
     mask, mask_kin = np.array(obs.mask), np.array(obs.mask_kinematic)
     mask[:20] = mask_kin[:20] = False  # the low-pass filter's start
     signal = np.asarray(obs.steering)[mask] / truth.steering_ratio
@@ -59,21 +61,6 @@ def test_effects_can_be_left_out_one_by_one():
         priors.without("bank")
     with pytest.raises(ValueError, match="expected a subset"):
         LateralPriors(effects=("roll", "wind"))
-
-
-def _truth_point(truth, scale: float = 1.0) -> dict:
-    point = {
-        "c_y_front": scale * truth.c_y_front,
-        "c_y_rear": scale * truth.c_y_rear,
-        "mu_y": truth.mu_y,
-        "curve_shape_excess": truth.shape - 1.0,
-        "curve_curvature_gap": 1.0 - truth.curvature,
-        "steering_ratio": truth.steering_ratio,
-        "steering_offset": truth.steering_offset_rad,
-        "ay_offset": truth.ay_offset,
-        "roll_gradient": truth.roll_gradient,
-    }
-    return {k: jnp.asarray(v) for k, v in point.items()}
 
 
 def test_a_y_noise_reaches_the_kinematic_residual_whatever_the_stiffness():

@@ -249,8 +249,7 @@ def filtered_kinematic_regressors(
 #: (half-octave steps, ± 1.4 prior sds: 8.25 to 33 /rad at the default prior, where cars' axles
 #: lie): c_r between them is interpolated (:func:`node_weights`), to about 0.1 % of the residual
 #: sum of squares (``tests/inference/online/test_lateral_statistics.py``); beyond the ends the
-#: end node's moments are used. Each node costs a filter of
-#: every block, which is most of the estimator's time.
+#: end node's moments are used. Each node costs a filter of every block.
 NODE_MULTIPLES = tuple(2.0 ** (k / 2) for k in range(-2, 3))
 
 
