@@ -289,7 +289,7 @@ class OnlineLateralEstimator(eqx.Module):
             rss = c @ moments.gram @ c
             total = total + 0.5 * (nu + moments.count / vif) * jnp.log(nu * scale**2 + rss / vif)
         d = theta - self.prior.mean
-        return total + 0.5 * d @ jnp.linalg.solve(self.prior.cov, d)
+        return total + 0.5 * d @ self.prior.precision @ d
 
     def _gauss_newton(self, theta, steering, kinematic, vifs, blocks) -> Float[Array, "p p"]:
         """The data's Fisher information at ``theta``: each equation's Jᵀ (Σ z zᵀ) J over its
@@ -322,7 +322,7 @@ class OnlineLateralEstimator(eqx.Module):
             return self.objective(theta, steering, kinematic, vifs, blocks)
 
         scales = jnp.asarray(_STEP_SCALES, state.mean.dtype)
-        prior_precision = jnp.linalg.inv(self.prior.cov)
+        prior_precision = self.prior.precision
 
         def newton(carry):
             i, theta, _ = carry
@@ -344,14 +344,21 @@ class OnlineLateralEstimator(eqx.Module):
         _, mode, moved = jax.lax.while_loop(going, newton, start)
         vifs = self._vifs(mode, steering, kinematic, blocks)
         exact = jax.hessian(lambda t: self.objective(t, steering, kinematic, vifs, blocks))(mode)
-        fisher = prior_precision + self._gauss_newton(mode, steering, kinematic, vifs, blocks)
+        root = jnp.linalg.cholesky(0.5 * (exact + exact.T))
         # The exact curvature where it is positive definite (the batch fit's Laplace); the
-        # Fisher information where a mode is not yet reached.
-        hessian = jnp.where(jnp.linalg.eigvalsh(exact)[0] > 0.0, exact, fisher)
+        # Fisher information where a mode is not yet reached (its Cholesky factor is NaN).
+        root = jax.lax.cond(
+            jnp.all(jnp.isfinite(root)),
+            lambda: root,
+            lambda: jnp.linalg.cholesky(
+                prior_precision + self._gauss_newton(mode, steering, kinematic, vifs, blocks)
+            ),
+        )
+        identity = jnp.eye(mode.shape[0], dtype=mode.dtype)
         counted = jnp.stack([block.steering.batches[1], block.kinematic.batches[0, 1]])
         return LateralState(
             mean=mode,
-            cov=jnp.linalg.inv(0.5 * (hessian + hessian.T)),
+            cov=jax.scipy.linalg.cho_solve((root, True), identity),
             steering=steering,
             kinematic=kinematic,
             batches_30s=state.batches_30s + counted,

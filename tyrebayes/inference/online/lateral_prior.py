@@ -26,13 +26,21 @@ class LateralPrior(eqx.Module):
     ----------
     mean : Float[Array, "p"]
     cov : Float[Array, "p p"]
+    precision : Float[Array, "p p"]
+        The inverse of ``cov``.
     names : tuple of str
         The coordinates.
     """
 
     mean: Float[Array, " p"]
     cov: Float[Array, "p p"]
+    precision: Float[Array, "p p"]
     names: tuple[str, ...] = eqx.field(static=True)
+
+    def __init__(self, mean, cov, names):
+        self.mean, self.cov, self.names = mean, cov, tuple(names)
+        # Inverted once, in NumPy: every Newton step of every block reads it.
+        self.precision = device_array(np.linalg.inv(np.asarray(cov)))
 
     def __check_init__(self):
         p = len(self.names)

@@ -153,8 +153,8 @@ def equation_moments(
     """
     dtype = z.dtype
     zm = jnp.where(mask[..., None], z, 0.0)
-    both = (mask[:, 1:] & mask[:, :-1])[..., None]
-    lag = jnp.einsum("bti,btj->bij", jnp.where(both, zm[:, 1:], 0.0), zm[:, :-1])
+    # zm is zero off the mask, so the product of neighbours counts only pairs both valid.
+    lag = jnp.einsum("bti,btj->bij", zm[:, 1:], zm[:, :-1])
     blocks, width, q = z.shape
     n = width - width % CHUNK
     counts = mask.astype(dtype)
@@ -289,14 +289,18 @@ def node_weights(log_c_y_rear: Float[Array, ""], nodes: tuple[float, ...]) -> Fl
             0.5 * (t3 - t2),
         ]
     )
-    # Beyond the ends the cubic reads a node extrapolated linearly, M₋₁ = 2M₀ − M₁.
+    # Beyond the ends the cubic reads a node extrapolated linearly, M₋₁ = 2M₀ − M₁. Each of the
+    # four points adds its weight to the nodes it reads through a one-hot row (no scatter).
     k = len(nodes)
     index = i.astype(jnp.int32) + jnp.arange(-1, 3)
-    below, above = index < 0, index > k - 1
+    outside = (index < 0) | (index > k - 1)
     inner = jnp.clip(index, 0, k - 1)
-    weights = jnp.zeros(k, cubic.dtype).at[inner].add(jnp.where(below | above, 2.0 * cubic, cubic))
-    step_in = jnp.where(below, 1, jnp.where(above, k - 2, 0))
-    return weights.at[step_in].add(jnp.where(below | above, -cubic, 0.0))
+    step_in = jnp.where(index < 0, 1, k - 2)
+    columns = jnp.arange(k)[None, :]
+    reads = jnp.where(outside[:, None], 2.0, 1.0) * (inner[:, None] == columns) - jnp.where(
+        outside[:, None], 1.0, 0.0
+    ) * (step_in[:, None] == columns)
+    return cubic @ reads
 
 
 class BlockMoments(eqx.Module):
