@@ -367,9 +367,9 @@ def thomas_solve(lower, diagonal, upper, rhs):
     def forward(carry, row):
         c_prev, d_prev = carry
         below, dd, u, bb = row
-        pivot = dd - below * c_prev
-        c = u / pivot
-        x = (bb - below[..., None] * d_prev) / pivot[..., None]
+        inverse = 1.0 / (dd - below * c_prev)  # one division per system, not per column
+        c = u * inverse
+        x = (bb - below[..., None] * d_prev) * inverse[..., None]
         return (c, x), (c, x)
 
     start = (jnp.zeros_like(d[0]), jnp.zeros_like(b[0]))

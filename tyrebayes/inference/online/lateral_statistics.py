@@ -246,11 +246,11 @@ def filtered_kinematic_regressors(
 
 
 #: Rear stiffnesses at which the kinematic moments are taken, as multiples of the prior median
-#: (half-octave steps, ± 1.4 prior sds: 8.25 to 33 /rad at the default prior, where cars' axles
-#: lie): c_r between them is interpolated (:func:`node_weights`), to about 0.1 % of the residual
-#: sum of squares (``tests/inference/online/test_lateral_statistics.py``); beyond the ends the
-#: end node's moments are used. Each node costs a filter of every block.
-NODE_MULTIPLES = tuple(2.0 ** (k / 2) for k in range(-2, 3))
+#: (two-thirds-octave steps, ± 1.4 prior sds: 8.25 to 33 /rad at the default prior, where cars'
+#: axles lie): c_r between them is interpolated (:func:`node_weights`), to about 0.2 % of the
+#: residual sum of squares (``tests/inference/online/test_lateral_statistics.py``); beyond the
+#: ends the end node's moments are used. Each node costs a filter of every block.
+NODE_MULTIPLES = tuple(2.0 ** (2 * k / 3 - 1) for k in range(4))
 
 
 def rear_nodes(c_y_median: float) -> tuple[float, ...]:
@@ -259,7 +259,7 @@ def rear_nodes(c_y_median: float) -> tuple[float, ...]:
     Examples
     --------
     >>> [round(c, 1) for c in rear_nodes(16.5)]
-    [8.2, 11.7, 16.5, 23.3, 33.0]
+    [8.2, 13.1, 20.8, 33.0]
     """
     return tuple(c_y_median * m for m in NODE_MULTIPLES)
 
@@ -271,9 +271,11 @@ def node_weights(log_c_y_rear: Float[Array, ""], nodes: tuple[float, ...]) -> Fl
     Examples
     --------
     >>> nodes = rear_nodes(16.5)
+    >>> [round(float(x), 6) for x in node_weights(jnp.log(nodes[1]), nodes)]
+    [0.0, 1.0, 0.0, 0.0]
     >>> w = node_weights(jnp.log(16.5), nodes)
-    >>> [round(float(x), 6) for x in w], round(float(w.sum()), 6)
-    ([0.0, 0.0, 1.0, 0.0, 0.0], 1.0)
+    >>> [round(float(x), 3) for x in w], round(float(w.sum()), 6)
+    ([-0.062, 0.562, 0.563, -0.063], 1.0)
     """
     logs = np.log(np.asarray(nodes))
     step = float(logs[1] - logs[0])
@@ -337,7 +339,7 @@ def block_moments(
     >>> blocks = lateral_blocks(cornering_observations(frame, vehicle))
     >>> mom = block_moments(blocks, 1.06, 0.6, rear_nodes(16.5))
     >>> mom.steering.gram.shape, mom.kinematic.gram.shape
-    ((4, 9, 9), (4, 5, 8, 8))
+    ((4, 9, 9), (4, 4, 8, 8))
     """
     front, rear = nominal_axle_forces(blocks, roll_gain)
     linear = jnp.maximum(jnp.abs(front), jnp.abs(rear)) <= force_limit
