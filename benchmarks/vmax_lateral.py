@@ -12,9 +12,10 @@ Per drive:
    ``fit_lateral``, Laplace, on the drive's surface);
 2. the predictive V_max of the ISO 3888-2 lane change from its posterior
    (:func:`tyrebayes.inference.vmax.lateral_vmax_inputs` → ``predict_vmax``): the per-axle c_y at
-   joint posterior draws, μ_y the fit's where it observed the peak, else the lateral posterior's
-   (the surface's prior bounded below by the forces used; no longitudinal fit is made here, so
-   there is no μ_max to fall back on);
+   joint posterior draws, μ_y the fit's where it observed the peak; else, as no longitudinal
+   fit is made here (no μ_max to fall back on), the prior the type-constant prediction of step 4
+   takes (0.95 μ_type of the same all-season tyre) on dry drives and the surface's prior on the
+   others, conditioned on the forces the drive used;
 3. the "true-parameter" V_max: the same lane-change simulation, on the drive's vehicle, with the
    drive's true c_y front/rear and μ_y (:class:`tyrebayes.physics.lanechange.AxleTyres`);
 4. the type-constant prediction the package makes without a lateral fit
@@ -97,7 +98,7 @@ def _drive(drive: Drive, n: int, key) -> dict:
     d = fit.to_dict()
 
     k_post, k_type = jax.random.split(key)
-    inputs = lateral_vmax_inputs(k_post, fit, n)
+    inputs = lateral_vmax_inputs(k_post, fit, n, tyre_type=TYPE_TYRE)
     post = predict_vmax(vehicle, inputs, vehicle_name=truth["vehicle"])
     typed_inputs = type_vmax_inputs(k_type, TYPE_C_XR, TYPE_TYRE, n)
     typed = predict_vmax(vehicle, typed_inputs, vehicle_name=truth["vehicle"])

@@ -123,21 +123,32 @@ def test_measured_axles_move_vmax_the_right_way_and_say_so():
     assert _mean(slippery) < v_type - 3.0
 
 
-def test_mu_y_source_falls_back_to_mu_max_then_the_surface_prior():
-    unobserved = _lateral(16.0, 18.0, 1.0, mu_observed=False)
+def test_mu_y_source_falls_back_to_mu_max_then_a_prior_never_the_unobserved_posterior():
+    # The lateral posterior's μ_y (0.6) moved off its prior without nearing the peak: the
+    # curve's shape moved it, and V_max must not take it.
+    unobserved = _lateral(16.0, 18.0, 0.6, mu_observed=False)
     # the tyre fit observed its peak: μ_max replaces the unobserved μ_y, and it is said
     with_mu = fit_vmax_inputs(_tyre_fit(unobserved, mu_max=0.8, mu_observed=True), KEY, N)
     assert (with_mu.lateral_source, with_mu.mu_y_source) == ("measured", "mu_max")
     assert np.mean(with_mu.mu_y) == pytest.approx(0.8, rel=0.02)
-    assert "mu_max used" in with_mu.note
-    # neither observed: the lateral posterior's own μ_y, named as the surface's prior
+    assert "mu_max used" in with_mu.note and "not observed either" not in with_mu.note
+    # neither observed: the tyre fit's μ_max, its type's prior on the surface, said so
     prior = fit_vmax_inputs(_tyre_fit(unobserved), KEY, N)
-    assert (prior.lateral_source, prior.mu_y_source, prior.surface) == (
-        "measured",
-        "surface_prior",
-        "dry",
-    )
-    assert "not observed" in prior.note
+    assert (prior.lateral_source, prior.mu_y_source, prior.surface) == ("measured", "mu_max", "dry")
+    assert np.mean(prior.mu_y) == pytest.approx(1.0, rel=0.02)
+    assert "not observed either" in prior.note
+    # a lateral fit alone: the type relation on dry asphalt where the type is known ...
+    typed = lateral_vmax_inputs(KEY, unobserved, N, tyre_type="summer")
+    assert typed.mu_y_source == "type_prior"
+    assert np.mean(typed.mu_y) == pytest.approx(0.95 * 1.05, rel=0.02)
+    # ... else the surface's prior (dry: median 1.0), not the posterior's 0.6
+    surface = lateral_vmax_inputs(KEY, unobserved, N)
+    assert surface.mu_y_source == "surface_prior" and "dry prior" in surface.note
+    assert np.median(surface.mu_y) == pytest.approx(1.0, rel=0.05)
+    # every fallback is conditioned on the forces the drive used (here 0.5 × 0.6 = 0.3)
+    grippy = _lateral(16.0, 18.0, 2.0, mu_observed=False)  # used: 0.5 × 2.0 = 1.0
+    bounded = lateral_vmax_inputs(KEY, grippy, N)
+    assert np.min(bounded.mu_y) >= 0.98 * 1.0 and "forces the drive used" in bounded.note
     # the per-axle draws are taken at the same posterior draws (their correlation is kept)
     lateral = _lateral(16.0, 18.0, 1.0, mu_observed=True)
     joint = lateral_vmax_inputs(KEY, lateral, N)
