@@ -6,7 +6,7 @@ import pytest
 
 from tyrebayes._domain import load_vehicle
 from tyrebayes.inference.lateral import NoCornering, cornering_observations
-from tyrebayes.inference.lateral.data import MIN_SPEED_MPS, RATE_HZ
+from tyrebayes.inference.lateral.data import MAX_LONGITUDINAL_MPS2, MIN_SPEED_MPS, RATE_HZ
 from tyrebayes.simulate.cornering import simulate_cornering
 
 VEHICLE = load_vehicle("compact_fwd")
@@ -32,6 +32,29 @@ def test_slow_samples_are_left_out():
     obs = cornering_observations(frame, VEHICLE)
     assert not np.asarray(obs.mask)[: int(25 * RATE_HZ)].any()
     assert MIN_SPEED_MPS > 1.0
+
+
+def test_braking_samples_are_left_out_and_counted():
+    """A corner taken braking: the static axle loads the model normalises by no longer hold,
+    so those samples enter neither equation, and they are counted apart."""
+    t = np.arange(0.0, 60.0, 0.01)
+    # 20 m/s, then 2 m/s² of braking from 20 s to 25 s, then 10 m/s; a steady 3 m/s² corner.
+    speed = np.interp(t, [0.0, 20.0, 25.0, 60.0], [20.0, 20.0, 10.0, 10.0])
+    frame = pd.DataFrame(
+        {"time": t, "yaw_rate": 3.0 / speed, "ay": 3.0 + 0 * t, "speed_reference": speed,
+         "steering_wheel_angle": 0.5 + 0 * t}
+    )  # fmt: skip
+    obs = cornering_observations(frame, VEHICLE)
+    braking = np.asarray(obs.longitudinal)
+    mask, kin = np.asarray(obs.mask), np.asarray(obs.mask_kinematic)
+    during = slice(int(21 * RATE_HZ), int(24 * RATE_HZ))
+    assert braking[during].all() and not mask[during].any() and not kin[during].any()
+    assert (
+        not braking[: int(19 * RATE_HZ)].any() and mask[int(5 * RATE_HZ) : int(19 * RATE_HZ)].all()
+    )
+    assert not (braking & mask).any() and MAX_LONGITUDINAL_MPS2 < 2.0
+    # the signals of a braking sample are kept (the kinematic derivative's neighbours)
+    assert np.asarray(obs.speed)[during] == pytest.approx(speed[::10][during], abs=0.2)
 
 
 def test_a_straight_drive_has_no_cornering():

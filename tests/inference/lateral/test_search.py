@@ -55,6 +55,7 @@ def _observations(ay: np.ndarray):
         steering=jnp.zeros(n),
         mask=jnp.ones(n, bool),
         mask_kinematic=jnp.ones(n, bool),
+        longitudinal=jnp.zeros(n, bool),
         dt_s=0.1,
         road_wheel=False,
         mass_kg=jnp.asarray(1500.0),

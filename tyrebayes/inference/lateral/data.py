@@ -29,6 +29,13 @@ LOWPASS_HZ = 2.0
 RATE_HZ = 10.0
 #: Samples below this speed are left out: L·r/V_x and the slip angles divide by it [m/s].
 MIN_SPEED_MPS = 3.0
+#: Samples whose |a_x| (the derivative of the low-passed V_x) exceeds this are left out of both
+#: equations [m/s²]: the model normalises the axle forces by the *static* axle loads, and braking
+#: or accelerating moves load between the axles (ΔF_z,f/F_z,f ≈ (a_x/g)(h/l_r), about 4 % at
+#: 1 m/s²) and uses part of each tyre's friction for F_x. Kept, a corner taken braking reads the
+#: front axle stiff and the rear soft: on the external cornering drives the understeer gradient
+#: read low (``benchmarks/results/lateral_external.json``).
+MAX_LONGITUDINAL_MPS2 = 1.0
 #: Cornering counts where |a_y| exceeds this at or above :data:`CORNERING_SPEED_MPS` [m/s²].
 CORNERING_AY_MPS2 = 1.0
 #: Speed above which a corner loads the tyres enough to show their stiffness [m/s].
@@ -69,10 +76,14 @@ class CorneringObservations(eqx.Module):
     steering : Float[Array, "n"]
         Steering-wheel angle [rad], or the road-wheel angle where ``road_wheel`` is True.
     mask : Bool[Array, "n"]
-        Samples that enter the steering equation (speed above :data:`MIN_SPEED_MPS`, finite).
+        Samples that enter the steering equation (speed above :data:`MIN_SPEED_MPS`, finite,
+        |a_x| at most :data:`MAX_LONGITUDINAL_MPS2`).
     mask_kinematic : Bool[Array, "n"]
-        Samples that enter the lateral-kinematics equation (two neighbours each side valid
-        too: it differentiates V_x·α_r).
+        Samples that enter the lateral-kinematics equation (``mask``, and two neighbours each
+        side with finite signals: it differentiates V_x·α_r).
+    longitudinal : Bool[Array, "n"]
+        Samples left out of both equations for |a_x| > :data:`MAX_LONGITUDINAL_MPS2` (braking or
+        accelerating); their signals are kept, as neighbours of the derivatives.
     dt_s : Array
         Sample interval [s] (0-d: a real clock's differs from drive to drive in the fourth
         digit, and a static value would compile every program once per drive).
@@ -104,6 +115,7 @@ class CorneringObservations(eqx.Module):
     steering: Float[Array, " n"]
     mask: Bool[Array, " n"]
     mask_kinematic: Bool[Array, " n"]
+    longitudinal: Bool[Array, " n"]
     dt_s: Float[Array, ""] = eqx.field(converter=jnp.asarray)
     road_wheel: bool = eqx.field(static=True)
     mass_kg: Float[Array, ""]
@@ -115,7 +127,10 @@ class CorneringObservations(eqx.Module):
 
     def __check_init__(self):
         n = self.speed.shape[0]
-        for name in ("yaw_rate", "yaw_acceleration", "ay", "steering", "mask", "mask_kinematic"):
+        for name in (
+            "yaw_rate", "yaw_acceleration", "ay", "steering", "mask", "mask_kinematic",
+            "longitudinal",
+        ):  # fmt: skip
             if getattr(self, name).shape != (n,):
                 raise ValueError(
                     f"CorneringObservations.{name}: expected shape ({n},), "
@@ -180,6 +195,15 @@ def _lowpass(x: np.ndarray, rate_hz: float) -> np.ndarray:
     return out
 
 
+def _rate(x: np.ndarray, dt: float) -> np.ndarray:
+    """dx/dt, across NaN gaps by interpolation (a gap is no braking)."""
+    finite = np.isfinite(x)
+    if x.size < 2 or finite.sum() < 2:
+        return np.zeros(x.size)
+    idx = np.arange(x.size)
+    return np.gradient(np.interp(idx, idx[finite], x[finite]), dt)
+
+
 def cornering_observations(frame: pd.DataFrame, vehicle: Vehicle) -> CorneringObservations:
     """The cornering observations of a stream (validated, on a uniform time base).
 
@@ -235,15 +259,18 @@ def cornering_observations(frame: pd.DataFrame, vehicle: Vehicle) -> CorneringOb
     # The yaw acceleration's central differences reach one sample past a gap in the yaw rate.
     finite = np.isfinite(speed) & np.isfinite(steering) & np.isfinite(yaw_rate) & np.isfinite(ay)
     finite &= np.isfinite(yaw_acceleration)
-    mask = finite & (np.nan_to_num(speed) > MIN_SPEED_MPS)
+    valid = finite & (np.nan_to_num(speed) > MIN_SPEED_MPS)
+    dt = step / rate
+    ax = _rate(speed, dt)
+    longitudinal = valid & (np.abs(ax) > MAX_LONGITUDINAL_MPS2)
+    mask = valid & ~longitudinal
     # The kinematic equation differentiates with a five-point stencil: both neighbours on
-    # each side must be valid.
+    # each side must carry finite signals (a braking neighbour's are kept for it).
     kinematic = mask.copy()
     for shift in (1, 2):
-        kinematic[shift:] &= mask[:-shift]
-        kinematic[:-shift] &= mask[shift:]
+        kinematic[shift:] &= valid[:-shift]
+        kinematic[:-shift] &= valid[shift:]
     kinematic[:2] = kinematic[-2:] = False
-    dt = step / rate
     cornering = mask & (np.abs(np.nan_to_num(ay)) > CORNERING_AY_MPS2)
     cornering &= np.nan_to_num(speed) >= CORNERING_SPEED_MPS
     seconds = float(cornering.sum() * dt)
@@ -263,16 +290,17 @@ def cornering_observations(frame: pd.DataFrame, vehicle: Vehicle) -> CorneringOb
         )
 
     def arr(x):
-        return device_array(np.where(mask, x, 0.0) if x.dtype.kind == "f" else x)
+        return device_array(np.where(valid, x, 0.0) if x.dtype.kind == "f" else x)
 
     return CorneringObservations(
-        speed=device_array(np.where(mask, speed, 10.0)),
+        speed=device_array(np.where(valid, speed, 10.0)),
         yaw_rate=arr(yaw_rate),
         yaw_acceleration=arr(yaw_acceleration),
         ay=arr(ay),
         steering=arr(steering),
         mask=device_array(mask),
         mask_kinematic=device_array(kinematic),
+        longitudinal=device_array(longitudinal),
         dt_s=float(dt),
         road_wheel=road_wheel,
         mass_kg=jnp.asarray(float(vehicle.mass_kg)),

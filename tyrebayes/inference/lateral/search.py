@@ -57,7 +57,10 @@ def padded_length(n: int) -> int:
         k += 1
 
 
-_SERIES = ("speed", "yaw_rate", "yaw_acceleration", "ay", "steering", "mask", "mask_kinematic")
+_SERIES = (
+    "speed", "yaw_rate", "yaw_acceleration", "ay", "steering", "mask", "mask_kinematic",
+    "longitudinal",
+)  # fmt: skip
 
 
 def _padded(obs: CorneringObservations) -> CorneringObservations:
@@ -67,7 +70,7 @@ def _padded(obs: CorneringObservations) -> CorneringObservations:
     if extra == 0:
         return obs
     # Padding's speed stays away from zero: the equations divide by it before the mask applies.
-    fill = {"speed": 10.0, "mask": False, "mask_kinematic": False}
+    fill = {"speed": 10.0, "mask": False, "mask_kinematic": False, "longitudinal": False}
 
     def pad(name):
         x = np.asarray(getattr(obs, name))

@@ -1,20 +1,12 @@
 """A drive's cornering observations cut into the online lateral estimator's blocks.
 
 The lateral estimator (:mod:`.lateral`) reads the batch fit's own observations
-(:func:`~tyrebayes.inference.lateral.cornering_observations`: 2 Hz low-pass, 10 Hz) in blocks
-of :data:`LATERAL_STEP_S` on the clock, as a car would collect them. Two sets of samples are
-left out of a block's likelihood:
-
-* **braking or accelerating** (|a_x| > :data:`MAX_LONGITUDINAL_MPS2`, a_x the derivative of the
-  low-passed V_x): the model's axle forces are normalised by the *static* axle loads, and
-  braking moves load to the front axle (ΔF_z,f/F_z,f ≈ (a_x/g)(h/l_r), about 4 % at 1 m/s² for
-  a car with h/l_r ≈ 0.4) and uses part of each tyre's friction for F_x (combined slip). Both
-  show as a change of the front/rear split that is no property of the tyre, and a corner taken
-  braking would move the estimate by it. The samples are skipped rather than given a larger
-  noise: skipped, a block of braking in a corner moves the estimate only by the drift between
-  steps. The batch fit keeps them; the agreement benchmark measures what that costs.
-* the first and last two samples of a block in the kinematic equation: it differentiates
-  V_x α_r with a five-point stencil, which cannot reach across a block's edge.
+(:func:`~tyrebayes.inference.lateral.cornering_observations`: 2 Hz low-pass, 10 Hz, samples
+braking or accelerating harder than
+:data:`~tyrebayes.inference.lateral.data.MAX_LONGITUDINAL_MPS2` left out) in blocks of
+:data:`LATERAL_STEP_S` on the clock, as a car would collect them. Besides those, the first and
+last two samples of a block are left out of the kinematic equation: it differentiates V_x α_r
+with a five-point stencil, which cannot reach across a block's edge.
 """
 
 from __future__ import annotations
@@ -29,9 +21,6 @@ from ..lateral.data import CorneringObservations
 
 #: Length of one update of the lateral estimator on the clock [s] (the longitudinal one's).
 LATERAL_STEP_S = 30.0
-#: Samples with |a_x| above this are left out of the lateral likelihood [m/s²] (module
-#: docstring).
-MAX_LONGITUDINAL_MPS2 = 1.0
 
 
 class LateralBlocks(eqx.Module):
@@ -45,10 +34,9 @@ class LateralBlocks(eqx.Module):
     ax : Float[Array, "blocks width"]
         dV_x/dt of the low-passed speed [m/s²].
     mask, mask_kinematic : Bool[Array, "blocks width"]
-        The samples each equation reads: the batch masks, less braking samples and (kinematic)
-        the block's edges.
+        The samples each equation reads: the batch masks, less (kinematic) the block's edges.
     n_skipped : Float[Array, " blocks"]
-        Samples of each block the batch fit reads that were left out for |a_x|.
+        Samples of each block left out for |a_x| (the observations' ``longitudinal``).
     time_s : Float[Array, " blocks"]
         Time at the end of each block since the record's start [s].
     dt_s : Array
@@ -124,6 +112,7 @@ class LateralBlocks(eqx.Module):
             steering=self.steering[i],
             mask=self.mask[i],
             mask_kinematic=self.mask_kinematic[i],
+            longitudinal=jnp.zeros_like(self.mask[i]),
             dt_s=self.dt_s,
             road_wheel=self.road_wheel,
             mass_kg=self.mass_kg,
@@ -139,7 +128,6 @@ def lateral_blocks(
     obs: CorneringObservations,
     *,
     step_s: float = LATERAL_STEP_S,
-    max_longitudinal_mps2: float = MAX_LONGITUDINAL_MPS2,
     n_blocks: int | None = None,
 ) -> LateralBlocks:
     """Cut a drive's cornering observations into blocks of ``step_s`` (module docstring).
@@ -150,8 +138,6 @@ def lateral_blocks(
         From :func:`~tyrebayes.inference.lateral.cornering_observations`.
     step_s : float
         Block length [s]; a whole number of samples (within 1 %).
-    max_longitudinal_mps2 : float
-        Samples with |a_x| above it are left out [m/s²].
     n_blocks : int, optional
         Pad (with empty blocks, which end where the record does) or cut to this many blocks:
         streams of different lengths then share one compiled run. Default: as many as the
@@ -169,7 +155,8 @@ def lateral_blocks(
     >>> obs = CorneringObservations(
     ...     speed=jnp.full(n, 20.0), yaw_rate=jnp.zeros(n), yaw_acceleration=jnp.zeros(n),
     ...     ay=jnp.zeros(n), steering=jnp.zeros(n), mask=jnp.ones(n, bool),
-    ...     mask_kinematic=jnp.ones(n, bool), dt_s=0.1, road_wheel=False,
+    ...     mask_kinematic=jnp.ones(n, bool), longitudinal=jnp.zeros(n, bool), dt_s=0.1,
+    ...     road_wheel=False,
     ...     mass_kg=jnp.asarray(1500.0), wheelbase_m=jnp.asarray(2.7),
     ...     cog_to_front_axle_m=jnp.asarray(1.1), yaw_inertia_kgm2=jnp.asarray(2500.0),
     ...     steering_ratio=jnp.asarray(15.0), cornering_seconds=jnp.asarray(0.0))
@@ -189,8 +176,8 @@ def lateral_blocks(
     total = count * width
     speed = np.asarray(obs.speed, float)
     ax = np.gradient(speed, dt) if n > 1 else np.zeros(n)
-    mask = np.asarray(obs.mask) & (np.abs(ax) <= max_longitudinal_mps2)
-    kinematic = np.asarray(obs.mask_kinematic) & mask
+    mask = np.asarray(obs.mask)
+    kinematic = np.asarray(obs.mask_kinematic)
 
     def padded(x, fill):
         x = np.asarray(x)[:total]
@@ -215,7 +202,7 @@ def lateral_blocks(
         ax=arr(ax),
         mask=device_array(padded(mask, False)),
         mask_kinematic=device_array(kinematic),
-        n_skipped=device_array(padded(np.asarray(obs.mask) & ~mask, False).sum(axis=1), dtype),
+        n_skipped=device_array(padded(np.asarray(obs.longitudinal), False).sum(axis=1), dtype),
         # Padding blocks end where the record does: no time passes in them, nothing fades.
         time_s=device_array(np.minimum(np.arange(1, count + 1), filled) * width * dt, dtype),
         dt_s=obs.dt_s,
@@ -228,4 +215,4 @@ def lateral_blocks(
     )
 
 
-__all__ = ["LATERAL_STEP_S", "MAX_LONGITUDINAL_MPS2", "LateralBlocks", "lateral_blocks"]
+__all__ = ["LATERAL_STEP_S", "LateralBlocks", "lateral_blocks"]
