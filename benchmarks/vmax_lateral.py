@@ -22,7 +22,10 @@ Per drive:
    (:func:`~tyrebayes.inference.vmax.type_vmax_inputs`): an all-season tyre at C_xr = 35 (the
    per-tyre model's prior median, mid-range of the thesis' Table 6.2), taken as a known value, so
    its interval is the type relations' spread alone (k ~ LogNormal(log 0.40, 0.15), μ_y = 0.95 ·
-   Normal(1.00, 0.05)) and as narrow as that path can be;
+   Normal(1.00, 0.05)) and as narrow as that path can be. The type relations describe dry
+   asphalt: on a drive on another surface the comparison takes that surface's μ prior (the
+   prior the posterior path falls back on, without the drive's forces), so that both intervals
+   are of V_max on the same road;
 5. the same two with μ_y fixed at the truth: how much of the width is the cornering stiffness.
 
 The truth's axle stiffnesses in N/rad are checked against c_y · m g l_r / L and c_y · m g l_f / L
@@ -56,6 +59,8 @@ from tyrebayes import (  # noqa: E402
     type_vmax_inputs,
     vmax_draws,
 )
+from tyrebayes.inference.lateral import LateralPriors  # noqa: E402
+from tyrebayes.inference.vmax import VmaxInputs  # noqa: E402
 from tyrebayes.physics import AxleTyres  # noqa: E402
 
 #: The type-constant comparison's tyre: the per-tyre model's C_xr prior median (TyrePriors).
@@ -75,6 +80,17 @@ def _interval(draws_kmh: np.ndarray, truth_kmh: float) -> dict:
         "error": s["mean"] - truth_kmh,
         "not_bracketed": int(np.sum(~np.isfinite(draws_kmh))),
     }
+
+
+def _on_surface(typed: VmaxInputs, surface: str, key) -> VmaxInputs:
+    """The type-constant inputs with μ_y from ``surface``'s prior (the type relations' μ_y is
+    dry asphalt's)."""
+    median, log_sd = LateralPriors().mu_y_prior(surface)
+    mu = median * np.exp(log_sd * np.asarray(jax.random.normal(key, (typed.n_draws,))))
+    note = f"type relations' c_y; mu_y the {surface} prior (the relations' is dry asphalt's)"
+    return VmaxInputs(
+        typed.c_y_front, typed.c_y_rear, mu, "type_prior", "surface_prior", surface, note
+    )
 
 
 def _drive(drive: Drive, n: int, key) -> dict:
@@ -101,6 +117,8 @@ def _drive(drive: Drive, n: int, key) -> dict:
     inputs = lateral_vmax_inputs(k_post, fit, n, tyre_type=TYPE_TYRE)
     post = predict_vmax(vehicle, inputs, vehicle_name=truth["vehicle"])
     typed_inputs = type_vmax_inputs(k_type, TYPE_C_XR, TYPE_TYRE, n)
+    if truth["surface"] != "dry":
+        typed_inputs = _on_surface(typed_inputs, truth["surface"], jax.random.fold_in(k_type, 1))
     typed = predict_vmax(vehicle, typed_inputs, vehicle_name=truth["vehicle"])
     # μ_y at the truth for both: the width the cornering stiffness leaves
     mu_true = jnp.full(n, truth["mu_y"])
@@ -144,6 +162,7 @@ def _drive(drive: Drive, n: int, key) -> dict:
             **_interval(typed.v_max_kmh, v_true),
             "c_y": summarize(typed_inputs.c_y_front).to_dict(),
             "mu_y": summarize(typed_inputs.mu_y).to_dict(),
+            "mu_y_source": typed_inputs.mu_y_source,
         },
         "mu_y_at_truth": {
             "posterior": _interval(post_mu_true, v_true),
@@ -262,7 +281,7 @@ def main() -> None:
             type_covered / max(n_all, 1),
             count=n_all,
             note=f"{type_covered} of {n_all} drives whose true V_max was bracketed "
-            "(dry-asphalt μ_y on every surface)",
+            "(μ_y: the type relation on dry drives, the surface prior on the others)",
         ),
         figure(
             "posterior V_max median |error|",
