@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections import Counter
 from pathlib import Path
 
 import jax
@@ -238,7 +239,7 @@ def main() -> None:
         if used
         else None
     )
-    n_mu_measured = [r["posterior"]["mu_y_source"] for r in used].count("measured")
+    mu_sources = Counter(r["posterior"]["mu_y_source"] for r in used)
     not_bracketed = sum(r["posterior"]["not_bracketed"] for r in rows)
     figures = [
         figure(
@@ -247,9 +248,9 @@ def main() -> None:
             target=(">=", 0.8),
             count=n,
             exclusions=excluded,
-            note=f"{covered} of {n} drives; μ_y measured on {n_mu_measured}, the lateral "
-            f"posterior's (the surface prior, not observed) on {n - n_mu_measured}; not "
-            f"converged and left out: {len(unconverged)}, of which covered: "
+            note=f"{covered} of {n} drives; μ_y by source: "
+            + ", ".join(f"{k} {v}" for k, v in sorted(mu_sources.items()))
+            + f"; not converged and left out: {len(unconverged)}, of which covered: "
             f"{', '.join(unconverged_covered) or 'none'}",
             headline=True,
         ),
