@@ -33,8 +33,8 @@ MIN_SPEED_MPS = 3.0
 #: equations [m/s²]: the model normalises the axle forces by the *static* axle loads, and braking
 #: or accelerating moves load between the axles (ΔF_z,f/F_z,f ≈ (a_x/g)(h/l_r), about 4 % at
 #: 1 m/s²) and uses part of each tyre's friction for F_x. Kept, a corner taken braking reads the
-#: front axle stiff and the rear soft: on the external cornering drives the understeer gradient
-#: read low (``benchmarks/results/lateral_external.json``).
+#: front axle stiff, the rear soft and the understeer gradient low. Race-pace driving corners
+#: mostly braking or accelerating and keeps little (the lateral guide says what that does).
 MAX_LONGITUDINAL_MPS2 = 1.0
 #: Cornering counts where |a_y| exceeds this at or above :data:`CORNERING_SPEED_MPS` [m/s²].
 CORNERING_AY_MPS2 = 1.0

@@ -24,8 +24,8 @@ def fit_vmax_inputs(
     """The V_max inputs of a per-tyre fit: its lateral posterior if it has one, else the types'.
 
     A converged and adequate lateral posterior gives :func:`lateral_vmax_inputs` (with the
-    fit's μ_max on its first surface, observed or its type's prior there, where the lateral fit
-    did not observe μ_y);
+    fit's μ_max on its first surface, observed or its prior there, where the lateral fit did
+    not observe μ_y);
     otherwise, given a fleet fit that learnt the per-type ratio c_y / C_xr, that ratio at the
     fit's C_xr draws (:func:`fleet_ratio_vmax_inputs`), else the type relations there
     (:func:`type_vmax_inputs`), with the reason in ``note`` (the fit's ``lateral_reason``, or

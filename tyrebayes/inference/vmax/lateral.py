@@ -3,8 +3,8 @@
 The per-axle c_y front and rear [1/rad over the static axle load] enter the simulation as they
 are (:class:`~tyrebayes.physics.lanechange.AxleTyres`; C_f = c_y_front · m g l_r / L N/rad); μ_y
 is the lateral fit's where the drive neared the peak, else the longitudinal μ_max (observed, or
-the tyre fit's prior for its type and surface), else a prior: the tyre type's μ_y = 0.95 μ_type
-on dry asphalt where the type is known, the surface's otherwise. An unobserved μ_y is never the
+the tyre fit's prior on that surface), else a prior: the tyre type's μ_y = 0.95 μ_type on dry
+asphalt where the type is known, the surface's otherwise. An unobserved μ_y is never the
 lateral posterior's own: short of the peak, what moves it is the curve's shape, which load
 transfer and a load-dependent stiffness bend as much as μ_y does. Every fallback is bounded
 below by the forces the drive used. A measured μ_y belongs to the drive's surface.
