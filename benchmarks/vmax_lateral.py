@@ -60,8 +60,8 @@ from tyrebayes import (  # noqa: E402
     type_vmax_inputs,
     vmax_draws,
 )
-from tyrebayes.inference.lateral import LateralPriors  # noqa: E402
 from tyrebayes.inference.vmax import VmaxInputs  # noqa: E402
+from tyrebayes.inference.vmax.lateral import surface_mu_y_draws  # noqa: E402
 from tyrebayes.physics import AxleTyres  # noqa: E402
 
 #: The type-constant comparison's tyre: the per-tyre model's C_xr prior median (TyrePriors).
@@ -86,8 +86,7 @@ def _interval(draws_kmh: np.ndarray, truth_kmh: float) -> dict:
 def _on_surface(typed: VmaxInputs, surface: str, key) -> VmaxInputs:
     """The type-constant inputs with μ_y from ``surface``'s prior (the type relations' μ_y is
     dry asphalt's)."""
-    median, log_sd = LateralPriors().mu_y_prior(surface)
-    mu = median * np.exp(log_sd * np.asarray(jax.random.normal(key, (typed.n_draws,))))
+    mu = surface_mu_y_draws(key, surface, typed.n_draws)
     note = f"type relations' c_y; mu_y the {surface} prior (the relations' is dry asphalt's)"
     return VmaxInputs(
         typed.c_y_front, typed.c_y_rear, mu, "type_prior", "surface_prior", surface, note

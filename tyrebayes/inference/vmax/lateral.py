@@ -42,14 +42,18 @@ def _at_least(key: Array, draws: np.ndarray, bound: float, n: int) -> np.ndarray
     return kept[_resample(key, kept.size, n)]
 
 
+def surface_mu_y_draws(key: Array, surface: str, n: int) -> np.ndarray:
+    """n draws of μ_y's prior on ``surface`` (the lateral model's, the longitudinal μ_max's)."""
+    median, log_sd = LateralPriors().mu_y_prior(surface)
+    return median * np.exp(log_sd * np.asarray(jax.random.normal(key, (n,))))
+
+
 def _prior_mu_y(key: Array, surface: str, tyre_type: str | None, n: int) -> tuple[np.ndarray, str]:
     """Draws of μ_y's prior and its source: the type relation on dry asphalt, else the
     surface's."""
     if tyre_type is not None and surface == "dry":
         return np.asarray(lateral_draws(key, 1.0, tyre_type, n)[1]), "type_prior"
-    median, log_sd = LateralPriors().mu_y_prior(surface)
-    z = np.asarray(jax.random.normal(key, (n,)))
-    return median * np.exp(log_sd * z), "surface_prior"
+    return surface_mu_y_draws(key, surface, n), "surface_prior"
 
 
 def lateral_vmax_inputs(
