@@ -60,8 +60,7 @@ from tyrebayes import (  # noqa: E402
     type_vmax_inputs,
     vmax_draws,
 )
-from tyrebayes.inference.vmax import VmaxInputs  # noqa: E402
-from tyrebayes.inference.vmax.lateral import surface_mu_y_draws  # noqa: E402
+from tyrebayes.inference.vmax import VmaxInputs, surface_mu_y_draws  # noqa: E402
 from tyrebayes.physics import AxleTyres  # noqa: E402
 
 #: The type-constant comparison's tyre: the per-tyre model's C_xr prior median (TyrePriors).

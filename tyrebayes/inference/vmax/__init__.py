@@ -37,9 +37,10 @@ Models for the six measured sets:
 
 Modules: :mod:`.inputs` (:class:`VmaxInputs`, the sources), :mod:`.type_relations`
 (:func:`type_vmax_inputs`), :mod:`.fleet_ratio` (:func:`fleet_ratio_vmax_inputs`),
-:mod:`.lateral` (:func:`lateral_vmax_inputs`), :mod:`.fit_inputs` (:func:`fit_vmax_inputs`: the
-three in their order), :mod:`.prediction` (:func:`vmax_draws`, :func:`predict_vmax`,
-:class:`VmaxPrediction`) and :mod:`.censored` (the measured Table 6.2 and its models).
+:mod:`.lateral` (:func:`lateral_vmax_inputs`, :func:`surface_mu_y_draws`),
+:mod:`.fit_inputs` (:func:`fit_vmax_inputs`: the three in their order), :mod:`.prediction`
+(:func:`vmax_draws`, :func:`predict_vmax`, :class:`VmaxPrediction`) and :mod:`.censored` (the
+measured Table 6.2 and its models).
 """
 
 from .censored import REPEATABILITY_KMH as REPEATABILITY_KMH
@@ -58,6 +59,7 @@ from .inputs import MU_Y_SOURCES as MU_Y_SOURCES
 from .inputs import TYPE_SURFACE as TYPE_SURFACE
 from .inputs import VmaxInputs as VmaxInputs
 from .lateral import lateral_vmax_inputs as lateral_vmax_inputs
+from .lateral import surface_mu_y_draws as surface_mu_y_draws
 from .prediction import VmaxPrediction as VmaxPrediction
 from .prediction import predict_vmax as predict_vmax
 from .prediction import vmax_draws as vmax_draws
