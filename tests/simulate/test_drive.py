@@ -135,6 +135,32 @@ def test_stream_contract_and_shapes(noisy_drive):
     assert np.isfinite(truth.samples().to_numpy(dtype=float)).all()
 
 
+@pytest.mark.parametrize("rate_hz", [10.0, 100.0])
+def test_lateral_motion_is_single_track_kinematics(rate_hz):
+    """The logged a_y is V ψ̇ + v̇_y of the truth's own v_y, and the rear axle's slip angle
+    (l_r ψ̇ − v_y)/V carries the force of that acceleration on the brush curve: the lateral
+    model's two equations hold on the simulator's truth, at a log's rates."""
+    car = load_vehicle("compact_fwd")
+    _, tr = simulate_drive(5, car, "summer", duration_s=300.0, sample_rate_hz=rate_hz)
+    moving = tr.vx_mps > 2.0
+    dt = 1.0 / rate_hz  # the simulator's clock (the logged stamps carry jitter)
+    vy_dot = np.gradient(tr.vy_mps, dt)
+    kinematic = tr.vx_mps * tr.yaw_rate_radps + vy_dot
+    assert np.abs(tr.ay_mps2).max() > 1.0
+    # the gradient's discretisation error only: a few hundredths of a m/s², where v̇_y is tenths
+    assert np.percentile(np.abs(tr.ay_mps2 - kinematic)[moving], 99) < 0.03
+    assert np.abs(vy_dot[moving]).max() > 0.1
+    tan_r = (car.cog_to_rear_axle_m * tr.yaw_rate_radps - tr.vy_mps) / np.maximum(tr.vx_mps, 1.0)
+    rear = (
+        car.mass_kg * tr.ay_mps2 * car.cog_to_front_axle_m
+        - car.yaw_inertia_kgm2 * np.gradient(tr.yaw_rate_radps, dt)
+    ) / car.wheelbase_m
+    rho = rear / tr.wheel_load_n[:, 2:].sum(axis=1)
+    np.testing.assert_allclose(
+        rho[moving], brush_force_np(tan_r, tr.c_y_per_rad, tr.mu_max)[moving], atol=2e-3
+    )
+
+
 @pytest.mark.parametrize("model", ["brush", "magic_formula"])
 def test_truth_is_self_consistent(model):
     """ρ_x(σ_x) of the truth curve, wheel speeds from slip and radius, force balance, C_x(T)."""

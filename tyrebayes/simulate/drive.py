@@ -3,10 +3,12 @@
 Pipeline (all vectorised NumPy on a uniform grid; the thermal model runs in JAX at 1 Hz):
 
 1. :func:`~tyrebayes.simulate.profiles.make_profile` plans V(t), a_y(t), grade θ(t) and events.
-2. Lateral: yaw rate ψ̇ = a_y/V; the front axle's lateral force from the moment balance and the
-   rear's from the lateral balance (eq. 4.23b, c, as in
-   :func:`~tyrebayes.physics.vehicle.single_track_inverse`); slip angles from the brush lateral
-   curve (C_y, μ); road-wheel angle δ = κ L + α_f − α_r; v_y = ψ̇ l_r − V tan α_r.
+2. Lateral: the path's yaw rate ψ̇ = a_y/V (a_y the plan's); the rear axle's slip angle
+   tan α_r = (l_r ψ̇ − v_y)/V on the brush lateral curve (C_y, μ) and the yaw moment balance
+   (eq. 4.23b, c, as in :func:`~tyrebayes.physics.vehicle.single_track_inverse`) make the body's
+   lateral acceleration V ψ̇ + v̇_y a first-order equation in v_y, integrated exactly per sample
+   interval; the front axle's slip angle from its force; road-wheel angle δ = κ L + α_f − α_r.
+   The logged a_y is V ψ̇ + v̇_y.
 3. Longitudinal: the tyres must supply m a_x + drag + f_rr m g cos θ + m g sin θ (+ the steered
    front lateral force's drag, eq. 4.23a). Traction goes to the driven axle(s) by the drive's
    split; braking first uses engine braking on the driven axle (up to 0.05 m g), the rest is
@@ -24,7 +26,8 @@ Pipeline (all vectorised NumPy on a uniform grid; the thermal model runs in JAX 
    per-wheel radii R_i = R_nom (1 + ε_i); then :func:`~tyrebayes.simulate.sensors.measure`.
 
 Simplifications (stated so that nobody mistakes them for findings): pure longitudinal slip (no
-combined-slip reduction of F_x in corners); quasi-static lateral dynamics; the thermal input uses
+combined-slip reduction of F_x in corners); the yaw rate follows the planned path (no steering
+input integrated, no tyre relaxation); the thermal input uses
 the linear slip ρ/C_xr for the (small) friction power outside ABS; radius does not change with load
 or speed; ABS only on straight road.
 
@@ -279,7 +282,7 @@ def _logged_stream(
         time_s=t_log,
         wheel_speed_radps=_at_log(omega),
         accel_mps2=_at_log(kin.ax),
-        ay_mps2=_at_log(plan.ay_mps2),
+        ay_mps2=_at_log(kin.ay),
         grade_rad=_at_log(plan.grade_rad),
         yaw_rate_radps=_at_log(kin.yaw),
         steering_wheel_angle_rad=_at_log(steer_wheel),
@@ -344,7 +347,7 @@ def _drive_truth(
         vx_mps=_at_log(state.v),
         vy_mps=_at_log(kin.vy),
         ax_mps2=_at_log(kin.ax),
-        ay_mps2=_at_log(plan.ay_mps2),
+        ay_mps2=_at_log(kin.ay),
         yaw_rate_radps=_at_log(kin.yaw),
         road_wheel_angle_rad=_at_log(kin.delta),
         grade_rad=_at_log(plan.grade_rad),
