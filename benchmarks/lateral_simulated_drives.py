@@ -1,11 +1,13 @@
 """The lateral fit on the package's own longitudinal drive simulator: what it reads, and the flag.
 
 :func:`tyrebayes.simulate.simulate_drive` turns its car through planned corners and lane changes
-(yaw rate a_y / V, steering from the tyres' brush curve, the same c_y on both axles: a neutral
-car, whose understeer gradient is zero). Its drives are not built for the lateral model (the
-cornering simulator, :func:`tyrebayes.simulate.cornering.simulate_cornering`, is): on them the
-understeer gradient is all that steady cornering shows, and the axles' common stiffness rests on
-the yaw transients. This benchmark fits each drive as ``fit-tyre`` does
+(yaw rate a_y / V along the planned path, v_y from the rear axle's brush curve and the body's
+lateral acceleration V r + v̇_y, the same c_y on both axles: a neutral car, whose understeer
+gradient is zero). It differs from the lateral model in kind: a brush curve where the model fits
+a Magic Formula, axle loads moved by braking and accelerating where the model takes static ones,
+and a path the driver follows rather than a steering input; on it the understeer gradient is
+all that steady cornering shows, and the axles' common stiffness rests on the yaw transients.
+This benchmark fits each drive as ``fit-tyre`` does
 (``validate_stream`` → ``cornering_observations`` → ``fit_lateral``, Laplace) and reports, per
 drive: c_y front and rear against the simulated tyre's, whether the 90 % interval covers it, the
 yaw-inertia factor the fit settled on and its distance from the vehicle file's in prior sds, and
@@ -201,7 +203,8 @@ def main() -> int:
             "c_y over the simulated tyre's, median over axles and drives",
             ratios,
             excluded,
-            "the drive simulator is not built for the lateral model (module docstring)",
+            "brush curve and load transfer in the truth, a Magic Formula on static loads "
+            "in the fit",
         ),
         _median_figure(
             "a fast fleet run's lateral step (in-car moments): c_y over the truth, median",

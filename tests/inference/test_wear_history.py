@@ -114,6 +114,35 @@ def test_reading_exposure_follows_the_pair_across_a_rotation():
     assert exposure[0, :14, 1].sum() == 0.0
 
 
+def test_a_later_reading_closes_the_last_drives_interval():
+    """The last drive stands for the distance to a tread reading after it, as to a next drive:
+    its interval and works grow by that factor; the rest, and an earlier odometer, keep theirs."""
+    table, _ = synthetic_table()
+    h = drive_history(table)
+    assert h.interval_km[-1] == pytest.approx(10.0)  # no next drive: its own distance
+    later = h.through(h.odometer_km[-1] + 400.0)
+    assert later.interval_km[-1] == pytest.approx(400.0)
+    assert later.end_km == pytest.approx(h.odometer_km[-1] + 400.0)
+    for name in ("work_j", "work_sd_j", "work_y_j"):
+        np.testing.assert_allclose(getattr(later, name)[-1], 40.0 * getattr(h, name)[-1])
+        np.testing.assert_array_equal(getattr(later, name)[:-1], getattr(h, name)[:-1])
+    assert later.scale[-1] == pytest.approx(40.0 * h.scale[-1])
+    assert h.through(h.end_km - 5.0) is h and h.through(float("nan")) is h
+
+
+def test_the_fit_and_its_predictions_run_to_the_latest_reading():
+    table, _ = synthetic_table()
+    h = drive_history(table)
+    end = h.odometer_km[-1] + 400.0
+    readings = tread_readings(
+        pd.DataFrame({"odometer_km": [end, end], "axle": ["front", "rear"], "depth_mm": [7.0, 7.6]})
+    )
+    fit = fit_wear_history(h, readings, num_warmup=20, num_samples=20, num_chains=1)
+    assert fit.data.attrs["history_end_km"] == pytest.approx(end)
+    pred = wear_history_predictions(fit, h, readings)
+    assert pred.history_km == pytest.approx(h.total_km + 390.0)
+
+
 def test_log_density_peaks_at_the_true_gamma():
     """Fast form of the recovery check: the model's density over γ·s peaks at the true γ."""
     from numpyro.infer.util import log_density

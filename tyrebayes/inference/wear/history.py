@@ -4,13 +4,16 @@
 :data:`tyrebayes.streams.wear_evidence.WEAR_EVIDENCE_COLUMNS`, one row per drive in drive order),
 finds the tyre changes (:func:`~tyrebayes.inference.wear.changepoint.detect_tyre_changes`) and
 lays out which tyre pair was on which axle in every interval. Each drive stands for the distance
-to the next drive's odometer reading (its own distance where there is no odometer): its friction
+to the next drive's odometer reading (its own distance where there is no odometer; the last
+drive's, to a later tread reading's odometer: :meth:`DriveHistory.through`): its friction
 work is scaled by that distance over its own. The lateral work (``work_y_front_j``,
 ``work_y_rear_j``) and the log-sd of the cornering stiffness behind it are optional columns: a
 table without them (or with them empty) has no lateral work (``lateral_source`` ``"none"``).
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import equinox as eqx
 import numpy as np
@@ -104,6 +107,35 @@ class DriveHistory(eqx.Module):
     @property
     def total_km(self) -> float:
         return float(self.interval_km.sum())
+
+    @property
+    def end_km(self) -> float:
+        """Odometer at the end of the last drive's interval [km]."""
+        return float(self.odometer_km[-1] + self.interval_km[-1])
+
+    def through(self, odometer_km: float) -> DriveHistory:
+        """The history with its last drive standing for the distance to ``odometer_km``.
+
+        Every other drive stands for the distance to the next one's odometer; the last one has
+        no next drive and stands for its own distance. A later odometer reading (a tread
+        reading's, at the service after the last logged drive) closes its interval as a next
+        drive would: the car drove on between them, and the tread the reading measured wore
+        over that distance too. Its works grow with its interval; an odometer at or before the
+        history's end changes nothing.
+        """
+        grow = (float(odometer_km) - float(self.odometer_km[-1])) / float(self.interval_km[-1])
+        if not np.isfinite(grow) or grow <= 1.0:
+            return self
+        factor = np.ones(self.n_drives)
+        factor[-1] = grow
+        return dataclasses.replace(
+            self,
+            interval_km=self.interval_km * factor,
+            scale=self.scale * factor,
+            work_j=self.work_j * factor[:, None],
+            work_sd_j=self.work_sd_j * factor[:, None],
+            work_y_j=self.work_y_j * factor[:, None],
+        )
 
 
 def _column(table: pd.DataFrame, name: str) -> np.ndarray:

@@ -268,6 +268,7 @@ def _history_attrs(history: DriveHistory, extended: bool) -> dict:
         "model": "extended" if extended else "baseline",
         "lateral_source": history.lateral_source,
         "lateral_log_sd": float(history.lateral_log_sd),
+        "history_end_km": history.end_km,
     }
 
 
@@ -305,7 +306,9 @@ def fit_wear_history(
     Returns
     -------
     Fit
-        ``kind="wear_history"``; diagnostics by :func:`~tyrebayes.inference.result.diagnose`
+        ``kind="wear_history"``, fitted to the history through its latest tread reading
+        (:meth:`~tyrebayes.inference.wear.history.DriveHistory.through`; ``history_end_km``
+        in its attributes); diagnostics by :func:`~tyrebayes.inference.result.diagnose`
         over log γ s, σ_ratio, τ (and κ); ``gamma``, ``work_scale`` and ``lateral_work_scale``
         (front, rear) are drawn after the chains (module docstring). ``data.attrs`` holds the
         history's tyre changes and the cornering stiffness' source.
@@ -321,6 +324,7 @@ def fit_wear_history(
     geom = TreadGeometry() if geom is None else geom
     exposure = read_pair = depth = None
     if readings is not None and readings.depth_mm.size:
+        history = history.through(float(np.max(readings.odometer_km)))
         exposure, read_pair = reading_exposure(history, readings)
         depth = np.asarray(readings.depth_mm)
     args = (history, exposure, read_pair, depth, extended, priors, float(geom.wear_area_mm2))

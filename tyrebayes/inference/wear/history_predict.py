@@ -277,6 +277,8 @@ def wear_history_predictions(
     """
     del readings  # the fit's initial depths carry them
     geom = TreadGeometry() if geom is None else geom
+    # the last drive's interval as the fit closed it (at its latest tread reading)
+    history = history.through(float(fit.data.attrs.get("history_end_km", history.end_km)))
     gamma = fit.draws("gamma_work")  # per joule of evidence work: what the history fixed
     has = fit.posterior.data_vars
     kappa = fit.draws("kappa") if "kappa" in has else None
