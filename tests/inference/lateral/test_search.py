@@ -56,6 +56,7 @@ def _observations(ay: np.ndarray):
         mask=jnp.ones(n, bool),
         mask_kinematic=jnp.ones(n, bool),
         longitudinal=jnp.zeros(n, bool),
+        ax=jnp.zeros(n),
         dt_s=0.1,
         road_wheel=False,
         mass_kg=jnp.asarray(1500.0),

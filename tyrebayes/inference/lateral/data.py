@@ -84,6 +84,9 @@ class CorneringObservations(eqx.Module):
     longitudinal : Bool[Array, "n"]
         Samples left out of both equations for |a_x| > :data:`MAX_LONGITUDINAL_MPS2` (braking or
         accelerating); their signals are kept, as neighbours of the derivatives.
+    ax : Float[Array, "n"]
+        a_x, the derivative of the low-passed V_x [m/s²] (what ``longitudinal`` is decided on;
+        0 where a sample is not valid).
     dt_s : Array
         Sample interval [s] (0-d: a real clock's differs from drive to drive in the fourth
         digit, and a static value would compile every program once per drive).
@@ -116,6 +119,7 @@ class CorneringObservations(eqx.Module):
     mask: Bool[Array, " n"]
     mask_kinematic: Bool[Array, " n"]
     longitudinal: Bool[Array, " n"]
+    ax: Float[Array, " n"]
     dt_s: Float[Array, ""] = eqx.field(converter=jnp.asarray)
     road_wheel: bool = eqx.field(static=True)
     mass_kg: Float[Array, ""]
@@ -129,7 +133,7 @@ class CorneringObservations(eqx.Module):
         n = self.speed.shape[0]
         for name in (
             "yaw_rate", "yaw_acceleration", "ay", "steering", "mask", "mask_kinematic",
-            "longitudinal",
+            "longitudinal", "ax",
         ):  # fmt: skip
             if getattr(self, name).shape != (n,):
                 raise ValueError(
@@ -301,6 +305,7 @@ def cornering_observations(frame: pd.DataFrame, vehicle: Vehicle) -> CorneringOb
         mask=device_array(mask),
         mask_kinematic=device_array(kinematic),
         longitudinal=device_array(longitudinal),
+        ax=arr(ax),
         dt_s=float(dt),
         road_wheel=road_wheel,
         mass_kg=jnp.asarray(float(vehicle.mass_kg)),

@@ -59,7 +59,7 @@ def padded_length(n: int) -> int:
 
 _SERIES = (
     "speed", "yaw_rate", "yaw_acceleration", "ay", "steering", "mask", "mask_kinematic",
-    "longitudinal",
+    "longitudinal", "ax",
 )  # fmt: skip
 
 

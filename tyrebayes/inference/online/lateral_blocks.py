@@ -32,7 +32,7 @@ class LateralBlocks(eqx.Module):
         As :class:`~tyrebayes.inference.lateral.CorneringObservations` (padding: speed 10 m/s,
         zeros, masked).
     ax : Float[Array, "blocks width"]
-        dV_x/dt of the low-passed speed [m/s²].
+        The observations' a_x [m/s²] (padding: zeros).
     mask, mask_kinematic : Bool[Array, "blocks width"]
         The samples each equation reads: the batch masks, less (kinematic) the block's edges.
     n_skipped : Float[Array, " blocks"]
@@ -113,6 +113,7 @@ class LateralBlocks(eqx.Module):
             mask=self.mask[i],
             mask_kinematic=self.mask_kinematic[i],
             longitudinal=jnp.zeros_like(self.mask[i]),
+            ax=self.ax[i],
             dt_s=self.dt_s,
             road_wheel=self.road_wheel,
             mass_kg=self.mass_kg,
@@ -155,7 +156,8 @@ def lateral_blocks(
     >>> obs = CorneringObservations(
     ...     speed=jnp.full(n, 20.0), yaw_rate=jnp.zeros(n), yaw_acceleration=jnp.zeros(n),
     ...     ay=jnp.zeros(n), steering=jnp.zeros(n), mask=jnp.ones(n, bool),
-    ...     mask_kinematic=jnp.ones(n, bool), longitudinal=jnp.zeros(n, bool), dt_s=0.1,
+    ...     mask_kinematic=jnp.ones(n, bool), longitudinal=jnp.zeros(n, bool),
+    ...     ax=jnp.zeros(n), dt_s=0.1,
     ...     road_wheel=False,
     ...     mass_kg=jnp.asarray(1500.0), wheelbase_m=jnp.asarray(2.7),
     ...     cog_to_front_axle_m=jnp.asarray(1.1), yaw_inertia_kgm2=jnp.asarray(2500.0),
@@ -175,7 +177,6 @@ def lateral_blocks(
     count = filled if n_blocks is None else int(n_blocks)
     total = count * width
     speed = np.asarray(obs.speed, float)
-    ax = np.gradient(speed, dt) if n > 1 else np.zeros(n)
     mask = np.asarray(obs.mask)
     kinematic = np.asarray(obs.mask_kinematic)
 
@@ -199,7 +200,7 @@ def lateral_blocks(
         yaw_acceleration=arr(obs.yaw_acceleration),
         ay=arr(obs.ay),
         steering=arr(obs.steering),
-        ax=arr(ax),
+        ax=arr(obs.ax),
         mask=device_array(padded(mask, False)),
         mask_kinematic=device_array(kinematic),
         n_skipped=device_array(padded(np.asarray(obs.longitudinal), False).sum(axis=1), dtype),
