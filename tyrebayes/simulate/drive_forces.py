@@ -115,7 +115,7 @@ def _sideslip(vehicle: Vehicle, tyre: TyreSpec, mu: float, v, yaw, yaw_acc, ay, 
 
     The path fixes the yaw rate ψ̇ = a_y / V. The rear axle's slip angle, tan α_r = (l_r ψ̇ − v_y)/V,
     gives its force through the brush curve, and with the yaw moment balance (eq. 4.23b, c) the
-    body's lateral acceleration a = (F_r + J_z ψ̇' / L) L / (m l_f) = V ψ̇ + v̇_y: a first-order
+    body's lateral acceleration a = (F_r + J_z ψ̈ / L) L / (m l_f) = V ψ̇ + v̇_y: a first-order
     equation in v_y. It relaxes to the quasi-static v_y (the one with v̇_y = 0) with the time
     constant τ = V m l_f / (L F_z,r ∂ρ/∂tan α), a few hundredths of a second, shorter than a log's
     sample interval at low speed; so it is integrated exactly over each interval for the local τ
@@ -149,7 +149,13 @@ def _sideslip(vehicle: Vehicle, tyre: TyreSpec, mu: float, v, yaw, yaw_acc, ay, 
 
 
 def _affine_scan(decay: np.ndarray, offset: np.ndarray, first: float) -> np.ndarray:
-    """y_0 = first, y_{k+1} = decay_k y_k + offset_k, for all k at once (log-depth scan)."""
+    """y_0 = first, y_{k+1} = decay_k y_k + offset_k, for all k at once (log-depth scan).
+
+    Examples
+    --------
+    >>> _affine_scan(np.array([0.5, 0.5, 2.0]), np.array([1.0, 0.0, -1.0]), 4.0).tolist()
+    [4.0, 3.0, 1.5, 2.0]
+    """
     a = np.concatenate([[0.0], decay])
     b = np.concatenate([[first], offset])
     shift = 1

@@ -87,7 +87,8 @@ class DriveTruth(eqx.Module):
     Per sample
     ----------
     time_s (as in the stream), vx_mps (true V_x of the centre of gravity), vy_mps, ax_mps2 (body
-    a_x = dV_x/dt − ψ̇ v_y, no gravity), ay_mps2, yaw_rate_radps, road_wheel_angle_rad, grade_rad,
+    a_x = dV_x/dt − ψ̇ v_y, no gravity), ay_mps2 (body a_y = V_x ψ̇ + dv_y/dt, no gravity),
+    yaw_rate_radps, road_wheel_angle_rad, grade_rad,
     c_x (driven wheels' mean C_x(T) [-]), slip_driven / rho_x_driven (driven axle: mean slip of its
     wheels and F_x/F_z of the axle; both axles for AWD), fx_front_n / fx_rear_n [N],
     friction_power_w (sum over wheels of |F_x V σ|), long_label / lat_label (codes into
