@@ -25,6 +25,9 @@ NUTS). Three sources of the cornering stiffness behind the lateral work, each it
     times exp(0.1 N(0, 1)) per axle: what the wear fit does with an inferred stiffness of that
     precision, whatever the lateral fit reaches.
 
+Tyre changes: found by the radius ratio's step test, each of the right type by that test and
+as the fit took it, with the tread readings (a change not found counts as wrong in neither).
+
 Reported per source: γ's own 90 % coverage and its one-year interval half-width (relative), the
 bias of γ's median, γ·s (γ per joule of evidence work) beside them, the per-axle wear rates' 90 %
 coverage (rear included), and the ratio of the evidence's work to the simulator's true work per
@@ -116,6 +119,7 @@ def _fit_source(table, truth, seed: int, nuts: dict) -> dict:
         "lateral_work": out["lateral_work"],
         "converged": bool(fit.converged),
         "diagnostics": fit.diagnostics.as_dict(),
+        "tyre_changes": fit.attr("tyre_changes"),
         "fit_s": time.time() - t0,
     }
 
@@ -205,6 +209,18 @@ def run_year(seed: int, n_drives: int, drive_s: float, nuts: dict) -> dict:
     }
     for name in SOURCES:
         out[name] = _fit_source(tables[name], truth, seed, nuts) if name in tables else None
+    # the types the fit took, the readings heard (the type-prior fit's; every source's history
+    # has the same changes and readings)
+    fitted_types = dict(
+        zip(
+            out["type_prior"]["tyre_changes"]["drive_index"],
+            out["type_prior"]["tyre_changes"]["change_type"],
+            strict=True,
+        )
+    )
+    for k, kind in zip(truth.change_drive_index, truth.change_type, strict=True):
+        hit = [i for i in fitted_types if abs(i - k) <= 1]
+        detection[kind]["fitted_as"] = fitted_types[hit[0]] if hit else None
     return out
 
 
@@ -307,6 +323,16 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
     summary["rotation_found"] = sum(r["detection"]["rotation"]["found"] for r in years) / n
     summary["replacement_found"] = sum(r["detection"]["replacement"]["found"] for r in years) / n
     summary["false_changes_total"] = sum(r["false_changes"] for r in years)
+
+    def typed_right(field: str) -> dict:
+        return {
+            kind: sum(r["detection"][kind].get(field) == kind for r in years)
+            for kind in ("rotation", "replacement")
+        }
+
+    right, fitted_right = typed_right("classified_as"), typed_right("fitted_as")
+    found = {kind: sum(r["detection"][kind]["found"] for r in years) for kind in right}
+    summary["changes_classified_right"] = {"ratio_test": right, "with_readings": fitted_right}
     figures += [
         figure(
             "evidence longitudinal work over true, front",
@@ -344,6 +370,20 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
         figure("rotation found", summary["rotation_found"], count=n),
         figure("replacement found", summary["replacement_found"], count=n),
         figure("false tyre changes", summary["false_changes_total"], count=n),
+        figure(
+            "found changes of the right type, the radius ratio's test",
+            sum(right.values()) / max(sum(found.values()), 1),
+            count=sum(found.values()),
+            note=f"rotations {right['rotation']} of {found['rotation']}, replacements "
+            f"{right['replacement']} of {found['replacement']}",
+        ),
+        figure(
+            "found changes of the right type, with the tread readings (what the fit used)",
+            sum(fitted_right.values()) / max(sum(found.values()), 1),
+            count=sum(found.values()),
+            note=f"rotations {fitted_right['rotation']} of {found['rotation']}, replacements "
+            f"{fitted_right['replacement']} of {found['replacement']}",
+        ),
     ]
     return summary, figures
 

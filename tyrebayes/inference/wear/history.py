@@ -137,6 +137,17 @@ class DriveHistory(eqx.Module):
             work_y_j=self.work_y_j * factor[:, None],
         )
 
+    def with_change_types(self, change_type: tuple[str, ...], probability) -> DriveHistory:
+        """The history with its changes' types (and their probabilities) replaced, and the tyre
+        pairs laid out again for them."""
+        changes = dataclasses.replace(
+            self.changes,
+            change_type=tuple(change_type),
+            probability=np.asarray(probability, dtype=float),
+        )
+        pair, n_pairs = _pairs(changes, self.n_drives)
+        return dataclasses.replace(self, changes=changes, pair=pair, n_pairs=n_pairs)
+
 
 def _column(table: pd.DataFrame, name: str) -> np.ndarray:
     if name not in table:

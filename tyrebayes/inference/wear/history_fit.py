@@ -47,6 +47,7 @@ import numpyro.distributions as dist
 from ...physics.wear import TreadGeometry
 from ..nuts import run_nuts
 from ..result import Fit, diagnose, provenance
+from .change_readings import classify_changes_by_readings
 from .data import WearPriors
 from .history import DriveHistory, TreadReadings, reading_exposure
 
@@ -308,10 +309,13 @@ def fit_wear_history(
     Fit
         ``kind="wear_history"``, fitted to the history through its latest tread reading
         (:meth:`~tyrebayes.inference.wear.history.DriveHistory.through`; ``history_end_km``
-        in its attributes); diagnostics by :func:`~tyrebayes.inference.result.diagnose`
-        over log γ s, σ_ratio, τ (and κ); ``gamma``, ``work_scale`` and ``lateral_work_scale``
-        (front, rear) are drawn after the chains (module docstring). ``data.attrs`` holds the
-        history's tyre changes and the cornering stiffness' source.
+        in its attributes) and with its tyre changes' types given the readings too
+        (:func:`~tyrebayes.inference.wear.change_readings.classify_changes_by_readings`;
+        ``tyre_changes`` in its attributes); diagnostics by
+        :func:`~tyrebayes.inference.result.diagnose` over log γ s, σ_ratio, τ (and κ);
+        ``gamma``, ``work_scale`` and ``lateral_work_scale`` (front, rear) are drawn after the
+        chains (module docstring). ``data.attrs`` holds the history's tyre changes and the
+        cornering stiffness' source.
 
     Examples
     --------
@@ -324,7 +328,14 @@ def fit_wear_history(
     geom = TreadGeometry() if geom is None else geom
     exposure = read_pair = depth = None
     if readings is not None and readings.depth_mm.size:
-        history = history.through(float(np.max(readings.odometer_km)))
+        history = classify_changes_by_readings(
+            history.through(float(np.max(readings.odometer_km))),
+            readings,
+            new_depth_mm=NEW_DEPTH_MM,
+            new_depth_sd_mm=NEW_DEPTH_SD_MM,
+            wear_area_mm2=float(geom.wear_area_mm2),
+            priors=priors,
+        )
         exposure, read_pair = reading_exposure(history, readings)
         depth = np.asarray(readings.depth_mm)
     args = (history, exposure, read_pair, depth, extended, priors, float(geom.wear_area_mm2))

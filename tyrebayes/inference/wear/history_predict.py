@@ -14,10 +14,12 @@ command turns the ratio's draws into a warning with :func:`tyrebayes.decisions.h
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pandas as pd
 
+from ..._errors import BadInputError
 from ..._resources import data_dir
 from ...physics.wear import TreadGeometry
 from ..result import Fit
@@ -277,8 +279,7 @@ def wear_history_predictions(
     """
     del readings  # the fit's initial depths carry them
     geom = TreadGeometry() if geom is None else geom
-    # the last drive's interval as the fit closed it (at its latest tread reading)
-    history = history.through(float(fit.data.attrs.get("history_end_km", history.end_km)))
+    history = as_fitted(history, fit)
     gamma = fit.draws("gamma_work")  # per joule of evidence work: what the history fixed
     has = fit.posterior.data_vars
     kappa = fit.draws("kappa") if "kappa" in has else None
@@ -313,6 +314,22 @@ def wear_history_predictions(
         n_drives=history.n_drives,
         history_km=history.total_km,
     )
+
+
+def as_fitted(history: DriveHistory, fit: Fit) -> DriveHistory:
+    """``history`` as ``fit`` read it: its last drive's interval closed at the latest tread
+    reading, and its tyre changes of the types the readings gave (the fit's attributes)."""
+    attrs = fit.data.attrs
+    history = history.through(float(attrs.get("history_end_km", history.end_km)))
+    if "tyre_changes" not in attrs:
+        return history
+    fitted = json.loads(attrs["tyre_changes"])
+    if fitted["drive_index"] != history.changes.index.tolist():
+        raise BadInputError(
+            f"wear predictions: expected the history the fit read (tyre changes at drives "
+            f"{fitted['drive_index']}), got one with changes at {history.changes.index.tolist()}"
+        )
+    return history.with_change_types(tuple(fitted["change_type"]), fitted["probability"])
 
 
 def _loss_per_drive(
