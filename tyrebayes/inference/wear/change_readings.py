@@ -20,8 +20,8 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+from scipy.linalg import solve_triangular
 from scipy.special import logsumexp
-from scipy.stats import multivariate_normal
 
 from ..._errors import BadInputError
 from .data import WearPriors
@@ -94,9 +94,13 @@ def classify_changes_by_readings(
         lost = np.einsum("mja,ja->m", exposure, loss_per_gamma)  # mm per (mm³/J)
         same = (pair[:, None] == pair[None, :]).astype(float)
         cov = new_depth_sd_mm**2 * same + priors.depth_noise_scale_mm**2 * np.eye(pair.size)
-        log_lik = np.array(
-            [multivariate_normal.logpdf(depth, new_depth_mm - np.exp(g) * lost, cov) for g in grid]
-        )
+        # depth ~ N(new − γ lost, cov) at every γ of the grid at once, through one Cholesky
+        chol = np.linalg.cholesky(cov)
+        base = solve_triangular(chol, depth - new_depth_mm, lower=True)
+        slope = solve_triangular(chol, lost, lower=True)
+        white = base[None, :] + np.exp(grid)[:, None] * slope[None, :]
+        log_lik = -0.5 * np.sum(white**2, axis=1) - np.sum(np.log(np.diag(chol)))
+        log_lik -= 0.5 * depth.size * np.log(2.0 * np.pi)
         layouts.append(tuple(types))
         log_post.append(logsumexp(log_lik + log_prior_gamma) + float(log_odds.sum()))
     if not layouts:
