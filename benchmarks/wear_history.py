@@ -370,21 +370,21 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
         figure("rotation found", summary["rotation_found"], count=n),
         figure("replacement found", summary["replacement_found"], count=n),
         figure("false tyre changes", summary["false_changes_total"], count=n),
-        figure(
-            "found changes of the right type, the radius ratio's test",
-            sum(right.values()) / max(sum(found.values()), 1),
-            count=sum(found.values()),
-            note=f"rotations {right['rotation']} of {found['rotation']}, replacements "
-            f"{right['replacement']} of {found['replacement']}",
-        ),
-        figure(
-            "found changes of the right type, with the tread readings (what the fit used)",
-            sum(fitted_right.values()) / max(sum(found.values()), 1),
-            count=sum(found.values()),
-            note=f"rotations {fitted_right['rotation']} of {found['rotation']}, replacements "
-            f"{fitted_right['replacement']} of {found['replacement']}",
-        ),
     ]
+    n_found = sum(found.values())
+    for how, typed in (
+        ("the radius ratio's test", right),
+        ("with the tread readings (what the fit used)", fitted_right),
+    ):
+        figures.append(
+            figure(
+                f"found changes of the right type, {how}",
+                sum(typed.values()) / max(n_found, 1),
+                count=n_found,
+                note=f"rotations {typed['rotation']} of {found['rotation']}, replacements "
+                f"{typed['replacement']} of {found['replacement']}",
+            )
+        )
     return summary, figures
 
 
