@@ -24,8 +24,8 @@ Modules: :mod:`.data` (priors, :class:`WearSet`, :class:`WearData`, :func:`build
 a decision: :func:`tyrebayes.decisions.high_wear_warning`.
 
 One car's own drive history (``tyrebayes fit-wear``): :mod:`.history` (:func:`drive_history`,
-:func:`tread_readings`), :mod:`.changepoint` (:func:`detect_tyre_changes`), :mod:`.change_readings`
-(the readings' say in a change's type), :mod:`.history_fit`
+:func:`tread_readings`), :mod:`.changepoint` (:func:`detect_tyre_changes`),
+:mod:`.change_readings` (the readings' say in a change's type), :mod:`.history_fit`
 (:func:`fit_wear_history`, a Fit of kind "wear_history") and :mod:`.history_predict`
 (:func:`wear_history_predictions`, a :class:`WearHistoryPrediction`); :mod:`.cornering`
 (:func:`cornering_stiffness_from_lateral`: the per-axle c_y behind the evidence's lateral work,
