@@ -72,11 +72,9 @@ def classify_changes_by_readings(
     p_reported = np.clip(np.asarray(changes.probability, dtype=float), 1e-12, 1.0 - 1e-12)
     free = np.argsort(p_reported)[:MAX_ENUMERATED_CHANGES]
     loss_per_gamma = (history.work_j + history.work_y_j) / 2.0 / wear_area_mm2  # (n, 2)
-    grid = np.log(priors.gamma_median_mm3_per_j) + priors.gamma_log_sd * np.linspace(
-        -GRID_SDS, GRID_SDS, GRID_POINTS
-    )
-    log_prior_gamma = -0.5 * np.linspace(-GRID_SDS, GRID_SDS, GRID_POINTS) ** 2
-    log_prior_gamma -= logsumexp(log_prior_gamma)
+    z = np.linspace(-GRID_SDS, GRID_SDS, GRID_POINTS)  # log γ in prior sds from its median
+    grid = np.log(priors.gamma_median_mm3_per_j) + priors.gamma_log_sd * z
+    log_prior_gamma = -0.5 * z**2 - logsumexp(-0.5 * z**2)
     depth = np.asarray(readings.depth_mm, dtype=float)
     layouts, log_post = [], []
     for flip in itertools.product((False, True), repeat=free.size):

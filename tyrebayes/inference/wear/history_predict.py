@@ -14,7 +14,6 @@ command turns the ratio's draws into a warning with :func:`tyrebayes.decisions.h
 from __future__ import annotations
 
 import dataclasses
-import json
 
 import numpy as np
 import pandas as pd
@@ -323,7 +322,7 @@ def as_fitted(history: DriveHistory, fit: Fit) -> DriveHistory:
     history = history.through(float(attrs.get("history_end_km", history.end_km)))
     if "tyre_changes" not in attrs:
         return history
-    fitted = json.loads(attrs["tyre_changes"])
+    fitted = fit.attr("tyre_changes")
     if fitted["drive_index"] != history.changes.index.tolist():
         raise BadInputError(
             f"wear predictions: expected the history the fit read (tyre changes at drives "
