@@ -176,3 +176,21 @@ def test_accelerated_em_never_lowers_the_likelihood(monkeypatch):
     )
     (w, m, v), _ = _plain_em(rho, eta, start, 120)
     assert log_liks[-1] > _mean_log_lik(rho, eta, w, m, v)
+
+
+def test_single_precision_windows_give_the_double_precision_corrections(monkeypatch):
+    # The EM's per-window arithmetic in float32 (WINDOW_DTYPE) moves E[ρ_true | ρ_obs] by a
+    # small fraction of a window's noise sd from the float64 EM's (its sums stay in float64).
+    import tyrebayes.inference.tyre.force_density as force_density
+
+    rho, eta = _skewed_drive(6, n=8000)
+    corrected = {}
+    for dtype in (np.float32, np.float64):
+        monkeypatch.setattr(force_density, "WINDOW_DTYPE", dtype)
+        mixture = deconvolve_forces(rho, eta)
+        assert mixture.means.dtype == np.float64
+        score, _ = force_density_score(rho, eta)
+        corrected[dtype] = rho + eta**2 * score
+    moved = np.abs(corrected[np.float32] - corrected[np.float64]) / eta
+    assert np.max(moved) < 0.1
+    assert np.sqrt(np.mean(moved**2)) < 0.01

@@ -47,6 +47,13 @@ N_COMPONENTS = 8
 # windowing cost: reported, not run on (ForceMixture.converged).
 _MAX_ITERATIONS = 200
 _TOLERANCE = 1e-6  # on the mean log-likelihood per window [nats]
+#: Precision of the EM's per-window arithmetic. The mixture, its extrapolation and every sum over
+#: windows stay in float64; single precision per window runs the EM 2.5 times faster on the CPU
+#: and moved E[ρ_true | ρ_obs] of two simulated one-hour drives' windows by at most 0.08 window
+#: noise sds (rms 0.005) from the double-precision EM's, against the 1.18 that stopping the EM
+#: at its step limit rather than later leaves (one-off, `tests/inference/tyre/test_force_density.py`
+#: checks the agreement).
+WINDOW_DTYPE = np.float32
 # Growth and shrinkage of the bound on the extrapolation's step length (SQUAREM's default).
 _STEP_FACTOR = 4.0
 
@@ -106,8 +113,10 @@ def deconvolve_forces(
     # Padding: a force of 0 with unit noise (finite everywhere), masked out of every sum.
     with jax.enable_x64(True):
         weights, means, variances, iterations, converged = _em(
-            device_array(np.concatenate([x, np.zeros(size - x.size)])),
-            device_array(np.concatenate([noise2[:, 0], np.ones(size - x.size)])),
+            device_array(np.concatenate([x, np.zeros(size - x.size)]).astype(WINDOW_DTYPE)),
+            device_array(
+                np.concatenate([noise2[:, 0], np.ones(size - x.size)]).astype(WINDOW_DTYPE)
+            ),
             device_array(np.arange(size) < x.size),
             device_array(means),
             device_array(variances),
@@ -157,8 +166,13 @@ def _em_step(
     window, 0 for padding. The log-likelihood returned is that of ``mixture`` (not of the mixture
     returned): it comes out of the E step at no extra cost.
     """
-    n_real = jnp.sum(weight)
-    weights, means, variances = mixture.weights, mixture.means, mixture.variances
+    # The per-window arithmetic runs in the windows' precision (float32 from deconvolve_forces),
+    # every sum over windows in the mixture's (float64): see WINDOW_DTYPE.
+    acc = mixture.means.dtype
+    n_real = jnp.sum(weight, dtype=acc)
+    weights, means, variances = (
+        a.astype(x.dtype) for a in (mixture.weights, mixture.means, mixture.variances)
+    )
     log_weights = jnp.log(weights)
     # One length-n vector per component (k is small and static): the sums over components
     # are then elementwise and fuse, where (n, k) arrays reduced over their short minor axis
@@ -181,14 +195,18 @@ def _em_step(
     gain = [variances[j] * inverse[j] for j in comps]
     post_mean = [means[j] + gain[j] * offset[j] for j in comps]
     post_var = [variances[j] * (1.0 - gain[j]) for j in comps]
-    count = jnp.stack([jnp.sum(resp[j]) for j in comps]) + 1e-300
+    count = jnp.stack([jnp.sum(resp[j], dtype=acc) for j in comps]) + 1e-300
     new_weights = jnp.maximum(count / n_real, 1e-300)
-    new_means = jnp.stack([jnp.sum(resp[j] * post_mean[j]) for j in comps]) / count
+    new_means = jnp.stack([jnp.sum(resp[j] * post_mean[j], dtype=acc) for j in comps]) / count
+    centre = new_means.astype(x.dtype)
     spread = jnp.stack(
-        [jnp.sum(resp[j] * ((post_mean[j] - new_means[j]) ** 2 + post_var[j])) for j in comps]
+        [
+            jnp.sum(resp[j] * ((post_mean[j] - centre[j]) ** 2 + post_var[j]), dtype=acc)
+            for j in comps
+        ]
     )
     new_variances = jnp.maximum(spread / count, 1e-12)
-    mean_log_lik = jnp.sum(jnp.where(weight > 0, log_norm, 0.0)) / n_real
+    mean_log_lik = jnp.sum(jnp.where(weight > 0, log_norm, 0.0), dtype=acc) / n_real
     return _Components(new_weights, new_means, new_variances), mean_log_lik
 
 
