@@ -55,6 +55,7 @@ from tyrebayes.inference.vmax import (  # noqa: E402
     MU_Y_RATIO,
     fleet_ratio_vmax_inputs,
     predict_vmax,
+    range_counts,
     type_vmax_inputs,
     vmax_draws,
 )
@@ -74,10 +75,13 @@ TRUTH_TOL_MPS = 0.02
 
 
 def _covered(draws: np.ndarray, truth: float) -> dict:
-    finite = draws[np.isfinite(draws)]
-    s = summarize(finite).to_dict()
+    """Summary of ``draws`` and whether its 90 % interval covers ``truth``; for V_max draws
+    ``not_bracketed`` counts those beyond the search range too (kept at its ends, in the
+    summary) beside the undefined ones (left out)."""
+    s = summarize(draws).to_dict()
     lo, hi = s["hdi_90"]
-    return {**s, "covered": bool(lo <= truth <= hi), "not_bracketed": int(draws.size - finite.size)}
+    beyond = range_counts(draws)
+    return {**s, "covered": bool(lo <= truth <= hi), "not_bracketed": sum(beyond.values())}
 
 
 def _ratio_rows(fit, truth_ratio: dict) -> list[dict]:

@@ -85,7 +85,7 @@ def main() -> None:
                 "pred_mean_kmh": float(np.nanmean(v)),
                 "pred_sd_kmh": float(np.nanstd(v)),
                 "pred_q05_q95_kmh": np.nanpercentile(v, [5, 95]).tolist(),
-                "not_bracketed": int(np.isnan(v).sum()),
+                "not_bracketed": sum(vm.range_counts(v).values()),
             }
         )
     res["sets"] = sets

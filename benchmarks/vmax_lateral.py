@@ -60,7 +60,11 @@ from tyrebayes import (  # noqa: E402
     type_vmax_inputs,
     vmax_draws,
 )
-from tyrebayes.inference.vmax import VmaxInputs, surface_mu_y_draws  # noqa: E402
+from tyrebayes.inference.vmax import (  # noqa: E402
+    VmaxInputs,
+    range_counts,
+    surface_mu_y_draws,
+)
 from tyrebayes.physics import AxleTyres  # noqa: E402
 
 #: The type-constant comparison's tyre: the per-tyre model's C_xr prior median (TyrePriors).
@@ -78,7 +82,9 @@ def _interval(draws_kmh: np.ndarray, truth_kmh: float) -> dict:
         "width": hi - lo,
         "covered": bool(lo <= truth_kmh <= hi),
         "error": s["mean"] - truth_kmh,
-        "not_bracketed": int(np.sum(~np.isfinite(draws_kmh))),
+        # draws beyond the search range are in the summary at its ends (predict_vmax)
+        "not_bracketed": sum(range_counts(draws_kmh).values()),
+        **range_counts(draws_kmh),
     }
 
 

@@ -73,3 +73,11 @@ def test_axle_tyres_convert_per_axle_stiffness_and_reduce_to_one_stiffness() -> 
     # equal axles are the one-stiffness model
     f = jax.jit(lambda t, v: run_margin(VEH, t, v, COURSE))
     assert float(f(AxleTyres(16.0, 16.0, 0.9), 18.0)) == float(f(Tyres(16.0, 0.9), 18.0))
+
+
+def test_a_tyre_too_slippery_for_the_search_range_lies_below_it() -> None:
+    # On ice even the range's lowest speed fails: no bracket, and the result says which end.
+    cs = critical_speed(VEH, Tyres(18.0, 0.1), COURSE, tol_mps=1.0)
+    assert (bool(cs.bracketed), bool(cs.below_range), bool(cs.above_range)) == (False, True, False)
+    ok = critical_speed(VEH, Tyres(18.0, 1.0), COURSE, tol_mps=1.0)
+    assert (bool(ok.bracketed), bool(ok.below_range), bool(ok.above_range)) == (True, False, False)

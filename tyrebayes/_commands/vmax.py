@@ -94,11 +94,19 @@ def run(args: argparse.Namespace) -> int:
         "v_max_kmh": float(cs.v_max_mps) * 3.6,
         "v_fail_kmh": float(cs.v_fail_mps) * 3.6,
         "bracketed": bool(cs.bracketed),
+        "below_range": bool(cs.below_range),
+        "above_range": bool(cs.above_range),
     }
     if args.json:
         print_json(out)
     else:
-        flag = "" if out["bracketed"] else "  (NOT bracketed: search range 29-162 km/h)"
+        flag = ""
+        if out["below_range"]:
+            flag = "  (below the search range: the course is failed at its lowest speed)"
+        elif out["above_range"]:
+            flag = "  (above the search range: the course is passed at its highest speed)"
+        elif not out["bracketed"]:
+            flag = "  (NOT bracketed: search range 29-162 km/h)"
         print(f"V_max {out['v_max_kmh']:.1f} km/h (C_y {c_y:.1f}/rad, mu_y {mu_y:.2f}){flag}")
     return 0
 
@@ -180,6 +188,17 @@ def _text(out: dict) -> str:
     ]
     if out["note"]:
         lines.append(f"note: {out['note']}")
-    if out["not_bracketed"]:
-        lines.append(f"{out['not_bracketed']} draw(s) NOT bracketed (search range 29-162 km/h)")
+    low, high = out["search_range_kmh"]
+    if out["below_range"]:
+        lines.append(
+            f"{out['below_range']} draw(s) fail the course at {low:.0f} km/h, the search's lowest "
+            f"speed: counted at {low:.1f} (V_max at most that)"
+        )
+    if out["above_range"]:
+        lines.append(
+            f"{out['above_range']} draw(s) pass at {high:.0f} km/h, the search's highest speed: "
+            f"counted at {high:.0f} (V_max at least that)"
+        )
+    if out["undefined"]:
+        lines.append(f"{out['undefined']} draw(s) fail low and pass high: no V_max, left out")
     return "\n".join(lines)

@@ -341,12 +341,23 @@ def run_margin(
     return simulate(vehicle, tyres, speed_mps, course, driver, n_steps)[0]
 
 
+#: The critical-speed search range [m/s] (29-162 km/h). Below 8 m/s the coasting car does not
+#: reach the course's end in the simulation's fixed step count, so every run fails there.
+SEARCH_RANGE_MPS = (8.0, 45.0)
+
+
 class CriticalSpeed(eqx.Module):
-    """Result of :func:`critical_speed`: speeds [m/s], flags as data."""
+    """Result of :func:`critical_speed`: speeds [m/s], flags as data.
+
+    ``below_range``: the run failed at the range's lower end (V_max is below it, or cannot be
+    resolved there); ``above_range``: it passed at the upper end (V_max is above it).
+    """
 
     v_max_mps: Float[Array, ""]  # highest speed shown to pass (lower bracket end)
     v_fail_mps: Float[Array, ""]  # lowest speed shown to fail (upper bracket end)
     bracketed: Bool[Array, ""]  # lower end passed and upper end failed at the start
+    below_range: Bool[Array, ""]
+    above_range: Bool[Array, ""]
 
 
 def critical_speed(
@@ -354,8 +365,8 @@ def critical_speed(
     tyres: Tyres | AxleTyres,
     course: Course | None = None,
     driver: Driver = DEFAULT_DRIVER,
-    v_lo_mps: float = 8.0,
-    v_hi_mps: float = 45.0,
+    v_lo_mps: float = SEARCH_RANGE_MPS[0],
+    v_hi_mps: float = SEARCH_RANGE_MPS[1],
     tol_mps: float = 0.05,
     n_steps: int = 500,
 ) -> CriticalSpeed:
@@ -379,7 +390,7 @@ def critical_speed(
         return run_margin(vehicle, tyres, v, course, driver, n_steps) > 0.0
 
     lo, hi = jnp.asarray(v_lo_mps), jnp.asarray(v_hi_mps)
-    bracketed = passes(lo) & ~passes(hi)
+    below, above = ~passes(lo), passes(hi)
 
     def body(_: Array, bounds: tuple[Array, Array]) -> tuple[Array, Array]:
         a, b = bounds
@@ -388,7 +399,7 @@ def critical_speed(
         return jnp.where(ok, mid, a), jnp.where(ok, b, mid)
 
     a, b = jax.lax.fori_loop(0, n_iter, body, (lo, hi))
-    return CriticalSpeed(a, b, bracketed)
+    return CriticalSpeed(a, b, ~below & ~above, below, above)
 
 
 def critical_speed_sensitivity(

@@ -60,8 +60,10 @@ from .inputs import TYPE_SURFACE as TYPE_SURFACE
 from .inputs import VmaxInputs as VmaxInputs
 from .lateral import lateral_vmax_inputs as lateral_vmax_inputs
 from .lateral import surface_mu_y_draws as surface_mu_y_draws
+from .prediction import SEARCH_RANGE_KMH as SEARCH_RANGE_KMH
 from .prediction import VmaxPrediction as VmaxPrediction
 from .prediction import predict_vmax as predict_vmax
+from .prediction import range_counts as range_counts
 from .prediction import vmax_draws as vmax_draws
 from .type_relations import K_TYPE as K_TYPE
 from .type_relations import MU_TYPE as MU_TYPE

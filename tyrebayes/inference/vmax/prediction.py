@@ -3,6 +3,12 @@
 Each draw runs the lane change's bisection on the critical speed (vmapped, compiled once per
 vehicle, course, driver and tolerance): :func:`vmax_draws` on arrays, :func:`predict_vmax` on a
 :class:`~tyrebayes.inference.vmax.inputs.VmaxInputs` into a :class:`VmaxPrediction`.
+
+The search covers :data:`SEARCH_RANGE_KMH`. A draw whose car fails the course at the range's
+lower end (a slippery road: V_max below 29 km/h, where the simulation cannot resolve it) or
+passes at its upper end is censored: its value is that end, and it stays in the summaries, so
+that a posterior most of whose mass lies below 29 km/h reads "at most a little above 29", never
+the speeds of its few bracketed draws.
 """
 
 from __future__ import annotations
@@ -17,6 +23,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from ...physics.lanechange import (
     DEFAULT_DRIVER,
+    SEARCH_RANGE_MPS,
     AxleTyres,
     Course,
     Driver,
@@ -27,12 +34,26 @@ from ...physics.vehicle import Vehicle
 from ..summary import summarize
 from .inputs import VmaxInputs
 
+#: The critical-speed search's ends [km/h]: a draw beyond one is censored there (module docstring).
+SEARCH_RANGE_KMH = (3.6 * SEARCH_RANGE_MPS[0], 3.6 * SEARCH_RANGE_MPS[1])
+# A bracketed draw lies at least half the bisection's last bracket inside the range; a censored
+# one at its end, up to the draws' float precision.
+_AT_END_KMH = 1e-3
+
 
 def _vmax_batch(vehicle: Vehicle, course: Course, driver: Driver, tol_mps: float):
+    low, high = SEARCH_RANGE_KMH
+
     def one(cf: Array, cr: Array, mu: Array) -> Array:
         cs = critical_speed(vehicle, AxleTyres(cf, cr, mu), course, driver, tol_mps=tol_mps)
         v = 0.5 * (cs.v_max_mps + cs.v_fail_mps) * 3.6
-        return jnp.where(cs.bracketed, v, jnp.nan)
+        # Failing at the lower end and passing at the upper one leaves no V_max at all.
+        beyond = jnp.where(
+            cs.below_range,
+            jnp.where(cs.above_range, jnp.nan, low),
+            jnp.where(cs.above_range, high, jnp.nan),
+        )
+        return jnp.where(cs.bracketed, v, beyond)
 
     return jax.jit(jax.vmap(one))
 
@@ -52,7 +73,11 @@ def vmax_draws(
     *,
     c_y_rear: Float[ArrayLike, "n"] | None = None,
 ) -> Float[Array, "n"]:
-    """V_max [km/h] per parameter draw (vmapped bisection; NaN where not bracketed).
+    """V_max [km/h] per parameter draw (vmapped bisection), censored at the search range's ends.
+
+    A draw below :data:`SEARCH_RANGE_KMH` is its lower end, one above it its upper end
+    (:func:`range_counts` counts them); NaN only where a run failed at the lower end and passed
+    at the upper one.
 
     ``c_y`` [1/rad] is both axles' normalised cornering stiffness, or the front axle's where
     ``c_y_rear`` is given (each over its static axle load, as the lateral fit reports them).
@@ -80,6 +105,24 @@ def vmax_draws(
     return batch(c_front, c_rear, mu)
 
 
+def range_counts(v_max_kmh: Float[ArrayLike, "n"]) -> dict[str, int]:
+    """How many draws of :func:`vmax_draws` lie below and above the search range, and how many
+    have no V_max: ``{"below_range", "above_range", "undefined"}``.
+
+    Examples
+    --------
+    >>> range_counts(np.array([SEARCH_RANGE_KMH[0], 55.0, SEARCH_RANGE_KMH[1], np.nan]))
+    {'below_range': 1, 'above_range': 1, 'undefined': 1}
+    """
+    v = np.asarray(v_max_kmh, dtype=float)
+    low, high = SEARCH_RANGE_KMH
+    return {
+        "below_range": int(np.sum(np.abs(v - low) < _AT_END_KMH)),
+        "above_range": int(np.sum(np.abs(v - high) < _AT_END_KMH)),
+        "undefined": int(np.sum(~np.isfinite(v))),
+    }
+
+
 @dataclasses.dataclass(frozen=True)
 class VmaxPrediction:
     """Predictive V_max of the ISO 3888-2 lane change from :func:`predict_vmax`.
@@ -87,7 +130,8 @@ class VmaxPrediction:
     Attributes
     ----------
     v_max_kmh : ndarray
-        V_max per parameter draw [km/h]; NaN where the bisection was not bracketed.
+        V_max per parameter draw [km/h]: at the search range's end for a draw beyond it, NaN
+        where a draw has none (:func:`vmax_draws`).
     inputs : VmaxInputs
         The draws it ran on and their sources.
     vehicle : str
@@ -101,6 +145,10 @@ class VmaxPrediction:
     >>> pred = VmaxPrediction(np.array([70.0, 74.0, np.nan]), x, "compact_fwd")
     >>> pred.not_bracketed, pred.summary()["mean"]
     (1, 72.0)
+    >>> low = SEARCH_RANGE_KMH[0]
+    >>> snow = VmaxPrediction(np.array([low, low, low, 31.0]), x, "compact_fwd")
+    >>> snow.to_dict()["below_range"], snow.summary()["hdi_90"][0] == low
+    (3, True)
     """
 
     v_max_kmh: np.ndarray
@@ -109,18 +157,24 @@ class VmaxPrediction:
 
     @property
     def not_bracketed(self) -> int:
-        return int(np.sum(~np.isfinite(self.v_max_kmh)))
+        """Draws whose V_max the search did not bracket: beyond its range or undefined."""
+        return sum(range_counts(self.v_max_kmh).values())
 
     def summary(self) -> dict:
-        """``{"mean", "sd", "hdi_90"}`` of the bracketed draws [km/h]."""
+        """``{"mean", "sd", "hdi_90"}`` [km/h] over the draws with a V_max, those beyond the
+        search range at its end: an interval end at a range end means "at or beyond", and the
+        mean is then a bound."""
         return summarize(self.v_max_kmh).to_dict()
 
     def to_dict(self) -> dict:
-        """``vmax FIT --json``'s object: ``v_max_kmh`` summary, sources and the inputs."""
+        """``vmax FIT --json``'s object: ``v_max_kmh`` summary, the draws below and above the
+        search range (``search_range_kmh``), sources and the inputs."""
         return {
             "v_max_kmh": self.summary(),
             "vehicle": self.vehicle,
             "not_bracketed": self.not_bracketed,
+            **range_counts(self.v_max_kmh),
+            "search_range_kmh": list(SEARCH_RANGE_KMH),
             **self.inputs.to_dict(),
         }
 
@@ -155,7 +209,7 @@ def predict_vmax(
     Returns
     -------
     VmaxPrediction
-        V_max per draw (NaN where the 29-162 km/h search did not bracket it) and the sources.
+        V_max per draw (censored at the ends of the 29-162 km/h search) and the sources.
 
     Examples
     --------
