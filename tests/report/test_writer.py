@@ -172,3 +172,13 @@ def test_inadequate_and_unconverged_fits_are_marked(tmp_path) -> None:
     assert any(line.startswith("Model inadequate") and "fleet: winter" in line for line in lines)
     write_report(report, tmp_path)
     assert "Model inadequate" in (tmp_path / "report.md").read_text()
+
+
+def test_vmax_row_with_draws_below_the_search_range_says_so() -> None:
+    from tyrebayes.report.tables import vmax_table
+
+    report = _report()
+    row = report.vmax.rows[0]
+    assert "lowest speed searched" not in vmax_table(report)[1][0][4]
+    row.update(below_range=60, above_range=0)
+    assert "60 of 100 draws fail at the lowest speed searched" in vmax_table(report)[1][0][4]

@@ -113,11 +113,23 @@ def vmax_table(report: Report) -> Table:
                 r["tyre_type"] or "–",
                 fmt(r["c_xr"]),
                 f"{cornering}; {mu_y}",
-                post(r["summary"]),
+                post(r["summary"]) + _beyond_range(r),
                 meas,
             ]
         )
     return header, rows
+
+
+def _beyond_range(row: dict) -> str:
+    """What a V_max row's draws beyond the search range mean for its interval ("" if none):
+    they count at the range's end, so an interval ending there means "or beyond"."""
+    n = f" of {len(row['draws'])}" if "draws" in row else ""
+    notes = []
+    if row.get("below_range"):
+        notes.append(f"{row['below_range']}{n} draws fail at the lowest speed searched")
+    if row.get("above_range"):
+        notes.append(f"{row['above_range']}{n} draws pass at the highest speed searched")
+    return f" ({'; '.join(notes)}: counted there)" if notes else ""
 
 
 def vmax_comparison_table(report: Report) -> Table:
