@@ -50,7 +50,7 @@ _TOLERANCE = 1e-6  # on the mean log-likelihood per window [nats]
 #: Precision of the EM's per-window arithmetic. The mixture, its extrapolation and every sum over
 #: windows stay in float64. On six simulated one-hour drives
 #: (``benchmarks/results/windows_step_float32.json``) single precision per window took the windows
-#: step from 0.70 to 0.47 CPU s per drive-hour and moved E[ρ_true | ρ_obs] by at most 0.056
+#: step from 0.74 to 0.61 CPU s per drive-hour and moved E[ρ_true | ρ_obs] by at most 0.056
 #: window noise sds (rms 0.004) from the float64 EM's, where stopping at the step limit rather
 #: than at the maximum-likelihood mixture leaves up to 1.19; each drive's fast-fit C_xr moved by
 #: at most 0.003 of its posterior sd.
