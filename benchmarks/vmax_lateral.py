@@ -76,6 +76,7 @@ TRUTH_TOL_MPS = 0.02
 
 def _interval(draws_kmh: np.ndarray, truth_kmh: float) -> dict:
     s = summarize(draws_kmh).to_dict()
+    beyond = range_counts(draws_kmh)
     lo, hi = s["hdi_90"]
     return {
         **s,
@@ -83,8 +84,8 @@ def _interval(draws_kmh: np.ndarray, truth_kmh: float) -> dict:
         "covered": bool(lo <= truth_kmh <= hi),
         "error": s["mean"] - truth_kmh,
         # draws beyond the search range are in the summary at its ends (predict_vmax)
-        "not_bracketed": sum(range_counts(draws_kmh).values()),
-        **range_counts(draws_kmh),
+        "not_bracketed": sum(beyond.values()),
+        **beyond,
     }
 
 

@@ -105,8 +105,6 @@ def run(args: argparse.Namespace) -> int:
             flag = "  (below the search range: the course is failed at its lowest speed)"
         elif out["above_range"]:
             flag = "  (above the search range: the course is passed at its highest speed)"
-        elif not out["bracketed"]:
-            flag = "  (NOT bracketed: search range 29-162 km/h)"
         print(f"V_max {out['v_max_kmh']:.1f} km/h (C_y {c_y:.1f}/rad, mu_y {mu_y:.2f}){flag}")
     return 0
 

@@ -74,14 +74,15 @@ def _vmax_row(s: dict, draws: np.ndarray, x: vm.VmaxInputs) -> dict:
     """One set's row: its draws and summary, the measured interval, the inputs' sources."""
     lo = float(s.get("measured_lo", np.nan))
     c = np.atleast_1d(np.asarray(s["c_xr"], float))
+    beyond = vm.range_counts(draws)
     return {
         "tyre": s["tyre"],
         "tyre_type": s["tyre_type"],
         "c_xr": float(c.mean()),
         "draws": draws,
         "summary": summarize(draws).to_dict(),
-        "not_bracketed": sum(vm.range_counts(draws).values()),
-        **vm.range_counts(draws),
+        "not_bracketed": sum(beyond.values()),
+        **beyond,
         "measured_lo": lo,
         "measured_hi": lo + vm.SPEED_STEP_KMH if np.isfinite(lo) else float("nan"),
         "lateral_source": x.lateral_source,

@@ -169,11 +169,12 @@ class VmaxPrediction:
     def to_dict(self) -> dict:
         """``vmax FIT --json``'s object: ``v_max_kmh`` summary, the draws below and above the
         search range (``search_range_kmh``), sources and the inputs."""
+        beyond = range_counts(self.v_max_kmh)
         return {
             "v_max_kmh": self.summary(),
             "vehicle": self.vehicle,
-            "not_bracketed": self.not_bracketed,
-            **range_counts(self.v_max_kmh),
+            "not_bracketed": sum(beyond.values()),
+            **beyond,
             "search_range_kmh": list(SEARCH_RANGE_KMH),
             **self.inputs.to_dict(),
         }
