@@ -10,7 +10,11 @@ V_x and the road-wheel angle, not wheel speeds: the lateral fit runs from what t
 The reference is a least-squares fit that does use it: each axle's slip angle from the measured
 lateral velocity (α_f = δ − (v_y + l_f r)/V_x, α_r = −(v_y − l_r r)/V_x), its force over the static
 load from a_y and ṙ as the model computes it (the vehicle file's J_z), and ρ = c α + b over the
-linear range (|ρ| < 0.35, V_x > 8 m/s), both low-passed as the fit's observations are. Also the
+linear range (|ρ| < 0.35, V_x > 8 m/s), both low-passed as the fit's observations are. Both
+variables carry noise (the INS lateral velocity, a_y), so that regression's slope is attenuated;
+regressing α on ρ instead errs the other way, and the two bound the slope a regression without
+either error would give. The bounds are reported beside the reference, and whether the fit's
+interval meets them (for K, the bounds' combinations). Also the
 real RAV4's highway minute (``tyrebayes/data/comma2k19_rav4_segment.csv``, shipped, MIT): what
 the lateral fit says and how wide it is.
 
@@ -67,11 +71,17 @@ def reference(frame: pd.DataFrame, vehicle) -> dict:
         use = (vx > 8.0) & (np.abs(rho[axle]) < 0.35)
         if use.sum() < 200:
             return {"usable": False, "reason": f"{int(use.sum())} samples in the linear range"}
-        design = np.c_[alpha[axle][use], np.ones(use.sum())]
-        coef, *_ = np.linalg.lstsq(design, rho[axle][use], rcond=None)
-        out[f"c_y_{axle}"] = float(coef[0])
+        ones = np.ones(use.sum())
+        forward = np.linalg.lstsq(np.c_[alpha[axle][use], ones], rho[axle][use], rcond=None)[0]
+        reverse = np.linalg.lstsq(np.c_[rho[axle][use], ones], alpha[axle][use], rcond=None)[0]
+        out[f"c_y_{axle}"] = float(forward[0])
+        out[f"c_y_{axle}_bounds"] = sorted([float(forward[0]), float(1.0 / reverse[0])])
         out[f"n_{axle}"] = int(use.sum())
     out["understeer_gradient"] = (1.0 / out["c_y_front"] - 1.0 / out["c_y_rear"]) / G
+    corners = [
+        (1.0 / f - 1.0 / r) / G for f in out["c_y_front_bounds"] for r in out["c_y_rear_bounds"]
+    ]
+    out["understeer_gradient_bounds"] = [min(corners), max(corners)]
     out["usable"] = True
     return out
 
@@ -104,6 +114,8 @@ def _compare(fit: dict, ref: dict) -> dict:
             "reference": ref[key],
             "difference": fit[key]["mean"] / ref[key] - 1.0,
             "reference_inside": bool(lo <= ref[key] <= hi),
+            "reference_bounds": ref[f"{key}_bounds"],
+            "meets_bounds": bool(lo <= ref[f"{key}_bounds"][1] and ref[f"{key}_bounds"][0] <= hi),
         }
     return out
 
@@ -130,6 +142,7 @@ def main() -> None:
     print("rav4", rows["comma2k19_rav4_highway"]["fit"].get("status"))
     compared = [c for r in rows.values() for c in (r.get("comparison") or {}).values()]
     inside = sum(c["reference_inside"] for c in compared)
+    meets = sum(c["meets_bounds"] for c in compared)
     low = rows["niki_gti_low_speed"]["fit"]["status"]
     figures = [
         figure(
@@ -137,6 +150,12 @@ def main() -> None:
             inside / max(len(compared), 1),
             count=len(compared),
             note=f"{inside} of {len(compared)} (c_y front, rear, K over the identified logs)",
+        ),
+        figure(
+            "real logs: fit's 90 % interval meets the reference's errors-in-variables bounds",
+            meets / max(len(compared), 1),
+            count=len(compared),
+            note=f"{meets} of {len(compared)} (the ρ-on-α and α-on-ρ regressions' slopes)",
         ),
         figure(
             "kinematic log (Niki Low_Speed) not identified",
@@ -154,9 +173,13 @@ def main() -> None:
                     100 * c["difference"],
                     unit="%",
                     count=1,
-                    note="reference inside the 90 % interval"
-                    if c["reference_inside"]
-                    else "reference outside the 90 % interval",
+                    note=(
+                        "reference inside the 90 % interval"
+                        if c["reference_inside"]
+                        else "reference outside the 90 % interval"
+                    )
+                    + f"; bounds {c['reference_bounds'][0]:.4g}-{c['reference_bounds'][1]:.4g}"
+                    + (", met" if c["meets_bounds"] else ", not met"),
                 )
             )
     path = write_result("lateral_real", {"logs": rows}, figures=figures)

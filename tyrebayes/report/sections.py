@@ -247,8 +247,6 @@ def lateral_section(lateral, name: str) -> LateralSection:
     const = data["constant_data"]
     idx = _thin(lateral.draws("c_y_front").shape[0])
     mu = lateral.draws("mu_y")[idx]
-    shape = 1.0 + lateral.draws("curve_shape_excess")[idx]
-    curvature = 1.0 - lateral.draws("curve_curvature_gap")[idx]
     rho, alpha, curve = {}, {}, {}
     for axle in ("front", "rear"):
         rho[axle] = np.asarray(const[f"rho_{axle}"], float)
@@ -256,7 +254,8 @@ def lateral_section(lateral, name: str) -> LateralSection:
         edge = max(float(np.quantile(np.abs(alpha[axle]), 0.995)), 0.01) * 1.15
         grid = np.linspace(-edge, edge, GRID_POINTS)
         c_y = lateral.draws(f"c_y_{axle}")[idx]
-        f = _shaped_curves(grid, c_y, mu, shape, curvature)
+        shape, curvature = lateral.curve_shape(axle)
+        f = _shaped_curves(grid, c_y, mu, shape[idx], curvature[idx])
         q = np.quantile(f, BAND, axis=0)
         curve[axle] = (grid, q[0], q[1], q[2])
     return LateralSection(name=name, rho=rho, alpha=alpha, curve=curve, summary=lateral.to_dict())

@@ -32,7 +32,11 @@ G = 9.80665
 
 @dataclasses.dataclass(frozen=True)
 class CorneringTruth:
-    """What a simulated cornering drive was made with (per-axle values over the static load)."""
+    """What a simulated cornering drive was made with (per-axle values over the static load).
+
+    ``shape`` and ``curvature`` are the front axle's Magic Formula C and E, ``shape_rear`` and
+    ``curvature_rear`` the rear's.
+    """
 
     c_y_front: float
     c_y_rear: float
@@ -44,6 +48,8 @@ class CorneringTruth:
     roll_gradient: float
     ay_offset: float
     manoeuvre: str
+    shape_rear: float
+    curvature_rear: float
 
     @property
     def understeer_gradient(self) -> float:
@@ -105,6 +111,8 @@ def simulate_cornering(
     mu_y: float = 1.0,
     shape: float = 1.35,
     curvature: float = -0.5,
+    shape_rear: float | None = None,
+    curvature_rear: float | None = None,
     steering_ratio_error: float = 0.02,
     steering_offset_rad: float = 0.01,
     roll_gradient: float = 0.008,
@@ -113,6 +121,10 @@ def simulate_cornering(
     noise: bool = True,
 ) -> tuple[pd.DataFrame, CorneringTruth]:
     """A stream (package contract) and its truth; module docstring for what is simulated.
+
+    ``shape`` and ``curvature`` are the Magic Formula C and E of the front axle's curve, and of
+    the rear's unless ``shape_rear`` and ``curvature_rear`` are given: an axle's curve includes
+    its load transfer, which differs between the axles.
 
     Examples
     --------
@@ -136,6 +148,8 @@ def simulate_cornering(
         roll_gradient=roll_gradient,
         ay_offset=ay_offset,
         manoeuvre=manoeuvre,
+        shape_rear=shape if shape_rear is None else shape_rear,
+        curvature_rear=curvature if curvature_rear is None else curvature_rear,
     )
     fine = np.arange(n * substeps) * (dt / substeps)
     speed, delta = _planned_inputs(manoeuvre, rng, vehicle, truth, duration_s, fine)
@@ -181,7 +195,9 @@ def _integrate(
         alpha_f = d - (vy + lf * r) / vx
         alpha_r = -(vy - lr * r) / vx
         fy_f = fz_front * _magic(alpha_f, truth.c_y_front, truth.mu_y, truth.shape, truth.curvature)
-        fy_r = fz_rear * _magic(alpha_r, truth.c_y_rear, truth.mu_y, truth.shape, truth.curvature)
+        fy_r = fz_rear * _magic(
+            alpha_r, truth.c_y_rear, truth.mu_y, truth.shape_rear, truth.curvature_rear
+        )
         return fy_f, fy_r
 
     def deriv(x, vx, d):

@@ -63,8 +63,8 @@ def test_residuals_are_the_batch_models_in_the_linear_range(drive):
     p = {
         **PARAMETERS,
         "mu_y": 1e4,
-        "curve_shape_excess": 0.34,
-        "curve_curvature_gap": 1.6,
+        **{f"curve_shape_excess_{axle}": 0.34 for axle in ("front", "rear")},
+        **{f"curve_curvature_gap_{axle}": 1.6 for axle in ("front", "rear")},
         "relaxation_length": 0.0,
     }
     # Per block, as the estimator cuts them (the kinematic derivative stays within a block).

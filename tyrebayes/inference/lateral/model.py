@@ -9,7 +9,11 @@ loads are (thesis eq. 4.22/4.23 solved for the forces, normalised as eq. 5.5)
 
 and each axle's slip angle is the tyre curve's inverse, α = f⁻¹(ρ; c_y, μ_y, C, E) (the Magic
 Formula of :func:`~tyrebayes.physics.tyre.magic_formula_inverse_and_slope`, slope c_y at zero,
-peak μ_y). Then
+peak μ_y). Each axle has its own shape C and curvature E: an axle's curve is its two tyres'
+sum under the load transfer of its share of the roll stiffness, and their tyres and loads may
+differ. With one shape for both, a car whose rear curve bends earlier than its front read the
+understeer gradient about 17 % low on the package's simulator and its fit was flagged
+(``tests/inference/lateral/test_fit.py``). Then
 
 1. **steering**: α_f − α_r = δ − L r/V_x (the lateral velocity cancels), with the road-wheel
    angle δ = (δ_sw − δ_0)/i_s. In steady cornering ṙ = 0 and this is δ = L/R + K a_y: only the
@@ -83,8 +87,10 @@ SAMPLE_SITES = (
     "roll_gradient",
     "yaw_inertia_factor",
     "relaxation_length",
-    "curve_shape_excess",
-    "curve_curvature_gap",
+    "curve_shape_excess_front",
+    "curve_shape_excess_rear",
+    "curve_curvature_gap_front",
+    "curve_curvature_gap_rear",
     "steer_noise",
     "kinematic_noise",
     "force_noise",
@@ -135,11 +141,12 @@ class LateralPriors(eqx.Module):
     yaw_inertia_log_sd : float
         Of J_z about the vehicle file's value: rarely measured, often m·l_f·l_r.
     curve_shape_excess_log_mean, curve_shape_excess_log_sd : float
-        Magic Formula shape C = 1 + exp(N(mean, sd)): the measured tyres' C − 1 has median
-        0.344 and log-sd 0.268 (``models/tyre_curves/derive_lateral_prior.py``).
+        Magic Formula shape C = 1 + exp(N(mean, sd)) of each axle, independently: the measured
+        tyres' C − 1 has median 0.344 and log-sd 0.268
+        (``models/tyre_curves/derive_lateral_prior.py``).
     curve_curvature_gap_log_mean, curve_curvature_gap_log_sd : float
-        Curvature E = 1 − exp(N(mean, sd)) (E < 1): the measured tyres' E has mean −0.63 and
-        sd 0.47, i.e. 1 − E ≈ 1.63 (log 0.489) with log-sd 0.47/1.63.
+        Curvature E = 1 − exp(N(mean, sd)) (E < 1) of each axle: the measured tyres' E has mean
+        −0.63 and sd 0.47, i.e. 1 − E ≈ 1.63 (log 0.489) with log-sd 0.47/1.63.
     relaxation_length_median_m, relaxation_length_log_sd : float
         The tyres' lateral relaxation length σ [m] (car tyres 0.3-1 m, longer at low load).
     effects : tuple of str
@@ -250,13 +257,19 @@ def axle_state(obs: CorneringObservations, p: dict) -> AxleState:
     tau = p["relaxation_length"] / obs.speed
     rho_f_lead = rho_f + tau * derivative(rho_f, obs.dt_s)
     rho_r_lead = rho_r + tau * derivative(rho_r, obs.dt_s)
-    shape = 1.0 + p["curve_shape_excess"]
-    curvature = 1.0 - p["curve_curvature_gap"]
     alpha_f, slope_f = magic_formula_inverse_and_slope(
-        rho_f_lead, p["c_y_front"], p["mu_y"], shape, curvature
+        rho_f_lead,
+        p["c_y_front"],
+        p["mu_y"],
+        1.0 + p["curve_shape_excess_front"],
+        1.0 - p["curve_curvature_gap_front"],
     )
     alpha_r, slope_r = magic_formula_inverse_and_slope(
-        rho_r_lead, p["c_y_rear"], p["mu_y"], shape, curvature
+        rho_r_lead,
+        p["c_y_rear"],
+        p["mu_y"],
+        1.0 + p["curve_shape_excess_rear"],
+        1.0 - p["curve_curvature_gap_rear"],
     )
     return AxleState(
         rho_f,
@@ -412,15 +425,16 @@ def lateral_model(
             "c_y_rear", dist.LogNormal(jnp.log(priors.c_y_median), priors.c_y_log_sd)
         ),
         "mu_y": numpyro.sample("mu_y", dist.LogNormal(jnp.log(mu_median), mu_log_sd)),
-        "curve_shape_excess": numpyro.sample(
-            "curve_shape_excess",
-            dist.LogNormal(priors.curve_shape_excess_log_mean, priors.curve_shape_excess_log_sd),
-        ),
-        "curve_curvature_gap": numpyro.sample(
-            "curve_curvature_gap",
-            dist.LogNormal(priors.curve_curvature_gap_log_mean, priors.curve_curvature_gap_log_sd),
-        ),
     }
+    for axle in ("front", "rear"):
+        p[f"curve_shape_excess_{axle}"] = numpyro.sample(
+            f"curve_shape_excess_{axle}",
+            dist.LogNormal(priors.curve_shape_excess_log_mean, priors.curve_shape_excess_log_sd),
+        )
+        p[f"curve_curvature_gap_{axle}"] = numpyro.sample(
+            f"curve_curvature_gap_{axle}",
+            dist.LogNormal(priors.curve_curvature_gap_log_mean, priors.curve_curvature_gap_log_sd),
+        )
     nuisance = {
         "steering_offset": dist.Normal(0.0, priors.steering_offset_sd_rad),
         "ay_offset": dist.Normal(0.0, priors.ay_offset_sd),

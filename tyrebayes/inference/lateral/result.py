@@ -65,6 +65,20 @@ class LateralFit:
     def draws(self, name: str) -> np.ndarray:
         return self.fit.draws(name)
 
+    def curve_shape(self, axle: str) -> tuple[np.ndarray, np.ndarray]:
+        """Draws of ``axle``'s Magic Formula shape C and curvature E ("front" or "rear").
+
+        A fit file whose model gave both axles one curve holds ``curve_shape_excess`` and
+        ``curve_curvature_gap`` without an axle; they are that axle's too.
+        """
+        if axle not in ("front", "rear"):
+            raise ValueError(f"axle: expected 'front' or 'rear', got {axle!r}")
+        suffix = f"_{axle}" if f"curve_shape_excess_{axle}" in self.fit.posterior else ""
+        return (
+            1.0 + self.draws(f"curve_shape_excess{suffix}"),
+            1.0 - self.draws(f"curve_curvature_gap{suffix}"),
+        )
+
     def to_dict(self) -> dict:
         """The ``"lateral"`` object of ``fit-tyre --json`` (``{"mean", "sd", "hdi_90"}`` each).
 

@@ -77,14 +77,20 @@ def lateral_prior(
             math.log(priors.relaxation_length_median_m),
             priors.relaxation_length_log_sd,
         ),
-        "curve_shape_excess": (
-            priors.curve_shape_excess_log_mean,
-            priors.curve_shape_excess_log_sd,
-        ),
-        "curve_curvature_gap": (
-            priors.curve_curvature_gap_log_mean,
-            priors.curve_curvature_gap_log_sd,
-        ),
+        **{
+            f"curve_shape_excess_{axle}": (
+                priors.curve_shape_excess_log_mean,
+                priors.curve_shape_excess_log_sd,
+            )
+            for axle in ("front", "rear")
+        },
+        **{
+            f"curve_curvature_gap_{axle}": (
+                priors.curve_curvature_gap_log_mean,
+                priors.curve_curvature_gap_log_sd,
+            )
+            for axle in ("front", "rear")
+        },
         "steer_noise": (math.log(priors.steer_noise_median), 1.0),
         "kinematic_noise": (math.log(priors.kinematic_noise_median), 1.0),
         "force_noise": (math.log(priors.force_noise_median), 1.0),
