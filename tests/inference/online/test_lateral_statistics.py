@@ -44,7 +44,7 @@ def drive():
 
 
 def _theta(estimator, cubic=1e-30):
-    values = {**PARAMETERS, "curve_cubic": cubic}
+    values = {**PARAMETERS, "curve_cubic_front": cubic, "curve_cubic_rear": 0.8 * cubic}
     return jnp.asarray(
         [
             values[n] if n in ("steering_offset", "ay_offset") else np.log(values[n])

@@ -1,16 +1,19 @@
 """The in-car lateral estimator: c_y front and rear and the understeer gradient, block by block.
 
-The model is the batch lateral model's (:mod:`tyrebayes.inference.lateral.model`) with its tyre
-curve to fifth order, α = (ρ/c_y)(1 + λρ² + κλ²ρ⁴): there both of its equations have residuals
+The model is the batch lateral model's (:mod:`tyrebayes.inference.lateral.model`) with each
+axle's tyre curve to fifth order, α = (ρ/c_y)(1 + λρ² + κλ²ρ⁴), λ per axle as the batch
+model's curve shape is: there both of its equations have residuals
 linear in a vector of coefficients that are functions of the physical parameters, so a drive's
 data enter only through the moments of the equations' regressors (:mod:`.lateral_statistics`),
 taken once per block, vectorised; the kinematic equation's at a few rear stiffnesses, between
 which they are interpolated (its residual passes through the rear axle's sideslip lag, which
 depends on c_r). The parameters are seven of the batch model's, on its
 unconstrained space: log c_y front and rear, the steering ratio, the steering and a_y offsets,
-the roll gradient and the yaw inertia's factor, and log λ (:func:`linear_sites`). Their Gaussian
-prior is the batch model's; λ's is what the batch model's priors of the curve's shape and of μ_y
-imply (:func:`~.lateral_curve.cubic_prior`).
+the roll gradient and the yaw inertia's factor, and log λ of each axle (:func:`linear_sites`).
+Their Gaussian prior is the batch model's; each λ's is what the batch model's priors of the
+curve's shape and of μ_y imply (:func:`~.lateral_curve.cubic_prior`), independently per axle
+(μ_y is shared in the batch model, so the two λ are correlated there through it; the
+estimator does not carry μ_y).
 
 Every :data:`~.lateral_blocks.LATERAL_STEP_S` of driving the block's moments are added to the
 faded sums and the posterior's mode is found again by Gauss-Newton steps (each equation's Jᵀ(Σ z
@@ -99,8 +102,11 @@ LINEAR_SITES = (
     "ay_offset",
     "roll_gradient",
     "yaw_inertia_factor",
-    "curve_cubic",
+    "curve_cubic_front",
+    "curve_cubic_rear",
 )
+#: The estimator's coordinates that are not the batch model's sample sites: each axle's λ.
+CUBIC_SITES = ("curve_cubic_front", "curve_cubic_rear")
 #: Steps tried along each Gauss-Newton direction (the best is kept, the current point included).
 _STEP_SCALES = (1.0, 0.5, 0.25, 0.0625, 0.0)
 
@@ -115,7 +121,7 @@ def linear_sites(priors: LateralPriors) -> tuple[str, ...]:
     >>> "roll_gradient" in linear_sites(LateralPriors().without("roll"))
     False
     """
-    full = (*sample_sites(priors), "curve_cubic")
+    full = (*sample_sites(priors), *CUBIC_SITES)
     return tuple(n for n in LINEAR_SITES if n in full)
 
 
@@ -165,20 +171,21 @@ class OnlineLateralEstimator(eqx.Module):
 
         Examples
         --------
-        >>> OnlineLateralEstimator.create().prior.names[-1]
-        'curve_cubic'
+        >>> OnlineLateralEstimator.create().prior.names[-2:]
+        ('curve_cubic_front', 'curve_cubic_rear')
         """
         priors = LateralPriors() if priors is None else priors
         full = lateral_prior(priors, surface=surface, steering_ratio=steering_ratio)
         names = linear_sites(priors)
-        rows = [full.names.index(n) for n in names[:-1]]
+        rows = [full.names.index(n) for n in names[: -len(CUBIC_SITES)]]
         cubic_mean, cubic_sd = cubic_prior(priors, surface)
         # In NumPy: each eager JAX operation would be a compiled program of its own, compiled
         # again by a fleet worker after it drops its programs.
         mean, cov = np.asarray(full.mean), np.asarray(full.cov)
+        cubic = len(CUBIC_SITES)
         prior = LateralPrior(
-            mean=device_array(np.append(mean[rows], cubic_mean)),
-            cov=device_array(block_diag(cov[np.ix_(rows, rows)], cubic_sd**2)),
+            mean=device_array(np.append(mean[rows], np.full(cubic, cubic_mean))),
+            cov=device_array(block_diag(cov[np.ix_(rows, rows)], cubic_sd**2 * np.eye(cubic))),
             names=names,
         )
         # The steering equation's noise: the sensor's and the axle forces' through the slope
@@ -227,8 +234,9 @@ class OnlineLateralEstimator(eqx.Module):
         p = dict(NULL_VALUES)
         for i, name in enumerate(self.prior.names):
             p[name] = theta[i] if name in ("steering_offset", "ay_offset") else jnp.exp(theta[i])
-        u, v, cubic = 1.0 / p["c_y_front"], 1.0 / p["c_y_rear"], p["curve_cubic"]
-        quintic = self.quintic_ratio * cubic**2
+        u, v = 1.0 / p["c_y_front"], 1.0 / p["c_y_rear"]
+        cubic_f, cubic_r = p["curve_cubic_front"], p["curve_cubic_rear"]
+        quintic_f, quintic_r = self.quintic_ratio * cubic_f**2, self.quintic_ratio * cubic_r**2
         ratio = 1.0 if blocks.road_wheel else p["steering_ratio"]
         gain = 1.0 + G * p["roll_gradient"]
         b = p["ay_offset"]
@@ -243,16 +251,16 @@ class OnlineLateralEstimator(eqx.Module):
                 -(u - v) / (gain * G),
                 -inertia * (u / lr + v / lf),
                 -one,
-                -cubic * u,
-                cubic * v,
-                -quintic * u,
-                quintic * v,
+                -cubic_f * u,
+                cubic_r * v,
+                -quintic_f * u,
+                quintic_r * v,
             ]
         )
         kinematic = jnp.stack(
             [
                 one, -gain, -b, v / G, -v * b / G, -gain * v * inertia / lf,
-                gain * v * cubic, gain * v * quintic,
+                gain * v * cubic_r, gain * v * quintic_r,
             ]
         )  # fmt: skip
         return steering, kinematic

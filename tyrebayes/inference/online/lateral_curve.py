@@ -2,10 +2,11 @@
 series holds.
 
 The estimator (:mod:`.lateral`) takes the batch model's Magic Formula to fifth order,
-α = (ρ/c_y)(1 + λρ² + κλ²ρ⁴) (:mod:`.lateral_statistics`). Its λ = k₃/μ_y² is a parameter with
-the prior the batch model's priors of the curve's shape C, curvature E and μ_y imply
-(:func:`cubic_prior`); κ = k₅/k₃² is taken at the curve priors' medians (:func:`curve_medians`);
-and the steering equation reads samples up to :data:`PEAK_SHARE` of μ_y's prior median.
+α = (ρ/c_y)(1 + λρ² + κλ²ρ⁴) (:mod:`.lateral_statistics`). Each axle's λ = k₃/μ_y² is a
+parameter with the prior the batch model's priors of the curve's shape C, curvature E and μ_y
+imply (:func:`cubic_prior`); κ = k₅/k₃² is taken at the curve priors' medians
+(:func:`curve_medians`); and the steering equation reads samples up to :data:`PEAK_SHARE` of
+μ_y's prior median.
 """
 
 from __future__ import annotations

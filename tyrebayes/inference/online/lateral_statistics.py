@@ -3,9 +3,9 @@
 Near zero the batch model's tyre curve (the Magic Formula,
 :func:`~tyrebayes.physics.magic_formula.magic_formula_inverse_and_slope`) departs from its
 tangent by odd powers, α = (ρ/c_y)(1 + λ ρ² + κλ² ρ⁴ + …) with λ = k₃/μ_y² and κ = k₅/k₃²
-(:func:`~tyrebayes.physics.magic_formula.magic_formula_inverse_series`; κ at the curve priors'
-medians, where it changes the fifth-order term, itself about 2 % of α at 60 % of the peak, by a
-fraction of it). To that order both equations of the batch lateral model
+(:func:`~tyrebayes.physics.magic_formula.magic_formula_inverse_series`; λ_f and λ_r per axle;
+κ at the curve priors' medians, where it changes the fifth-order term, itself about 2 % of α at
+60 % of the peak, by a fraction of it). To that order both equations of the batch lateral model
 (:mod:`tyrebayes.inference.lateral.model`) have residuals that are *linear* in a vector of
 coefficients, and the coefficients are functions of the physical parameters. With u = 1/c_f, v =
 1/c_r, the roll gain Γ = 1 + g k_φ, the a_y offset b, the steering-wheel offset δ₀, the steering
@@ -14,14 +14,14 @@ L r/V_x = α_f − α_r reads
 
     e_s = z_s · c_s,   z_s = [δ_sw, 1, a_y, ṙ, L r/V_x, ρ̃_f³, ρ̃_r³, ρ̃_f⁵, ρ̃_r⁵],
     c_s = [1/i_s, −δ₀/i_s + (u − v) b/(Γ g), −(u − v)/(Γ g), −f P (u/l_r + v/l_f), −1,
-           −λu, λv, −κλ²u, κλ²v],
+           −λ_f u, λ_r v, −κλ_f²u, κλ_r²v],
 
 and the kinematic equation a_y = Γ (V_x r + l_r ṙ − d(V_x α_r)/dt) + b, premultiplied by the
 compact derivative's P (D = P⁻¹Q, :func:`~tyrebayes.inference.lateral.model.sideslip_lag`),
 
     P e_k = z_k · c_k,
     z_k = [P a_y, P(V_x r + l_r ṙ), P 1, Q(V_x a_y), Q V_x, Q(V_x ṙ), Q(V_x ρ̃_r³), Q(V_x ρ̃_r⁵)],
-    c_k = [1, −Γ, −b, v/g, −v b/g, −Γ v f P/l_f, Γ v λ, Γ v κλ²].
+    c_k = [1, −Γ, −b, v/g, −v b/g, −Γ v f P/l_f, Γ v λ_r, Γ v κλ_r²].
 
 The batch model's residual is that error through the rear axle's sideslip lag, Λ(Q + PΛ)⁻¹ P e_k
 with Λ = g c_r/V_x in the linear range: it takes out the a_y noise that the slip angle's rate
