@@ -9,11 +9,11 @@ loads are (thesis eq. 4.22/4.23 solved for the forces, normalised as eq. 5.5)
 
 and each axle's slip angle is the tyre curve's inverse, α = f⁻¹(ρ; c_y, μ_y, C, E) (the Magic
 Formula of :func:`~tyrebayes.physics.tyre.magic_formula_inverse_and_slope`, slope c_y at zero,
-peak μ_y). Each axle has its own shape C and curvature E: an axle's curve is its two tyres'
-sum under the load transfer of its share of the roll stiffness, and their tyres and loads may
-differ. With one shape for both, a car whose rear curve bends earlier than its front read the
-understeer gradient about 17 % low on the package's simulator and its fit was flagged
-(``tests/inference/lateral/test_fit.py``). Then
+peak μ_y). Each axle has its own shape C and curvature E (the ``axle_shapes`` effect): an
+axle's curve is its two tyres' sum under the load transfer of its share of the roll stiffness,
+and their tyres and loads may differ. With one shape for both, the axle whose curve bends
+earlier pulls the other's slope (``tests/inference/lateral/test_fit.py``: a simulated car whose
+rear curve is the rounder one). Then
 
 1. **steering**: α_f − α_r = δ − L r/V_x (the lateral velocity cancels), with the road-wheel
    angle δ = (δ_sw − δ_0)/i_s. In steady cornering ṙ = 0 and this is δ = L/R + K a_y: only the
@@ -52,14 +52,22 @@ from ..surface_friction import MU_LOG_SD, MU_MEDIAN
 from .data import CorneringObservations, G
 
 #: The nuisance effects the model knows: the a_y sensor's roll gain and offset, the steering
-#: angle offset, the tyres' relaxation length and the yaw inertia's uncertainty.
-LATERAL_EFFECTS = ("roll", "ay_offset", "steering_offset", "relaxation", "yaw_inertia")
+#: angle offset, the tyres' relaxation length, the yaw inertia's uncertainty and a curve shape
+#: per axle (left out, the front's curve shape serves both axles).
+LATERAL_EFFECTS = (
+    "roll",
+    "ay_offset",
+    "steering_offset",
+    "relaxation",
+    "yaw_inertia",
+    "axle_shapes",
+)
 #: The effects a fit carries by default. The relaxation length is left out: on the external
 #: cornering drives its ELPD gain was negative and it moved c_y away from the truth
 #: (``benchmarks/results/lateral_effects.json``); a car's relaxation lag at 10 Hz is below
 #: what the data resolve.
-DEFAULT_EFFECTS = ("roll", "ay_offset", "steering_offset", "yaw_inertia")
-#: Each effect's value where it is left out.
+DEFAULT_EFFECTS = ("roll", "ay_offset", "steering_offset", "yaw_inertia", "axle_shapes")
+#: Each effect's value where it is left out (``axle_shapes``: the rear takes the front's shape).
 NULL_VALUES = {
     "roll_gradient": 0.0,
     "ay_offset": 0.0,
@@ -67,13 +75,14 @@ NULL_VALUES = {
     "relaxation_length": 0.0,
     "yaw_inertia_factor": 1.0,
 }
-#: The sample site of each effect.
+#: The sample sites of each effect.
 EFFECT_SITES = {
-    "roll": "roll_gradient",
-    "ay_offset": "ay_offset",
-    "steering_offset": "steering_offset",
-    "relaxation": "relaxation_length",
-    "yaw_inertia": "yaw_inertia_factor",
+    "roll": ("roll_gradient",),
+    "ay_offset": ("ay_offset",),
+    "steering_offset": ("steering_offset",),
+    "relaxation": ("relaxation_length",),
+    "yaw_inertia": ("yaw_inertia_factor",),
+    "axle_shapes": ("curve_shape_excess_rear", "curve_curvature_gap_rear"),
 }
 #: The model's sample sites, in the order of the fitters' flat parameter vectors (the batch fit's
 #: and the in-car estimator's).
@@ -112,7 +121,7 @@ def sample_sites(priors: LateralPriors, *, road_wheel: bool = False) -> tuple[st
     >>> "steering_ratio" in sample_sites(LateralPriors(), road_wheel=True)
     False
     """
-    left_out = {EFFECT_SITES[e] for e in LATERAL_EFFECTS if e not in priors.effects}
+    left_out = {n for e in LATERAL_EFFECTS if e not in priors.effects for n in EFFECT_SITES[e]}
     if road_wheel:
         left_out.add("steering_ratio")
     return tuple(n for n in SAMPLE_SITES if n not in left_out)
@@ -268,8 +277,8 @@ def axle_state(obs: CorneringObservations, p: dict) -> AxleState:
         rho_r_lead,
         p["c_y_rear"],
         p["mu_y"],
-        1.0 + p["curve_shape_excess_rear"],
-        1.0 - p["curve_curvature_gap_rear"],
+        1.0 + p.get("curve_shape_excess_rear", p["curve_shape_excess_front"]),
+        1.0 - p.get("curve_curvature_gap_rear", p["curve_curvature_gap_front"]),
     )
     return AxleState(
         rho_f,
@@ -426,7 +435,7 @@ def lateral_model(
         ),
         "mu_y": numpyro.sample("mu_y", dist.LogNormal(jnp.log(mu_median), mu_log_sd)),
     }
-    for axle in ("front", "rear"):
+    for axle in ("front", "rear") if "axle_shapes" in priors.effects else ("front",):
         p[f"curve_shape_excess_{axle}"] = numpyro.sample(
             f"curve_shape_excess_{axle}",
             dist.LogNormal(priors.curve_shape_excess_log_mean, priors.curve_shape_excess_log_sd),
@@ -446,7 +455,7 @@ def lateral_model(
         ),
         "yaw_inertia_factor": dist.LogNormal(0.0, priors.yaw_inertia_log_sd),
     }
-    included = {EFFECT_SITES[e] for e in priors.effects}
+    included = {n for e in priors.effects for n in EFFECT_SITES[e]}
     for site, prior in nuisance.items():
         p[site] = numpyro.sample(site, prior) if site in included else NULL_VALUES[site]
     if not obs.road_wheel:

@@ -68,12 +68,14 @@ class LateralFit:
     def curve_shape(self, axle: str) -> tuple[np.ndarray, np.ndarray]:
         """Draws of ``axle``'s Magic Formula shape C and curvature E ("front" or "rear").
 
-        A fit file whose model gave both axles one curve holds ``curve_shape_excess`` and
-        ``curve_curvature_gap`` without an axle; they are that axle's too.
+        A fit without the ``axle_shapes`` effect holds the front's, which serves both axles; a
+        fit file whose model gave both axles one curve holds ``curve_shape_excess`` and
+        ``curve_curvature_gap`` without an axle.
         """
         if axle not in ("front", "rear"):
             raise ValueError(f"axle: expected 'front' or 'rear', got {axle!r}")
-        suffix = f"_{axle}" if f"curve_shape_excess_{axle}" in self.fit.posterior else ""
+        post = self.fit.posterior
+        suffix = next((s for s in (f"_{axle}", "_front") if f"curve_shape_excess{s}" in post), "")
         return (
             1.0 + self.draws(f"curve_shape_excess{suffix}"),
             1.0 - self.draws(f"curve_curvature_gap{suffix}"),

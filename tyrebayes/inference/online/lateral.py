@@ -105,7 +105,8 @@ LINEAR_SITES = (
     "curve_cubic_front",
     "curve_cubic_rear",
 )
-#: The estimator's coordinates that are not the batch model's sample sites: each axle's λ.
+#: The estimator's coordinates that are not the batch model's sample sites: each axle's λ (the
+#: front's alone, serving both axles, where the priors leave out ``axle_shapes``).
 CUBIC_SITES = ("curve_cubic_front", "curve_cubic_rear")
 #: Steps tried along each Gauss-Newton direction (the best is kept, the current point included).
 _STEP_SCALES = (1.0, 0.5, 0.25, 0.0625, 0.0)
@@ -121,7 +122,8 @@ def linear_sites(priors: LateralPriors) -> tuple[str, ...]:
     >>> "roll_gradient" in linear_sites(LateralPriors().without("roll"))
     False
     """
-    full = (*sample_sites(priors), *CUBIC_SITES)
+    cubic = CUBIC_SITES if "axle_shapes" in priors.effects else CUBIC_SITES[:1]
+    full = (*sample_sites(priors), *cubic)
     return tuple(n for n in LINEAR_SITES if n in full)
 
 
@@ -177,12 +179,12 @@ class OnlineLateralEstimator(eqx.Module):
         priors = LateralPriors() if priors is None else priors
         full = lateral_prior(priors, surface=surface, steering_ratio=steering_ratio)
         names = linear_sites(priors)
-        rows = [full.names.index(n) for n in names[: -len(CUBIC_SITES)]]
+        cubic = sum(n in CUBIC_SITES for n in names)
+        rows = [full.names.index(n) for n in names[:-cubic]]
         cubic_mean, cubic_sd = cubic_prior(priors, surface)
         # In NumPy: each eager JAX operation would be a compiled program of its own, compiled
         # again by a fleet worker after it drops its programs.
         mean, cov = np.asarray(full.mean), np.asarray(full.cov)
-        cubic = len(CUBIC_SITES)
         prior = LateralPrior(
             mean=device_array(np.append(mean[rows], np.full(cubic, cubic_mean))),
             cov=device_array(block_diag(cov[np.ix_(rows, rows)], cubic_sd**2 * np.eye(cubic))),
@@ -235,7 +237,8 @@ class OnlineLateralEstimator(eqx.Module):
         for i, name in enumerate(self.prior.names):
             p[name] = theta[i] if name in ("steering_offset", "ay_offset") else jnp.exp(theta[i])
         u, v = 1.0 / p["c_y_front"], 1.0 / p["c_y_rear"]
-        cubic_f, cubic_r = p["curve_cubic_front"], p["curve_cubic_rear"]
+        cubic_f = p["curve_cubic_front"]
+        cubic_r = p.get("curve_cubic_rear", cubic_f)
         quintic_f, quintic_r = self.quintic_ratio * cubic_f**2, self.quintic_ratio * cubic_r**2
         ratio = 1.0 if blocks.road_wheel else p["steering_ratio"]
         gain = 1.0 + G * p["roll_gradient"]
