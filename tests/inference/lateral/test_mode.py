@@ -54,3 +54,18 @@ def test_a_worker_that_dropped_its_programs_reads_the_search_from_disk(
     for got in (stored, again):
         np.testing.assert_allclose(got[0], plain[0], rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(got[2], plain[2], rtol=1e-9)
+
+
+def test_a_mode_far_from_mu_ys_prior_is_searched_for_again_from_it():
+    """The package's drive simulator (brush curve, load transfer) on a dry road: from the
+    priors' medians the search ended in a minimum at a low μ_y that the drive seemed to near
+    (a claim on a dry road) with c_y high; the lower minimum lies near the prior's μ_y."""
+    from tyrebayes import fit_lateral, validate_stream
+    from tyrebayes.simulate import simulate_drive
+
+    frame, truth = simulate_drive(6, VEHICLE, "summer", duration_s=600.0, sample_rate_hz=100.0)
+    obs = cornering_observations(validate_stream(frame, VEHICLE).data, VEHICLE)
+    d = fit_lateral(obs).to_dict()
+    assert not d["mu_y_observed"], d["mu_y"]
+    for axle in ("c_y_front", "c_y_rear"):
+        assert abs(d[axle]["mean"] / truth.c_y_per_rad - 1.0) < 0.08, (axle, d[axle])

@@ -226,7 +226,8 @@ def _weighted_mode(obs, priors, surface, max_steps):
     modes searched on all its samples from the priors' medians: the unweighted potential can
     have several local minima, and on a short steady drive, whose gradient rests on the
     steering ratio's prior, the residuals' VIF at a subset's mode was well below that at all
-    samples'.
+    samples'. A mode whose μ_y lies far from its prior's median is searched for once more
+    from that median (the comment below says why).
     Returns ``(mode, converged, hessian, weights, vif)``.
     """
     dtype = obs.ay.dtype
@@ -245,4 +246,24 @@ def _weighted_mode(obs, priors, surface, max_steps):
     )
     weights = jnp.asarray([1.0 / vif[0], 1.0 / vif[1]], dtype=dtype)
     mode, ok, hess = _levels(obs, mode, (search, None), weights, priors, mu_prior, max_steps)
+    # A curve that bends early is told by a low μ_y or by its shape: the potential can hold a
+    # minimum in each. A mode whose μ_y lies more than one prior sd from the prior's median is
+    # searched for again from that median, and the lower of the two minima kept. On a brush
+    # curve with load transfer (a drive of benchmarks/lateral_simulated_drives.py, and
+    # tests/inference/lateral/test_mode.py) a search from the priors' medians ended at a low
+    # μ_y on a dry road, claimed it and read c_y high, where a lower minimum lay near the
+    # prior's μ_y.
+    i = _site_names(obs.road_wheel, priors).index("mu_y")
+    if abs(float(mode[i] - start[i])) > priors.mu_y_prior(surface)[1]:
+        again = np.asarray(mode).copy()
+        again[i] = float(start[i])
+        other = _levels(
+            obs, jnp.asarray(again), (search, None), weights, priors, mu_prior, max_steps
+        )
+        potential = _stored(_potential_at, priors)
+        scale = jnp.asarray(1.0, dtype=dtype)
+        if float(potential(other[0], obs, weights, scale, mu_prior)) < float(
+            potential(mode, obs, weights, scale, mu_prior)
+        ):
+            mode, ok, hess = other
     return mode, ok, hess, weights, vif
