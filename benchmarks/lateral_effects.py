@@ -40,7 +40,6 @@ def _errors(summary: dict, truth: dict | None) -> dict | None:
 
 def _row(name: str, obs, surface: str, truth: dict | None) -> dict:
     result = criticize_lateral_effects(obs, surface=surface)
-    full_errors = _errors(result.full, truth)
     gains = []
     for g in result.gains:
         entry = {
@@ -49,10 +48,12 @@ def _row(name: str, obs, surface: str, truth: dict | None) -> dict:
             "elpd_gain_se": g.elpd_gain_se,
             "found": g.found,
         }
-        errors = _errors(g.without, truth)
+        errors, with_errors = _errors(g.without, truth), _errors(g.with_effect, truth)
         if errors is not None:
             entry["abs_error_without"] = {k: abs(v) for k, v in errors.items()}
-            entry["abs_error_change"] = {k: abs(full_errors[k]) - abs(errors[k]) for k in KEYS}
+            # with the effect against without it: for an effect the default leaves out, the
+            # fit with it added against the default's
+            entry["abs_error_change"] = {k: abs(with_errors[k]) - abs(errors[k]) for k in KEYS}
         gains.append(entry)
     print(name, {g["effect"]: (round(g["elpd_gain"], 1), g["found"]) for g in gains}, flush=True)
     return {"log": name, "default_errors": _errors(result.full, truth), "gains": gains}
