@@ -176,7 +176,7 @@ class LateralPriors(eqx.Module):
     --------
     >>> priors = LateralPriors()
     >>> priors.c_y_median, priors.effects
-    (16.5, ('roll', 'ay_offset', 'steering_offset', 'yaw_inertia'))
+    (16.5, ('roll', 'ay_offset', 'steering_offset', 'yaw_inertia', 'axle_shapes'))
     >>> LateralPriors(c_y_median=20.0).c_y_median
     20.0
     """
