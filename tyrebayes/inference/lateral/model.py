@@ -63,10 +63,11 @@ LATERAL_EFFECTS = (
     "axle_shapes",
 )
 #: The effects a fit carries by default. The relaxation length is left out: its ELPD gain is
-#: within two SEs on every external cornering drive and real log
-#: (``benchmarks/results/lateral_effects.json``); a car's relaxation lag at 10 Hz is below what
-#: the data resolve. The per-axle curve shapes are in: their ELPD gain is found on the two real
-#: logs there, and on the external drives they bring the understeer gradient's error down.
+#: within two SEs on every external cornering drive and real log, and with it the mean of the
+#: external drives' c_y and K errors grows (``benchmarks/results/lateral_effects.json``); a
+#: car's relaxation lag at 10 Hz is below what the data resolve. The per-axle curve shapes are
+#: in: their ELPD gain is found on the two real logs there, and on the external drives they
+#: bring the understeer gradient's error down.
 DEFAULT_EFFECTS = ("roll", "ay_offset", "steering_offset", "yaw_inertia", "axle_shapes")
 #: Each effect's value where it is left out (``axle_shapes``: the rear takes the front's shape).
 NULL_VALUES = {
