@@ -33,16 +33,25 @@ bias of γ's median, γ·s (γ per joule of evidence work) beside them, the per-
 coverage (rear included), and the ratio of the evidence's work to the simulator's true work per
 axle and component.
 
-Run ``python benchmarks/wear_history.py [--years 10] [--drives 30] [--samples 800]``; results go to
-``benchmarks/results/wear_history.json``. Timings are taken on a machine shared with other jobs.
+Also per year: the slope of the evidence's radius-ratio drift on the true tread loss (1 where the
+ratio follows the wear), which a year's γ error follows; the bias of γ's median over the years is
+given with its bootstrap standard error.
+
+Run ``python benchmarks/wear_history.py [--years 10] [--drives 30] [--samples 800] [--jobs 1]``;
+results go to ``benchmarks/results/wear_history.json``. Timings are taken on a machine shared
+with other jobs.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import functools
+import multiprocessing
 import sys
 import tempfile
 import time
+from concurrent.futures import ProcessPoolExecutor
 
 import jax
 from _results import figure, to_jsonable, write_result  # noqa: E402
@@ -141,6 +150,37 @@ def _lateral_fit(paths, vehicle) -> tuple[CorneringStiffness | None, dict]:
     return None, {"tries": tries}
 
 
+def _drift_slope_over_truth(table, truth, radius_m: float) -> float:
+    """The year's radius-ratio drift against the true tread loss: 1 where the ratio follows it.
+
+    The least-squares slope of the evidence's front/rear radius ratio (relative) on the true
+    front-minus-rear tread depth at each drive's start [mm] times the nominal radius [mm], with
+    one offset per tyre-set segment (between tyre changes). The wear fit reads γ·s mostly from
+    this drift, so a year's γ error follows its slope: what is left of the ratio's
+    drive-to-drive noise after a year's drives.
+    """
+    depth = np.asarray(truth.depth_mm)
+    diff = depth[:, :2].mean(axis=1) - depth[:, 2:].mean(axis=1)
+    ratio = table["radius_ratio_front_rear"].to_numpy(dtype=float)
+    segment = np.zeros(len(ratio), dtype=int)
+    for k in truth.change_drive_index:
+        segment[k:] += 1
+    offsets = [(segment == s).astype(float) for s in np.unique(segment)]
+    design = np.column_stack([diff, *offsets])
+    ok = np.isfinite(ratio)
+    coef = np.linalg.lstsq(design[ok], ratio[ok], rcond=None)[0]
+    return float(coef[0] * radius_m * 1000.0)
+
+
+def _bootstrap_se(values: list[float], statistic=np.median, draws: int = 4000) -> float | None:
+    """Standard error of ``statistic`` over the years, by resampling them (fixed seed)."""
+    if len(values) < 2:
+        return None
+    x = np.asarray(values, dtype=float)
+    idx = np.random.default_rng(0).integers(0, x.size, size=(draws, x.size))
+    return float(np.std(statistic(x[idx], axis=1)))
+
+
 def run_year(seed: int, n_drives: int, drive_s: float, nuts: dict) -> dict:
     vehicle = load_vehicle("compact_fwd")
     rng = np.random.default_rng(seed + 17)
@@ -199,6 +239,9 @@ def run_year(seed: int, n_drives: int, drive_s: float, nuts: dict) -> dict:
         "lateral_share_rear": float(true_y[1] / (true_x[1] + true_y[1])),
         "detection": detection,
         "false_changes": len(false_changes),
+        "radius_drift_slope_over_truth": _drift_slope_over_truth(
+            table, truth, vehicle.wheel_radius_m
+        ),
         "evidence_work_over_true": {
             "x_front": float(ev_x[0] / true_x[0]),
             "x_rear": float(ev_x[1] / true_x[1]),
@@ -238,6 +281,15 @@ def _median(values: list[float]) -> float | None:
     return float(np.median(values)) if values else None
 
 
+def _bias_note(se: float | None) -> str:
+    if se is None:
+        return ""
+    return (
+        f"median over the years of γ's median / truth - 1; its standard error {se:.3f} "
+        "(bootstrap over the years)"
+    )
+
+
 def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
     n = len(years)
     summary: dict = {"years": n, "gamma_true": GAMMA, "kappa_true": KAPPA}
@@ -256,7 +308,8 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
         k = len(done)
         g_cov = _share(done, source, "gamma", "covers_truth") if done else None
         hw = _median([r[source]["gamma"]["half_width_rel"] for r in done])
-        bias = _median([r[source]["gamma"]["median"] / GAMMA - 1.0 for r in done])
+        errors = [r[source]["gamma"]["median"] / GAMMA - 1.0 for r in done]
+        bias, bias_se = _median(errors), _bootstrap_se(errors)
         gw_cov = _share(done, source, "gamma_work", "covers_truth") if done else None
         gw_hw = _median([r[source]["gamma_work"]["half_width_rel"] for r in done])
         front = (
@@ -268,6 +321,7 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
             "gamma_coverage_90": g_cov,
             "gamma_half_width_one_year": hw,
             "gamma_median_bias": bias,
+            "gamma_median_bias_se": bias_se,
             "gamma_work_coverage_90": gw_cov,
             "gamma_work_half_width_one_year": gw_hw,
             "rate_coverage_90_front": front,
@@ -298,7 +352,13 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
                 headline=source == "type_prior",
                 **kw,
             ),
-            figure(f"gamma median bias ({label})", bias, target=("abs<=", 0.1), **kw),
+            figure(
+                f"gamma median bias ({label})",
+                bias,
+                target=("abs<=", 0.1),
+                note=_bias_note(bias_se),
+                **kw,
+            ),
             figure(f"gamma*s 90% coverage ({label})", gw_cov, **kw),
             figure(f"gamma*s one-year 90% half-width ({label})", gw_hw, **kw),
             figure(f"front wear-rate 90% coverage ({label})", front, target=(">=", 0.8), **kw),
@@ -315,6 +375,13 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
     fitted = [r for r in years if r["c_y_lateral_fit"] is not None]
     c_y_over_truth = _median([c / r["c_y_true"] for r in fitted for c in r["c_y_lateral_fit"]])
     summary["lateral_fit_c_y_over_truth_median"] = c_y_over_truth
+    slopes = [r["radius_drift_slope_over_truth"] for r in years]
+    summary["radius_drift_slope_over_truth"] = {
+        "mean": float(np.mean(slopes)),
+        "se": float(np.std(slopes, ddof=1) / np.sqrt(len(slopes))) if len(slopes) > 1 else None,
+        "min": float(np.min(slopes)),
+        "max": float(np.max(slopes)),
+    }
     summary["years_without_usable_lateral_fit"] = n - len(fitted)
     summary["evidence_work_over_true_median"] = ratios
     summary["lateral_share_of_true_work_median"] = float(
@@ -367,6 +434,19 @@ def _summary(years: list[dict]) -> tuple[dict, list[dict]]:
             ratios["y_rear_posterior_stand_in"],
             count=n,
         ),
+        figure(
+            "radius-ratio drift over the true tread loss, mean over years",
+            summary["radius_drift_slope_over_truth"]["mean"],
+            count=n,
+            note=(
+                "slope of the evidence's front/rear radius ratio on the true depth difference, "
+                "times the radius, per year; standard error "
+                f"{summary['radius_drift_slope_over_truth']['se'] or float('nan'):.3f}, range "
+                f"{summary['radius_drift_slope_over_truth']['min']:.2f}-"
+                f"{summary['radius_drift_slope_over_truth']['max']:.2f}: a year's γ error "
+                "follows its slope"
+            ),
+        ),
         figure("rotation found", summary["rotation_found"], count=n),
         figure("replacement found", summary["replacement_found"], count=n),
         figure("false tyre changes", summary["false_changes_total"], count=n),
@@ -394,12 +474,22 @@ def main(argv=None) -> int:
     parser.add_argument("--drives", type=int, default=30, help="logged drives per year")
     parser.add_argument("--drive-s", type=float, default=600.0, help="length of a logged drive")
     parser.add_argument("--samples", type=int, default=800, help="NUTS warm-up and draws")
+    parser.add_argument("--jobs", type=int, default=1, help="years simulated and fitted at once")
     args = parser.parse_args(argv)
     nuts = {"num_warmup": args.samples, "num_samples": args.samples, "num_chains": 2}
+    seeds = [1000 + y for y in range(args.years)]
+    run = functools.partial(run_year, n_drives=args.drives, drive_s=args.drive_s, nuts=nuts)
     years = []
-    for y in range(args.years):
-        years.append(run_year(1000 + y, args.drives, args.drive_s, nuts))
-        print(str(to_jsonable(years[-1]))[:300], flush=True)
+    with contextlib.ExitStack() as stack:
+        if args.jobs > 1:
+            spawn = multiprocessing.get_context("spawn")
+            pool = stack.enter_context(ProcessPoolExecutor(args.jobs, mp_context=spawn))
+            results = pool.map(run, seeds)
+        else:
+            results = map(run, seeds)
+        for year in results:
+            years.append(year)
+            print(str(to_jsonable(year))[:300], flush=True)
     summary, figures = _summary(years)
     headline = summary["type_prior"]
     payload = {
