@@ -49,7 +49,9 @@ def test_streams_end_to_end(tiny_year, tmp_path, capsys):
         assert key in out
     assert out["km_to_1_6mm"]["mean"] > out["km_to_3mm"]["mean"]
     assert isinstance(out["high_wear"]["warning"], bool)
+    # the drives' own lateral fits are tried first: 90 s drives corner too little for one
     assert out["lateral_work"]["cornering_stiffness_source"] == "type_prior"
+    assert out["lateral_work"]["note"].startswith("no usable lateral fit among the first 5")
     assert out["lateral_work"]["share_of_work"]["rear"] > 0.5  # the drives corner
     fit = load_fit(fit_path, kind="wear_history")
     assert "predictions" in fit.data.attrs
@@ -98,6 +100,14 @@ def test_the_summary_table_gives_the_same_answer(tiny_year, capsys):
     again = json.loads(capsys.readouterr().out)
     assert code in (0, 3)
     assert again["gamma_work"]["mean"] == pytest.approx(out["gamma_work"]["mean"], rel=1e-6)
+
+
+def test_the_type_prior_and_a_tyre_fit_together_are_bad_input(tiny_year, tmp_path, capsys):
+    _, truth = tiny_year
+    argv = ["fit-wear", *truth.stream_paths, "--vehicle", "compact_fwd"]
+    code = main([*argv, "--type-prior-cornering", "--tyre-fit", str(tmp_path / "tyre.nc")])
+    assert code == 2
+    assert "--type-prior-cornering: expected no --tyre-fit" in _one_line_error(capsys)
 
 
 def test_a_history_of_one_drive(tiny_year, capsys):

@@ -64,6 +64,10 @@ from .inference.wear.history_fit import fit_wear_history as fit_wear_history
 from .inference.wear.cornering import (
     cornering_stiffness_from_lateral as cornering_stiffness_from_lateral,
 )
+from .inference.wear.cornering import (
+    cornering_stiffness_from_drives as cornering_stiffness_from_drives,
+)
+from .inference.wear.cornering import DrivesCornering as DrivesCornering
 from .inference.online import OnlineConfig as OnlineConfig
 from .inference.online import OnlineEstimator as OnlineEstimator
 from .inference.online import online_estimate as online_estimate

@@ -133,7 +133,7 @@ def test_fleet_run_killed_rerun_and_skipped(manifest, tmp_path):
     assert set(WEAR_EVIDENCE_COLUMNS) <= set(summaries.columns)
     order = {i.drive_id: k for k, i in enumerate(items)}
     assert list(summaries["drive_order"]) == [order[d] for d in summaries["drive_id"]]
-    history = drive_table([str(out / "drive_summaries.parquet")], "compact_fwd")
+    history, _ = drive_table([str(out / "drive_summaries.parquet")], "compact_fwd")
     assert len(history) == len(good) and (history["distance_km"] > 0).all()
 
     # Tyre sets: two fitted jointly over their two drives; the unknown car's set has no drive.

@@ -14,8 +14,12 @@ order column: ``drive_order``, ``start_time`` or ``odometer_start_km``; the late
 are optional: without them the history has no lateral work).
 
 The lateral friction work (thesis eq. 4.19b) needs the axles' cornering stiffness: ``--tyre-fit``
-takes it from a saved tyre fit's lateral posterior; without one (or where that fit has none) the
-type prior is used. The output's ``lateral_work.cornering_stiffness_source`` says which.
+takes it from a saved tyre fit's lateral posterior; without one, stream files give it themselves
+(the lateral fit of the first of them, up to five, whose fit is usable:
+:func:`tyrebayes.inference.wear.cornering_stiffness_from_drives`); where neither gives one, or
+with ``--type-prior-cornering``, the type prior is used. A drive-summary table keeps the lateral
+work it holds. The output's ``lateral_work.cornering_stiffness_source`` says which, and
+``lateral_work.note`` why.
 
 Exit status: 0 on a converged fit; 2 on bad input (one line: a history of one drive, drives of
 different vehicles, readings that increase, ...); 3 when the fit did not converge (the summary is
@@ -71,7 +75,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--tyre-fit",
         default=None,
         help="a saved tyre fit (fit-tyre --out) whose lateral posterior gives the axles' "
-        "cornering stiffness for the lateral work (default: the type prior)",
+        "cornering stiffness for the lateral work (default: the lateral fit of the drives "
+        "themselves)",
+    )
+    parser.add_argument(
+        "--type-prior-cornering",
+        action="store_true",
+        help="take the lateral work's cornering stiffness from the tyre type's prior, not from "
+        "a lateral fit of the drives",
     )
     parser.add_argument(
         "--baseline", action="store_true", help="no temperature sensitivity (kappa = 0)"
@@ -143,11 +154,13 @@ def _manifest_paths(path: Path, vehicle: str) -> list[Path]:
     return [p if p.is_absolute() else path.parent / p for p in map(Path, entries)]
 
 
-def drive_table(drives: list[str], vehicle: str, cornering=None):
-    """The evidence table of DRIVES (streams, a manifest or a summary table), in drive order.
+def drive_table(drives: list[str], vehicle: str, cornering=None, fit_cornering: bool = False):
+    """The evidence table of DRIVES (streams, a manifest or a summary table), in drive order,
+    and a note on the cornering stiffness behind its lateral work ("" when nothing to say).
 
     ``cornering``: the axles' c_y for the lateral work of stream files (a summary table keeps
-    its own; giving one with a table is bad input).
+    its own; giving one with a table is bad input). ``fit_cornering``: without ``cornering``,
+    take it from the stream files' own lateral fits (:func:`_drives_cornering`).
     """
     from .._domain import load_vehicle
     from ..streams.wear_evidence_table import wear_evidence_table
@@ -165,7 +178,7 @@ def drive_table(drives: list[str], vehicle: str, cornering=None):
                         "--tyre-fit: expected stream files (a drive-summary table's lateral work "
                         "was computed with its own cornering stiffness), got a summary table"
                     )
-                return _summary_table(table, vehicle)
+                return _summary_table(table, vehicle), ""
             if "path" in table:
                 paths = _manifest_paths(path, vehicle)
     if len(paths) < 2:
@@ -175,7 +188,21 @@ def drive_table(drives: list[str], vehicle: str, cornering=None):
         car = load_vehicle(vehicle)
     except ValueError as err:
         raise BadInputError(str(err).splitlines()[0]) from None
-    return wear_evidence_table(paths, car, _vehicle_name(vehicle), cornering=cornering)
+    note = ""
+    if cornering is None and fit_cornering:
+        cornering, note = _drives_cornering(paths, car)
+    return wear_evidence_table(paths, car, _vehicle_name(vehicle), cornering=cornering), note
+
+
+def _drives_cornering(paths: list[Path], car):
+    """(the drives' own c_y or None, a one-line note): the first usable lateral fit among the
+    first drives (:func:`~tyrebayes.inference.wear.cornering_stiffness_from_drives`)."""
+    from ..inference.wear.cornering import cornering_stiffness_from_drives
+    from ..streams import read_stream, validate_stream
+
+    frames = ((p.name, validate_stream(read_stream(p), car).data) for p in paths)
+    found = cornering_stiffness_from_drives(frames, car)
+    return found.stiffness, found.note
 
 
 def _text(out: dict, diagnostics) -> str:
@@ -220,6 +247,10 @@ def run(args: argparse.Namespace) -> int:
     from ..inference.wear.history_fit import fit_wear_history
     from ..inference.wear.history_predict import wear_history_predictions
 
+    if args.tyre_fit is not None and args.type_prior_cornering:
+        raise BadInputError(
+            "--type-prior-cornering: expected no --tyre-fit beside it (which c_y is meant?)"
+        )
     cornering, note = None, ""
     if args.tyre_fit is not None:
         from ..inference.result import load_fit
@@ -233,7 +264,13 @@ def run(args: argparse.Namespace) -> int:
             note = f"{args.tyre_fit}: {lateral.unusable_reason()}: the type prior's c_y is used"
         elif cornering is None:
             note = f"{args.tyre_fit} has no lateral posterior: the type prior's c_y is used"
-    table = drive_table(args.drives, args.vehicle, cornering)
+    table, table_note = drive_table(
+        args.drives,
+        args.vehicle,
+        cornering,
+        fit_cornering=args.tyre_fit is None and not args.type_prior_cornering,
+    )
+    note = note or table_note
     history = drive_history(table)
     readings = None
     if args.tread_depth is not None:

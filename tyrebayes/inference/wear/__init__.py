@@ -29,12 +29,14 @@ One car's own drive history (``tyrebayes fit-wear``): :mod:`.history` (:func:`dr
 (:func:`fit_wear_history`, a Fit of kind "wear_history") and :mod:`.history_predict`
 (:func:`wear_history_predictions`, a :class:`WearHistoryPrediction`); :mod:`.cornering`
 (:func:`cornering_stiffness_from_lateral`: the per-axle c_y behind the evidence's lateral work,
-from a lateral posterior).
+from a lateral posterior; :func:`cornering_stiffness_from_drives`: from a history's own drives).
 """
 
 from .changepoint import TyreChanges as TyreChanges
 from .changepoint import detect_tyre_changes as detect_tyre_changes
+from .cornering import DrivesCornering as DrivesCornering
 from .cornering import cornering_stiffness_from_draws as cornering_stiffness_from_draws
+from .cornering import cornering_stiffness_from_drives as cornering_stiffness_from_drives
 from .cornering import cornering_stiffness_from_lateral as cornering_stiffness_from_lateral
 from .data import WearData as WearData
 from .data import WearPriors as WearPriors

@@ -6,17 +6,29 @@ lateral fit of the car exists (:func:`~tyrebayes.inference.lateral.fit.fit_later
 ``lateral`` part of a tyre fit), :func:`cornering_stiffness_from_lateral` turns its per-axle c_y
 posterior into the :class:`~tyrebayes.streams.cornering_stiffness.CorneringStiffness` that
 :func:`~tyrebayes.streams.wear_evidence.drive_wear_evidence` takes; without one the evidence uses
-the type prior :data:`~tyrebayes.streams.cornering_stiffness.TYPE_PRIOR_CORNERING`.
+the type prior :data:`~tyrebayes.streams.cornering_stiffness.TYPE_PRIOR_CORNERING`. A drive
+history's own drives carry the cornering that fit needs:
+:func:`cornering_stiffness_from_drives` fits them in turn until one gives a usable fit.
 """
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Iterable
+
+import equinox as eqx
 import numpy as np
+import pandas as pd
 
 from ...streams.cornering_stiffness import CorneringStiffness
 from ..lateral.result import LateralFit
 from ..result import Fit
 from ..tyre.result import LATERAL_NODE, TyreFit
+
+#: Drives of a history the lateral fit is tried on, in order, until one is usable. Each try is a
+#: lateral fit (about a second after its first compilation); a commuter's drives corner enough,
+#: and a history whose first drives do not rarely has others that do.
+LATERAL_TRIES = 5
 
 
 def cornering_stiffness_from_draws(
@@ -92,3 +104,96 @@ def cornering_stiffness_from_tyre_fit(fit: Fit) -> CorneringStiffness | None:
     if lateral is None or lateral.unusable_reason():
         return None
     return cornering_stiffness_from_lateral(lateral)
+
+
+class DrivesCornering(eqx.Module):
+    """The cornering stiffness a drive history's own drives give, and what each try gave.
+
+    Attributes
+    ----------
+    stiffness : CorneringStiffness or None
+        From the first usable lateral fit (``source`` ``"lateral_fit"``); None when no drive
+        tried gave one.
+    drive : str
+        The drive whose fit gave it ("" when none did).
+    tries : tuple of (str, str)
+        Each drive tried and why its fit was not used ("" for the one used).
+    """
+
+    stiffness: CorneringStiffness | None
+    drive: str
+    tries: tuple[tuple[str, str], ...]
+
+    @property
+    def note(self) -> str:
+        """One line: which drive's lateral fit gave the c_y, or why the type prior's is used."""
+        if self.stiffness is not None:
+            return f"c_y from the lateral fit of {self.drive}"
+        if not self.tries:
+            return "no drive to fit the cornering of: the type prior's c_y is used"
+        last_drive, last_reason = self.tries[-1]
+        return (
+            f"no usable lateral fit among the first {len(self.tries)} drives (last, "
+            f"{last_drive}: {last_reason}): the type prior's c_y is used"
+        )
+
+
+def cornering_stiffness_from_drives(
+    frames: Iterable[tuple[str, pd.DataFrame]],
+    vehicle,
+    *,
+    tries: int = LATERAL_TRIES,
+    seed: int = 0,
+) -> DrivesCornering:
+    """The per-axle c_y of the first of a history's drives whose lateral fit is usable.
+
+    Each drive is fitted with the lateral model
+    (:func:`~tyrebayes.inference.lateral.fit.fit_lateral`, its default method) until one fit
+    converges and describes its drive (:meth:`.LateralFit.unusable_reason`); at most ``tries``
+    drives are fitted. One fit of one drive, not a joint one: its posterior log-sd (about 0.1 on
+    ten minutes of commuting) is what the wear model carries as the lateral work's scale error.
+
+    Parameters
+    ----------
+    frames : iterable of (str, pandas.DataFrame)
+        Each drive's name and its validated stream (``ValidatedStream.data``), in driving order;
+        taken lazily, so that drives after the usable one are not read.
+    vehicle : Vehicle
+        The car.
+    tries : int
+        Most drives fitted.
+    seed : int
+        Seed of the lateral fits' draws.
+
+    Returns
+    -------
+    DrivesCornering
+        The stiffness (None when no drive tried gave one) and each try's reason.
+
+    Examples
+    --------
+    A year of drives (``paths``, stream files of the car ``car``) whose third is the first to
+    corner enough:
+
+    >>> frames = ((p.stem, validate_stream(read_stream(p), car).data) for p in paths)
+    ... # doctest: +SKIP
+    >>> cornering_stiffness_from_drives(frames, car).note  # doctest: +SKIP
+    'c_y from the lateral fit of drive_002'
+    """
+    from ..lateral.data import cornering_observations
+    from ..lateral.fit import fit_lateral
+
+    if tries < 1:
+        raise ValueError(f"tries: expected at least 1, got {tries}")
+    tried: list[tuple[str, str]] = []
+    for name, frame in itertools.islice(frames, tries):
+        try:
+            fit = fit_lateral(cornering_observations(frame, vehicle), seed=seed)
+        except ValueError as err:  # NoCornering, or a log the model cannot take: its reason
+            tried.append((name, str(err).strip().splitlines()[0] if str(err).strip() else ""))
+            continue
+        reason = fit.unusable_reason()
+        tried.append((name, reason))
+        if not reason:
+            return DrivesCornering(cornering_stiffness_from_lateral(fit), name, tuple(tried))
+    return DrivesCornering(None, "", tuple(tried))
