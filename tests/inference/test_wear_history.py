@@ -1,5 +1,7 @@
 """Drive history to γ: layout of tyre sets, bad histories, and recovery on a synthetic history."""
 
+import json
+
 import jax
 import numpy as np
 import pandas as pd
@@ -141,6 +143,39 @@ def test_the_fit_and_its_predictions_run_to_the_latest_reading():
     assert fit.data.attrs["history_end_km"] == pytest.approx(end)
     pred = wear_history_predictions(fit, h, readings)
     assert pred.history_km == pytest.approx(h.total_km + 390.0)
+
+
+def test_a_run_short_only_of_effective_draws_runs_again_with_twice_the_draws(monkeypatch):
+    """Chains that agree but mix slowly get one more run; any other failure stands."""
+    import dataclasses
+
+    from tyrebayes.inference.wear import history_fit
+
+    draws_asked, real_run, real_diagnose = [], history_fit.run_nuts, history_fit.diagnose
+
+    def counted(*args, **kwargs):
+        draws_asked.append(kwargs["num_samples"])
+        return real_run(*args, **kwargs)
+
+    def failing(reason):
+        def diagnose(*args, **kwargs):
+            d = real_diagnose(*args, **kwargs)
+            first = len(draws_asked) == 1
+            return dataclasses.replace(d, converged=False, reasons=(reason,)) if first else d
+
+        return diagnose
+
+    monkeypatch.setattr(history_fit, "run_nuts", counted)
+    h = drive_history(synthetic_table()[0])
+    monkeypatch.setattr(history_fit, "diagnose", failing("tail ESS 150 < 200"))
+    fit = fit_wear_history(h, num_warmup=20, num_samples=20, num_chains=1, extended=False)
+    assert draws_asked == [20, 40]
+    settings = json.loads(fit.provenance.settings)
+    assert settings["num_samples"] == 40 and fit.data.posterior.sizes["draw"] == 40
+    draws_asked.clear()
+    monkeypatch.setattr(history_fit, "diagnose", failing("R-hat 1.100 > 1.02"))
+    fit = fit_wear_history(h, num_warmup=20, num_samples=20, num_chains=1, extended=False)
+    assert draws_asked == [20] and fit.diagnostics.reasons == ("R-hat 1.100 > 1.02",)
 
 
 def test_log_density_peaks_at_the_true_gamma():

@@ -163,6 +163,24 @@ class Diagnostics(eqx.Module):
         """The smaller of bulk and tail ESS."""
         return float(np.fmin(self.ess_bulk_min, self.ess_tail_min))
 
+    @property
+    def short_of_draws(self) -> bool:
+        """Whether too few effective draws (bulk or tail ESS) are the only failure: chains that
+        agree (R-hat) and did not diverge, mixing slowly, which more draws can cure.
+
+        Examples
+        --------
+        >>> import arviz_base as azb
+        >>> rng = np.random.default_rng(0)
+        >>> few = azb.from_dict({"posterior": {"x": rng.normal(size=(2, 60))}})
+        >>> d = diagnose(few, method="nuts")
+        >>> d.reasons, d.short_of_draws
+        (('bulk ESS 109 < 200', 'tail ESS 99 < 200'), True)
+        """
+        return not self.converged and all(
+            r.startswith(("bulk ESS", "tail ESS")) for r in self.reasons
+        )
+
     def as_dict(self) -> dict:
         """The JSON form (``--json`` and the saved file): plain numbers, strings and lists."""
         return {

@@ -312,7 +312,9 @@ def fit_wear_history(
         in its attributes) and with its tyre changes' types given the readings too
         (:func:`~tyrebayes.inference.wear.change_readings.classify_changes_by_readings`;
         ``tyre_changes`` in its attributes); diagnostics by
-        :func:`~tyrebayes.inference.result.diagnose` over log γ s, σ_ratio, τ (and κ);
+        :func:`~tyrebayes.inference.result.diagnose` over log γ s, σ_ratio, τ (and κ); a run
+        short only of effective draws (:attr:`.Diagnostics.short_of_draws`) is run again with
+        twice ``num_samples`` (the provenance says how many);
         ``gamma``, ``work_scale`` and ``lateral_work_scale`` (front, rear) are drawn after the
         chains (module docstring). ``data.attrs`` holds the history's tyre changes and the
         cornering stiffness' source.
@@ -340,36 +342,45 @@ def fit_wear_history(
         depth = np.asarray(readings.depth_mm)
     args = (history, exposure, read_pair, depth, extended, priors, float(geom.wear_area_mm2))
     init = _init_values(priors, extended, history.n_pairs if depth is not None else None)
-    draws = run_nuts(
-        wear_history_model,
-        args,
-        seed=seed,
-        num_warmup=num_warmup,
-        num_samples=num_samples,
-        num_chains=num_chains,
-        init_values=init,
-        static_argnums=(0,),  # the drives' segments shape the model
-        target_accept_prob=0.95,
-    )
-    samples = dict(draws.samples)
-    samples.update(
-        _split_work_scale(
-            samples["log_gamma_work"],
-            samples["log_lateral_ratio"],
-            priors,
-            history.lateral_log_sd,
-            seed,
+
+    def run(samples_per_chain: int, run_seed: int):
+        draws = run_nuts(
+            wear_history_model,
+            args,
+            seed=run_seed,
+            num_warmup=num_warmup,
+            num_samples=samples_per_chain,
+            num_chains=num_chains,
+            init_values=init,
+            static_argnums=(0,),  # the drives' segments shape the model
+            target_accept_prob=0.95,
         )
-    )
-    if depth is not None:
-        samples["initial_depth_mm"] = _initial_depths(
-            samples, history, exposure, read_pair, depth, float(geom.wear_area_mm2), seed
+        samples = dict(draws.samples)
+        samples.update(
+            _split_work_scale(
+                samples["log_gamma_work"],
+                samples["log_lateral_ratio"],
+                priors,
+                history.lateral_log_sd,
+                run_seed,
+            )
         )
-    tree = azb.from_dict({"posterior": samples, "sample_stats": {"diverging": draws.diverging}})
-    tree.attrs.update(_history_attrs(history, extended))
-    names = ["log_gamma_work", "lateral_z", "sigma_ratio_mm", "tau"]
-    names += ["kappa"] if extended else []
-    diagnostics = diagnose(tree, method="nuts", var_names=names)
+        if depth is not None:
+            samples["initial_depth_mm"] = _initial_depths(
+                samples, history, exposure, read_pair, depth, float(geom.wear_area_mm2), run_seed
+            )
+        tree = azb.from_dict({"posterior": samples, "sample_stats": {"diverging": draws.diverging}})
+        tree.attrs.update(_history_attrs(history, extended))
+        names = ["log_gamma_work", "lateral_z", "sigma_ratio_mm", "tau"]
+        names += ["kappa"] if extended else []
+        return tree, diagnose(tree, method="nuts", var_names=names)
+
+    tree, diagnostics = run(num_samples, seed)
+    if diagnostics.short_of_draws:
+        # Chains that agree and did not diverge, but mix slowly (a year's few readings leave
+        # the noise scales' tails long): one more run with twice the draws per chain.
+        num_samples *= 2
+        tree, diagnostics = run(num_samples, seed + 1)
     return Fit(
         data=tree,
         diagnostics=diagnostics,
