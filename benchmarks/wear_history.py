@@ -8,7 +8,7 @@ wears by the longitudinal and the lateral work, eq. 4.19a + b), 15,000 km a year
 replacement, tread readings every 5,000 km) the pipeline reads only the stream files
 (:func:`tyrebayes.wear_evidence_table`), builds the history (tyre changes
 detected) and fits γ and κ with the readings (:func:`tyrebayes.inference.wear.fit_wear_history`,
-NUTS). Three sources of the cornering stiffness behind the lateral work, each its own fit:
+NUTS). Four sources of the cornering stiffness behind the lateral work, each its own fit:
 
 ``type_prior``
     what the package uses without a lateral posterior (``fit-wear --type-prior-cornering``)
@@ -20,6 +20,13 @@ NUTS). Three sources of the cornering stiffness behind the lateral work, each it
     (:func:`tyrebayes.cornering_stiffness_from_drives`), and the type prior in a year where none
     is (counted: ``years_without_usable_lateral_fit``; that year's fit is the type prior's).
     The top-level figures the checks read are this source's.
+``drive_lateral``
+    the fleet-run path (``fit-wear`` on a fleet run's drive summaries): each drive's lateral
+    estimate as a fast fleet run's drive stage makes it
+    (:func:`tyrebayes.batch.lateral.drive_lateral`, the in-car estimator's moments), the
+    type-prior evidence table put on each tyre set's
+    combined axle c_y (:func:`tyrebayes.batch.lateral.with_drive_cornering`; the sets are the
+    mounted tyre sets, a replacement starting a new one).
 ``posterior_stand_in``
     a per-axle c_y as a lateral posterior of log-sd 0.1 would give it, drawn as the true c_y
     times exp(0.1 N(0, 1)) per axle: what the wear fit does with an inferred stiffness of that
@@ -60,6 +67,7 @@ from _results import figure, to_jsonable, write_result  # noqa: E402
 jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
 from _internal import WORK_SCALE_LOG_SD, hdi  # noqa: E402
 
 from tyrebayes import (  # noqa: E402
@@ -74,18 +82,21 @@ from tyrebayes import (  # noqa: E402
     wear_evidence_table,
     wear_history_predictions,
 )
+from tyrebayes.batch import RunSettings  # noqa: E402
+from tyrebayes.batch.lateral import drive_lateral, with_drive_cornering  # noqa: E402
 from tyrebayes.physics import TreadGeometry  # noqa: E402
 from tyrebayes.simulate import simulate_wear_year  # noqa: E402
 
 GAMMA = 0.022
 KAPPA = 0.02
-SOURCES = ("type_prior", "lateral_fit", "posterior_stand_in")
+SOURCES = ("type_prior", "lateral_fit", "drive_lateral", "posterior_stand_in")
 #: The source whose figures are the headline (and the top-level fields): the package's default.
 HEADLINE = "lateral_fit"
 STAND_IN_LOG_SD = 0.1
 LABELS = {
     "type_prior": "type prior c_y",
     "lateral_fit": "c_y from the lateral fit",
+    "drive_lateral": "c_y from the drives' lateral estimates, fleet path",
     "posterior_stand_in": "c_y posterior stand-in",
 }
 HALF_WIDTH_TARGET = 0.20
@@ -180,6 +191,15 @@ def run_year(seed: int, n_drives: int, drive_s: float, nuts: dict) -> dict:
         )
         drives_cornering = cornering_stiffness_from_drives(frames, vehicle)
         fitted = drives_cornering.stiffness
+        drive_rows = [
+            drive_lateral(
+                validate_stream(read_stream(p), vehicle).data,
+                vehicle,
+                "dry",
+                method=RunSettings().lateral_method,
+            )
+            for p in truth.stream_paths
+        ]
         t2 = time.time()
         tables = {
             "type_prior": wear_evidence_table(truth.stream_paths, vehicle, "compact_fwd"),
@@ -187,6 +207,17 @@ def run_year(seed: int, n_drives: int, drive_s: float, nuts: dict) -> dict:
                 truth.stream_paths, vehicle, "compact_fwd", cornering=stand_in
             ),
         }
+        summaries = tables["type_prior"].drop(columns="cornering_stiffness_source")
+        summaries = pd.concat([summaries, pd.DataFrame(drive_rows)], axis=1)
+        replaced = [
+            k
+            for k, kind in zip(truth.change_drive_index, truth.change_type, strict=True)
+            if kind == "replacement"
+        ]
+        summaries["tyre_set_id"] = [
+            f"set{sum(k >= r for r in replaced)}" for k in range(len(summaries))
+        ]
+        tables["drive_lateral"], drive_note = with_drive_cornering(summaries)
         if fitted is not None:
             tables["lateral_fit"] = wear_evidence_table(
                 truth.stream_paths, vehicle, "compact_fwd", cornering=fitted
@@ -213,6 +244,12 @@ def run_year(seed: int, n_drives: int, drive_s: float, nuts: dict) -> dict:
         "c_y_stand_in": c_y.tolist(),
         "c_y_lateral_fit": None if fitted is None else fitted.per_axle.tolist(),
         "c_y_lateral_fit_log_sd": None if fitted is None else fitted.log_sd,
+        "drive_lateral_note": drive_note,
+        "drive_lateral_usable": sum(not r["lateral_reason"] for r in drive_rows),
+        "c_y_drive_lateral": [
+            float(tables["drive_lateral"][f"cornering_stiffness_{a}_per_rad"].iloc[0])
+            for a in ("front", "rear")
+        ],
         "lateral_fit_tries": [
             {"drive": drive, "reason": reason} for drive, reason in drives_cornering.tries
         ],

@@ -102,6 +102,39 @@ def test_the_summary_table_gives_the_same_answer(tiny_year, capsys):
     assert again["gamma_work"]["mean"] == pytest.approx(out["gamma_work"]["mean"], rel=1e-6)
 
 
+def test_a_summary_tables_lateral_work_takes_its_drives_lateral_estimates(tiny_year, capsys):
+    """A fleet run's drive summaries carry each drive's c_y: fit-wear puts the lateral work on
+    them, per tyre set (a set without one keeps the type prior); --type-prior-cornering not."""
+    from tyrebayes._commands.fit_wear import drive_table
+    from tyrebayes._domain import load_vehicle
+    from tyrebayes.streams.wear_evidence_table import wear_evidence_table
+
+    _, truth = tiny_year
+    table = wear_evidence_table(truth.stream_paths, load_vehicle("compact_fwd"), "compact_fwd")
+    table = table.drop(columns="cornering_stiffness_source")  # as a fleet run writes it
+    table["tyre_set_id"] = ["a"] * 4 + ["b"] * 4
+    table["c_y"], table["c_y_log_sd"] = [22.0] * 4 + [np.nan] * 4, [0.1] * 4 + [np.nan] * 4
+    table["c_y_front"], table["c_y_rear"] = [20.0] * 4 + [np.nan] * 4, [24.2] * 4 + [np.nan] * 4
+    table["lateral_reason"] = [""] * 4 + ["lateral: no usable cornering"] * 4
+    summary = truth.stream_paths[0].rsplit("/", 1)[0] + "/summaries_with_lateral.parquet"
+    table.to_parquet(summary)
+    own, note = drive_table([summary], "compact_fwd", fit_cornering=True)
+    assert note == "c_y from the drives' lateral estimates (1 of 2 tyre set(s))"
+    assert own["cornering_stiffness_source"].tolist() == ["drive_lateral"] * 4 + ["type_prior"] * 4
+    ratio = own["work_y_front_j"].to_numpy() / table["work_y_front_j"].to_numpy()
+    old, new = (t["cornering_stiffness_front_per_rad"].to_numpy() for t in (table, own))
+    assert ratio[:4] == pytest.approx(old[:4] / new[:4])
+    assert new[0] == pytest.approx(20.0, rel=0.05)  # the drives' front c_y, about
+    assert ratio[4:] == pytest.approx(1.0)
+    kept, note = drive_table([summary], "compact_fwd")
+    assert note == "" and (kept["work_y_front_j"] == table["work_y_front_j"]).all()
+    code = main(["fit-wear", summary, "--vehicle", "compact_fwd", "--samples", "60", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code in (0, 3)
+    assert out["lateral_work"]["cornering_stiffness_source"] == "drive_lateral+type_prior"
+    assert out["lateral_work"]["note"].startswith("c_y from the drives' lateral estimates")
+
+
 def test_the_type_prior_and_a_tyre_fit_together_are_bad_input(tiny_year, tmp_path, capsys):
     _, truth = tiny_year
     argv = ["fit-wear", *truth.stream_paths, "--vehicle", "compact_fwd"]

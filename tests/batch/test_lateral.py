@@ -116,3 +116,22 @@ def test_the_moments_fit_agrees_with_the_batch_fit():
     assert 1 / 1.5 < fast["c_y_log_sd"] / batch["c_y_log_sd"] < 2.0
     with pytest.raises(ValueError, match="method: expected one of"):
         drive_lateral(data, VEHICLE, "dry", method="ols")
+
+
+def test_the_sets_axles_keep_the_drives_split_around_the_combined_level():
+    from tyrebayes.batch.lateral import combined_cornering
+
+    drives = [
+        {"c_y": 20.0, "c_y_log_sd": 0.1, "c_y_front": 16.0, "c_y_rear": 25.0, "lateral_reason": ""},
+        {"c_y": 22.0, "c_y_log_sd": 0.2, "c_y_front": 19.0, "c_y_rear": 25.5, "lateral_reason": ""},
+        {"c_y": None, "c_y_log_sd": None, "lateral_reason": "lateral: no usable cornering"},
+    ]
+    level = combine_drive_laterals(drives)
+    c = combined_cornering(drives)
+    assert c.source == "drive_lateral"
+    assert np.sqrt(c.front_per_rad * c.rear_per_rad) == pytest.approx(level["c_y"])
+    w = np.array([1 / 0.1**2, 1 / 0.2**2])
+    split = np.sum(w * np.log([16.0 / 25.0, 19.0 / 25.5])) / w.sum()
+    assert c.front_per_rad / c.rear_per_rad == pytest.approx(np.exp(split))
+    assert c.log_sd > level["c_y_log_sd"]  # the split's scatter adds to the level's
+    assert combined_cornering(drives[2:]) is None

@@ -178,7 +178,12 @@ def drive_table(drives: list[str], vehicle: str, cornering=None, fit_cornering: 
                         "--tyre-fit: expected stream files (a drive-summary table's lateral work "
                         "was computed with its own cornering stiffness), got a summary table"
                     )
-                return _summary_table(table, vehicle), ""
+                table = _summary_table(table, vehicle)
+                if not fit_cornering:
+                    return table, ""
+                from ..batch.lateral import with_drive_cornering
+
+                return with_drive_cornering(table)
             if "path" in table:
                 paths = _manifest_paths(path, vehicle)
     if len(paths) < 2:

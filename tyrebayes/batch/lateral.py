@@ -7,7 +7,9 @@ Per drive, not per set: the drive stage holds the log (the set stage reads only 
 tables, so a set is refitted without its logs), the lateral model's nuisances (steering and a_y
 offsets, roll, relaxation) belong to one drive and one sensor mounting, and the time derivatives
 of its equations do not run across two logs. So :func:`drive_lateral` fits each drive and the
-set stage combines the drives' posteriors (:func:`combine_drive_laterals`). A drive's fit is
+set stage combines the drives' posteriors (:func:`combine_drive_laterals`). A drive-summary
+table's lateral work can be put on its sets' combined axle c_y (:func:`with_drive_cornering`:
+what ``fit-wear`` does with one). A drive's fit is
 the batch lateral fit (:func:`tyrebayes.inference.lateral.fit_lateral`, MAP + Laplace, as
 ``fit-tyre`` does), or, for a fast run, the in-car estimator's state after the drive's last
 block (:mod:`tyrebayes.inference.online.lateral`: the batch model to fifth order in the tyre
@@ -240,6 +242,101 @@ def combine_drive_laterals(drives: list[dict]) -> dict:
         "c_y_drives": len(used),
         "lateral_reason": "",
     }
+
+
+def combined_cornering(drives: list[dict]):
+    """The axles' c_y of a tyre set's drives, for the wear evidence's lateral work, or None.
+
+    The level is :func:`combine_drive_laterals`'s c_y; the split is the drives' mean of
+    log(c_y_front / c_y_rear) weighted by their precision, each axle the level times the split's
+    square root up or down. The log-sd adds to the level's that of half the split's mean (the
+    drives' scatter about it over the number of drives; the level's own where one drive gave
+    it).
+
+    Parameters
+    ----------
+    drives : list of dict
+        Each with :data:`DRIVE_LATERAL_COLUMNS` (a drive summary's row).
+
+    Returns
+    -------
+    CorneringStiffness or None
+        ``source`` ``"drive_lateral"``; None when no drive gave c_y.
+
+    Examples
+    --------
+    >>> one = {"c_y": 20.0, "c_y_log_sd": 0.1, "c_y_front": 16.0, "c_y_rear": 25.0,
+    ...        "lateral_reason": ""}
+    >>> c = combined_cornering([one, one])
+    >>> round(c.front_per_rad, 1), round(c.rear_per_rad, 1), c.source
+    (16.1, 25.2, 'drive_lateral')
+    >>> combined_cornering([{"lateral_reason": "lateral: no usable cornering"}]) is None
+    True
+    """
+    from ..streams.cornering_stiffness import CorneringStiffness
+
+    level = combine_drive_laterals(drives)
+    if not level["c_y_drives"]:
+        return None
+    used = [
+        d
+        for d in drives
+        if np.isfinite(_number(d.get("c_y")))
+        and _number(d.get("c_y_log_sd")) > 0
+        and _number(d.get("c_y_front")) > 0
+        and _number(d.get("c_y_rear")) > 0
+    ]
+    if not used:
+        return None
+    split = np.log([_number(d["c_y_front"]) / _number(d["c_y_rear"]) for d in used])
+    weight = 1.0 / np.square([_number(d["c_y_log_sd"]) for d in used])
+    mean_split = float(np.sum(weight * split) / np.sum(weight))
+    split_sd = (
+        float(np.sqrt(np.sum(weight * (split - mean_split) ** 2) / np.sum(weight) / len(used)))
+        if len(used) > 1
+        else level["c_y_log_sd"]
+    )
+    c_y, half = level["c_y"], math.exp(mean_split / 2.0)
+    log_sd = math.hypot(level["c_y_log_sd"], split_sd / 2.0)
+    return CorneringStiffness(c_y * half, c_y / half, log_sd, "drive_lateral")
+
+
+def with_drive_cornering(table):
+    """A drive-summary table's lateral work put on its drives' own c_y, and a one-line note.
+
+    Per tyre set (``tyre_set_id``; the whole table without it), :func:`combined_cornering` of
+    its drives' lateral estimates replaces the c_y the lateral work was computed with
+    (:func:`tyrebayes.streams.wear_evidence_table.with_cornering`); a set none of whose drives
+    gave c_y keeps its own. The note says how many sets took theirs ("" for a table without
+    the lateral columns).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        A fleet run's drive summaries (wear evidence and :data:`DRIVE_LATERAL_COLUMNS`).
+
+    Returns
+    -------
+    tuple of (pandas.DataFrame, str)
+    """
+    from ..streams.wear_evidence_table import with_cornering
+
+    needed = ("work_y_front_j", "cornering_stiffness_front_per_rad", "c_y_front")
+    if not all(c in table for c in needed):
+        return table, ""
+    sets = table["tyre_set_id"].astype(str) if "tyre_set_id" in table else None
+    keys = sets.unique().tolist() if sets is not None else [None]
+    done = 0
+    for key in keys:
+        rows = np.ones(len(table), dtype=bool) if key is None else (sets == key).to_numpy()
+        drives = table.loc[rows, [c for c in DRIVE_LATERAL_COLUMNS if c in table]]
+        cornering = combined_cornering(drives.to_dict("records"))
+        if cornering is not None:
+            table = with_cornering(table, cornering, rows)
+            done += 1
+    if not done:
+        return table, "no drive of the table gave c_y: its lateral work keeps the c_y it had"
+    return table, f"c_y from the drives' lateral estimates ({done} of {len(keys)} tyre set(s))"
 
 
 def _number(value) -> float:

@@ -1,9 +1,16 @@
-"""Tread-wear evidence of several stream files: one row per drive, in driving order."""
+"""Tread-wear evidence of several stream files: one row per drive, in driving order.
+
+:func:`with_cornering` puts a table's lateral work on another cornering stiffness without the
+streams: the brush slip angle at a fixed μ is inversely proportional to c_y
+(:func:`~tyrebayes.streams.lateral_work.brush_slip_angle`), so each drive's lateral work scales by
+the c_y it was computed with over the new one.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from ..physics.vehicle import Vehicle
@@ -60,3 +67,74 @@ def wear_evidence_table(
             }
         )
     return pd.DataFrame(rows)
+
+
+def with_cornering(
+    table: pd.DataFrame, cornering: CorneringStiffness, rows: np.ndarray | None = None
+) -> pd.DataFrame:
+    """The evidence table with the lateral work of ``rows`` recomputed for ``cornering``.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Wear evidence (:func:`wear_evidence_table`, or a fleet run's drive summaries), with the
+        lateral work and the ``cornering_stiffness_*`` columns it was computed with.
+    cornering : CorneringStiffness
+        The axles' c_y to put the lateral work on; its log-sd and source replace the rows'.
+    rows : ndarray of bool, optional
+        The rows to change (default all).
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy; ``work_y_front_j`` and ``work_y_rear_j`` times (old c_y / new c_y) of their axle.
+
+    Examples
+    --------
+    >>> table = pd.DataFrame({"work_y_front_j": [100.0], "work_y_rear_j": [50.0],
+    ...     "cornering_stiffness_front_per_rad": [16.5], "cornering_stiffness_rear_per_rad": [16.5],
+    ...     "cornering_stiffness_log_sd": [0.5], "cornering_stiffness_source": ["type_prior"]})
+    >>> out = with_cornering(table, CorneringStiffness(33.0, 22.0, 0.1, "drive_lateral"))
+    >>> out[["work_y_front_j", "work_y_rear_j", "cornering_stiffness_source"]].values.tolist()
+    [[50.0, 37.5, 'drive_lateral']]
+    """
+    missing = [c for c in _CORNERING_COLUMNS if c not in table]
+    if missing:
+        raise ValueError(f"table: expected the lateral work's columns, missing {missing}")
+    out = table.copy()
+    rows = np.ones(len(out), dtype=bool) if rows is None else np.asarray(rows, dtype=bool)
+    if "cornering_stiffness_source" not in out:  # a fleet run's summary: say what its rows had
+        out["cornering_stiffness_source"] = _stated_source(out)
+    for axle, new in (("front", cornering.front_per_rad), ("rear", cornering.rear_per_rad)):
+        old = out[f"cornering_stiffness_{axle}_per_rad"].to_numpy(dtype=float)
+        work = out[f"work_y_{axle}_j"].to_numpy(dtype=float)
+        out[f"work_y_{axle}_j"] = np.where(rows, work * old / float(new), work)
+        out[f"cornering_stiffness_{axle}_per_rad"] = np.where(rows, float(new), old)
+    log_sd = out["cornering_stiffness_log_sd"].to_numpy(dtype=float)
+    out["cornering_stiffness_log_sd"] = np.where(rows, float(cornering.log_sd), log_sd)
+    source = out["cornering_stiffness_source"].astype(str)
+    out["cornering_stiffness_source"] = np.where(rows, cornering.source, source)
+    return out
+
+
+def _stated_source(table: pd.DataFrame) -> np.ndarray:
+    """Per row, "type_prior" where its c_y are the type prior's numbers, else "given"."""
+    from .cornering_stiffness import TYPE_PRIOR_CORNERING as prior
+
+    same = np.ones(len(table), dtype=bool)
+    for column, value in (
+        ("cornering_stiffness_front_per_rad", prior.front_per_rad),
+        ("cornering_stiffness_rear_per_rad", prior.rear_per_rad),
+        ("cornering_stiffness_log_sd", prior.log_sd),
+    ):
+        same &= np.isclose(table[column].to_numpy(dtype=float), value)
+    return np.where(same, "type_prior", "given")
+
+
+_CORNERING_COLUMNS = (
+    "work_y_front_j",
+    "work_y_rear_j",
+    "cornering_stiffness_front_per_rad",
+    "cornering_stiffness_rear_per_rad",
+    "cornering_stiffness_log_sd",
+)
