@@ -17,9 +17,11 @@ The lateral friction work (thesis eq. 4.19b) needs the axles' cornering stiffnes
 takes it from a saved tyre fit's lateral posterior; without one, stream files give it themselves
 (the lateral fit of the first of them, up to five, whose fit is usable:
 :func:`tyrebayes.inference.wear.cornering_stiffness_from_drives`); where neither gives one, or
-with ``--type-prior-cornering``, the type prior is used. A drive-summary table keeps the lateral
-work it holds. The output's ``lateral_work.cornering_stiffness_source`` says which, and
-``lateral_work.note`` why.
+with ``--type-prior-cornering``, the type prior is used. A fleet run's drive-summary table has
+its lateral work put on each tyre set's c_y from its drives' lateral estimates
+(:func:`tyrebayes.batch.lateral.with_drive_cornering`; a set without any, or
+``--type-prior-cornering``, keeps the c_y the table holds). The output's
+``lateral_work.cornering_stiffness_source`` says which, and ``lateral_work.note`` why.
 
 Exit status: 0 on a converged fit; 2 on bad input (one line: a history of one drive, drives of
 different vehicles, readings that increase, ...); 3 when the fit did not converge (the summary is
