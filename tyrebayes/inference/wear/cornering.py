@@ -26,8 +26,8 @@ from ..result import Fit
 from ..tyre.result import LATERAL_NODE, TyreFit
 
 #: Drives of a history the lateral fit is tried on, in order, until one is usable. Each try is a
-#: lateral fit (about a second after its first compilation); a commuter's drives corner enough,
-#: and a history whose first drives do not rarely has others that do.
+#: lateral fit of one drive: the bound keeps a history of straight drives from paying one per
+#: drive.
 LATERAL_TRIES = 5
 
 
