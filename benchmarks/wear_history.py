@@ -25,7 +25,7 @@ NUTS). Four sources of the cornering stiffness behind the lateral work, each its
     estimate as a fast fleet run's drive stage makes it
     (:func:`tyrebayes.batch.lateral.drive_lateral`, the in-car estimator's moments), the
     type-prior evidence table put on each tyre set's
-    combined axle c_y (:func:`tyrebayes.batch.lateral.with_drive_cornering`; the sets are the
+    combined axle c_y (:func:`tyrebayes.batch.with_drive_cornering`; the sets are the
     mounted tyre sets, a replacement starting a new one).
 ``posterior_stand_in``
     a per-axle c_y as a lateral posterior of log-sd 0.1 would give it, drawn as the true c_y
@@ -68,7 +68,7 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from _internal import WORK_SCALE_LOG_SD, hdi  # noqa: E402
+from _internal import WORK_SCALE_LOG_SD, drive_lateral, hdi  # noqa: E402
 
 from tyrebayes import (  # noqa: E402
     CorneringStiffness,
@@ -82,8 +82,7 @@ from tyrebayes import (  # noqa: E402
     wear_evidence_table,
     wear_history_predictions,
 )
-from tyrebayes.batch import RunSettings  # noqa: E402
-from tyrebayes.batch.lateral import drive_lateral, with_drive_cornering  # noqa: E402
+from tyrebayes.batch import RunSettings, with_drive_cornering  # noqa: E402
 from tyrebayes.physics import TreadGeometry  # noqa: E402
 from tyrebayes.simulate import simulate_wear_year  # noqa: E402
 

@@ -19,7 +19,7 @@ takes it from a saved tyre fit's lateral posterior; without one, stream files gi
 :func:`tyrebayes.inference.wear.cornering_stiffness_from_drives`); where neither gives one, or
 with ``--type-prior-cornering``, the type prior is used. A fleet run's drive-summary table has
 its lateral work put on each tyre set's c_y from its drives' lateral estimates
-(:func:`tyrebayes.batch.lateral.with_drive_cornering`; a set without any, or
+(:func:`tyrebayes.batch.with_drive_cornering`; a set without any, or
 ``--type-prior-cornering``, keeps the c_y the table holds). The output's
 ``lateral_work.cornering_stiffness_source`` says which, and ``lateral_work.note`` why.
 
