@@ -60,12 +60,13 @@ from ...internal.device_arrays import device_array
 from ...internal.stored_program import stored_program
 from ...physics.magic_formula import magic_formula_inverse_series
 from ..lateral.data import G
-from ..lateral.model import NULL_VALUES, LateralPriors, sample_sites
+from ..lateral.model import NULL_VALUES, LateralPriors
 from ..lateral.posterior_checks import K_CONTRACTION
 from .lateral_blocks import LateralBlocks
 from .lateral_curve import PEAK_SHARE, cubic_prior, curve_medians
 from .lateral_prior import LateralPrior, lateral_prior
 from .lateral_run import LateralRun
+from .lateral_sites import CUBIC_SITES, LINEAR_SITES, linear_sites
 from .lateral_state import LateralState
 from .lateral_statistics import (
     CHUNK,
@@ -93,38 +94,8 @@ RUN_BLOCKS = 16
 #: Pseudo-samples of each equation's noise-variance prior (inverse-gamma): enough to keep a
 #: block without cornering from claiming a zero residual, too few to matter once a corner is in.
 NOISE_PSEUDO_SAMPLES = 1.0
-#: The batch model's sites the linear-range model reads, in its order.
-LINEAR_SITES = (
-    "c_y_front",
-    "c_y_rear",
-    "steering_ratio",
-    "steering_offset",
-    "ay_offset",
-    "roll_gradient",
-    "yaw_inertia_factor",
-    "curve_cubic_front",
-    "curve_cubic_rear",
-)
-#: The estimator's coordinates that are not the batch model's sample sites: each axle's λ (the
-#: front's alone, serving both axles, where the priors leave out ``axle_shapes``).
-CUBIC_SITES = ("curve_cubic_front", "curve_cubic_rear")
 #: Steps tried along each Gauss-Newton direction (the best is kept, the current point included).
 _STEP_SCALES = (1.0, 0.5, 0.25, 0.0625, 0.0)
-
-
-def linear_sites(priors: LateralPriors) -> tuple[str, ...]:
-    """The estimator's coordinates: :data:`LINEAR_SITES` whose effects ``priors`` carry.
-
-    Examples
-    --------
-    >>> linear_sites(LateralPriors())[:3]
-    ('c_y_front', 'c_y_rear', 'steering_ratio')
-    >>> "roll_gradient" in linear_sites(LateralPriors().without("roll"))
-    False
-    """
-    cubic = CUBIC_SITES if "axle_shapes" in priors.effects else CUBIC_SITES[:1]
-    full = (*sample_sites(priors), *cubic)
-    return tuple(n for n in LINEAR_SITES if n in full)
 
 
 class OnlineLateralEstimator(eqx.Module):

@@ -23,7 +23,7 @@ class LateralState(eqx.Module):
     ----------
     mean, cov : Array
         The posterior Gaussian (Laplace) over the unconstrained coordinates
-        (:func:`~.lateral.linear_sites`).
+        (:func:`~.lateral_sites.linear_sites`).
     steering, kinematic : EquationMoments
         The equations' moments so far, faded.
     batches_30s : Float[Array, "2"]

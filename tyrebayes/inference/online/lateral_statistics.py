@@ -17,7 +17,7 @@ L r/V_x = α_f − α_r reads
            −λ_f u, λ_r v, −κλ_f²u, κλ_r²v],
 
 and the kinematic equation a_y = Γ (V_x r + l_r ṙ − d(V_x α_r)/dt) + b, premultiplied by the
-compact derivative's P (D = P⁻¹Q, :func:`~tyrebayes.inference.lateral.model.sideslip_lag`),
+compact derivative's P (D = P⁻¹Q, :func:`~tyrebayes.inference.lateral.sideslip_lag.sideslip_lag`),
 
     P e_k = z_k · c_k,
     z_k = [P a_y, P(V_x r + l_r ṙ), P 1, Q(V_x a_y), Q V_x, Q(V_x ṙ), Q(V_x ρ̃_r³), Q(V_x ρ̃_r⁵)],
@@ -55,7 +55,7 @@ from jaxtyping import Array, Bool, Float
 
 from ...internal.device_arrays import device_array
 from ..lateral.data import G
-from ..lateral.model import compact_p, compact_q, sideslip_lag, thomas_solve
+from ..lateral.sideslip_lag import compact_p, compact_q, sideslip_lag, thomas_solve
 from .lateral_blocks import LateralBlocks
 
 #: The shortest batch of the variance inflation's batch means [samples] (10 s at 10 Hz); the

@@ -114,7 +114,7 @@ class OnlineLateral(eqx.Module):
     Attributes
     ----------
     mean, cov : Array
-        The Gaussian over the unconstrained coordinates (:func:`~.lateral.linear_sites`).
+        The Gaussian over the unconstrained coordinates (:func:`~.lateral_sites.linear_sites`).
     names : tuple of str
     time_s : Float[Array, ""]
         Time of the last block's end [s].

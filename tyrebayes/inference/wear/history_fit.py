@@ -34,6 +34,7 @@ rear axle of a front-driven car has almost no longitudinal work: its wear rate i
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import arviz_base as azb
@@ -273,6 +274,53 @@ def _history_attrs(history: DriveHistory, extended: bool) -> dict:
     }
 
 
+@dataclasses.dataclass(frozen=True)
+class _Sampling:
+    """One NUTS run of the history model and its diagnostics, at a number of draws and a seed:
+    :func:`fit_wear_history` runs it once, and once more where the draws fell short."""
+
+    args: tuple
+    init: dict
+    history: DriveHistory
+    priors: WearPriors
+    num_warmup: int
+    num_chains: int
+
+    def __call__(self, samples_per_chain: int, run_seed: int):
+        history, priors = self.history, self.priors
+        _, exposure, read_pair, depth, extended, _, wear_area = self.args
+        draws = run_nuts(
+            wear_history_model,
+            self.args,
+            seed=run_seed,
+            num_warmup=self.num_warmup,
+            num_samples=samples_per_chain,
+            num_chains=self.num_chains,
+            init_values=self.init,
+            static_argnums=(0,),  # the drives' segments shape the model
+            target_accept_prob=0.95,
+        )
+        samples = dict(draws.samples)
+        samples.update(
+            _split_work_scale(
+                samples["log_gamma_work"],
+                samples["log_lateral_ratio"],
+                priors,
+                history.lateral_log_sd,
+                run_seed,
+            )
+        )
+        if depth is not None:
+            samples["initial_depth_mm"] = _initial_depths(
+                samples, history, exposure, read_pair, depth, wear_area, run_seed
+            )
+        tree = azb.from_dict({"posterior": samples, "sample_stats": {"diverging": draws.diverging}})
+        tree.attrs.update(_history_attrs(history, extended))
+        names = ["log_gamma_work", "lateral_z", "sigma_ratio_mm", "tau"]
+        names += ["kappa"] if extended else []
+        return tree, diagnose(tree, method="nuts", var_names=names)
+
+
 def fit_wear_history(
     history: DriveHistory,
     readings: TreadReadings | None = None,
@@ -343,44 +391,13 @@ def fit_wear_history(
     args = (history, exposure, read_pair, depth, extended, priors, float(geom.wear_area_mm2))
     init = _init_values(priors, extended, history.n_pairs if depth is not None else None)
 
-    def run(samples_per_chain: int, run_seed: int):
-        draws = run_nuts(
-            wear_history_model,
-            args,
-            seed=run_seed,
-            num_warmup=num_warmup,
-            num_samples=samples_per_chain,
-            num_chains=num_chains,
-            init_values=init,
-            static_argnums=(0,),  # the drives' segments shape the model
-            target_accept_prob=0.95,
-        )
-        samples = dict(draws.samples)
-        samples.update(
-            _split_work_scale(
-                samples["log_gamma_work"],
-                samples["log_lateral_ratio"],
-                priors,
-                history.lateral_log_sd,
-                run_seed,
-            )
-        )
-        if depth is not None:
-            samples["initial_depth_mm"] = _initial_depths(
-                samples, history, exposure, read_pair, depth, float(geom.wear_area_mm2), run_seed
-            )
-        tree = azb.from_dict({"posterior": samples, "sample_stats": {"diverging": draws.diverging}})
-        tree.attrs.update(_history_attrs(history, extended))
-        names = ["log_gamma_work", "lateral_z", "sigma_ratio_mm", "tau"]
-        names += ["kappa"] if extended else []
-        return tree, diagnose(tree, method="nuts", var_names=names)
-
-    tree, diagnostics = run(num_samples, seed)
+    sample = _Sampling(args, init, history, priors, num_warmup, num_chains)
+    tree, diagnostics = sample(num_samples, seed)
     if diagnostics.short_of_draws:
         # Chains that agree and did not diverge, but mix slowly (a year's few readings leave
         # the noise scales' tails long): one more run with twice the draws per chain.
         num_samples *= 2
-        tree, diagnostics = run(num_samples, seed + 1)
+        tree, diagnostics = sample(num_samples, seed + 1)
     return Fit(
         data=tree,
         diagnostics=diagnostics,
