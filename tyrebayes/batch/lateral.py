@@ -318,6 +318,22 @@ def with_drive_cornering(table):
     Returns
     -------
     tuple of (pandas.DataFrame, str)
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> table = pd.DataFrame({"work_y_front_j": [100.0, 100.0], "work_y_rear_j": [50.0, 50.0],
+    ...     "cornering_stiffness_front_per_rad": [16.5, 16.5],
+    ...     "cornering_stiffness_rear_per_rad": [16.5, 16.5],
+    ...     "cornering_stiffness_log_sd": [0.5, 0.5],
+    ...     "tyre_set_id": ["a", "b"], "c_y": [20.0, None], "c_y_log_sd": [0.1, None],
+    ...     "c_y_front": [16.5, None], "c_y_rear": [24.0, None],
+    ...     "lateral_reason": ["", "lateral: no usable cornering"]})
+    >>> out, note = with_drive_cornering(table)
+    >>> note
+    "c_y from the drives' lateral estimates (1 of 2 tyre set(s))"
+    >>> out["cornering_stiffness_source"].tolist()
+    ['drive_lateral', 'type_prior']
     """
     from ..streams.wear_evidence_table import with_cornering
 

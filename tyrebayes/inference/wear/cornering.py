@@ -118,6 +118,12 @@ class DrivesCornering(eqx.Module):
         The drive whose fit gave it ("" when none did).
     tries : tuple of (str, str)
         Each drive tried and why its fit was not used ("" for the one used).
+
+    Examples
+    --------
+    >>> found = DrivesCornering(None, "", (("drive_000", "lateral: no usable cornering"),))
+    >>> found.note.endswith("no usable cornering): the type prior's c_y is used")
+    True
     """
 
     stiffness: CorneringStiffness | None
