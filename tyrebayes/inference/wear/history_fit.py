@@ -279,16 +279,13 @@ class _Sampling:
     """One NUTS run of the history model and its diagnostics, at a number of draws and a seed:
     :func:`fit_wear_history` runs it once, and once more where the draws fell short."""
 
-    args: tuple
+    args: tuple  # wear_history_model's
     init: dict
-    history: DriveHistory
-    priors: WearPriors
     num_warmup: int
     num_chains: int
 
     def __call__(self, samples_per_chain: int, run_seed: int):
-        history, priors = self.history, self.priors
-        _, exposure, read_pair, depth, extended, _, wear_area = self.args
+        history, exposure, read_pair, depth, extended, priors, wear_area = self.args
         draws = run_nuts(
             wear_history_model,
             self.args,
@@ -391,11 +388,11 @@ def fit_wear_history(
     args = (history, exposure, read_pair, depth, extended, priors, float(geom.wear_area_mm2))
     init = _init_values(priors, extended, history.n_pairs if depth is not None else None)
 
-    sample = _Sampling(args, init, history, priors, num_warmup, num_chains)
+    sample = _Sampling(args, init, num_warmup, num_chains)
     tree, diagnostics = sample(num_samples, seed)
     if diagnostics.short_of_draws:
-        # Chains that agree and did not diverge, but mix slowly (a year's few readings leave
-        # the noise scales' tails long): one more run with twice the draws per chain.
+        # Chains that agree and did not diverge but mix slowly: one more run with twice the
+        # draws per chain.
         num_samples *= 2
         tree, diagnostics = sample(num_samples, seed + 1)
     return Fit(
