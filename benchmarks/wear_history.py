@@ -184,21 +184,15 @@ def run_year(seed: int, n_drives: int, drive_s: float, nuts: dict) -> dict:
         t1 = time.time()
         c_y = truth.c_y_per_rad * np.exp(STAND_IN_LOG_SD * rng.standard_normal(2))
         stand_in = CorneringStiffness(float(c_y[0]), float(c_y[1]), STAND_IN_LOG_SD, "given")
-        frames = (
+        # each stream validated once, for the lateral fits and the drives' lateral estimates
+        frames = [
             (Path(p).name, validate_stream(read_stream(p), vehicle).data)
             for p in truth.stream_paths
-        )
-        drives_cornering = cornering_stiffness_from_drives(frames, vehicle)
-        fitted = drives_cornering.stiffness
-        drive_rows = [
-            drive_lateral(
-                validate_stream(read_stream(p), vehicle).data,
-                vehicle,
-                "dry",
-                method=RunSettings().lateral_method,
-            )
-            for p in truth.stream_paths
         ]
+        drives_cornering = cornering_stiffness_from_drives(iter(frames), vehicle)
+        fitted = drives_cornering.stiffness
+        method = RunSettings().lateral_method
+        drive_rows = [drive_lateral(f, vehicle, "dry", method=method) for _, f in frames]
         t2 = time.time()
         tables = {
             "type_prior": wear_evidence_table(truth.stream_paths, vehicle, "compact_fwd"),

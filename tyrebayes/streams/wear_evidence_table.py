@@ -104,7 +104,7 @@ def with_cornering(
     out = table.copy()
     rows = np.ones(len(out), dtype=bool) if rows is None else np.asarray(rows, dtype=bool)
     if "cornering_stiffness_source" not in out:  # a fleet run's summary: say what its rows had
-        out["cornering_stiffness_source"] = _stated_source(out)
+        out["cornering_stiffness_source"] = np.where(type_prior_rows(out), "type_prior", "given")
     for axle, new in (("front", cornering.front_per_rad), ("rear", cornering.rear_per_rad)):
         old = out[f"cornering_stiffness_{axle}_per_rad"].to_numpy(dtype=float)
         work = out[f"work_y_{axle}_j"].to_numpy(dtype=float)
@@ -117,8 +117,9 @@ def with_cornering(
     return out
 
 
-def _stated_source(table: pd.DataFrame) -> np.ndarray:
-    """Per row, "type_prior" where its c_y are the type prior's numbers, else "given"."""
+def type_prior_rows(table: pd.DataFrame) -> np.ndarray:
+    """Per row, whether its ``cornering_stiffness_*`` columns hold the type prior's numbers (what
+    a table without a ``cornering_stiffness_source`` column says of its rows)."""
     from .cornering_stiffness import TYPE_PRIOR_CORNERING as prior
 
     same = np.ones(len(table), dtype=bool)
@@ -127,8 +128,10 @@ def _stated_source(table: pd.DataFrame) -> np.ndarray:
         ("cornering_stiffness_rear_per_rad", prior.rear_per_rad),
         ("cornering_stiffness_log_sd", prior.log_sd),
     ):
+        if column not in table:
+            return np.zeros(len(table), dtype=bool)
         same &= np.isclose(table[column].to_numpy(dtype=float), value)
-    return np.where(same, "type_prior", "given")
+    return same
 
 
 _CORNERING_COLUMNS = (

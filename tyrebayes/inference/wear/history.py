@@ -21,6 +21,7 @@ import pandas as pd
 
 from ..._errors import BadInputError
 from ...physics.wear import TreadGeometry
+from ...streams.wear_evidence_table import type_prior_rows
 from .changepoint import FALSE_ALARM_RATE, TyreChanges, detect_tyre_changes
 
 #: Evidence columns the history needs (a subset of WEAR_EVIDENCE_COLUMNS; ``speed_scale`` is
@@ -316,17 +317,6 @@ def _pairs(changes: TyreChanges, n: int) -> tuple[np.ndarray, int]:
     return pair, int(next_pair)
 
 
-def _is_type_prior(table: pd.DataFrame) -> bool:
-    from ...streams.cornering_stiffness import TYPE_PRIOR_CORNERING as prior
-
-    expected = {
-        "cornering_stiffness_front_per_rad": prior.front_per_rad,
-        "cornering_stiffness_rear_per_rad": prior.rear_per_rad,
-        "cornering_stiffness_log_sd": prior.log_sd,
-    }
-    return all(c in table and np.allclose(_column(table, c), v) for c, v in expected.items())
-
-
 def _lateral(table: pd.DataFrame, n: int) -> tuple[np.ndarray, float, str]:
     """The lateral work (n, 2) [J], its scale's log-sd and the stiffness source of a table."""
     if not all(c in table for c in LATERAL_COLUMNS):
@@ -342,7 +332,7 @@ def _lateral(table: pd.DataFrame, n: int) -> tuple[np.ndarray, float, str]:
     if "cornering_stiffness_source" in table:
         sources = sorted({str(v) for v in table["cornering_stiffness_source"]})
     else:  # a fleet run's summary: the type prior's numbers say the type prior
-        sources = ["type_prior" if _is_type_prior(table) else "given"]
+        sources = ["type_prior" if type_prior_rows(table).all() else "given"]
     # one tyre stiffness for the history: the widest stated uncertainty of its drives
     return work_y, float(log_sd.max()), "+".join(sources)
 
