@@ -109,12 +109,13 @@ def plain_loop(items, out: Path, settings, traced_drives: bool = False) -> dict:
 
     ``traced_drives``: run the per-drive stage once into a scratch folder first (not timed), so
     that the timed pass finds the per-drive programs (the force-density EM of each padded
-    length, the temperature scans) traced in this process: a tyre-set fit drops every compiled
-    program of the process (``ProgramBudget.keep_one_fit_shape``), and a long-lived worker
-    traces each drive shape once, not once per drive. It also fits each tyre set a second
-    time right after its first fit, into a scratch folder: the CPU seconds of that fit, with its
-    shape's programs kept, are a fit's at fleet scale, where each padded shape serves many sets
-    and its reload is paid once per worker (``tyre_set_fit_cpu_seconds_programs_kept``).
+    length, the temperature scans) traced in this process: the first tyre-set fit after drive
+    tasks drops every compiled program of the process (``ProgramBudget.keep_one_fit_shape``),
+    and a long-lived worker traces each drive shape once, not once per drive. It also fits each
+    tyre set a second time right after its first fit, into a scratch folder: the CPU seconds of
+    that fit, with its shape's programs kept, are a fit's at fleet scale, where each padded
+    shape serves many sets and its reload is paid once per worker
+    (``tyre_set_fit_cpu_seconds_programs_kept``).
     """
     from _internal import pad_size, tyre_set_table
 

@@ -35,21 +35,43 @@ def test_freed_heap_goes_back_and_the_peak_restarts_from_live_memory():
     assert len(survivors) == 100
 
 
-def test_programs_are_dropped_at_the_first_fit_and_when_the_shape_changes(monkeypatch):
-    cleared = []
+def test_a_fit_drops_the_drive_programs_and_at_a_new_shape_only_the_old_shapes(monkeypatch):
+    from tyrebayes.inference.tyre import shape_programs
+
+    cleared, shapes_dropped = [], []
     monkeypatch.setattr(jax, "clear_caches", lambda: cleared.append(True))
+    monkeypatch.setattr(shape_programs, "drop_shape_programs", lambda: shapes_dropped.append(1))
     budget = ProgramBudget()
     assert not budget.keep_one_fit_shape(32_768)  # a new process: nothing to drop
-    budget.last_fit_shape, budget.dirty = None, True  # as after drive tasks
+    budget.finish("drive", 0.0, False)  # drive tasks ran
     dropped = []
     for size in (32_768, 32_768, 16_384, 16_384, 32_768):
         dropped.append(budget.keep_one_fit_shape(size))
-        budget.dirty = True  # the fit ran
-    # The first fit drops the drive stage's programs; then 32k -> 16k and 16k -> 32k.
-    assert dropped == [True, False, True, False, True]
-    assert len(cleared) == 3
-    assert budget.last_fit_shape == 32_768
-    assert budget.floor_mb is not None
+        budget.finish("tyre_set", 0.0, False)
+    # The first fit drops the drive stage's programs; 32k -> 16k and 16k -> 32k the shapes'.
+    assert dropped == [True, False, False, False, False]
+    assert len(cleared) == 1 and len(shapes_dropped) == 2
+    assert budget.last_fit_shape == 32_768 and budget.floor_mb is not None
+    budget.finish("drive", 0.0, False)  # drive tasks again: their programs go at the next fit
+    assert budget.keep_one_fit_shape(32_768) and len(cleared) == 2
+
+
+def test_dropping_the_shapes_keeps_the_shared_search_and_forgets_each_shapes_core():
+    from tyrebayes.inference.tyre import laplace
+    from tyrebayes.inference.tyre.model import TyrePriors
+    from tyrebayes.inference.tyre.predictive import _priors_key
+    from tyrebayes.inference.tyre.shape_programs import drop_shape_programs
+
+    priors = _priors_key(TyrePriors())
+    for cache in (laplace._laplace_core, laplace._subset_search, laplace._posterior):
+        cache.cache_clear()
+    # Made, not called: nothing is compiled.
+    laplace._laplace_core(priors, "magic", (8192, 1, ("dry",)), 10, 50)
+    laplace._subset_search(priors, "magic", (1, ("dry",)), 50)
+    drop_shape_programs()
+    assert laplace._laplace_core.cache_info().currsize == 0
+    assert laplace._subset_search.cache_info().currsize == 1
+    assert laplace._posterior.cache_info().currsize == 1
 
 
 @pytest.mark.parametrize(

@@ -4,13 +4,13 @@ A worker is one long-lived process that runs drive tasks and tyre-set fits in tu
 stay resident after a task and count towards every later task's peak:
 
 * heap that glibc keeps after the task freed it (:func:`release_free_memory` gives it back);
-* the programs JAX compiled: a fit's programs of one padded shape and each padded drive
-  length's force-density EM and temperature scan (343 MB in one process at the end of the warm
-  loop of the ``fleet_run`` benchmark). Keeping them is what makes the next task of
-  the same shape fast (a dropped program is reloaded from the shared cache), so they are dropped
-  only when keeping them would take the next task past the worker's memory budget
-  (:class:`ProgramBudget`), and when a fit's padded shape changes
-  (:meth:`ProgramBudget.keep_one_fit_shape`).
+* the programs JAX compiled: a fit's programs of one padded shape, those its shapes share (the
+  search on a subset of the windows), and each padded drive length's force-density EM and
+  temperature scan. Keeping them is what makes the next task of the same shape fast (a dropped
+  program is reloaded from the shared cache), so they are dropped only when keeping them would
+  take the next task past the worker's memory budget (:class:`ProgramBudget`); a fit drops the
+  drive stage's programs, and the per-shape programs of the fits before it when its padded
+  shape changes (:meth:`ProgramBudget.keep_one_fit_shape`).
 """
 
 from __future__ import annotations
@@ -167,11 +167,13 @@ class ProgramBudget:
     floor_mb : float or None
         Resident memory right after this process's last drop [MB].
     last_fit_shape : int or None
-        Padded number of windows of the last tyre-set fit.
+        Padded number of windows of the last tyre-set fit since the last drop.
     dirty : bool
         Whether a task ran since the last drop (there are programs to drop).
     seen_stages : set of str
         The stages this process has run a task of.
+    last_stage : str or None
+        The stage of the last task this process finished.
     """
 
     need_mb: dict[str, float] = dataclasses.field(default_factory=dict)
@@ -179,6 +181,7 @@ class ProgramBudget:
     last_fit_shape: int | None = None
     dirty: bool = False
     seen_stages: set[str] = dataclasses.field(default_factory=set)
+    last_stage: str | None = None
 
     def start(self, stage: str, budget_mb: float) -> tuple[float, bool]:
         """Before a task: release free heap, drop the programs if :func:`must_drop` says so,
@@ -201,23 +204,32 @@ class ProgramBudget:
         if not dropped and stage in self.seen_stages:
             self.need_mb[stage] = max(self.need_mb.get(stage, 0.0), peak - start_mb)
         self.seen_stages.add(stage)
+        self.last_stage = stage
         self.dirty = True
         return peak
 
     def keep_one_fit_shape(self, size: int) -> bool:
-        """Drop the compiled programs when a fit's padded shape changes; True if dropped.
+        """Before a fit of ``size`` padded windows: drop what it will not use. True if every
+        program was dropped.
 
-        A fit's programs are hundreds of MB per shape. The run gives the sets with the largest
-        shape the highest priority (:func:`~.run.fleet_run`), so a worker meets each shape about
-        once and this drops each shape about once; reloading from the shared cache and the kept
-        traced programs is cheap. The first fit of a process drops what came before it too: the
-        per-drive stage's programs, which a fit does not use.
+        The first fit after drive tasks (or in a process) drops every program: the per-drive
+        stage's, which a fit does not use. A fit whose padded shape differs from the last fit's
+        drops the per-shape programs of the fits before it
+        (:func:`tyrebayes.inference.tyre.shape_programs.drop_shape_programs`; hundreds of MB
+        over a few shapes) and keeps those every shape shares. The run gives the sets with the
+        largest shape the highest priority (:func:`~.run.fleet_run`), so a worker meets each
+        shape about once.
         """
-        drop = self.dirty and self.last_fit_shape != size
-        if drop:
+        if self.dirty and (self.last_stage != "tyre_set" or self.last_fit_shape is None):
             self._drop()
+            self.last_fit_shape = size
+            return True
+        if self.last_fit_shape is not None and self.last_fit_shape != size:
+            from ..inference.tyre.shape_programs import drop_shape_programs
+
+            drop_shape_programs()
         self.last_fit_shape = size
-        return drop
+        return False
 
     def _drop(self) -> None:
         drop_compiled_programs()

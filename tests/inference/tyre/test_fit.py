@@ -176,14 +176,23 @@ def test_block_hessian_equals_the_dense_hessian_over_several_drives():
     )
 
 
-def test_coarse_search_windows_keep_padding_at_the_end():
-    from tyrebayes.inference.tyre.map_starts import _every_nth_window
+def test_search_windows_are_every_kth_real_window_at_a_fixed_length():
+    from tyrebayes.inference.tyre.map_starts import SEARCH_WINDOWS, search_windows
 
-    obs = stack_drives([linear_region_windows(4, n=100)], ["dry"], pad_to=128)
-    coarse = _every_nth_window(obs, 4)
-    assert coarse.slip.shape == (32,) and coarse.n_drives == obs.n_drives
-    np.testing.assert_array_equal(np.asarray(coarse.rho), np.asarray(obs.rho)[::4])
-    assert np.asarray(coarse.mask).sum() == 25 and not np.asarray(coarse.mask)[25:].any()
+    drives = [linear_region_windows(k, n=n) for k, n in ((4, 4000), (5, 3500))]
+    obs = stack_drives(drives, ["dry", "wet"], pad_to=8192)
+    coarse, ratio = search_windows(obs)
+    assert coarse.slip.shape == (SEARCH_WINDOWS,) and coarse.n_drives == 2
+    kept = np.asarray(coarse.mask)
+    assert kept.sum() == 2500 and not kept[2500:].any() and ratio == 7500 / 2500
+    np.testing.assert_array_equal(np.asarray(coarse.rho)[kept], np.asarray(obs.rho)[:7500:3])
+    np.testing.assert_array_equal(np.bincount(np.asarray(coarse.drive_index)[kept]), [1334, 1166])
+    blocks = np.asarray(coarse.block_index)[kept]
+    assert blocks.min() == 0 and np.array_equal(np.unique(blocks), np.arange(blocks.max() + 1))
+    # The blocks keep their windows together: one block in the data is one in the subset.
+    full = np.asarray(obs.block_index)[:7500:3]
+    assert len(np.unique(full)) == len(np.unique(blocks))
+    assert np.isfinite(np.asarray(coarse.slip_sd)).all() and (np.asarray(coarse.slip_sd) > 0).all()
 
 
 def test_predictive_core_matches_the_model_log_likelihood():
@@ -233,11 +242,12 @@ def test_predictive_core_matches_the_model_log_likelihood():
 
 
 def test_search_reads_a_bounded_number_of_windows():
-    from tyrebayes.inference.tyre.map_starts import SEARCH_WINDOWS, _search_stride
+    from tyrebayes.inference.tyre.map_starts import SEARCH_WINDOWS, SUBSET_FROM, searches_subset
 
-    for size in (512, 4096, 9216, 90112, 1 << 20):
-        searched = -(-size // _search_stride(size))
-        assert searched == size or SEARCH_WINDOWS <= searched < 2 * SEARCH_WINDOWS
+    assert not searches_subset(SUBSET_FROM - 1) and searches_subset(SUBSET_FROM)
+    for n in (SUBSET_FROM // 1.2, 9216, 90112, 1 << 20):  # real windows of a subset's search
+        stride = -(-int(n) // SEARCH_WINDOWS)
+        assert SEARCH_WINDOWS // 2 < -(-int(n) // stride) <= SEARCH_WINDOWS
 
 
 def test_search_starts_each_drive_at_its_own_slip_offset():

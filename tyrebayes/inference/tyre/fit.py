@@ -308,8 +308,8 @@ def fit_tyre_fast(
 ) -> TyreFit:
     """Fast path: MAP with optimistix BFGS on the unconstrained space plus a Laplace approximation.
 
-    The MAP search runs from the starts in ``MAP_STARTS`` at once (vectorised) on every
-    ``_search_stride``-th window and refines the best successful one on all windows: a long
+    The MAP search runs from each start in ``MAP_STARTS`` on a long set's subset of windows
+    (``search_windows``) and refines the best successful one on all windows: a long
     drive's posterior has spurious local modes. Each BFGS run works in parameters whitened by
     the Hessian at its start (for the refinement, the search's windows' Hessian scaled to all
     windows). The slips' weights (1/VIF) are then taken from the residuals at

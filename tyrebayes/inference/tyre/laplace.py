@@ -20,7 +20,7 @@ from numpyro.infer.util import constrain_fn, potential_energy
 from ...internal.stored_program import stored_program
 from .block_hessian import _block_hessian
 from .layout import _model_layout
-from .map_starts import MAP_STARTS, _every_nth_window, _search_stride, _start
+from .map_starts import MAP_STARTS, SEARCH_WINDOWS, _start, search_windows, searches_subset
 from .model import TyrePriors
 
 
@@ -30,11 +30,13 @@ class LaplaceCore(NamedTuple):
     ``mode(start, obs, whiten, search)`` gives the mode, the optimiser's outcome (a code:
     :func:`optimiser_outcome`), the whitening W its last BFGS run used and the constrained
     sites at the mode (deterministic sites included). With ``search`` true the mode is searched
-    for from the starts of ``MAP_STARTS`` (``start`` is ``flat0``, ``whiten`` unused); false, it
-    comes from one BFGS run started at ``start`` in the coordinates ``whiten`` gives: the second
+    for from the starts of ``MAP_STARTS`` (``start`` is ``flat0``, ``whiten`` unused): on every
+    window of a short set, else on a subset (:func:`~.map_starts.search_windows`, one program for
+    every size) whose best mode one BFGS run on all windows then refines. False, the mode comes
+    from that one BFGS run started at ``start`` in the coordinates ``whiten`` gives: the second
     pass of a fit, whose slip weights move the posterior's width and barely its centre, keeps
     the basin the search found and the whitening of its refinement (a Hessian of every window
-    not paid again). The search and that BFGS run are two programs (:func:`_mode_programs`).
+    not paid again).
 
     ``laplace(mode, obs, key)`` gives the smallest Hessian eigenvalue at the mode, the scale S
     with S S' = H⁻¹ (eigenvalues floored) and the constrained Laplace draws. The first pass of
@@ -66,30 +68,62 @@ def _laplace_core(
     priors_key: tuple, model: str, obs_key: tuple, num_draws: int, max_steps: int
 ) -> LaplaceCore:
     """The MAP search, refit and Laplace draws for one data shape (:class:`LaplaceCore`)."""
-    priors = TyrePriors(*priors_key)
-    numpyro_model, template, params = _model_layout(priors_key, model, obs_key)
-    flat0, unravel = ravel_pytree(params)
-    posterior = _Posterior(
-        numpyro_model, unravel, _block_hessian(numpyro_model, template, params), max_steps
-    )
-    search_program, refine_program = _mode_programs(posterior, priors, _search_stride(obs_key[0]))
-    laplace_program = _laplace_program(posterior, num_draws)
+    posterior = _posterior(priors_key, model, obs_key[1:], max_steps)
+    flat0, _ = ravel_pytree(_model_layout(priors_key, model, obs_key)[2])
     key = (priors_key, model, obs_key, num_draws, max_steps)
-    searched = stored_program(search_program, ("tyre-search-core", *key))
-    refined = stored_program(refine_program, ("tyre-refine-core", *key))
+    refined = stored_program(_refine_program(posterior), ("tyre-refine-core", *key))
+    if searches_subset(obs_key[0]):
+        searched = _subset_search(priors_key, model, obs_key[1:], max_steps)
 
-    def mode(start, obs, whiten, search: bool):
-        if search:
-            start, whiten, code, sites = searched(start, obs)
-            if int(code) >= 0:  # the search ran on every window: its mode is the mode
-                return start, code, whiten, sites
-        return refined(start, obs, whiten)
+        def mode(start, obs, whiten, search: bool):
+            if search:
+                coarse, windows = search_windows(obs)
+                start, whiten = searched(start, coarse, np.asarray(windows, obs.slip.dtype))
+            return refined(start, obs, whiten)
+
+    else:
+        priors = TyrePriors(*priors_key)
+        whole = stored_program(_search_program(posterior, priors), ("tyre-search-core", *key))
+
+        def mode(start, obs, whiten, search: bool):
+            return whole(start, obs) if search else refined(start, obs, whiten)
 
     return LaplaceCore(
         mode=mode,
-        laplace=stored_program(laplace_program, ("tyre-laplace-core", *key)),
+        laplace=stored_program(_laplace_program(posterior, num_draws), ("tyre-laplace-core", *key)),
         flat0=flat0,
     )
+
+
+@functools.lru_cache(maxsize=16)
+def _posterior(priors_key: tuple, model: str, drives_key: tuple, max_steps: int) -> _Posterior:
+    """The posterior of a data shape's drives and surfaces (``drives_key``), whatever its number
+    of windows."""
+    numpyro_model, template, params = _model_layout(priors_key, model, (None, *drives_key))
+    _, unravel = ravel_pytree(params)
+    return _Posterior(
+        numpyro_model, unravel, _block_hessian(numpyro_model, template, params), max_steps
+    )
+
+
+@functools.lru_cache(maxsize=16)
+def _subset_search(priors_key: tuple, model: str, drives_key: tuple, max_steps: int) -> Callable:
+    """The search on :func:`~.map_starts.search_windows`' windows: one program for every data
+    shape of these drives and surfaces that searches a subset (:func:`~.map_starts.
+    searches_subset`)."""
+    posterior = _posterior(priors_key, model, drives_key, max_steps)
+    best_start = _best_start(posterior, TyrePriors(*priors_key))
+
+    @jax.jit
+    def subset_search_program(start, coarse, windows):
+        # The refinement's whitening from the search's windows, scaled to all windows (the
+        # prior's curvature scaled with them: only the first steps' lengths depend on it). A
+        # Hessian of every window cost about as much as the refinement's BFGS steps together.
+        mode, _, _ = best_start(start, coarse)
+        return mode, posterior.whitening_at(mode, coarse, windows)
+
+    key = ("tyre-subset-search", priors_key, model, (SEARCH_WINDOWS, *drives_key), max_steps)
+    return stored_program(subset_search_program, key)
 
 
 class _Posterior(NamedTuple):
@@ -150,61 +184,57 @@ class _Posterior(NamedTuple):
         return self.minimise_whitened(flat_start, obs, self.whitening_at(flat_start, obs))
 
 
-def _searched_start(posterior: _Posterior, priors: TyrePriors, stride: int) -> Callable:
-    """The search for the basin from the starts of ``MAP_STARTS`` on every stride-th window."""
+def _best_start(posterior: _Posterior, priors: TyrePriors) -> Callable:
+    """The multi-start search: BFGS from each start of ``MAP_STARTS`` on ``obs``; returns the
+    best run's mode, its outcome and its whitening."""
 
-    def searched_start(flat_init, obs, _):
-        # Several starts on every stride-th window find the basin; the best successful one is
-        # refined on all windows (module comment at MAP_STARTS). Returns the refinement's start,
-        # its whitening, and the search's outcome code where the search already ended at the
-        # mode (on all windows: no refinement), else -1.
-        coarse = _every_nth_window(obs, stride)
-        starts = jax.vmap(lambda c, m: _start(flat_init, posterior.unravel, coarse, priors, c, m))(
+    def best_start(flat_init, obs):
+        # Several starts find the basin (module comment at MAP_STARTS).
+        starts = jax.vmap(lambda c, m: _start(flat_init, posterior.unravel, obs, priors, c, m))(
             *map(jnp.asarray, zip(*MAP_STARTS, strict=True))
         )
         # One start after another (lax.map): vmapped, the four starts' Hessians and BFGS states
         # are held at once, and every start runs as many steps as the slowest.
-        values, results, whitens = jax.lax.map(lambda s: posterior.minimise_from(s, coarse), starts)
-        energies = jax.vmap(posterior.negative_log_posterior, (0, None))(values, coarse)
+        values, results, whitens = jax.lax.map(lambda s: posterior.minimise_from(s, obs), starts)
+        energies = jax.vmap(posterior.negative_log_posterior, (0, None))(values, obs)
         ok = (results == optx.RESULTS.successful) & jnp.isfinite(energies)
         best = jnp.argmin(jnp.where(ok, energies, jnp.inf))
         best = jnp.where(ok.any(), best, jnp.argmin(jnp.nan_to_num(energies, nan=jnp.inf)))
-        mode = values[best]
-        if stride == 1:
-            return mode, whitens[best], _outcome_code(jax.tree.map(lambda r: r[best], results))
-        # The refinement's whitening from the search's windows, scaled to all windows (the
-        # prior's curvature scaled with them: only the first steps' lengths depend on it). A
-        # Hessian of every window cost about as much as the refinement's BFGS steps together.
-        windows = jnp.sum(obs.mask) / jnp.maximum(jnp.sum(coarse.mask), 1)
-        return mode, posterior.whitening_at(mode, coarse, windows), _NOT_YET
+        return values[best], jax.tree.map(lambda r: r[best], results), whitens[best]
 
-    return searched_start
+    return best_start
 
 
-def _mode_programs(posterior: _Posterior, priors: TyrePriors, stride: int) -> tuple:
-    """The jitted search and refinement programs behind :class:`LaplaceCore`'s ``mode``.
-
-    ``search(start, obs)`` gives the refinement's start, its whitening, the search's outcome
-    code (or ``_NOT_YET``) and the constrained sites at that start; ``refine(start, obs,
-    whiten)`` one BFGS run on all windows, its outcome code, its whitening and the constrained
-    sites at its mode. Compiled apart, not as one program: XLA's compilation of one program
-    holding both set a first fit's peak memory (``fit-tyre`` in a fresh process,
-    ``benchmarks/results/lateral_speed.json``), and a fit's second pass needs the refinement
-    alone.
-    """
-    searched_start = _searched_start(posterior, priors, stride)
+def _search_program(posterior: _Posterior, priors: TyrePriors) -> Callable:
+    """The jitted search on every window: ``search(start, obs)`` gives the mode, its outcome
+    code, its whitening and the constrained sites there (what ``refine`` gives)."""
+    best_start = _best_start(posterior, priors)
 
     @jax.jit
     def search_program(start, obs):
-        start, whiten, code = searched_start(start, obs, None)
-        return start, whiten, code, posterior.constrained(start, obs)
+        mode, result, whiten = best_start(start, obs)
+        return mode, _outcome_code(result), whiten, posterior.constrained(mode, obs)
+
+    return search_program
+
+
+def _refine_program(posterior: _Posterior) -> Callable:
+    """The jitted refinement: ``refine(start, obs, whiten)``, one BFGS run on all windows from
+    ``start`` in the coordinates ``whiten`` gives; returns its mode, outcome code, whitening and
+    the constrained sites at its mode.
+
+    The searches and the refinement are compiled apart, not as one program: XLA's compilation
+    of one program holding both set a first fit's peak memory (``fit-tyre`` in a fresh process,
+    ``benchmarks/results/lateral_speed.json``), and a fit's second pass needs the refinement
+    alone.
+    """
 
     @jax.jit
     def refine_program(start, obs, whiten):
         mode, result, whiten = posterior.minimise_whitened(start, obs, whiten)
         return mode, _outcome_code(result), whiten, posterior.constrained(mode, obs)
 
-    return search_program, refine_program
+    return refine_program
 
 
 def _laplace_program(posterior: _Posterior, num_draws: int) -> Callable:
@@ -247,10 +277,6 @@ _OUTCOMES = tuple(
     )
     if hasattr(optx.RESULTS, name)
 )
-
-
-# The mode program's code for "no outcome yet: the BFGS run on all windows is still to come".
-_NOT_YET = np.int32(-1)
 
 
 def _outcome_code(result) -> jax.Array:

@@ -1,7 +1,7 @@
 """Where the per-tyre MAP search starts, and on which windows it searches.
 
 The posterior of one long drive has spurious local modes (:data:`MAP_STARTS`); the search runs
-from several starts on a subset of the windows (:func:`_search_stride`), and the refinement on
+from several starts on a subset of the windows (:func:`search_windows`), and the refinement on
 all of them (:mod:`tyrebayes.inference.tyre.laplace`).
 """
 
@@ -11,40 +11,63 @@ import dataclasses
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax.flatten_util import ravel_pytree
 from numpyro.distributions import constraints
 from numpyro.distributions.transforms import biject_to
 
+from ...internal.device_arrays import device_array
 from .data import TyreObservations
 from .model import TyrePriors
 
-# Windows the multi-start search reads at most (about a quarter of a one-hour 100 Hz drive).
-SEARCH_WINDOWS = 2304
+# Windows the multi-start search reads on a tyre set of at least SUBSET_FROM padded windows:
+# every k-th real window, k the smallest stride that leaves at most this many (more than half
+# as many; about a third of a one-hour 100 Hz drive at most), padded to exactly this many. A
+# fixed length makes the search one compiled program for every set that large, whatever its
+# padded size: a fleet worker loads it once, where a program per padded shape cost each new
+# shape its largest executable (1.4 of a fit's 3.6 CPU s spent loading its programs from the
+# persistent cache, one-off).
+SEARCH_WINDOWS = 3072
+SUBSET_FROM = 4608
 
 
-def _search_stride(size: int) -> int:
-    """Every how many windows the multi-start search reads: about :data:`SEARCH_WINDOWS` of them.
+def searches_subset(size: int) -> bool:
+    """Whether a fit of ``size`` padded windows searches a subset (:func:`search_windows`).
 
     The search only has to find the right basin; the refinement on all windows finds the mode.
     On one full one-hour drive the spurious mode lay ~3,000 nats below the right one, so a
     quarter of the windows should still keep a gap of several hundred (an estimate; the
     spurious-mode regression test and the recovery benchmark pass with it). A fixed budget keeps
     the search's cost from growing with the data: ten one-hour drives pay one search, not ten.
-    Short drives keep every window.
+    Shorter sets search every window.
     """
-    return max(1, size // SEARCH_WINDOWS)
+    return size >= SUBSET_FROM
 
 
-def _every_nth_window(obs: TyreObservations, n: int) -> TyreObservations:
-    """The observations of every n-th window (padding stays at the end, so it stays padding)."""
-    if n == 1:
-        return obs
+def search_windows(obs: TyreObservations) -> tuple[TyreObservations, float]:
+    """The search's windows (:data:`SEARCH_WINDOWS` of them, padding at the end) and the ratio
+    of all real windows to the real windows among them.
+
+    Every k-th real window in order, so each drive keeps its share; the blocks they fall in
+    are numbered again from 0 (a block's slip offset is integrated out over the windows present:
+    :func:`~tyrebayes.inference.tyre.likelihood.block_offsets`).
+    """
+    mask = np.asarray(obs.mask)
+    n = int(mask.sum())
+    stride = -(-n // SEARCH_WINDOWS)
+    take = np.flatnonzero(mask)[::stride]
+    # Padding repeats the last window taken, masked: finite values that nothing counts.
+    index = np.concatenate([take, np.repeat(take[-1:], SEARCH_WINDOWS - take.size)])
     arrays = {
-        f.name: getattr(obs, f.name)[::n]
+        f.name: np.asarray(getattr(obs, f.name))[index]
         for f in dataclasses.fields(obs)
         if not f.metadata.get("static")
     }
-    return dataclasses.replace(obs, **arrays)
+    arrays["mask"] = np.arange(SEARCH_WINDOWS) < take.size
+    blocks = arrays["block_index"]
+    arrays["block_index"] = np.unique(blocks, return_inverse=True)[1].astype(blocks.dtype)
+    arrays = {k: device_array(v) for k, v in arrays.items()}
+    return dataclasses.replace(obs, **arrays), n / take.size
 
 
 def _drive_moments(obs: TyreObservations):
