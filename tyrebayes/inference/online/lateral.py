@@ -439,11 +439,15 @@ def online_lateral(
     state, parts = estimator.init(), []
     state_structure = jax.tree.structure(state)
     for start in range(0, blocks.n_blocks, RUN_BLOCKS):
-        # A stored program returns NumPy arrays; the modules hold JAX arrays.
+        # A stored program reads and returns NumPy arrays: the state stays in NumPy between
+        # parts, and becomes JAX arrays (what the modules hold) once, at the end.
         leaves, part = _stored_run(estimator, state, blocks.part(start, RUN_BLOCKS))
-        state = jax.tree.unflatten(state_structure, [device_array(x) for x in leaves])
-        parts.append(LateralTrajectory(*(device_array(x) for x in part)))
-    trajectory = jax.tree.map(lambda *x: device_array(np.concatenate(x)[: blocks.n_blocks]), *parts)
+        state = jax.tree.unflatten(state_structure, leaves)
+        parts.append(part)
+    state = jax.tree.map(device_array, state)
+    trajectory = LateralTrajectory(
+        *(device_array(np.concatenate(x)[: blocks.n_blocks]) for x in zip(*parts, strict=True))
+    )
     return LateralRun(estimate=estimator.result(state), trajectory=trajectory)
 
 

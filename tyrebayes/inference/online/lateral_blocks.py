@@ -83,8 +83,10 @@ class LateralBlocks(eqx.Module):
         """Blocks ``start`` to ``start + count``, padded after the record's end with empty
         blocks that end where the record does (no time passes in them).
 
-        Cut in NumPy: an eager JAX operation is a small compiled program of its own, which a
-        fleet worker that dropped its compiled programs would compile again for every drive.
+        Cut in NumPy, and left there: an eager JAX operation is a small compiled program of
+        its own, which a fleet worker that dropped its compiled programs would compile again for
+        every drive, and the stored program that runs the part reads NumPy arrays
+        (:func:`~tyrebayes.internal.stored_program.stored_program`).
         """
         end = min(start + count, self.n_blocks)
         pad = count - (end - start)
@@ -96,7 +98,7 @@ class LateralBlocks(eqx.Module):
             if pad:
                 fill = np.full((pad, *x.shape[1:]), fills.get(name, 0), x.dtype)
                 x = np.concatenate([x, fill])
-            return device_array(x)
+            return x
 
         names = ("speed", "yaw_rate", "yaw_acceleration", "ay", "steering", "ax", "mask",
                  "mask_kinematic", "n_skipped", "time_s")  # fmt: skip
