@@ -1,11 +1,11 @@
 """Which worker fits which tyre set: each padded fit shape on as few workers as balance allows.
 
-A worker's first fit of a padded shape loads that shape's compiled programs, and a worker keeps
-one shape's programs at a time (:meth:`.worker_memory.ProgramBudget.keep_one_fit_shape`): in
-the ``fleet_run`` benchmark a warm loop's first fit of a shape takes about four times its median
-fit. Sent to whichever worker is free, the ready sets of every shape reach every worker, and
-each worker loads nearly every shape (2 workers loaded 9 shapes where one worker loaded 5,
-``programs_dropped``).
+A worker's first fit of a padded shape loads that shape's own compiled programs, and a worker
+keeps one shape's at a time (:meth:`.worker_memory.ProgramBudget.keep_one_fit_shape`): in the
+``fleet_run`` benchmark a warm loop's first fit of a shape takes two to three times a fit whose
+shape is loaded (``tyre_set_fit_seconds``). Sent to whichever worker is free, the ready sets of
+every shape reach every worker, and each worker loads nearly every shape (2 workers loaded 9
+shapes where one worker loaded 5).
 
 :func:`place_sets` splits the sets, in the order they run (largest padded shape first), into
 one contiguous run per worker of about equal work (padded windows summed: a fast fit's cost
