@@ -25,8 +25,8 @@ from .model import TyrePriors
 # as many; about a third of a one-hour 100 Hz drive at most), padded to exactly this many. A
 # fixed length makes the search one compiled program for every set that large, whatever its
 # padded size: a fleet worker loads it once, where a program per padded shape cost each new
-# shape its largest executable (1.4 of a fit's 3.6 CPU s spent loading its programs from the
-# persistent cache, one-off).
+# shape its largest executable (1.3 of the 1.9 CPU s a new shape's fit spent loading its 29
+# executables from the persistent cache, one-off).
 SEARCH_WINDOWS = 3072
 SUBSET_FROM = 4608
 
