@@ -242,12 +242,22 @@ def test_predictive_core_matches_the_model_log_likelihood():
 
 
 def test_search_reads_a_bounded_number_of_windows():
-    from tyrebayes.inference.tyre.map_starts import SEARCH_WINDOWS, SUBSET_FROM, searches_subset
+    from tyrebayes.inference.tyre.map_starts import (
+        SEARCH_WINDOWS,
+        SUBSET_FROM,
+        search_windows,
+        searches_subset,
+    )
+    from tyrebayes.inference.tyre.observations import bucket_size
 
     assert not searches_subset(SUBSET_FROM - 1) and searches_subset(SUBSET_FROM)
-    for n in (SUBSET_FROM // 1.2, 9216, 90112, 1 << 20):  # real windows of a subset's search
-        stride = -(-int(n) // SEARCH_WINDOWS)
-        assert SEARCH_WINDOWS // 2 < -(-int(n) // stride) <= SEARCH_WINDOWS
+    for n in (5000, 9216, 40_000):  # real windows of a set that searches a subset
+        obs = stack_drives([linear_region_windows(6, n=n)], ["dry"])
+        assert searches_subset(obs.slip.shape[0]) and obs.slip.shape[0] == bucket_size(n)
+        coarse, ratio = search_windows(obs)
+        kept = int(np.asarray(coarse.mask).sum())
+        assert coarse.slip.shape == (SEARCH_WINDOWS,) and SEARCH_WINDOWS // 2 < kept
+        assert kept <= SEARCH_WINDOWS and ratio * kept == pytest.approx(n)
 
 
 def test_search_starts_each_drive_at_its_own_slip_offset():
