@@ -220,7 +220,7 @@ class ProgramBudget:
         largest shape the highest priority (:func:`~.run.fleet_run`), so a worker meets each
         shape about once.
         """
-        if self.dirty and (self.last_stage != "tyre_set" or self.last_fit_shape is None):
+        if self.dirty and self.last_stage != "tyre_set":
             self._drop()
             self.last_fit_shape = size
             return True

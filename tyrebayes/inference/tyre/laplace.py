@@ -69,7 +69,6 @@ def _laplace_core(
 ) -> LaplaceCore:
     """The MAP search, refit and Laplace draws for one data shape (:class:`LaplaceCore`)."""
     posterior = _posterior(priors_key, model, obs_key[1:], max_steps)
-    flat0, _ = ravel_pytree(_model_layout(priors_key, model, obs_key)[2])
     key = (priors_key, model, obs_key, num_draws, max_steps)
     refined = stored_program(_refine_program(posterior), ("tyre-refine-core", *key))
     if searches_subset(obs_key[0]):
@@ -91,7 +90,7 @@ def _laplace_core(
     return LaplaceCore(
         mode=mode,
         laplace=stored_program(_laplace_program(posterior, num_draws), ("tyre-laplace-core", *key)),
-        flat0=flat0,
+        flat0=posterior.flat0,
     )
 
 
@@ -100,9 +99,9 @@ def _posterior(priors_key: tuple, model: str, drives_key: tuple, max_steps: int)
     """The posterior of a data shape's drives and surfaces (``drives_key``), whatever its number
     of windows."""
     numpyro_model, template, params = _model_layout(priors_key, model, (None, *drives_key))
-    _, unravel = ravel_pytree(params)
+    flat0, unravel = ravel_pytree(params)
     return _Posterior(
-        numpyro_model, unravel, _block_hessian(numpyro_model, template, params), max_steps
+        numpyro_model, flat0, unravel, _block_hessian(numpyro_model, template, params), max_steps
     )
 
 
@@ -130,6 +129,7 @@ class _Posterior(NamedTuple):
     """The model's posterior over the flat unconstrained parameters, and BFGS on it."""
 
     model: Callable
+    flat0: jax.Array  # the prior medians, flat: where a search starts
     unravel: Callable  # flat vector -> the model's unconstrained sites
     hessian_at: Callable  # block-arrow Hessian (:func:`._block_hessian`)
     max_steps: int
