@@ -10,7 +10,11 @@ from tyrebayes.streams.longitudinal_work import (
     _corrected_slip,
     _denoised_force,
     _free_slip_ratios,
+    _masked_sums,
+    _measured_work,
     _noise_variance,
+    _slip_scale,
+    _work_terms,
     braking_split,
 )
 from tyrebayes.streams.wear_evidence import drive_wear_evidence
@@ -68,6 +72,31 @@ def test_friction_work_against_a_hand_computation(drive):
     assert ev.work_x_j[0] > 5 * ev.work_x_j[1]
     assert 0.5 < ev.work_x_j[0] / true[:2].sum() < 1.5
     assert 0 < ev.work_x_sd_j[0] < 0.2 * ev.work_x_j[0]
+
+
+@pytest.mark.parametrize("drive_kind", ["fwd", "rwd", "awd"])
+def test_measured_work_from_sums_is_the_sum_over_samples(drive, drive_kind):
+    """The iteration over radius ratios reads the measured traction work from sums taken once:
+    at any ratios it is Σ F_x V σ dt over each axle's traction samples with σ the mean of its
+    wheels' corrected slips, as a pass over the samples gives it."""
+    stream, _ = drive
+    feats = compute_features(stream, VEHICLE)
+    dt = 1.0 / feats.sample_rate_hz
+    valid = feats.valid & np.isfinite(feats.vx_mps)
+    fx = braking_split(feats.fx_axle_n, feats.fz_axle_n, VEHICLE)
+    terms = _work_terms(feats, fx, np.array([True, drive_kind == "awd"]), valid, dt)
+    sums = _masked_sums(feats, terms, dt)
+    rng = np.random.default_rng(4)
+    found = []
+    for ratios in (np.full(4, np.nan), 1.0 + 0.004 * rng.standard_normal(4)):
+        slip = _corrected_slip(feats, ratios, drive_kind)
+        sigma = np.column_stack([slip[:, :2].mean(axis=1), slip[:, 2:].mean(axis=1)])
+        traction = sums.use & terms.pushing
+        by_samples = np.where(traction, terms.power_w * sigma, 0.0).sum(axis=0) * dt
+        by_sums = _measured_work(sums, _slip_scale(ratios, drive_kind))
+        assert by_sums == pytest.approx(by_samples, rel=1e-9, abs=1e-9)
+        found.append(by_samples[0])
+    assert found[0] > 0 and found[1] != found[0]  # traction work at nominal radii, then moved
 
 
 def test_braking_split_puts_engine_drag_on_the_driven_axle():

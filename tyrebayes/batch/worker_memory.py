@@ -114,6 +114,11 @@ def reset_peak_rss() -> None:
     written the count goes on.
     """
     release_free_memory()
+    _restart_peak_count()
+
+
+def _restart_peak_count() -> None:
+    """:func:`reset_peak_rss` without its release of free heap (for a caller that just did)."""
     try:
         with open("/proc/self/clear_refs", "w") as fh:
             fh.write("5")
@@ -193,8 +198,9 @@ class ProgramBudget:
         if dropped:
             self._drop()
         # The peak count restarts from what is resident now, so a task's peak is never below
-        # its start unless the task itself drops programs (a fit at a new shape).
-        reset_peak_rss()
+        # its start unless the task itself drops programs (a fit at a new shape). The free heap
+        # went back above (and in a drop): another release would only walk the heap again.
+        _restart_peak_count()
         return rss_mb(), dropped
 
     def finish(self, stage: str, start_mb: float, dropped: bool) -> float:

@@ -197,30 +197,6 @@ def _slip_scale(ratio: np.ndarray, drive: str) -> np.ndarray | None:
     return ratio / float(np.mean(ratio[list(ref)]))
 
 
-def _corrected_slip_axle(feats: StreamFeatures, ratio: np.ndarray, drive: str) -> np.ndarray:
-    """Per-axle slip, (n, 2): the mean of its wheels' :func:`_corrected_slip`.
-
-    An axle's slip is (σ_a + σ_b) / 2 (what ndarray.mean gives for two), formed column by
-    column in the axle table itself with the same arithmetic as the (n, 4) table of σ_i: the
-    same numbers without its three temporaries of the whole table (four times a drive).
-    """
-    slip = feats.slip
-    scale = _slip_scale(ratio, drive)
-    out = np.empty((2, slip.shape[0])).T  # columns contiguous, like the features' tables
-    other = np.empty(slip.shape[0])
-    for axle, wheels in enumerate(((0, 1), (2, 3))):
-        for wheel, target in zip(wheels, (out[:, axle], other), strict=True):
-            if scale is None:
-                np.copyto(target, slip[:, wheel])
-            else:
-                np.add(slip[:, wheel], 1.0, out=target)
-                target *= scale[wheel]
-                target -= 1.0
-        out[:, axle] += other
-    out /= 2.0
-    return out
-
-
 def _front_rear_ratio(ratio: np.ndarray, sd: np.ndarray) -> tuple[float, float]:
     front, rear = ratio[:2].mean(), ratio[2:].mean()
     # the four ratios share one normalisation; their errors are treated as independent
@@ -299,56 +275,77 @@ def _work_terms(feats, fx, is_driven, valid, dt) -> _WorkTerms:
 
 
 class _MaskedSums(eqx.Module):
-    """The sums of :func:`_longitudinal_work` that depend on the usable samples, not the slip.
+    """Every sum over samples that :func:`_longitudinal_work` needs, formed once per drive.
 
-    ``use`` (n, 2) the usable samples, ``traction`` (n, 2) those pushing on a driven axle,
-    ``power_w`` (n, 2) F_x V there [W] (0 elsewhere), ``kernel_j`` (n, 2) ρ² F_z |V| dt there
-    [J]; per axle ``noise_var_j2`` [J²], ``traction_energy_j`` [J], ``linear_kernel_j`` [J]
-    (the kernel of usable samples that do not push), and ``traction_kernel_j`` [J] in all.
+    The radius ratios move each wheel's slip affinely, σ_i = (1 + slip_i) s_i − 1 with
+    s_i = r_i / r_ref (:func:`_corrected_slip`), and leave the usable samples as they are (a
+    finite slip stays finite). So the measured traction work of an axle, Σ F_x V σ dt over
+    its traction samples, is ½ Σ_i ((s_i − 1) E + s_i P_i) over its two wheels, from the sums
+    E = Σ F_x V dt and P_i = Σ F_x V slip_i dt taken once: the iteration over the ratios in
+    :func:`longitudinal_work` runs on these numbers, not on the samples.
+
+    ``use`` (n, 2) the usable samples (valid, finite F_x and slip of both wheels, no spin),
+    ``kernel_j`` (n, 2) ρ² F_z |V| dt there [J] (0 elsewhere); per axle ``noise_var_j2`` [J²],
+    ``traction_energy_j`` E [J], ``linear_kernel_j`` [J] (the kernel of usable samples that do
+    not push); per wheel ``slip_work_j`` P_i [J] (its axle's traction samples); and
+    ``traction_kernel_j`` [J] in all.
     """
 
     use: np.ndarray
-    traction: np.ndarray
-    power_w: np.ndarray
     kernel_j: np.ndarray
     noise_var_j2: np.ndarray
     traction_energy_j: np.ndarray
     linear_kernel_j: np.ndarray
+    slip_work_j: np.ndarray
     traction_kernel_j: float
 
 
-def _masked_sums(feats, terms: _WorkTerms, use: np.ndarray, dt: float) -> _MaskedSums:
+_AXLE_WHEELS = ((0, 1), (2, 3))
+
+
+def _masked_sums(feats, terms: _WorkTerms, dt: float) -> _MaskedSums:
+    slip = feats.slip
+    finite_slip = np.isfinite(slip)
+    use = terms.usable & np.column_stack(
+        [finite_slip[:, a] & finite_slip[:, b] for a, b in _AXLE_WHEELS]
+    )
     traction = use & terms.pushing
-    power = np.where(use, terms.power_w, 0.0)  # F_x V [W]
+    power = np.where(traction, terms.power_w, 0.0)  # F_x V on the traction samples [W]
     # Slip noise is correlated over the smoothing window: a sum of n samples has the variance
     # of n / window independent ones, each window-fold larger.
     window = max(1.0, feats.smoothing_s * feats.sample_rate_hz)
     noise_var = np.where(traction, (power * terms.slip_sd) ** 2, 0.0).sum(axis=0) * dt**2 * window
     kernel = np.where(use, terms.kernel_j, 0.0)
+    slip_work = np.array(
+        [
+            float(np.dot(power[:, axle], np.where(traction[:, axle], slip[:, wheel], 0.0))) * dt
+            for axle, wheels in enumerate(_AXLE_WHEELS)
+            for wheel in wheels
+        ]
+    )
     return _MaskedSums(
         use=use,
-        traction=traction,
-        power_w=power,
         kernel_j=kernel,
         noise_var_j2=noise_var,
-        traction_energy_j=np.where(traction, power, 0.0).sum(axis=0) * dt,
+        traction_energy_j=power.sum(axis=0) * dt,
         linear_kernel_j=np.where(use & ~traction, kernel, 0.0).sum(axis=0),
-        traction_kernel_j=np.where(traction, kernel, 0.0).sum(),
+        slip_work_j=slip_work,
+        traction_kernel_j=float(np.where(traction, kernel, 0.0).sum()),
     )
 
 
-def _longitudinal_work(feats, ratios, ratio_sd4, drive, terms: _WorkTerms, dt, sums=None):
-    """(work [J], its sd, Ĉ_x, per-sample kernel ρ² F_z V dt (n, 2), usable mask (n, 2), sums).
+def _measured_work(sums: _MaskedSums, scale: np.ndarray | None) -> np.ndarray:
+    """Σ F_x V σ dt of each axle's traction samples with the slip scaled by ``scale``
+    (:func:`_slip_scale`; None: nominal radii), from the sums (:class:`_MaskedSums`)."""
+    s = np.ones(4) if scale is None else scale
+    energy = np.repeat(sums.traction_energy_j, 2)
+    per_wheel = (s - 1.0) * energy + s * sums.slip_work_j
+    return 0.5 * (per_wheel[0::2] + per_wheel[1::2])
 
-    Only the slip changes with the radius ratios; the rest comes from ``terms``, computed once
-    for the iteration over ratios in :func:`longitudinal_work`, and from ``sums`` (the
-    previous iteration's :class:`_MaskedSums`), reused while the usable samples are the same.
-    """
-    slip_axle = _corrected_slip_axle(feats, ratios, drive)
-    use = terms.usable & np.isfinite(slip_axle)
-    if sums is None or not np.array_equal(sums.use, use):
-        sums = _masked_sums(feats, terms, use, dt)
-    measured = np.where(sums.traction, sums.power_w * slip_axle, 0.0).sum(axis=0) * dt
+
+def _longitudinal_work(ratios, ratio_sd4, drive, sums: _MaskedSums):
+    """(work [J], its sd, Ĉ_x) of each axle at these radius ratios, from the sums."""
+    measured = _measured_work(sums, _slip_scale(ratios, drive))
     noise_var, traction_kernel = sums.noise_var_j2, sums.traction_kernel_j
     _, ratio_sd = _front_rear_ratio(ratios, ratio_sd4)
     ratio_sd = ratio_sd if np.isfinite(ratio_sd) else 2e-3  # nominal radii: ~0.2 % unknown
@@ -364,7 +361,7 @@ def _longitudinal_work(feats, ratios, ratio_sd4, drive, terms: _WorkTerms, dt, s
     linear = linear_part / c_hat if np.isfinite(c_hat) else np.zeros(2)
     work_x = measured + linear
     work_x_sd = np.sqrt(noise_var + offset_var + (linear * np.nan_to_num(rel_sd)) ** 2)
-    return work_x, work_x_sd, c_hat, sums.kernel_j, use, sums
+    return work_x, work_x_sd, c_hat
 
 
 class LongitudinalWork(eqx.Module):
@@ -438,12 +435,10 @@ def longitudinal_work(
     ratio_sd4 = np.asarray(feats.nuisances.radius_ratio_sd, dtype=float)
     c_hat = float("nan")
     fx_axle = braking_split(feats.fx_axle_n, feats.fz_axle_n, vehicle)
-    terms, sums = _work_terms(feats, fx_axle, is_driven, valid, dt), None
+    sums = _masked_sums(feats, _work_terms(feats, fx_axle, is_driven, valid, dt), dt)
     free_force = _free_rolling_force(feats, driven)
     for _ in range(4):
         ratios = _free_slip_ratios(feats, driven, c_hat, free_force)
-        work = _longitudinal_work(feats, ratios, ratio_sd4, vehicle.drive, terms, dt, sums)
-        c_hat, sums = work[2], work[5]
-    work_x, work_x_sd, c_hat, kernel, use, _ = work
+        work_x, work_x_sd, c_hat = _longitudinal_work(ratios, ratio_sd4, vehicle.drive, sums)
     ratio, ratio_sd = _front_rear_ratio(ratios, ratio_sd4)
-    return LongitudinalWork(work_x, work_x_sd, c_hat, kernel, use, ratio, ratio_sd)
+    return LongitudinalWork(work_x, work_x_sd, c_hat, sums.kernel_j, sums.use, ratio, ratio_sd)
