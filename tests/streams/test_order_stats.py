@@ -19,8 +19,18 @@ def _arrays(rng):
     n = 5001
     steps = np.diff(np.cumsum(np.full(n + 1, 0.01)))  # a uniform clock: a few distinct values
     jitter = np.diff(np.cumsum(0.01 + 0.003 * rng.uniform(-1, 1, n + 1)))
+    quantised_walk = np.cumsum(np.round(rng.normal(0, 0.3, n + 2)) * 0.1)  # a step in 3 samples
+    second_differences = quantised_walk[2:] - 2 * quantised_walk[1:-1] + quantised_walk[:-2]
+    mostly_zero = np.where(rng.uniform(size=n) < 0.45, 0.0, rng.exponential(size=n))
     return {
         "normal": rng.normal(size=n),
+        "tied_quantised_differences": np.abs(second_differences),
+        "tied_below_the_median": mostly_zero,
+        "tied_above_the_median": -mostly_zero,
+        # Rank n/2 − 1 is the last 0, rank n/2 the smallest value above it.
+        "tie_ends_at_the_median": rng.permutation(
+            np.concatenate([np.zeros(2500), rng.exponential(size=2500)])
+        ),
         "normal_even": rng.normal(size=n + 1),
         "quantised": np.round(rng.normal(size=n), 2),
         "few_values": rng.integers(0, 5, n).astype(float),
