@@ -6,10 +6,9 @@ hour at 100 Hz), where a partition for one rank takes a SIMD selection of about 
 stream stage takes some fifty medians and quantiles of hour-long arrays, so here each is one
 single-rank partition plus a ``min``/``max`` for the neighbouring rank; where one value holds
 the rank (ties: a quantised signal's differences), two counts; where the values are few, a
-sort. The order statistics
-are exact and combined with NumPy's own arithmetic (the mean of the two middle values; its
-linear interpolation of the ``"linear"`` method), so the results are NumPy's to the last bit
-(``tests/streams/test_order_stats.py``).
+sort. The order statistics are exact and combined with NumPy's own arithmetic (the mean of the
+two middle values; its linear interpolation of the ``"linear"`` method), so the results are
+NumPy's to the last bit (``tests/streams/test_order_stats.py``).
 
 Examples
 --------
