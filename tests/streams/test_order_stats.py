@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tyrebayes.streams.order_stats import (
     median,
@@ -64,3 +66,20 @@ def test_nan_handling_as_numpy():
     table = np.column_stack([x, x[::-1] * 2.0])
     np.testing.assert_array_equal(nanmedian_columns(table), np.nanmedian(table, axis=0))
     assert np.isnan(nanmedian(np.full(3000, np.nan)))  # all NaN: NaN, as numpy (no warning)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(
+    st.integers(2048, 6000),
+    st.floats(0.0, 0.95),
+    st.sampled_from([0.0, -1.5, 2.0]),
+    st.integers(0, 2**32 - 1),
+)
+def test_ties_anywhere_equal_numpy(n, share, tied, seed):
+    """One value holding any share of an array, the rest continuous on both sides of it: every
+    rank (ties or not) as NumPy gives it."""
+    rng = np.random.default_rng(seed)
+    x = np.where(rng.uniform(size=n) < share, tied, rng.normal(size=n))
+    assert median(x) == float(np.median(x))
+    for q in (0.1, 0.25, 0.5, 0.75, 0.9):
+        assert quantile(x, q) == float(np.quantile(x, q)), q
