@@ -55,6 +55,7 @@ import numpy as np
 from ..physics.vehicle import GRAVITY_MPS2, Vehicle
 from .features import StreamFeatures
 from .lateral_work import LATERAL_MU
+from .order_stats import median
 
 #: Fewer samples than this in a group (braking, the rest) leave ρ̂_x² uncorrected.
 _MIN_NOISE_SAMPLES = 50
@@ -132,7 +133,9 @@ def _noise_variance(rho: np.ndarray, k: int, groups: np.ndarray) -> np.ndarray:
         for group in (True, False):
             rows = (groups == group) & np.isfinite(d2[:, axle])
             if rows.sum() >= _MIN_NOISE_SAMPLES:
-                out[groups == group, axle] = np.median(d2[rows, axle]) / (1.5 * _CHI2_1_MEDIAN)
+                # np.median's, by one selection on the copy the mask makes (order_stats)
+                middle = median(d2[rows, axle], overwrite_input=True)
+                out[groups == group, axle] = middle / (1.5 * _CHI2_1_MEDIAN)
     return out
 
 

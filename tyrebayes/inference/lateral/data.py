@@ -22,6 +22,7 @@ from scipy.signal import butter, sosfiltfilt
 
 from ...internal.device_arrays import device_array
 from ...physics.vehicle import Vehicle
+from ...streams.order_stats import median
 
 #: Zero-phase low-pass cut-off of every channel [Hz].
 LOWPASS_HZ = 2.0
@@ -248,7 +249,7 @@ def cornering_observations(frame: pd.DataFrame, vehicle: Vehicle) -> CorneringOb
     time = frame["time"].to_numpy(float)
     if time.size < 4 or not np.all(np.diff(time) > 0):
         raise NoCornering("lateral: expected a strictly increasing time column of ≥ 4 samples")
-    rate = 1.0 / float(np.median(np.diff(time)))
+    rate = 1.0 / median(np.diff(time), overwrite_input=True)  # np.median's, by one selection
     speed = _lowpass(_speed(frame, vehicle), rate)
     steering, road_wheel = _steering(frame)
     steering = _lowpass(steering, rate)
