@@ -233,8 +233,8 @@ def test_fuzz_corruption_is_an_error_or_a_flag(how):
 
 def test_dropped_fraction_of_a_long_log_reads_its_period_from_runs_of_intervals(monkeypatch):
     """A 10 h log at 100 Hz whose CAN timing alternates 9 and 11 ms: nothing dropped, though
-    every 4th interval (what a stride over the log would read) is 9 ms; with samples dropped
-    at random, what the period from every interval gives."""
+    every 36th interval (a stride to 100,000 of them) is 9 ms; with samples dropped at random,
+    what the period from every interval gives."""
     import tyrebayes.streams.plausibility as plausibility
 
     steps = np.tile([0.009, 0.011], 1_800_000)
