@@ -564,8 +564,8 @@ def main() -> int:
                 "(compiled, and the drive stage traced in the process by an untimed pass): "
                 "steady state; tyre_set_fit_fast: each set's second fit, its shape's programs "
                 "kept; tyre_set_fit_fast_with_reloads: the first fits, which reload the "
-                "programs at each change of padded shape (once per worker and shape at fleet "
-                "scale, once per set in this reduced run)",
+                "programs at each change of padded shape (the sets go largest shape first: once "
+                "per shape met)",
                 "drive_stage": drive_cpu_per_h,
                 "drive_stage_steps": {
                     k: _per_drive_hour(v, drive_hours)
