@@ -233,14 +233,18 @@ def test_fuzz_corruption_is_an_error_or_a_flag(how):
 
 def test_dropped_fraction_of_a_long_log_reads_its_period_from_runs_of_intervals(monkeypatch):
     """A 10 h log at 100 Hz whose CAN timing alternates 9 and 11 ms: nothing dropped, though
-    every 36th interval (a stride to 100,000 of them) is 9 ms; with samples dropped at random,
-    what the period from every interval gives."""
+    every 180th interval (a stride to the 20,000 of :mod:`~tyrebayes.streams.log_sample`) is
+    9 ms. On a log with random jitter and a fifth of its samples dropped at random, what the
+    period from every interval gives."""
     import tyrebayes.streams.plausibility as plausibility
 
     steps = np.tile([0.009, 0.011], 1_800_000)
     t = np.concatenate([[0.0], np.cumsum(steps)])
     assert dropped_fraction(t) == pytest.approx(0.0, abs=1e-3)
-    kept = t[np.random.default_rng(2).random(t.size) > 0.2]
+    rng = np.random.default_rng(2)
+    t = np.cumsum(0.01 + rng.normal(0.0, 5e-4, 3_600_000))
+    kept = t[rng.random(t.size) > 0.2]
     sampled = dropped_fraction(kept)
-    monkeypatch.setattr(plausibility, "_PERIOD_STEPS", kept.size)  # every interval
+    monkeypatch.setattr(plausibility, "sample_runs", lambda x: x[None, :])  # every interval
     assert sampled == pytest.approx(dropped_fraction(kept), abs=0.005)
+    assert sampled == pytest.approx(0.2, abs=0.01)

@@ -17,11 +17,8 @@ from __future__ import annotations
 import numpy as np
 from jaxtyping import Float
 
+from .log_sample import sample_runs
 from .order_stats import median, nanmedian_columns, quantile
-
-# Above this many values the quantisation estimate uses an evenly strided subset: the step is a
-# property of the encoding, 100 000 samples pin it down and keep np.unique cheap on 10 h logs.
-_MAX_VALUES = 100_000
 
 
 def quantisation_step(x: Float[np.ndarray, "n"]) -> float:
@@ -30,6 +27,9 @@ def quantisation_step(x: Float[np.ndarray, "n"]) -> float:
     The gaps between neighbouring distinct values of a signal encoded with step q are integer
     multiples of q. The smallest gap is taken as q and accepted only if 95 % of all gaps are
     within 10 % of a multiple of it.
+
+    A long log is read in runs of consecutive samples (:mod:`.log_sample`): a signal that
+    moves level by level shows neighbouring levels within a run.
 
     Parameters
     ----------
@@ -43,10 +43,8 @@ def quantisation_step(x: Float[np.ndarray, "n"]) -> float:
     """
     finite = np.isfinite(x)
     values = x if finite.all() else x[finite]
-    if values.size > _MAX_VALUES:
-        values = values[:: values.size // _MAX_VALUES + 1]
     # np.unique's distinct values (sorted, first of each run of equal ones) from one sort.
-    ordered = np.sort(values)
+    ordered = np.sort(sample_runs(values), axis=None)
     new = np.empty(ordered.shape, dtype=bool)
     new[:1] = True
     np.not_equal(ordered[1:], ordered[:-1], out=new[1:])
@@ -76,6 +74,9 @@ def white_noise_sd(x: Float[np.ndarray, "n"], quantisation: float = 0.0) -> floa
     spikes from dominating. Quantisation of step q adds ``q/√12`` (a step signal can give a zero
     MAD, which would claim a perfect sensor).
 
+    A long log is read in runs of consecutive samples (:mod:`.log_sample`; the MAD then to
+    about 1 %).
+
     Parameters
     ----------
     x : ndarray, shape (n,)
@@ -88,16 +89,8 @@ def white_noise_sd(x: Float[np.ndarray, "n"], quantisation: float = 0.0) -> floa
     float
         Noise sd in the unit of ``x``; NaN if fewer than 10 valid second differences.
     """
-    x = np.asarray(x, dtype=float)
-    if x.size > _MAX_VALUES + 2:
-        # 100 000 differences pin the MAD-based sd to ~0.5 %: take them at evenly strided centres
-        # instead of forming all n − 2 (and two medians over them) on a long log.
-        # Centres 1, 1 + s, 1 + 2s, ... as strided views (no index arrays).
-        stride = (x.size - 2) // _MAX_VALUES + 1
-        m = len(range(1, x.size - 1, stride))
-        d2 = x[2::stride][:m] - 2.0 * x[1::stride][:m] + x[::stride][:m]
-    else:
-        d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    runs = sample_runs(np.asarray(x, dtype=float))
+    d2 = (runs[:, 2:] - 2.0 * runs[:, 1:-1] + runs[:, :-2]).ravel()
     d2 = d2[np.isfinite(d2)]
     if d2.size < 10:
         return float("nan")

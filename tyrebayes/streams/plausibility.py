@@ -28,6 +28,7 @@ from jaxtyping import Float
 
 from .._errors import BadInputError
 from .filters import nan_moving_average, smoothed_derivative, window_samples
+from .log_sample import sample_runs
 from .order_stats import median, median_at_most, quantile
 
 #: Below this rate the 0.2 s smoothing of the features holds fewer than 4 samples: the derivatives
@@ -254,26 +255,6 @@ def check_lateral_signs(
     )
 
 
-#: Intervals :func:`dropped_fraction` reads a channel's period from, at most, in this many runs.
-_PERIOD_STEPS = 100_000
-_PERIOD_RUNS = 64
-
-
-def _period_sample(steps: np.ndarray) -> np.ndarray:
-    """``steps`` if it holds at most :data:`_PERIOD_STEPS` intervals, else that many in
-    :data:`_PERIOD_RUNS` runs of consecutive ones spread evenly over the log (a copy).
-
-    100 000 intervals pin a median (a 10 h log at 100 Hz has 3.6 million). Runs, not every
-    k-th interval: CAN timing jitters in patterns (short and long intervals in turn), and every
-    k-th interval of a pattern whose period divides k sees one phase of it only.
-    """
-    if steps.size <= _PERIOD_STEPS:
-        return steps
-    length = _PERIOD_STEPS // _PERIOD_RUNS
-    starts = np.linspace(0, steps.size - length, _PERIOD_RUNS).astype(np.int64)
-    return np.concatenate([steps[a : a + length] for a in starts])
-
-
 def dropped_fraction(time_s: Float[np.ndarray, "m"]) -> float:
     """Fraction of a channel's samples lost between its first and last valid one.
 
@@ -300,8 +281,8 @@ def dropped_fraction(time_s: Float[np.ndarray, "m"]) -> float:
     # Without long gaps (the usual case) the short steps are all of them: no copy to sum.
     span = float(steps.sum() if count == steps.size else steps[short].sum())
     # The order statistics reorder their input in place: ``steps`` (summed above, in their own
-    # order) or a copy of part of it (:func:`_period_sample`).
-    sample = _period_sample(steps)
+    # order) or a copy of runs of it (:mod:`.log_sample`).
+    sample = sample_runs(steps).ravel()
     period = median_at_most(sample, 1.5 * quantile(sample, 0.25, overwrite_input=True), True)
     if not (period > 0 and span > 0):
         return 0.0

@@ -10,17 +10,16 @@ from __future__ import annotations
 import numpy as np
 from jaxtyping import Bool, Float
 
+from .log_sample import sample_runs
 from .order_stats import median as _median
 
 
 def _median_interval(t: np.ndarray) -> float:
+    """Median interval between consecutive time stamps, from runs of them on a long log
+    (:mod:`.log_sample`)."""
     if t.size < 2:
         return float("nan")
-    # 100 000 intervals pin the median; striding keeps it O(1e5) for 10 h logs.
-    stride = (t.size - 1) // 100_000 + 1
-    m = len(range(0, t.size - 1, stride))
-    # Starts 0, s, 2s, ... as strided views; the differences are ours to reorder.
-    return _median(t[1::stride][:m] - t[::stride][:m], overwrite_input=True)
+    return _median(np.diff(sample_runs(t), axis=1).ravel(), overwrite_input=True)
 
 
 def _resample_channel(
