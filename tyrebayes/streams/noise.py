@@ -74,8 +74,7 @@ def white_noise_sd(x: Float[np.ndarray, "n"], quantisation: float = 0.0) -> floa
     spikes from dominating. Quantisation of step q adds ``q/√12`` (a step signal can give a zero
     MAD, which would claim a perfect sensor).
 
-    A long log is read in runs of consecutive samples (:mod:`.log_sample`; the MAD then to
-    about 1 %).
+    A long log is read in runs of consecutive samples (:mod:`.log_sample`).
 
     Parameters
     ----------
