@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 from _cli_child import cli_command, peak_mb  # noqa: E402
-from _results import write_result  # noqa: E402
+from _results import figure, write_result  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "fit_memory.json"
 TARGET_PEAK_MB = 2048.0
@@ -116,7 +116,19 @@ def main() -> None:
                     flush=True,
                 )
     res["load_average_end"] = list(os.getloadavg())
-    print(f"saved {write_result('fit_memory', res, path=args.out)}")
+    figures = [
+        figure(
+            f"fit-tyre --method {r['method']} on a one-hour drive, fresh process, {r['cache']} "
+            "JAX cache: peak RSS of the process",
+            r["peak_rss_mb"],
+            unit="MB",
+            target=("<=", TARGET_PEAK_MB),
+            count=1,
+            note="" if r["exit_status"] == 0 else f"exit status {r['exit_status']}",
+        )
+        for r in res["fits"]
+    ]
+    print(f"saved {write_result('fit_memory', res, figures=figures, path=args.out)}")
 
 
 if __name__ == "__main__":
