@@ -255,14 +255,15 @@ class _WorkTerms(eqx.Module):
     kernel_j: np.ndarray
 
 
+#: Each axle's two wheels (front left, right; rear left, right) in the features' wheel order.
+_AXLE_WHEELS = ((0, 1), (2, 3))
+
+
 def _work_terms(feats, fx, is_driven, valid, dt) -> _WorkTerms:
     vx = feats.vx_mps
     fz = feats.fz_axle_n
     slip_axle_sd = np.column_stack(
-        [
-            np.hypot(feats.slip_sd[:, 0], feats.slip_sd[:, 1]) / 2,
-            np.hypot(feats.slip_sd[:, 2], feats.slip_sd[:, 3]) / 2,
-        ]
+        [np.hypot(feats.slip_sd[:, a], feats.slip_sd[:, b]) / 2 for a, b in _AXLE_WHEELS]
     )
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         rho = fx / fz
@@ -301,9 +302,6 @@ class _MaskedSums(eqx.Module):
     linear_kernel_j: np.ndarray
     slip_work_j: np.ndarray
     traction_kernel_j: float
-
-
-_AXLE_WHEELS = ((0, 1), (2, 3))
 
 
 def _masked_sums(feats, terms: _WorkTerms, dt: float) -> _MaskedSums:
